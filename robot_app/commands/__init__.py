@@ -8,7 +8,7 @@ import typer
 
 # Modules are registered in this order; a module that does not exist yet is skipped so
 # that areas can land independently.
-_MODULES = ("demo", "vision", "sim", "control", "experiments")
+_MODULES = ("demo", "model", "vision", "sim", "control", "experiments")
 
 
 def register_all(app: typer.Typer) -> None:
