@@ -1,0 +1,156 @@
+"""The per-trial CSV: one row per finished trial, streamed so an interruption loses nothing.
+
+Rows are appended (and flushed) as trials finish, in completion order; a half-written
+last line from a killed run is dropped when the table is reopened. At the end of a
+sweep the table is rewritten sorted by trial index, so equal seeds give equal files
+apart from the timing columns.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import io
+import os
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+from robot_app.errors import InputError
+from robot_app.experiments.trial_result import TrialResult
+
+BASE_COLUMNS = ("index", "seed", "point", "sweep", "status", "reason", "duration_s")
+"""Columns of every table; the outcome dataclass's fields follow them."""
+
+
+def is_timing_column(name: str) -> bool:
+    """True for columns that measure time (named `*_s`): they differ between equal runs."""
+    return name.endswith("_s")
+
+
+Row = dict[str, Any]
+
+
+def _format(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def _parse(text: str) -> Any:
+    if text in ("True", "False"):
+        return text == "True"
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+class ResultsTable:
+    """The CSV file of one sweep, with a fixed header from the outcome dataclass.
+
+    Args:
+        path: the CSV file (created on first append).
+        outcome_type: the frozen dataclass whose fields follow `BASE_COLUMNS`.
+    """
+
+    def __init__(self, path: str | Path, outcome_type: type) -> None:
+        if not dataclasses.is_dataclass(outcome_type):
+            raise InputError(f"outcome_type must be a dataclass, got {outcome_type!r}")
+        self.path = Path(path)
+        self.outcome_fields = tuple(f.name for f in dataclasses.fields(outcome_type))
+        clash = set(self.outcome_fields) & set(BASE_COLUMNS)
+        if clash:
+            raise InputError(f"outcome fields {sorted(clash)} clash with the table's base columns")
+        self.columns = BASE_COLUMNS + self.outcome_fields
+        self._repair()
+
+    def _repair(self) -> None:
+        """Checks the header and drops incomplete lines left by a killed run."""
+        if not self.path.exists() or self.path.stat().st_size == 0:
+            return
+        text = self.path.read_text()
+        lines = text.splitlines(keepends=True)
+        header = next(csv.reader([lines[0]]))
+        if tuple(header) != self.columns:
+            raise InputError(
+                f"{self.path} has columns {header}, expected {list(self.columns)}; "
+                "it was written by another trial kind or version; choose another --out"
+            )
+        good = [lines[0]]
+        for line in lines[1:]:
+            fields = next(csv.reader([line]), [])
+            if line.endswith("\n") and len(fields) == len(self.columns) and fields[0].isdigit():
+                good.append(line)
+        if len(good) != len(lines):
+            self._write_atomic("".join(good))
+
+    def _write_atomic(self, text: str) -> None:
+        temporary = self.path.with_suffix(".tmp")
+        temporary.write_text(text)
+        os.replace(temporary, self.path)
+
+    def finished_indices(self) -> set[int]:
+        """Trial indices already in the table (ok or failed)."""
+        return {int(row["index"]) for row in self.read_rows()}
+
+    def read_rows(self) -> list[Row]:
+        """All rows, values parsed back to bool/int/float/str ('' stays '')."""
+        if not self.path.exists() or self.path.stat().st_size == 0:
+            return []
+        with self.path.open(newline="") as file:
+            return [{k: _parse(v) for k, v in row.items()} for row in csv.DictReader(file)]
+
+    def row_of(self, result: TrialResult, sweep_label: str) -> list[str]:
+        """The CSV fields of one result."""
+        values: list[Any] = [
+            result.index,
+            result.seed,
+            result.point,
+            sweep_label,
+            result.status,
+            result.reason,
+            result.duration_s,
+        ]
+        outcome = result.outcome
+        for name in self.outcome_fields:
+            values.append(getattr(outcome, name, None) if outcome is not None else None)
+        return [_format(v) for v in values]
+
+    @contextmanager
+    def appender(self) -> Iterator[Callable[[TrialResult, str], None]]:
+        """Opens the table for appending; yields `append(result, sweep_label)`."""
+        new = not self.path.exists() or self.path.stat().st_size == 0
+        with self.path.open("a", newline="") as file:
+            writer = csv.writer(file, lineterminator="\n")
+            if new:
+                writer.writerow(self.columns)
+                file.flush()
+
+            def append(result: TrialResult, sweep_label: str) -> None:
+                writer.writerow(self.row_of(result, sweep_label))
+                file.flush()
+
+            yield append
+
+    def sort_by_index(self) -> None:
+        """Rewrites the table sorted by trial index (one row per index, first kept)."""
+        if not self.path.exists():
+            return
+        with self.path.open(newline="") as file:
+            reader = csv.reader(file)
+            header = next(reader, None)
+            rows = {int(r[0]): r for r in reversed(list(reader))}
+        buffer = io.StringIO()
+        writer = csv.writer(buffer, lineterminator="\n")
+        writer.writerow(header or self.columns)
+        writer.writerows(rows[i] for i in sorted(rows))
+        self._write_atomic(buffer.getvalue())
+
+
+__all__ = ["BASE_COLUMNS", "ResultsTable", "Row", "is_timing_column"]
