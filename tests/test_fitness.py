@@ -1,0 +1,180 @@
+"""Fitness (eqs. 9-11): the compiled kernel against a plain numpy reading of the paper."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robot_app.config import validate
+from robot_app.errors import ConfigError, InputError
+from robot_app.geometry import make_transform, rotation_about_z, rotation_from_rpy
+from robot_app.vision.camera import PinholeCamera, StereoRig
+from robot_app.vision.fitness import FitnessEvaluator, FitnessParams, score_table
+from robot_app.vision.hue import hue_distance, to_hsv
+from robot_app.vision.photo_model import ClothModel
+from robot_app.vision.synthetic import render_stereo_pair, synthetic_cloth
+
+
+def make_rig(size: tuple[int, int] = (320, 240)) -> StereoRig:
+    camera = PinholeCamera.from_fov(size, np.deg2rad(48))
+    return StereoRig(camera, camera, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
+
+
+def hand_model(index: int, spacing: float = 0.006, band: float = 0.012) -> ClothModel:
+    """A model read straight off a synthetic cloth's texture: S_in on a grid inside the
+    outline (away from its edge), S_out on a ring `band` outside it."""
+    cloth = synthetic_cloth(index)
+    hues = to_hsv(np.ascontiguousarray(cloth.texture_bgr))[:, :, 0]
+    sx, _ = cloth.texel_size
+    step = round(spacing / sx)
+    height, width = cloth.alpha.shape
+    v, u = np.mgrid[0:height:step, 0:width:step]
+    u, v = u.ravel(), v.ravel()
+    margin = round(0.004 / sx)
+    inner = np.ones_like(u, dtype=bool)
+    for du, dv in ((margin, 0), (-margin, 0), (0, margin), (0, -margin)):
+        uu, vv = np.clip(u + du, 0, width - 1), np.clip(v + dv, 0, height - 1)
+        inner &= cloth.alpha[vv, uu] & (u + du >= 0) & (u + du < width) & (v + dv >= 0) & (v + dv < height)
+    points_in = cloth.texel_to_model(np.stack([u[inner], v[inner]], axis=-1))
+    ring = []
+    for angle in np.linspace(0, 2 * np.pi, 180, endpoint=False):
+        d = np.array([np.cos(angle), np.sin(angle)])
+        edge = max(float(np.max(points_in[:, :2] @ d)), 0.0)
+        ring.append(d * (edge + band))
+    hull = np.array(ring)
+    points_out = np.c_[hull, np.zeros(len(hull))]
+    return ClothModel(
+        name=cloth.name,
+        points_in=points_in,
+        hues_in=hues[v[inner], u[inner]],
+        points_out=points_out,
+        background_hue=86.0,
+        grasp_point=np.zeros(3),
+        extent=(float(np.ptp(points_in[:, 0])), float(np.ptp(points_in[:, 1]))),
+    )
+
+
+def reference_fitness(model: ClothModel, rig: StereoRig, left, right, T, p: FitnessParams) -> float:
+    """Eqs. 9-11 read literally, one point at a time, with the rig's own projection."""
+    total = 0.0
+    pix_left, pix_right = rig.project_model(T, np.vstack([model.points_in, model.points_out]))
+    for image, pixels in ((left, pix_left), (right, pix_right)):
+        hue = to_hsv(image)[:, :, 0]
+        for i, (u, v) in enumerate(pixels):
+            if not np.isfinite(u) or not (0 <= u + 0.5 < image.shape[1] and 0 <= v + 0.5 < image.shape[0]):
+                continue
+            h = hue[int(v + 0.5), int(u + 0.5)]
+            near_bg = hue_distance(h, round(model.background_hue))
+            if i < model.n_in:
+                if hue_distance(h, model.hues_in[i]) <= p.hue_threshold_in:
+                    total += p.score_in_match
+                elif near_bg <= p.hue_threshold_in:
+                    total += p.score_in_background
+                else:
+                    total += p.score_in_other
+            else:
+                total += p.score_out_background if near_bg <= p.hue_threshold_out else p.score_out_other
+    return total / 2.0 / (p.score_in_match * model.n_in + p.score_out_background * model.n_out)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    rig = make_rig()
+    model = hand_model(3)
+    pose = make_transform(rotation_about_z(0.4), [0.02, -0.01, 0.58])
+    left, right = render_stereo_pair(rig, [(synthetic_cloth(3), pose)], rng=np.random.default_rng(1))
+    evaluator = FitnessEvaluator(model, rig)
+    evaluator.update(left, right)
+    return rig, model, pose, left, right, evaluator
+
+
+def test_true_pose_scores_near_one_and_beats_neighbours(scene) -> None:
+    _, _, pose, _, _, evaluator = scene
+    at_truth = evaluator.evaluate(pose)[0]
+    assert at_truth > 0.97
+    shifted = pose.copy()
+    shifted[0, 3] += 0.01
+    turned = pose.copy()
+    turned[:3, :3] = rotation_about_z(0.1) @ pose[:3, :3]
+    deeper = pose.copy()
+    deeper[2, 3] += 0.03
+    assert np.all(evaluator.evaluate(np.stack([shifted, turned, deeper])) < at_truth - 0.02)
+
+
+def test_kernel_matches_reference_including_points_off_the_image(scene) -> None:
+    rig, model, pose, left, right, evaluator = scene
+    rng = np.random.default_rng(7)
+    poses = [pose]
+    for _ in range(12):
+        R = rotation_from_rpy(*rng.uniform(-0.3, 0.3, 2), rng.uniform(-np.pi, np.pi))
+        poses.append(
+            make_transform(R, [rng.uniform(-0.3, 0.3), rng.uniform(-0.25, 0.25), rng.uniform(0.5, 0.7)])
+        )
+    got = evaluator.evaluate(np.stack(poses))
+    p = evaluator.params
+    want = [reference_fitness(model, rig, left, right, T, p) for T in poses]
+    np.testing.assert_allclose(got, want, atol=1e-5)
+    # Half the model out of view: the off-image points count for nothing, not as penalties.
+    edge = pose.copy()
+    edge[0, 3] = 0.23
+    assert evaluator.evaluate(edge)[0] == pytest.approx(
+        reference_fitness(model, rig, left, right, edge, p), abs=1e-5
+    )
+
+
+def test_hue_is_compared_on_the_circle() -> None:
+    table = score_table(86.0, FitnessParams())
+    assert table[250, 5] == 2.0  # 250 and 5 are 11 steps apart across 0
+    assert table[250, 200] == 0.0  # 50 steps: no match, not background
+    assert table[10, 100] == pytest.approx(-0.005)  # background-hued pixel under S_in
+    assert table[256, 70] == pytest.approx(0.1) and table[256, 120] == -0.5  # S_out, eq. 10
+
+
+def test_low_saturation_pixels_have_no_hue() -> None:
+    rig = make_rig((64, 48))
+    model = ClothModel("grey", np.zeros((1, 3)), np.array([0]), np.empty((0, 3)), 86.0, np.zeros(3), (0, 0))
+    grey = np.full((48, 64, 3), 128, np.uint8)  # hue 0 by OpenCV's convention, saturation 0
+    pose = make_transform(np.eye(3), [0.0, 0.0, 0.5])
+    paper = FitnessEvaluator(model, rig)
+    paper.update(grey, grey)
+    assert paper.evaluate(pose)[0] == pytest.approx(1.0)  # the paper's reading: grey has hue 0
+    strict = FitnessEvaluator(model, rig, FitnessParams(min_saturation=40))
+    strict.update(grey, grey)
+    assert strict.evaluate(pose)[0] == 0.0
+
+
+def test_subpixel_scoring_agrees_at_the_optimum_and_is_smooth(scene) -> None:
+    _, _, pose, _, _, evaluator = scene
+    assert evaluator.evaluate(pose, subpixel=True)[0] > 0.95
+    shifts = np.linspace(-0.002, 0.002, 41)
+    poses = np.repeat(pose[None], len(shifts), axis=0)
+    poses[:, 0, 3] += shifts
+    smooth = evaluator.evaluate(poses, subpixel=True)
+    assert np.max(np.abs(np.diff(smooth))) < 0.01
+    assert abs(shifts[np.argmax(smooth)]) <= 0.0005
+
+
+def test_counts_evaluations_and_validates_input(scene) -> None:
+    rig, model, pose, left, right, _ = scene
+    evaluator = FitnessEvaluator(model, rig)
+    with pytest.raises(InputError, match="update"):
+        evaluator.evaluate(pose)
+    with pytest.raises(InputError, match="320x240"):
+        evaluator.update(left[:, :200], right)
+    with pytest.raises(InputError, match="uint8"):
+        evaluator.update(left.astype(float), right)
+    evaluator.update(left, right)
+    with pytest.raises(InputError, match="shape"):
+        evaluator.evaluate(np.eye(3))
+    evaluator.evaluate(np.stack([pose] * 5))
+    assert evaluator.evaluations == 5
+    assert evaluator.point_evaluations == 5 * 2 * (model.n_in + model.n_out)
+
+
+def test_params_are_validated() -> None:
+    with pytest.raises(ConfigError, match="hue_threshold_in"):
+        validate(FitnessParams, {"hue_threshold_in": 200})
+    with pytest.raises(ConfigError, match="score_in_match"):
+        validate(FitnessParams, {"score_in_match": -1.0})
+    with pytest.raises(ConfigError, match="bogus"):
+        validate(FitnessParams, {"bogus": 1})
