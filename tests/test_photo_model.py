@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
 from robot_app.errors import InputError, ModelError
-from robot_app.vision.photo_model import ClothModel
+from robot_app.vision.camera import ModelCamera, PinholeCamera
+from robot_app.vision.hue import hue_distance, to_hue
+from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
+from robot_app.vision.synthetic import TABLE_GREEN_BGR, SyntheticCloth, render_model_photo, synthetic_cloth
 
 
 def _handmade_model() -> ClothModel:
@@ -56,3 +60,157 @@ def test_loading_a_text_file_is_a_model_error(tmp_path):
 def test_model_rejects_mismatched_hues():
     with pytest.raises(ModelError, match="hues_in"):
         ClothModel("x", np.zeros((3, 3)), np.zeros(2), np.zeros((0, 3)), 80.0, np.zeros(3), (0, 0))
+
+
+# --- make_model on rendered photos with exact ground truth -------------------------------
+
+MODEL_CAMERA = ModelCamera(PinholeCamera.from_fov((640, 480), np.deg2rad(48)), 0.40)
+PIXEL = 0.40 / MODEL_CAMERA.camera.camera_matrix[0, 0]  # metres per pixel on the sheet
+GREEN_HUE = int(to_hue(np.array([[TABLE_GREEN_BGR]], np.uint8))[0, 0])
+
+
+def _photo(index: int, camera: ModelCamera = MODEL_CAMERA) -> tuple[SyntheticCloth, np.ndarray, np.ndarray]:
+    cloth = synthetic_cloth(index)
+    photo, background = render_model_photo(cloth, camera, rng=np.random.default_rng(index))
+    return cloth, photo, background
+
+
+def _outline_extent(cloth: SyntheticCloth) -> tuple[float, float]:
+    sx, sy = cloth.texel_size
+    return cloth.alpha.any(axis=0).sum() * sx, cloth.alpha.any(axis=1).sum() * sy
+
+
+def _model_to_texel(cloth: SyntheticCloth, points: np.ndarray) -> np.ndarray:
+    return np.rint((points[:, :2] + cloth.centroid) / cloth.texel_size - 0.5).astype(int)
+
+
+@pytest.mark.parametrize("index", [0, 3, 8, 12])  # rectangle, multi-colour, T-shirt, L-shape
+def test_make_model_recovers_the_cloth_geometry_in_metres(index):
+    cloth, photo, background = _photo(index)
+    model = make_model(photo, MODEL_CAMERA, background)
+    assert model.extent == pytest.approx(_outline_extent(cloth), abs=2 * PIXEL)
+    assert model.metadata["area_m2"] == pytest.approx(cloth.area, rel=0.02)
+    # The cloth lies with its centroid on the optical axis: Σ_M's origin is there.
+    assert np.linalg.norm(model.metadata["origin_in_photo_plane"]) < PIXEL
+    # Every S_in point is on the cloth and carries the texture's hue there.
+    texel = _model_to_texel(cloth, model.points_in)
+    height, width = cloth.alpha.shape
+    inside = (texel >= 0).all(axis=1) & (texel[:, 0] < width) & (texel[:, 1] < height)
+    assert inside.all() and cloth.alpha[texel[:, 1], texel[:, 0]].mean() > 0.99
+    texture_hue = to_hue(cloth.texture_bgr)
+    kernel = np.ones((9, 9), np.uint8)  # ±2 photo pixels: where the blurred photo mixes colours
+    colour_edge = hue_distance(cv2.dilate(texture_hue, kernel), cv2.erode(texture_hue, kernel)) > 8
+    colour_edge |= cv2.erode(cloth.alpha.astype(np.uint8), kernel, borderValue=0) == 0  # the outline
+    clear = ~colour_edge[texel[:, 1], texel[:, 0]]
+    assert clear.mean() > 0.8
+    hue_error = hue_distance(texture_hue[texel[:, 1], texel[:, 0]], model.hues_in)
+    assert np.mean(hue_error[clear] <= 4) > 0.99
+    assert model.n_in == pytest.approx(cloth.area / 0.006**2, rel=0.1)
+    assert np.all(model.points_in[:, 2] == 0) and np.all(model.points_out[:, 2] == 0)
+
+
+def test_s_out_is_a_band_enveloping_s_in():
+    cloth, photo, background = _photo(12)
+    settings = ModelSettings(band_width=0.012, band_gap=0.003)
+    model = make_model(photo, MODEL_CAMERA, background, settings)
+    # Distance of each S_out point from the true outline, via the texture's distance transform.
+    pad = 200
+    outline = np.pad(cloth.alpha, pad).astype(np.uint8)
+    distance = cv2.distanceTransform(1 - outline, cv2.DIST_L2, 5) * cloth.texel_size[0]
+    texel = _model_to_texel(cloth, model.points_out) + pad
+    gap = distance[texel[:, 1], texel[:, 0]]
+    assert gap.min() > 0.003 - 2 * PIXEL and gap.max() < 0.015 + 2 * PIXEL
+    angles = np.arctan2(model.points_out[:, 1], model.points_out[:, 0])
+    assert len(np.unique(np.floor((angles + np.pi) / (2 * np.pi) * 36) % 36)) == 36  # all around
+
+
+def test_background_hue_from_the_border_agrees_with_the_background_photo():
+    _, photo, background = _photo(2)
+    with_background = make_model(photo, MODEL_CAMERA, background)
+    from_border = make_model(photo, MODEL_CAMERA)
+    assert abs(with_background.background_hue - GREEN_HUE) < 8
+    assert hue_distance(round(with_background.background_hue), round(from_border.background_hue)) <= 2
+    assert from_border.metadata["background"] == "photo border"
+
+
+@pytest.mark.parametrize(
+    ("index", "expected"),
+    [(0, (np.pi,)), (1, (np.pi / 2, np.pi, 3 * np.pi / 2)), (12, ()), (10, ()), (9, (np.pi,))],
+)
+def test_symmetry_angles_from_self_overlap(index, expected):
+    _, photo, _ = _photo(index)
+    assert make_model(photo, MODEL_CAMERA).symmetry_angles == pytest.approx(expected)
+
+
+def test_grasp_point_is_deepest_inside_the_cloth():
+    _, photo, _ = _photo(0)  # a plain rectangle: the ridge of the distance transform is centred
+    assert np.linalg.norm(make_model(photo, MODEL_CAMERA).grasp_point) < 2 * PIXEL
+    cloth, photo, _ = _photo(12)  # L-shape: deepest point of the wide arm, on the cloth
+    grasp = make_model(photo, MODEL_CAMERA).grasp_point
+    texel = _model_to_texel(cloth, grasp[None])[0]
+    assert cloth.alpha[texel[1], texel[0]]
+    alpha = np.pad(cloth.alpha, 1).astype(np.uint8)
+    depth = cv2.distanceTransform(alpha, cv2.DIST_L2, 5)[1:-1, 1:-1]
+    assert depth[texel[1], texel[0]] > 0.95 * depth.max()
+
+
+def test_make_model_undistorts_a_distorted_camera():
+    base = MODEL_CAMERA.camera
+    camera = ModelCamera(PinholeCamera(base.camera_matrix, base.image_size, [-0.2, 0.08, 0, 0, 0]), 0.40)
+    cloth, photo, _ = _photo(0, camera)
+    model = make_model(photo, camera)
+    assert model.extent == pytest.approx(_outline_extent(cloth), abs=2 * PIXEL)
+
+
+def test_specks_are_removed_and_objects_selected_by_option():
+    cloth, photo, background = _photo(0)
+    photo = photo.copy()
+    cv2.circle(photo, (20 + 20, 30 + 20), 2, (30, 30, 210), -1)  # a speck: 2 px radius
+    cv2.rectangle(photo, (560, 380), (613, 433), (30, 30, 210), -1)  # a 3 x 3 cm second object
+    single = make_model(photo, MODEL_CAMERA, background)
+    assert single.metadata["area_m2"] == pytest.approx(cloth.area, rel=0.02)
+    both = make_model(photo, MODEL_CAMERA, background, ModelSettings(largest_object_only=False))
+    assert both.metadata["objects"] == 2
+    assert both.metadata["area_m2"] == pytest.approx(cloth.area + (54 * PIXEL) ** 2, rel=0.02)
+
+
+def test_made_model_round_trips_through_its_file(tmp_path):
+    _, photo, background = _photo(5)
+    model = make_model(photo, MODEL_CAMERA, background, name="dots", sources={"photo": "p.png"})
+    model.save(tmp_path / "dots.npz")
+    assert ClothModel.load(tmp_path / "dots.npz") == model
+
+
+def test_a_photo_without_cloth_is_a_model_error():
+    _, _, background = _photo(0)
+    with pytest.raises(ModelError, match="no cloth"):
+        make_model(background, MODEL_CAMERA)
+
+
+def test_a_non_uniform_background_is_a_model_error():
+    _, photo, _ = _photo(0)
+    photo = photo.copy()
+    photo[:, 320:] = (200, 60, 40)  # half the sheet is blue
+    with pytest.raises(ModelError, match="not uniform"):
+        make_model(photo, MODEL_CAMERA)
+    grey = np.full_like(photo, 128)
+    with pytest.raises(ModelError, match="not a coloured sheet"):
+        make_model(photo, MODEL_CAMERA, grey)
+
+
+def test_bad_images_are_input_errors(tmp_path):
+    _, photo, _ = _photo(0)
+    with pytest.raises(InputError, match="640x480"):
+        make_model(photo[:200], MODEL_CAMERA)
+    with pytest.raises(InputError, match="uint8"):
+        make_model(photo.astype(float), MODEL_CAMERA)
+    (tmp_path / "bad.png").write_bytes(b"not a png")
+    with pytest.raises(InputError, match="not a readable image"):
+        load_photo(tmp_path / "bad.png")
+    with pytest.raises(InputError, match="not found"):
+        load_photo(tmp_path / "missing.png")
+
+
+def test_settings_are_validated():
+    with pytest.raises(ValueError, match="point_spacing"):
+        ModelSettings(point_spacing=-1.0)

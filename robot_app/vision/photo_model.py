@@ -12,15 +12,23 @@ from __future__ import annotations
 
 import json
 import zipfile
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 import numpy.typing as npt
+from pydantic import Field
 
+from robot_app.config import StrictModel
 from robot_app.errors import InputError, ModelError
-from robot_app.geometry import FloatArray
+from robot_app.geometry import FloatArray, rotation_about_z
+from robot_app.vision.camera import ModelCamera, PinholeCamera
+from robot_app.vision.hue import circular_mean_hue, hue_distance, to_hsv
+
+Image = npt.NDArray[np.uint8]
 
 MODEL_FORMAT = "robot_app.cloth_model"
 MODEL_VERSION = 1
@@ -187,4 +195,242 @@ class ClothModel:
             raise ModelError(f"{file}: malformed cloth model: {err}") from err
 
 
-__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "ClothModel"]
+class ModelSettings(StrictModel):
+    """How a photo becomes a model (paper Sec. II-B).
+
+    Pixels whose saturation is below `min_saturation` have no meaningful hue (white,
+    grey, black, glare): they never count as cloth by themselves and are never
+    sampled into S_in, but holes they leave inside the cloth are filled
+    (`fill_holes`) so that S_out stays outside the whole cloth.
+    """
+
+    point_spacing: float = Field(0.006, gt=0.0005, le=0.05, description="S_in/S_out grid step [m]")
+    band_width: float = Field(0.01, gt=0.0, le=0.1, description="width of the S_out band [m]")
+    band_gap: float = Field(0.003, ge=0.0, le=0.05, description="gap between S_in and S_out [m]")
+    min_hue_difference: int = Field(30, gt=0, lt=128, description="cloth vs background hue [0-255]")
+    min_saturation: int = Field(40, ge=0, lt=255, description="below this, hue is undefined [0-255]")
+    speckle_size: float = Field(0.003, ge=0.0, le=0.05, description="specks smaller are removed [m]")
+    min_object_area: float = Field(1e-4, gt=0.0, description="smallest cloth area kept [m²]")
+    largest_object_only: bool = True
+    fill_holes: bool = True
+    min_background_agreement: float = Field(
+        0.9, gt=0.5, le=1.0, description="share of background pixels within the hue threshold"
+    )
+    symmetry_agreement: float = Field(0.9, gt=0.5, le=1.0, description="self-overlap to call a yaw symmetric")
+
+
+def load_photo(path: str | Path) -> Image:
+    """Reads a colour image file as (H, W, 3) uint8 BGR; missing or unreadable -> InputError."""
+    file = Path(path)
+    if not file.is_file():
+        raise InputError(f"image file not found: {file}")
+    image = cv2.imread(str(file), cv2.IMREAD_COLOR)
+    if image is None:
+        raise InputError(f"{file} is not a readable image (PNG, JPEG, BMP, TIFF ...)")
+    return image
+
+
+def make_model(
+    photo_bgr: Image,
+    model_camera: ModelCamera,
+    background_bgr: Image | None = None,
+    settings: ModelSettings | None = None,
+    name: str = "cloth",
+    *,
+    sources: Mapping[str, str] | None = None,
+) -> ClothModel:
+    """Makes a cloth model from a photo of the cloth lying on a uniform (green) sheet.
+
+    Args:
+        photo_bgr: (H, W, 3) uint8 photo from `model_camera` (Fig. 4 b).
+        model_camera: its intrinsics and distance to the sheet [m].
+        background_bgr: optional photo of the empty sheet (Fig. 4 a); without it the
+            background hue is estimated from the photo's border.
+        settings: sampling and segmentation settings (defaults if None).
+        name: the model's name.
+        sources: file names to record in the metadata (photo, background, camera).
+
+    Raises:
+        InputError: an image of the wrong type or size for the camera.
+        ModelError: a background that is not uniform or not coloured, or no cloth.
+    """
+    settings = ModelSettings() if settings is None else settings
+    camera = model_camera.camera
+    hsv = _checked_hsv(photo_bgr, camera, "photo")
+    if background_bgr is not None:
+        background_hsv = _checked_hsv(background_bgr, camera, "background photo")
+        H_B, agreement = _background_hue(background_hsv.reshape(-1, 3), settings, "background photo")
+    else:
+        H_B, agreement = _background_hue(_border(hsv), settings, "photo border")
+    metric = _metric_grid(camera, model_camera.distance)  # (H, W, 2) photo plane [m]
+    metres_per_pixel = model_camera.distance / float(camera.camera_matrix[0, 0])
+    mask, n_objects = _cloth_mask(hsv, H_B, settings, metres_per_pixel)  # S_in of Fig. 4 (c)
+    origin = metric[mask].mean(axis=0)  # Σ_M origin: centroid of S_in [m]
+    xy = metric[mask] - origin
+    extent = (float(np.ptp(xy[:, 0]) + metres_per_pixel), float(np.ptp(xy[:, 1]) + metres_per_pixel))
+
+    # Sample S_in on a grid through the centroid; keep only pixels with a meaningful hue.
+    smooth = to_hsv(cv2.GaussianBlur(np.ascontiguousarray(photo_bgr), (0, 0), 1.0))
+    step = settings.point_spacing
+    gx, gy = (np.arange(np.floor(lo / step), np.ceil(hi / step) + 1) * step for lo, hi in zip(
+        xy.min(axis=0) - settings.band_gap - settings.band_width - step,
+        xy.max(axis=0) + settings.band_gap + settings.band_width + step, strict=True))  # fmt: skip
+    grid = np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)
+    u, v = _to_pixel_index(camera, model_camera.distance, grid + origin)
+    pad = int(np.ceil((settings.band_gap + settings.band_width) / metres_per_pixel)) + 2
+    padded = cv2.copyMakeBorder(mask.astype(np.uint8), pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
+    outside_px = cv2.distanceTransform(1 - padded, cv2.DIST_L2, 5)  # distance to S_in [px]
+    inside_px = cv2.distanceTransform(padded, cv2.DIST_L2, 5)
+    pu, pv = np.clip(u + pad, 0, padded.shape[1] - 1), np.clip(v + pad, 0, padded.shape[0] - 1)
+    in_photo = (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
+    on_cloth = padded[pv, pu].astype(bool) & in_photo
+    saturated = smooth[np.clip(v, 0, camera.height - 1), np.clip(u, 0, camera.width - 1), 1]
+    take_in = on_cloth & (saturated >= settings.min_saturation)
+    gap = outside_px[pv, pu] * metres_per_pixel
+    take_out = ~on_cloth & (gap > settings.band_gap) & (gap <= settings.band_gap + settings.band_width)
+    if take_in.sum() < 3:
+        raise ModelError(
+            f"the cloth has only {int(take_in.sum())} sample points at point_spacing={step} m; "
+            "use a smaller point_spacing or a larger cloth"
+        )
+    points_in = np.column_stack([grid[take_in], np.zeros(take_in.sum())])
+    hues_in = smooth[v[take_in], u[take_in], 0]
+    points_out = np.column_stack([grid[take_out], np.zeros(take_out.sum())])
+    depth_px = inside_px[pad:-pad, pad:-pad]  # the deepest point; on a ridge, the one nearest the centroid
+    deepest = depth_px >= depth_px.max() - 1.0
+    grasp_xy = metric[deepest][np.argmin(np.linalg.norm(metric[deepest] - origin, axis=1))] - origin
+    grasp = np.append(grasp_xy, 0.0)
+    metadata = {
+        "photo_size": [camera.width, camera.height],
+        "metres_per_pixel": metres_per_pixel,
+        "model_camera": model_camera.to_dict(),
+        "origin_in_photo_plane": origin.tolist(),  # Σ_M origin in the photo camera's plane [m]
+        "background": "background photo" if background_bgr is not None else "photo border",
+        "background_agreement": agreement,
+        "objects": n_objects,
+        "area_m2": float(mask.sum() * metres_per_pixel**2),
+        "settings": settings.model_dump(mode="json"),
+        "sources": dict(sources or {}),
+    }
+    symmetry = _symmetry_angles(points_in, hues_in, step, settings)
+    return ClothModel(name, points_in, hues_in, points_out, H_B, grasp, extent, symmetry, metadata)
+
+
+def _checked_hsv(image: Image, camera: PinholeCamera, what: str) -> Image:
+    array = np.asarray(image)
+    if array.ndim != 3 or array.shape[2] != 3 or array.dtype != np.uint8:
+        raise InputError(f"{what} must be an (H, W, 3) uint8 colour image, got {array.shape} {array.dtype}")
+    if array.shape[:2] != (camera.height, camera.width):
+        raise InputError(
+            f"{what} is {array.shape[1]}x{array.shape[0]} px but the camera file says "
+            f"{camera.width}x{camera.height}"
+        )
+    return to_hsv(np.ascontiguousarray(array))
+
+
+def _border(hsv: Image) -> Image:
+    """Pixels of a strip along the four edges (4 % of the short side), (N, 3)."""
+    w = max(2, round(0.04 * min(hsv.shape[:2])))
+    return np.concatenate([hsv[:w].reshape(-1, 3), hsv[-w:].reshape(-1, 3),
+                           hsv[w:-w, :w].reshape(-1, 3), hsv[w:-w, -w:].reshape(-1, 3)])  # fmt: skip
+
+
+def _background_hue(pixels_hsv: Image, settings: ModelSettings, what: str) -> tuple[float, float]:
+    """Robust average background hue H̄_B: circular mean around the hue histogram's mode."""
+    saturated = pixels_hsv[:, 1] >= settings.min_saturation
+    if saturated.mean() < settings.min_background_agreement:
+        raise ModelError(
+            f"the {what} is not a coloured sheet: only {saturated.mean():.0%} of its pixels have "
+            f"saturation >= {settings.min_saturation}; use a uniform green sheet as in Fig. 7"
+        )
+    hues = pixels_hsv[saturated, 0]
+    histogram = np.bincount(hues, minlength=256).astype(float)
+    histogram = np.convolve(np.concatenate([histogram[-8:], histogram, histogram[:8]]), np.ones(17), "valid")
+    mode = int(np.argmax(histogram))
+    near = hues[hue_distance(hues, mode) <= settings.min_hue_difference // 2]
+    H_B = circular_mean_hue(near)
+    agreement = float(
+        np.mean(hue_distance(pixels_hsv[:, 0], H_B) <= settings.min_hue_difference / 2) * saturated.mean()
+    )
+    if agreement < settings.min_background_agreement:
+        raise ModelError(
+            f"the {what} is not uniform: only {agreement:.0%} of it is within "
+            f"{settings.min_hue_difference // 2} of its average hue {H_B:.0f}; needs "
+            f">= {settings.min_background_agreement:.0%} (a plain sheet, no other objects)"
+        )
+    return H_B, agreement
+
+
+def _cloth_mask(
+    hsv: Image, H_B: float, settings: ModelSettings, metres_per_pixel: float
+) -> tuple[npt.NDArray[np.bool_], int]:
+    """S_in in the photo: hue far from H̄_B, specks removed, objects selected, holes filled."""
+    differs = (hue_distance(hsv[..., 0], H_B) > settings.min_hue_difference) & (
+        hsv[..., 1] >= settings.min_saturation
+    )
+    mask = differs.astype(np.uint8)
+    speck = round(settings.speckle_size / metres_per_pixel)
+    if speck >= 2:
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (speck, speck))
+        mask = cv2.morphologyEx(cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel), cv2.MORPH_CLOSE, kernel)
+    _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    areas = stats[1:, cv2.CC_STAT_AREA] * metres_per_pixel**2
+    keep = np.flatnonzero(areas >= settings.min_object_area) + 1
+    if keep.size == 0:
+        largest = float(areas.max()) if areas.size else 0.0
+        raise ModelError(
+            f"no cloth in the photo: no region with hue > {settings.min_hue_difference} away from the "
+            f"background ({H_B:.0f}) is larger than {settings.min_object_area * 1e4:.2f} cm² "
+            f"(largest: {largest * 1e4:.2f} cm²)"
+        )
+    if settings.largest_object_only:
+        keep = keep[[int(np.argmax(stats[keep, cv2.CC_STAT_AREA]))]]
+    mask = np.isin(labels, keep).astype(np.uint8)
+    if settings.fill_holes:
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+        mask = cv2.drawContours(np.zeros_like(mask), contours, -1, 1, thickness=cv2.FILLED)
+    edge = np.concatenate([mask[0], mask[-1], mask[:, 0], mask[:, -1]])
+    if edge.any():
+        raise ModelError("the cloth touches the photo's border, so its outline is cut: centre it in the view")
+    return mask.astype(bool), int(keep.size)
+
+
+def _metric_grid(camera: PinholeCamera, distance: float) -> FloatArray:
+    """(H, W, 2) position of every pixel centre on the photo plane [m] (undistorted)."""
+    u, v = np.meshgrid(np.arange(camera.width, dtype=float), np.arange(camera.height, dtype=float))
+    K = camera.camera_matrix
+    if camera.has_distortion:
+        pixels = np.stack([u, v], axis=-1).reshape(-1, 1, 2)
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10)
+        normal = cv2.undistortPoints(pixels, K, camera.dist_coeffs, criteria=criteria)
+        return normal.reshape(camera.height, camera.width, 2) * distance
+    return np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1]], axis=-1) * distance
+
+
+def _to_pixel_index(
+    camera: PinholeCamera, distance: float, xy: FloatArray
+) -> tuple[npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+    """Nearest pixel of points on the photo plane (may be outside the image)."""
+    pixels = camera.project(np.column_stack([xy, np.full(len(xy), distance)]))
+    return np.rint(pixels[:, 0]).astype(np.intp), np.rint(pixels[:, 1]).astype(np.intp)
+
+
+def _symmetry_angles(
+    points: FloatArray, hues: Image, step: float, settings: ModelSettings
+) -> tuple[float, ...]:
+    """Yaws k·π/4 (k = 1..7) under which S_in and its hues map onto themselves."""
+    cells = {(int(i), int(j)): h for (i, j), h in zip(np.rint(points[:, :2] / step), hues, strict=True)}
+    angles = []
+    for k in range(1, 8):
+        angle = k * np.pi / 4
+        rotated = points @ rotation_about_z(angle).T
+        hits = 0
+        for (i, j), hue in zip(np.rint(rotated[:, :2] / step).astype(int), hues, strict=True):
+            other = cells.get((int(i), int(j)))
+            hits += other is not None and hue_distance(hue, other) <= settings.min_hue_difference
+        if hits >= settings.symmetry_agreement * len(points):
+            angles.append(float(angle))
+    return tuple(angles)
+
+
+__all__ = ["MODEL_FORMAT", "MODEL_VERSION", "ClothModel", "ModelSettings", "load_photo", "make_model"]
