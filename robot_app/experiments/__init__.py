@@ -1,1 +1,40 @@
-"""experiments subpackage."""
+"""Experiments: config-driven trials (local processes or Ray) and the paper's report."""
+
+from robot_app.experiments.experiment_config import (
+    AnyTrialConfig,
+    PickPlaceTrialConfig,
+    RecognitionTrialConfig,
+    SceneSettings,
+    Sweep,
+    TrialConfig,
+    load_trial_config,
+    parse_trial_config,
+)
+from robot_app.experiments.kinds import run_trials, trial_kind
+from robot_app.experiments.results_table import ResultsTable, read_table
+from robot_app.experiments.summary import ErrorStats, error_stats
+from robot_app.experiments.trial_result import TrialResult, execute_trial, trial_seed
+from robot_app.experiments.trials import SweepInterruptedError, SweepResult, run_sweep
+
+__all__ = [
+    "AnyTrialConfig",
+    "ErrorStats",
+    "PickPlaceTrialConfig",
+    "RecognitionTrialConfig",
+    "ResultsTable",
+    "SceneSettings",
+    "Sweep",
+    "SweepInterruptedError",
+    "SweepResult",
+    "TrialConfig",
+    "TrialResult",
+    "error_stats",
+    "execute_trial",
+    "load_trial_config",
+    "parse_trial_config",
+    "read_table",
+    "run_sweep",
+    "run_trials",
+    "trial_kind",
+    "trial_seed",
+]

@@ -58,6 +58,22 @@ class SceneSettings(StrictModel):
             raise ValueError("must be [low, high] with -0.255 <= low <= high <= 0.255 m (the 510 mm area)")
         return value
 
+    @field_validator("distractor", mode="before")
+    @classmethod
+    def _distractor_value(cls, value: Any) -> Any:
+        valid_id = isinstance(value, int) and not isinstance(value, bool) and 1 <= value <= CLOTH_COUNT
+        if value is None or value == "random" or valid_id:
+            return value
+        raise ValueError(f"must be null, 'random' or a cloth No. 1-{CLOTH_COUNT}")
+
+    @model_validator(mode="after")
+    def _distractor_not_a_target(self) -> SceneSettings:
+        if isinstance(self.distractor, int) and self.distractor in self.cloth_ids:
+            raise ValueError(
+                f"distractor No.{self.distractor} is also in cloth_ids; it must differ from every target"
+            )
+        return self
+
     @field_validator("yaw_range_deg")
     @classmethod
     def _yaw_range(cls, value: tuple[float, float]) -> tuple[float, float]:
@@ -153,11 +169,15 @@ class RecognitionTrialConfig(_TrialConfigBase):
         recognition: overrides of the recogniser's settings (population, generations,
             acceptance threshold, ...), checked against its settings model at start.
         peaks: also record the second fitness peak (for the two-cloth experiment).
+        tolerance_mm: a found target counts as a success if |x|, |y| errors are within [mm].
+        tolerance_deg: ... and the yaw error is within [deg] (paper: ±10 mm, ±10°).
     """
 
     kind: Literal["recognition"] = "recognition"
     recognition: dict[str, Any] = Field(default_factory=dict)
     peaks: bool = False
+    tolerance_mm: float = Field(default=10.0, gt=0.0, le=500.0)
+    tolerance_deg: float = Field(default=10.0, gt=0.0, le=180.0)
 
 
 class PickPlaceTrialConfig(_TrialConfigBase):

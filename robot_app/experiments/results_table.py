@@ -51,6 +51,15 @@ def _parse(text: str) -> Any:
     return text
 
 
+def read_table(path: str | Path) -> list[Row]:
+    """Rows of a per-trial CSV, values parsed back to bool/int/float/str ('' stays '')."""
+    file = Path(path)
+    if not file.exists() or file.stat().st_size == 0:
+        return []
+    with file.open(newline="") as stream:
+        return [{k: _parse(v) for k, v in row.items()} for row in csv.DictReader(stream)]
+
+
 class ResultsTable:
     """The CSV file of one sweep, with a fixed header from the outcome dataclass.
 
@@ -101,10 +110,7 @@ class ResultsTable:
 
     def read_rows(self) -> list[Row]:
         """All rows, values parsed back to bool/int/float/str ('' stays '')."""
-        if not self.path.exists() or self.path.stat().st_size == 0:
-            return []
-        with self.path.open(newline="") as file:
-            return [{k: _parse(v) for k, v in row.items()} for row in csv.DictReader(file)]
+        return read_table(self.path)
 
     def row_of(self, result: TrialResult, sweep_label: str) -> list[str]:
         """The CSV fields of one result."""
@@ -153,4 +159,4 @@ class ResultsTable:
         self._write_atomic(buffer.getvalue())
 
 
-__all__ = ["BASE_COLUMNS", "ResultsTable", "Row", "is_timing_column"]
+__all__ = ["BASE_COLUMNS", "ResultsTable", "Row", "is_timing_column", "read_table"]

@@ -1,0 +1,88 @@
+"""Trial kinds: which trial function and outcome a config's `kind` runs, and `run_trials`."""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Literal
+
+from robot_app.errors import RobotAppError
+from robot_app.experiments.experiment_config import AnyTrialConfig, RecognitionTrialConfig
+from robot_app.experiments.trial_result import TrialFunction
+from robot_app.experiments.trials import SweepResult, run_sweep
+
+PICK_PLACE_MODULE = "robot_app.control.pick_place"
+
+
+def trial_kind(config: AnyTrialConfig) -> tuple[TrialFunction, type]:
+    """The trial function and outcome dataclass of `config.kind`, checked up front.
+
+    Raises:
+        ConfigError: `recognition` overrides the recogniser does not accept.
+        RobotAppError: a pick_place config while the closed loop is not available.
+    """
+    if isinstance(config, RecognitionTrialConfig):
+        from robot_app.experiments.recognition_trial import (
+            RecognitionOutcome,
+            check_recognition_config,
+            run_recognition_trial,
+        )
+
+        check_recognition_config(config)
+        return run_recognition_trial, RecognitionOutcome
+    try:
+        importlib.import_module(PICK_PLACE_MODULE)
+        from robot_app.experiments.pick_place_trial import (
+            PickPlaceOutcome,
+            check_pick_place_config,
+            run_pick_place_trial,
+        )
+    except ImportError as err:
+        raise RobotAppError(
+            f"pick_place trials need {PICK_PLACE_MODULE} (the closed loop), which is not available: {err}"
+        ) from err
+    check_pick_place_config(config)
+    return run_pick_place_trial, PickPlaceOutcome
+
+
+def run_trials(
+    config: AnyTrialConfig,
+    out_dir: str | Path,
+    *,
+    workers: int = 1,
+    backend: Literal["local", "ray"] = "local",
+    ray_address: str = "auto",
+    progress: bool = True,
+    plots: bool = True,
+) -> SweepResult:
+    """Runs (or resumes) the trials of `config` into `out_dir`, with its plots.
+
+    Args:
+        config: a recognition or pick_place trial config.
+        out_dir: results folder (config.yaml, trials.csv, summary.json, PNGs).
+        workers: local worker processes (or CPUs of a private local Ray).
+        backend: "local" or "ray".
+        ray_address: Ray cluster address ("auto", "local", "host:port").
+        progress: show a progress bar.
+        plots: write errors.png (and sweep.png for a sweep).
+    """
+    trial_fn, outcome_type = trial_kind(config)
+    on_finished = None
+    if plots:
+        from robot_app.experiments.report import plot_trial_folder
+
+        on_finished = plot_trial_folder
+    return run_sweep(
+        config,
+        trial_fn,
+        outcome_type,
+        out_dir,
+        workers=workers,
+        backend=backend,
+        ray_address=ray_address,
+        progress=progress,
+        on_finished=on_finished,
+    )
+
+
+__all__ = ["run_trials", "trial_kind"]

@@ -1,0 +1,124 @@
+"""Typed trial configs: every shipped config loads; bad keys, types and ranges are named."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from robot_app.cli import main
+from robot_app.errors import ConfigError
+from robot_app.experiments.experiment_config import (
+    PickPlaceTrialConfig,
+    RecognitionTrialConfig,
+    load_trial_config,
+    parse_trial_config,
+)
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+OWN_CONFIGS = ["default", "recognition_1000", "occlusion", "two_cloths", "absent_target", "ga_sweep"]
+
+
+@pytest.mark.parametrize("name", OWN_CONFIGS)
+def test_shipped_configs_load(name: str) -> None:
+    config = load_trial_config(CONFIGS / f"{name}.yaml")
+    assert isinstance(config, RecognitionTrialConfig)
+    assert config.name == name
+    for point in range(config.point_count):
+        assert config.at_point(point).sweep is None
+
+
+def test_recognition_1000_covers_all_cloths() -> None:
+    config = load_trial_config(CONFIGS / "recognition_1000.yaml")
+    assert config.trials == 1000 and sorted(config.scene.cloth_ids) == list(range(1, 13))
+
+
+def _error(data: dict, *overrides: str) -> str:
+    with pytest.raises(ConfigError) as info:
+        from robot_app.config import apply_overrides
+
+        parse_trial_config(apply_overrides(data, list(overrides)), "test.yaml")
+    return str(info.value)
+
+
+def test_unknown_key_is_named() -> None:
+    message = _error({"kind": "recognition", "scene": {"clothes": [1]}})
+    assert "scene.clothes: unknown key" in message and "test.yaml" in message
+
+
+def test_wrong_type_is_named() -> None:
+    message = _error({}, "trials=many")
+    assert "trials:" in message and "integer" in message
+
+
+@pytest.mark.parametrize(
+    ("override", "key", "allowed"),
+    [
+        ("scene.occlusion_fraction=0.95", "scene.occlusion_fraction", "less than or equal to 0.9"),
+        ("scene.cloth_ids=[0, 3]", "scene.cloth_ids.0", "greater than or equal to 1"),
+        ("scene.cloth_ids=[13]", "scene.cloth_ids.0", "less than or equal to 12"),
+        ("trials=0", "trials", "greater than or equal to 1"),
+        ("scene.x_range_m=[-0.4, 0.1]", "scene.x_range_m", "510 mm"),
+        ("scene.yaw_range_deg=[90, -90]", "scene.yaw_range_deg", "low <= high"),
+        ("source=camera", "source", "'synthetic' or 'sim'"),
+        ("scene.distractor=banana", "scene.distractor", "random"),
+    ],
+)
+def test_out_of_range_values_name_key_and_allowed(override: str, key: str, allowed: str) -> None:
+    message = _error({}, override)
+    assert f"{key}:" in message and allowed in message
+
+
+def test_distractor_must_not_be_a_target() -> None:
+    message = _error({"scene": {"cloth_ids": [3, 4], "distractor": 4}})
+    assert "scene:" in message and "distractor No.4" in message
+
+
+def test_unknown_kind_lists_the_kinds() -> None:
+    message = _error({"kind": "juggling"})
+    assert "kind:" in message and "pick_place" in message and "recognition" in message
+
+
+def test_kind_selects_the_model() -> None:
+    assert isinstance(parse_trial_config({"kind": "pick_place"}), PickPlaceTrialConfig)
+    assert isinstance(parse_trial_config({}), RecognitionTrialConfig)
+    message = _error({"kind": "pick_place", "peaks": True})
+    assert "peaks: unknown key" in message
+
+
+def test_sweep_key_and_values_are_checked() -> None:
+    assert "sweep.key" in _error({"sweep": {"key": "trials", "values": [1]}})
+    assert "sweep.values" in _error({"sweep": {"key": "scene.occlusion_fraction", "values": []}})
+    message = _error({"sweep": {"key": "scene.occlusion_fraction", "values": [0.1, 2.0]}})
+    assert "scene.occlusion_fraction" in message and "0.9" in message
+
+
+def test_sweep_points_and_labels() -> None:
+    config = parse_trial_config({"sweep": {"key": "scene.occlusion_fraction", "values": [0.0, 0.3]}})
+    assert config.point_count == 2
+    assert config.at_point(1).scene.occlusion_fraction == 0.3
+    assert config.sweep_label(1) == "scene.occlusion_fraction=0.3"
+    with pytest.raises(ConfigError, match="out of range"):
+        config.at_point(2)
+
+
+def test_overrides_and_hash() -> None:
+    base = load_trial_config(CONFIGS / "default.yaml")
+    more = load_trial_config(CONFIGS / "default.yaml", ["trials=5000"])
+    other = load_trial_config(CONFIGS / "default.yaml", ["scene.occlusion_fraction=0.2"])
+    assert more.trials == 5000 and more.config_hash() == base.config_hash()
+    assert other.scene.occlusion_fraction == 0.2 and other.config_hash() != base.config_hash()
+    with pytest.raises(ConfigError, match=r"key\.path=value"):
+        load_trial_config(CONFIGS / "default.yaml", ["trials"])
+
+
+def test_cli_bad_config_exits_2_naming_the_key(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    config = tmp_path / "bad.yaml"
+    config.write_text("kind: recognition\nscene:\n  occlusion_fraction: 1.5\n")
+    code = main(["trial", str(config), "--out", str(tmp_path / "out"), "--no-progress"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "scene.occlusion_fraction" in err
+    assert not (tmp_path / "out").exists()
+    assert main(["trial", str(tmp_path / "missing.yaml")]) == 2
+    assert main(["trial", str(config), "--backend", "slurm"]) == 2
