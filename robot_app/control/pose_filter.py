@@ -1,0 +1,370 @@
+"""Kalman filter on the cloth's pose in the world, with gating of bad recognitions.
+
+The state is (x, y, z, yaw, vx, vy, vz, yaw_rate) in Σ_W [m, rad, m/s, rad/s] under a
+constant-velocity model driven by continuous white-noise acceleration, discretised
+exactly for each period: F and Q are rebuilt whenever the time between calls changes,
+so two predictions of dt/2 give the same result as one of dt. A recognition is fused
+only if its fitness reaches `min_fitness` and it is close to the prediction (position
+and yaw jumps, and the innovation's Mahalanobis distance); others are rejected and
+counted. After `max_consecutive_rejections` in a row the filter is *lost* and the next
+recognition with enough fitness re-initialises it (the cloth was moved, e.g. grasped).
+
+Yaw is an angle: the state's yaw is kept in [-pi, pi) and the measured yaw is moved to
+the branch nearest the prediction before fusing, so a cloth at 179 deg measured at
+-179 deg has a 2 deg innovation, not 358 deg. The cloth's tilt is not estimated.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+from typing import Annotated, NamedTuple
+
+import numpy as np
+import numpy.typing as npt
+from filterpy.common import Q_continuous_white_noise
+from filterpy.kalman import KalmanFilter
+from pydantic import Field
+
+from robot_app.config import StrictModel
+from robot_app.errors import InputError
+from robot_app.geometry import is_rotation, make_transform, rotation_about_z, wrap_angle, yaw_of
+
+FloatArray = npt.NDArray[np.float64]
+
+_YAW = 3  # index of yaw in the state and the measurement
+_Z_DOWN = np.diag([1.0, -1.0, -1.0])  # Σ_M's z points into the table (DESIGN.md)
+
+
+class PoseFilterSettings(StrictModel):
+    """Noise model and gates of `PoseFilter`.
+
+    Attributes:
+        position_process_psd: spectral density of the white-noise acceleration of x, y,
+            z [m^2/s^3]; 1e-4 lets the velocity wander 1 cm/s per sqrt(s). At 10 Hz the
+            steady-state position std is then ~0.6 x the measurement std.
+        yaw_process_psd: the same for yaw [rad^2/s^3]; 1e-3 is 1.8 deg/s per sqrt(s).
+        measurement_std_xy: std of a recognised x and y [m]; the paper's +-10 mm (3 sigma).
+        measurement_std_z: std of a recognised z [m] (stereo depth is coarser).
+        measurement_std_yaw: std of a recognised yaw [rad]; the paper's +-10 deg (3 sigma).
+        initial_velocity_std: std of the unknown velocity at (re)initialisation [m/s].
+        initial_yaw_rate_std: std of the unknown yaw rate at (re)initialisation [rad/s].
+        gate_chi2: largest accepted squared Mahalanobis distance of the innovation [-];
+            18.47 is the 99.9 % quantile of chi-square with 4 degrees of freedom.
+        max_position_jump: largest accepted distance of a measurement from the predicted
+            position [m], whatever the covariance says.
+        max_yaw_jump: largest accepted |yaw innovation| [rad].
+        min_fitness: recognitions with a lower normalised fitness are rejected [-];
+            the paper's clean, occluded and two-cloth scenes scored 0.85, 0.32, 0.79.
+        max_consecutive_rejections: rejections in a row after which the filter is lost.
+    """
+
+    position_process_psd: Annotated[float, Field(gt=0.0)] = 1e-4
+    yaw_process_psd: Annotated[float, Field(gt=0.0)] = 1e-3
+    measurement_std_xy: Annotated[float, Field(gt=0.0)] = 0.0035
+    measurement_std_z: Annotated[float, Field(gt=0.0)] = 0.006
+    measurement_std_yaw: Annotated[float, Field(gt=0.0)] = math.radians(3.5)
+    initial_velocity_std: Annotated[float, Field(gt=0.0)] = 0.05
+    initial_yaw_rate_std: Annotated[float, Field(gt=0.0)] = 0.2
+    gate_chi2: Annotated[float, Field(gt=0.0)] = 18.47
+    max_position_jump: Annotated[float, Field(gt=0.0)] = 0.05
+    max_yaw_jump: Annotated[float, Field(gt=0.0, le=math.pi)] = math.radians(20.0)
+    min_fitness: float = 0.3
+    max_consecutive_rejections: Annotated[int, Field(ge=1)] = 5
+
+
+class PoseXYZYaw(NamedTuple):
+    """A cloth pose on the table: position in Σ_W [m] and yaw about world z [rad]."""
+
+    x: float
+    y: float
+    z: float
+    yaw: float
+
+
+@dataclass(frozen=True)
+class PoseEstimate:
+    """The filtered cloth pose at `time`.
+
+    Attributes:
+        x, y, z: position of Σ_M's origin in Σ_W [m].
+        yaw: heading of Σ_M's x axis in the world x-y plane, atan2(R[1,0], R[0,0]) [rad].
+        velocity: (vx, vy, vz) [m/s], read-only.
+        yaw_rate: [rad/s].
+        covariance: (8, 8) state covariance, order (x, y, z, yaw, vx, vy, vz, yaw_rate).
+        time: [s].
+    """
+
+    x: float
+    y: float
+    z: float
+    yaw: float
+    velocity: FloatArray
+    yaw_rate: float
+    covariance: FloatArray
+    time: float
+
+    @property
+    def position(self) -> FloatArray:
+        """(x, y, z) [m]."""
+        return np.array([self.x, self.y, self.z])
+
+    def as_transform(self, *, z_down: bool = True) -> FloatArray:
+        """4x4 pose of the cloth in Σ_W, its tilt ignored (the cloth lies flat).
+
+        Args:
+            z_down: Σ_M's z axis points into the table (DESIGN.md: away from the camera
+                that looks down on it), so the rotation is Rz(yaw) Rx(pi); False gives
+                Rz(yaw) with z up.
+        """
+        rotation = rotation_about_z(self.yaw)
+        return make_transform(rotation @ _Z_DOWN if z_down else rotation, self.position)
+
+
+class UpdateReason(enum.StrEnum):
+    """Why a measurement was or was not fused."""
+
+    ACCEPTED = "accepted"
+    INITIALISED = "initialised"
+    REINITIALISED = "reinitialised after being lost"
+    LOW_FITNESS = "fitness below min_fitness"
+    POSITION_JUMP = "position jump beyond max_position_jump"
+    YAW_JUMP = "yaw jump beyond max_yaw_jump"
+    MAHALANOBIS = "Mahalanobis distance beyond gate_chi2"
+
+
+@dataclass(frozen=True)
+class FilterUpdate:
+    """The outcome of `PoseFilter.update`.
+
+    Attributes:
+        accepted: True if the measurement was fused (or (re)initialised the filter).
+        reason: why.
+        nis: normalised innovation squared y^T S^-1 y [-]; nan if not computed (the
+            filter was not initialised, or the fitness was too low).
+        estimate: the estimate after the update, None if the filter is not initialised.
+    """
+
+    accepted: bool
+    reason: UpdateReason
+    nis: float
+    estimate: PoseEstimate | None
+
+    @property
+    def mahalanobis(self) -> float:
+        """Mahalanobis distance of the innovation, sqrt(nis) [-]."""
+        return math.sqrt(self.nis)
+
+
+class PoseFilter:
+    """Constant-velocity Kalman filter (filterpy) on (x, y, z, yaw) with gating.
+
+    Times are absolute [s] and must not decrease between calls.
+
+    Attributes:
+        settings: the noise model and gates.
+        accepted_count: measurements fused or used to (re)initialise.
+        rejected_count: measurements rejected, for any reason.
+        consecutive_rejections: rejections since the last accepted measurement.
+    """
+
+    def __init__(self, settings: PoseFilterSettings | None = None) -> None:
+        self.settings = settings or PoseFilterSettings()
+        s = self.settings
+        self._kf = KalmanFilter(dim_x=8, dim_z=4)
+        self._kf.H = np.hstack([np.eye(4), np.zeros((4, 4))])
+        std = [s.measurement_std_xy, s.measurement_std_xy, s.measurement_std_z, s.measurement_std_yaw]
+        self._kf.R = np.diag(np.square(std))
+        psd = np.array([s.position_process_psd] * 3 + [s.yaw_process_psd])
+        self._psd_scale = np.sqrt(np.outer(np.tile(psd, 2), np.tile(psd, 2)))
+        self._period = math.nan
+        self._time = math.nan
+        self.initialised = False
+        self.accepted_count = 0
+        self.rejected_count = 0
+        self.consecutive_rejections = 0
+
+    @property
+    def lost(self) -> bool:
+        """True once `max_consecutive_rejections` measurements in a row were rejected."""
+        return self.initialised and self.consecutive_rejections >= self.settings.max_consecutive_rejections
+
+    @property
+    def period(self) -> float:
+        """The period [s] that F and Q were last built for (nan before any prediction)."""
+        return self._period
+
+    @property
+    def transition_matrix(self) -> FloatArray:
+        """F of the last period, (8, 8), a copy."""
+        return np.array(self._kf.F, dtype=float)
+
+    @property
+    def process_noise(self) -> FloatArray:
+        """Q of the last period, (8, 8), a copy."""
+        return np.array(self._kf.Q, dtype=float)
+
+    @property
+    def estimate(self) -> PoseEstimate | None:
+        """The current estimate, None before initialisation."""
+        return self._estimate(self._kf.x, self._kf.P, self._time) if self.initialised else None
+
+    def reset(self, pose: PoseXYZYaw | npt.ArrayLike, t: float) -> PoseEstimate:
+        """(Re)starts the filter at `pose` (x, y, z, yaw or a 4x4 world pose) at time `t`
+        [s], with the measurement covariance and an unknown velocity; counters are kept."""
+        z = _measurement_vector(pose)
+        s = self.settings
+        self._kf.x = np.concatenate([z, np.zeros(4)]).reshape(8, 1)
+        velocity_var = [s.initial_velocity_std**2] * 3 + [s.initial_yaw_rate_std**2]
+        self._kf.P = np.diag(np.concatenate([np.diag(self._kf.R), velocity_var]))
+        self._time = _finite_time(t)
+        self.initialised = True
+        self.consecutive_rejections = 0
+        return self._estimate(self._kf.x, self._kf.P, self._time)
+
+    def predict(self, t: float) -> PoseEstimate:
+        """Propagates the state to time `t` [s] and returns the prediction.
+
+        Raises:
+            InputError: not initialised, or `t` is before the filter's time.
+        """
+        dt = self._elapsed(t)
+        if dt > 0.0:
+            self._set_period(dt)
+            self._kf.predict()
+            self._kf.x[_YAW, 0] = wrap_angle(self._kf.x[_YAW, 0])
+            self._time = float(t)
+        return self._estimate(self._kf.x, self._kf.P, self._time)
+
+    def estimate_at(self, t: float) -> PoseEstimate:
+        """The prediction for time `t` [s] without changing the filter (e.g. to aim the
+        hand where the cloth will be); the covariance includes the process noise."""
+        dt = self._elapsed(t)
+        F, Q = self._matrices(dt)
+        x = F @ self._kf.x
+        x[_YAW, 0] = wrap_angle(x[_YAW, 0])
+        return self._estimate(x, F @ self._kf.P @ F.T + Q, float(t) if dt > 0.0 else self._time)
+
+    def update(self, measurement: PoseXYZYaw | npt.ArrayLike, fitness: float, t: float) -> FilterUpdate:
+        """Predicts to `t` [s] and fuses a recognised pose unless a gate rejects it.
+
+        Args:
+            measurement: (x, y, z, yaw) [m, rad] or the 4x4 pose of Σ_M in Σ_W.
+            fitness: the recognition's normalised fitness [-].
+            t: capture time of the recognised images [s].
+
+        Raises:
+            InputError: malformed measurement, non-finite fitness or a time going back.
+        """
+        z = _measurement_vector(measurement)
+        if not math.isfinite(fitness):
+            raise InputError(f"recognition fitness must be finite, got {fitness}")
+        if fitness < self.settings.min_fitness:
+            if self.initialised:
+                self.predict(t)
+            return self._reject(UpdateReason.LOW_FITNESS, math.nan)
+        if not self.initialised or self.lost:
+            reason = UpdateReason.REINITIALISED if self.initialised else UpdateReason.INITIALISED
+            if self.initialised:
+                self._elapsed(t)  # a re-initialisation may not go back in time either
+            self.reset(z, t)
+            return self._accept(reason, math.nan)
+        self.predict(t)
+        kf = self._kf
+        z[_YAW] = kf.x[_YAW, 0] + wrap_angle(z[_YAW] - kf.x[_YAW, 0])  # nearest branch
+        innovation = z - (kf.H @ kf.x).ravel()
+        S = kf.H @ kf.P @ kf.H.T + kf.R
+        nis = float(innovation @ np.linalg.solve(S, innovation))
+        if np.linalg.norm(innovation[:3]) > self.settings.max_position_jump:
+            return self._reject(UpdateReason.POSITION_JUMP, nis)
+        if abs(innovation[_YAW]) > self.settings.max_yaw_jump:
+            return self._reject(UpdateReason.YAW_JUMP, nis)
+        if nis > self.settings.gate_chi2:
+            return self._reject(UpdateReason.MAHALANOBIS, nis)
+        kf.update(z)
+        kf.x[_YAW, 0] = wrap_angle(kf.x[_YAW, 0])
+        return self._accept(UpdateReason.ACCEPTED, nis)
+
+    def _accept(self, reason: UpdateReason, nis: float) -> FilterUpdate:
+        self.accepted_count += 1
+        self.consecutive_rejections = 0
+        return FilterUpdate(True, reason, nis, self.estimate)
+
+    def _reject(self, reason: UpdateReason, nis: float) -> FilterUpdate:
+        self.rejected_count += 1
+        self.consecutive_rejections += 1
+        return FilterUpdate(False, reason, nis, self.estimate)
+
+    def _elapsed(self, t: float) -> float:
+        if not self.initialised:
+            raise InputError("the pose filter is not initialised: reset() it or update() it first")
+        dt = _finite_time(t) - self._time
+        if dt < 0.0:
+            raise InputError(
+                f"pose filter time went back from {self._time:.6f} s to {t:.6f} s; "
+                "give measurements and predictions in time order"
+            )
+        return dt
+
+    def _set_period(self, dt: float) -> None:
+        if dt != self._period:  # rebuild F and Q only when the period changes
+            self._kf.F, self._kf.Q = self._matrices(dt)
+            self._period = dt
+
+    def _matrices(self, dt: float) -> tuple[FloatArray, FloatArray]:
+        F = np.eye(8)
+        F[:4, 4:] = dt * np.eye(4)
+        Q = Q_continuous_white_noise(dim=2, dt=dt, spectral_density=1.0, block_size=4, order_by_dim=False)
+        return F, np.asarray(Q, dtype=float) * self._psd_scale
+
+    @staticmethod
+    def _estimate(x: FloatArray, P: FloatArray, t: float) -> PoseEstimate:
+        state = np.asarray(x, dtype=float).ravel()
+        velocity = state[4:7].copy()
+        covariance = np.array(P, dtype=float)
+        velocity.setflags(write=False)
+        covariance.setflags(write=False)
+        return PoseEstimate(
+            float(state[0]),
+            float(state[1]),
+            float(state[2]),
+            float(state[3]),
+            velocity,
+            float(state[7]),
+            covariance,
+            t,
+        )
+
+
+def _measurement_vector(pose: PoseXYZYaw | npt.ArrayLike) -> FloatArray:
+    """(x, y, z, yaw) of a pose given as 4 numbers or a 4x4 world transform."""
+    array = np.asarray(pose, dtype=float)
+    if array.shape == (4, 4):
+        if not (is_rotation(array[:3, :3], tol=1e-4) and np.allclose(array[3], [0, 0, 0, 1])):
+            raise InputError("a 4x4 cloth pose needs a rotation block and a last row (0, 0, 0, 1)")
+        vector = np.array([*array[:3, 3], yaw_of(array[:3, :3])])
+    elif array.shape == (4,):
+        vector = array.copy()
+    else:
+        raise InputError(f"a cloth pose is (x, y, z, yaw) or a 4x4 transform, got shape {array.shape}")
+    if not np.all(np.isfinite(vector)):
+        raise InputError(f"a cloth pose must be finite, got {vector.tolist()}")
+    vector[_YAW] = wrap_angle(vector[_YAW])
+    return vector
+
+
+def _finite_time(t: float) -> float:
+    if not math.isfinite(t):
+        raise InputError(f"time must be finite [s], got {t}")
+    return float(t)
+
+
+__all__ = [
+    "FilterUpdate",
+    "PoseEstimate",
+    "PoseFilter",
+    "PoseFilterSettings",
+    "PoseXYZYaw",
+    "UpdateReason",
+]
