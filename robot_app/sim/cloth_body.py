@@ -1,0 +1,184 @@
+"""A catalogue cloth as a pybullet mass-spring soft body, with its ground-truth pose.
+
+Ground truth of Σ_M is the Kabsch fit of the rest-mesh nodes (in Σ_M) to the current
+nodes (in Σ_W). A cloth lying face up has Σ_M's z pointing down into the table, so a
+camera looking straight down with its image axes along the texture's sees ^CR R_M = I.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+import pybullet as pb
+from scipy.spatial import cKDTree
+
+from robot_app.errors import GraspError, SimulationError
+from robot_app.geometry import FloatArray, kabsch, quaternion_xyzw_from_matrix, transform_points
+from robot_app.sim.cloth_mesh import ClothMesh, mesh_obj_path
+from robot_app.sim.cloths import ClothSpec, texture_path
+from robot_app.sim.config import ClothPhysicsConfig
+
+if TYPE_CHECKING:
+    from robot_app.sim.robot import SimRobot
+
+
+class ClothBody:
+    """One soft-body cloth in a pybullet client (owned by a `World` or `ModelStation`).
+
+    Args:
+        client: pybullet client id (the world must have been reset with
+            RESET_USE_DEFORMABLE_WORLD).
+        mesh: the cloth's rest mesh in Σ_M.
+        transform_model_to_world: 4x4 initial pose of Σ_M [m].
+        physics: spring constants, friction and collision margin.
+        cache: folder for the .obj mesh and the texture PNG.
+    """
+
+    def __init__(
+        self,
+        client: int,
+        mesh: ClothMesh,
+        transform_model_to_world: npt.ArrayLike,
+        physics: ClothPhysicsConfig,
+        cache: str | Path,
+    ) -> None:
+        T = np.asarray(transform_model_to_world, dtype=float)
+        self._client = client
+        self.mesh = mesh
+        obj = mesh_obj_path(mesh, cache)
+        self.body_id = pb.loadSoftBody(
+            str(obj),
+            basePosition=T[:3, 3].tolist(),
+            baseOrientation=quaternion_xyzw_from_matrix(T[:3, :3]).tolist(),
+            mass=mesh.spec.mass,
+            useNeoHookean=0,
+            useMassSpring=1,
+            useBendingSprings=1,
+            springElasticStiffness=physics.elastic_stiffness,
+            springDampingStiffness=physics.damping_stiffness,
+            springBendingStiffness=physics.bending_stiffness,
+            useSelfCollision=0,
+            frictionCoeff=physics.friction,
+            useFaceContact=0,
+            collisionMargin=physics.collision_margin,
+            physicsClientId=client,
+        )
+        if self.body_id < 0:
+            raise SimulationError(f"pybullet could not load the soft body {obj}")
+        self._order = self._node_order(transform_points(T, mesh.vertices))
+        texture = pb.loadTexture(str(texture_path(mesh.spec, cache)), physicsClientId=client)
+        pb.changeVisualShape(
+            self.body_id,
+            -1,
+            textureUniqueId=texture,
+            rgbaColor=[1, 1, 1, 1],
+            flags=pb.VISUAL_SHAPE_DOUBLE_SIDED,
+            physicsClientId=client,
+        )
+        self._anchors: list[int] = []
+
+    @property
+    def spec(self) -> ClothSpec:
+        return self.mesh.spec
+
+    def nodes(self) -> FloatArray:
+        """(N, 3) current node positions in Σ_W [m], in the rest mesh's vertex order."""
+        _, positions = pb.getMeshData(
+            self.body_id, -1, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=self._client
+        )
+        nodes = np.asarray(positions, dtype=float)[self._order]
+        nodes.setflags(write=False)
+        return nodes
+
+    def pose(self) -> FloatArray:
+        """4x4 ground-truth pose of Σ_M in Σ_W: Kabsch fit of the rest nodes to the nodes."""
+        return kabsch(self.mesh.vertices, self.nodes())
+
+    def max_edge_stretch(self) -> float:
+        """Largest ratio of a mesh edge's current length to its rest length."""
+        nodes = self.nodes()
+        edges = self.mesh.edges
+        lengths = np.linalg.norm(nodes[edges[:, 0]] - nodes[edges[:, 1]], axis=1)
+        return float(np.max(lengths / self.mesh.rest_edge_lengths))
+
+    def outline_world(self) -> FloatArray:
+        """(K, 3) outline polygon placed with the current ground-truth pose [m]."""
+        outline = np.column_stack([self.mesh.outline, np.zeros(len(self.mesh.outline))])
+        return transform_points(self.pose(), outline)
+
+    @property
+    def is_grasped(self) -> bool:
+        return bool(self._anchors)
+
+    def grasp(
+        self, robot: SimRobot, radius: float = 0.02, link: str = "gripper_palm", at: str = "tcp"
+    ) -> int:
+        """Anchors the nodes within `radius` [m] of frame `at` to the robot's `link`.
+
+        Returns:
+            The number of anchored nodes.
+
+        Raises:
+            GraspError: no node is within reach, or the cloth is already grasped.
+        """
+        if self._anchors:
+            raise GraspError(f"cloth No.{self.spec.number} is already grasped; release() it first")
+        if radius <= 0:
+            raise GraspError(f"grasp radius must be positive [m], got {radius}")
+        centre = robot.frame_pose(at)[:3, 3]
+        link_index = robot.link_index(link)
+        distances = np.linalg.norm(self.nodes() - centre, axis=1)
+        chosen = np.flatnonzero(distances <= radius)
+        if chosen.size == 0:
+            raise GraspError(
+                f"no node of cloth No.{self.spec.number} within {radius * 1000:.0f} mm of '{at}' "
+                f"(nearest {distances.min() * 1000:.0f} mm)"
+            )
+        for k in chosen:
+            node = int(self._order[k])
+            anchor = pb.createSoftBodyAnchor(
+                self.body_id, node, robot.body_id, link_index, physicsClientId=self._client
+            )
+            self._anchors.append(anchor)
+        return int(chosen.size)
+
+    def release(self) -> int:
+        """Removes all grasp anchors; returns how many were removed."""
+        count = len(self._anchors)
+        for anchor in self._anchors:
+            pb.removeConstraint(anchor, physicsClientId=self._client)
+        self._anchors.clear()
+        return count
+
+    def pin(self, node_indices: npt.ArrayLike) -> None:
+        """Anchors the given rest-mesh nodes to their current place in the world (tests)."""
+        for k in np.asarray(node_indices, dtype=int).reshape(-1):
+            anchor = pb.createSoftBodyAnchor(
+                self.body_id, int(self._order[k]), -1, -1, physicsClientId=self._client
+            )
+            self._anchors.append(anchor)
+
+    def remove(self) -> None:
+        """Deletes the soft body from its client."""
+        self.release()
+        pb.removeBody(self.body_id, physicsClientId=self._client)
+
+    def _node_order(self, expected: FloatArray) -> npt.NDArray[np.int64]:
+        _, positions = pb.getMeshData(
+            self.body_id, -1, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=self._client
+        )
+        loaded = np.asarray(positions, dtype=float)
+        if len(loaded) != len(expected):
+            raise SimulationError(
+                f"soft body has {len(loaded)} nodes but the mesh has {len(expected)} vertices"
+            )
+        distance, order = cKDTree(loaded).query(expected)
+        if np.max(distance) > 1e-4 or len(np.unique(order)) != len(order):
+            raise SimulationError("soft body nodes do not match the mesh vertices after loading")
+        return np.asarray(order, dtype=np.int64)
+
+
+__all__ = ["ClothBody"]

@@ -1,0 +1,241 @@
+"""The catalogue of sample cloths No.1-No.12 (paper Fig. 10): outline, size, mass, texture.
+
+A cloth's texture is drawn deterministically from its catalogue entry (no downloads).
+Texture coordinates: the image spans the cloth's bounding box, image x (right) along
+Σ_M x and image y (down) along Σ_M y, `TEXTURE_PX_PER_M` pixels per metre. Outlines
+are polygons in the same texture frame [m] (origin at the box's top-left corner).
+Colours avoid the green of the background sheet (HSV_FULL hue 85 ± 30).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from robot_app.errors import InputError
+from robot_app.geometry import FloatArray
+
+TEXTURE_PX_PER_M = 2000.0  # 2 px/mm: finer than both cameras' footprint (< 1.8 px/mm)
+MAX_SIZE = (0.25, 0.20)  # largest cloth [m], paper Sec. III
+OUTLINES = ("rectangle", "rounded", "trapezoid", "shirt", "ellipse")
+PATTERNS = ("plain", "stripes", "checks", "dots", "motifs", "patches", "plaid", "diagonal")
+
+BGR = tuple[int, int, int]
+
+
+@dataclass(frozen=True)
+class ClothSpec:
+    """One catalogue cloth.
+
+    Attributes:
+        number: catalogue number 1-12.
+        name: short description.
+        size: (width, height) of the bounding box [m]; width along Σ_M x.
+        outline: one of OUTLINES.
+        pattern: one of PATTERNS.
+        colours: BGR colours [0-255] used by the pattern (first = ground colour).
+        mass: total mass [kg].
+        scale: pattern period [m] (stripe width, check size, dot spacing...).
+    """
+
+    number: int
+    name: str
+    size: tuple[float, float]
+    outline: str
+    pattern: str
+    colours: tuple[BGR, ...]
+    mass: float
+    scale: float = 0.02
+
+    def __post_init__(self) -> None:
+        width, height = self.size
+        if not (0.03 <= width <= MAX_SIZE[0] + 1e-9 and 0.03 <= height <= MAX_SIZE[1] + 1e-9):
+            raise InputError(f"cloth size {self.size} m must lie within 0.03 .. {MAX_SIZE} m")
+        if self.outline not in OUTLINES:
+            raise InputError(f"outline {self.outline!r} is not one of {OUTLINES}")
+        if self.pattern not in PATTERNS:
+            raise InputError(f"pattern {self.pattern!r} is not one of {PATTERNS}")
+        if self.mass <= 0 or not self.colours:
+            raise InputError("a cloth needs a positive mass [kg] and at least one colour")
+
+
+RED, WHITE, NAVY, YELLOW = (40, 30, 200), (225, 225, 225), (110, 40, 30), (30, 200, 225)
+MAGENTA, ORANGE, PURPLE, PINK = (170, 40, 200), (30, 120, 230), (150, 50, 110), (160, 110, 230)
+BLUE, BROWN, SKY, BLACK = (200, 90, 30), (40, 60, 120), (220, 170, 60), (35, 30, 30)
+
+CATALOGUE: tuple[ClothSpec, ...] = (
+    ClothSpec(1, "plain red towel", (0.24, 0.19), "rectangle", "plain", (RED,), 0.060),
+    ClothSpec(2, "navy-white stripes", (0.22, 0.18), "rectangle", "stripes", (WHITE, NAVY), 0.050, 0.016),
+    ClothSpec(
+        3,
+        "small colourful patchwork, light",
+        (0.16, 0.13),
+        "rounded",
+        "patches",
+        (YELLOW, RED, MAGENTA, BLUE, ORANGE, SKY),
+        0.018,
+        0.032,
+    ),
+    ClothSpec(4, "yellow-navy checks", (0.20, 0.17), "rectangle", "checks", (YELLOW, NAVY), 0.045, 0.025),
+    ClothSpec(5, "pink with white dots", (0.21, 0.16), "rounded", "dots", (PINK, WHITE), 0.035, 0.03),
+    ClothSpec(
+        6, "white with printed motifs", (0.19, 0.19), "rectangle", "motifs", (WHITE, RED, BLUE), 0.04, 0.05
+    ),
+    ClothSpec(7, "purple child's shirt", (0.25, 0.20), "shirt", "plain", (PURPLE, WHITE), 0.070),
+    ClothSpec(
+        8, "orange diagonal stripes", (0.23, 0.17), "trapezoid", "diagonal", (ORANGE, BROWN), 0.05, 0.02
+    ),
+    ClothSpec(
+        9, "magenta-yellow stripes", (0.18, 0.15), "rectangle", "stripes", (MAGENTA, YELLOW), 0.03, 0.022
+    ),
+    ClothSpec(10, "sky-blue oval mat", (0.20, 0.14), "ellipse", "dots", (SKY, NAVY), 0.04, 0.035),
+    ClothSpec(11, "tartan", (0.25, 0.18), "rectangle", "plaid", (RED, NAVY, YELLOW), 0.065, 0.05),
+    ClothSpec(12, "black handkerchief, white dots", (0.14, 0.12), "rectangle", "dots", (BLACK, WHITE), 0.015),
+)
+
+
+def cloth_spec(number: int) -> ClothSpec:
+    """The catalogue cloth No.`number` (1-12)."""
+    if not 1 <= int(number) <= len(CATALOGUE):
+        raise InputError(f"cloth number must be 1..{len(CATALOGUE)}, got {number}")
+    return CATALOGUE[int(number) - 1]
+
+
+def outline_polygon(spec: ClothSpec, corner_points: int = 6) -> FloatArray:
+    """The cloth's outline, (K, 2) counter-clockwise in image axes, texture frame [m]."""
+    w, h = spec.size
+    if spec.outline == "rectangle":
+        pts = [(0, 0), (0, h), (w, h), (w, 0)]
+    elif spec.outline == "trapezoid":
+        inset = 0.18 * w
+        pts = [(inset, 0), (0, h), (w, h), (w - inset, 0)]
+    elif spec.outline == "ellipse":
+        t = np.linspace(0, 2 * np.pi, 40, endpoint=False)
+        pts = list(zip(w / 2 + w / 2 * np.cos(t), h / 2 - h / 2 * np.sin(t), strict=True))
+    elif spec.outline == "rounded":
+        r = 0.2 * min(w, h)
+        pts = []
+        corners = ((r, r, np.pi), (w - r, r, 1.5 * np.pi), (w - r, h - r, 0.0), (r, h - r, 0.5 * np.pi))
+        for cx, cy, start in corners:  # image axes (y down): angle t sweeps clockwise on screen
+            for t in np.linspace(start, start + 0.5 * np.pi, corner_points):
+                pts.append((cx + r * np.cos(t), cy + r * np.sin(t)))
+    else:  # shirt: body with short sleeves and a neckline, symmetric about x = w/2
+        u = np.array(
+            [(0.30, 0.0), (0.42, 0.08), (0.58, 0.08), (0.70, 0.0), (1.0, 0.22), (0.86, 0.42),
+             (0.78, 0.34), (0.78, 1.0), (0.22, 1.0), (0.22, 0.34), (0.14, 0.42), (0.0, 0.22)]
+        )  # fmt: skip
+        pts = [(x * w, y * h) for x, y in u[::-1]]
+    polygon = np.asarray(pts, dtype=float)
+    if polygon_area(polygon) < 0:
+        polygon = polygon[::-1]
+    return polygon
+
+
+def polygon_area(polygon: npt.ArrayLike) -> float:
+    """Signed area [m²] (shoelace); positive when counter-clockwise in (x, y)."""
+    P = np.asarray(polygon, dtype=float)
+    x, y = P[:, 0], P[:, 1]
+    return float(0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def polygon_centroid(polygon: npt.ArrayLike) -> FloatArray:
+    """Area centroid (2,) of a simple polygon [m]."""
+    P = np.asarray(polygon, dtype=float)
+    x, y = P[:, 0], P[:, 1]
+    cross = x * np.roll(y, -1) - np.roll(x, -1) * y
+    area = 0.5 * cross.sum()
+    cx = np.sum((x + np.roll(x, -1)) * cross) / (6 * area)
+    cy = np.sum((y + np.roll(y, -1)) * cross) / (6 * area)
+    return np.array([cx, cy])
+
+
+def texture_image(spec: ClothSpec) -> npt.NDArray[np.uint8]:
+    """The cloth's (H, W, 3) BGR texture covering its bounding box, drawn deterministically."""
+    width = round(spec.size[0] * TEXTURE_PX_PER_M)
+    height = round(spec.size[1] * TEXTURE_PX_PER_M)
+    colours = spec.colours
+    image = np.empty((height, width, 3), np.uint8)
+    image[:] = colours[0]
+    period = max(4, round(spec.scale * TEXTURE_PX_PER_M))
+    rng = np.random.default_rng(1000 + spec.number)
+    ys, xs = np.mgrid[0:height, 0:width]
+    second = colours[1 % len(colours)]
+    if spec.pattern == "stripes":
+        image[(ys // (period // 2)) % 2 == 1] = second
+    elif spec.pattern == "diagonal":
+        image[((xs + ys) // (period // 2)) % 2 == 1] = second
+    elif spec.pattern == "checks":
+        image[((xs // period) + (ys // period)) % 2 == 1] = second
+    elif spec.pattern == "plaid":
+        for k, colour in enumerate(colours[1:]):
+            band = period // (4 + 2 * k)
+            offset = k * period // 3
+            image[((xs + offset) % period) < band] = colour
+            image[((ys + offset) % period) < band] = colour
+    elif spec.pattern == "dots":
+        radius = max(2, period // 5)
+        for j, y in enumerate(range(period // 2, height, period)):
+            for x in range(period // 2 + (j % 2) * period // 2, width, period):
+                cv2.circle(image, (x, y), radius, second, -1, cv2.LINE_8)
+    elif spec.pattern == "patches":
+        for y in range(0, height, period):
+            for x in range(0, width, period):
+                colour = colours[int(rng.integers(len(colours)))]
+                cv2.rectangle(image, (x, y), (x + period - 1, y + period - 1), colour, -1)
+        for _ in range(6):
+            centre = (int(rng.integers(width)), int(rng.integers(height)))
+            colour = colours[int(rng.integers(len(colours)))]
+            cv2.circle(image, centre, int(rng.integers(period // 3, period)), colour, -1)
+    elif spec.pattern == "motifs":
+        for j, y in enumerate(range(period // 2, height, period)):
+            for i, x in enumerate(range(period // 2, width, period)):
+                colour = colours[1 + (i + j) % (len(colours) - 1)]
+                s = period // 3
+                if (i + j) % 2 == 0:
+                    tri = np.array([(x, y - s), (x - s, y + s), (x + s, y + s)], np.int32)
+                    cv2.fillPoly(image, [tri], colour)
+                else:
+                    cv2.circle(image, (x, y), s, colour, -1)
+    elif spec.pattern == "plain" and spec.outline == "shirt":
+        # a contrasting collar band and hem make the silhouette's orientation visible
+        image[: height // 10] = second
+        image[-height // 12 :] = second
+    return image
+
+
+def texture_path(spec: ClothSpec, cache_dir: str | Path) -> Path:
+    """Writes (once) and returns the cloth's texture PNG in `cache_dir`."""
+    folder = Path(cache_dir)
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"cloth_{spec.number:02d}_{_spec_tag(spec)}.png"
+    if not path.is_file():
+        tmp = path.with_suffix(f".{np.random.default_rng().integers(1 << 30)}.png")
+        cv2.imwrite(str(tmp), texture_image(spec))
+        tmp.replace(path)
+    return path
+
+
+def _spec_tag(spec: ClothSpec) -> str:
+    import hashlib
+
+    return hashlib.sha1(repr(spec).encode()).hexdigest()[:10]
+
+
+__all__ = [
+    "CATALOGUE",
+    "MAX_SIZE",
+    "OUTLINES",
+    "PATTERNS",
+    "TEXTURE_PX_PER_M",
+    "ClothSpec",
+    "cloth_spec",
+    "outline_polygon",
+    "polygon_area",
+    "polygon_centroid",
+    "texture_image",
+    "texture_path",
+]

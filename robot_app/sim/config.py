@@ -1,0 +1,162 @@
+"""Typed settings of the simulated cell, its cameras, its cloth physics and its scenes.
+
+All lengths [m], angles [rad] unless the field name says `_deg`; positions are in Σ_W
+(robot base at the origin, z up). `configs/world.yaml` holds the defaults written out.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pydantic import Field, field_validator
+
+from robot_app.config import StrictModel, load_config
+
+Vec2 = tuple[float, float]
+Vec3 = tuple[float, float, float]
+
+REPO_ROOT = Path(__file__).resolve().parents[2]
+DEFAULT_URDF = REPO_ROOT / "urdf" / "pa10.urdf"
+DEFAULT_WORLD_CONFIG = REPO_ROOT / "configs" / "world.yaml"
+
+
+class TableConfig(StrictModel):
+    """The table the cloths lie on; its top face is the plane z = `top_z`."""
+
+    centre_xy: Vec2 = (0.35, 0.0)
+    size_xy: Vec2 = Field((1.3, 1.4), description="table top extent [m]")
+    top_z: float = 0.0
+    height: float = Field(0.72, gt=0.0, description="floor to table top [m]")
+
+
+class RangeConfig(StrictModel):
+    """The recognition range of paper Sec. III and the green sheet that covers it."""
+
+    centre_xy: Vec2 = (0.55, 0.0)
+    size_xy: Vec2 = Field((0.39, 0.51), description="extent along world x, y [m]")
+    sheet_margin: float = Field(0.06, ge=0.0, description="green sheet beyond the range [m]")
+    sheet_rgb: Vec3 = (0.10, 0.62, 0.16)
+
+
+class BoxConfig(StrictModel):
+    """The collection box: open top, four walls standing on the table."""
+
+    centre_xy: Vec2 = (0.30, -0.50)
+    inner_size: float = Field(0.22, gt=0.0)
+    wall_height: float = Field(0.10, gt=0.0)
+    wall_thickness: float = Field(0.01, gt=0.0)
+
+
+class RobotConfig(StrictModel):
+    """Where the PA10 stands and how its joints are driven."""
+
+    urdf: Path = DEFAULT_URDF
+    base_xyz: Vec3 = (0.0, 0.0, 0.0)
+    base_yaw: float = 0.0
+    position_gain: float = Field(0.3, gt=0.0, le=1.0)
+    home_joints: tuple[float, ...] = (0.0, 0.5, 0.0, 1.4, 0.0, 1.2, 0.0)
+
+
+class ObservationConfig(StrictModel):
+    """Observation pose: the right camera `height` above the range centre, looking down.
+
+    `camera_yaw` turns the camera about the world z axis: 0 puts the image x axis along
+    world +y and the image y axis along world +x (the image 'down' points away from
+    the robot), so the 510 mm side of the range fills the image width.
+    """
+
+    height: float = Field(0.58, gt=0.1)
+    camera_yaw: float = 0.0
+
+
+class CameraConfig(StrictModel):
+    """Hand cameras: ideal pinholes from a resolution and a horizontal field of view."""
+
+    image_size: tuple[int, int] = (640, 480)
+    hfov_deg: float = Field(48.0, gt=1.0, lt=170.0)
+    near: float = Field(0.02, gt=0.0)
+    far: float = Field(3.0, gt=0.0)
+    ambient: float = Field(0.6, ge=0.0, le=1.0)
+    diffuse: float = Field(0.4, ge=0.0, le=1.0)
+
+    @field_validator("image_size")
+    @classmethod
+    def _positive_size(cls, value: tuple[int, int]) -> tuple[int, int]:
+        if value[0] < 8 or value[1] < 8:
+            raise ValueError("image_size must be at least [8, 8] pixels")
+        return value
+
+
+class ClothPhysicsConfig(StrictModel):
+    """pybullet mass-spring cloth parameters (shared by all catalogue cloths)."""
+
+    node_spacing: float = Field(0.025, gt=0.005, description="interior mesh spacing [m]")
+    boundary_spacing: float = Field(0.018, gt=0.003, description="outline node spacing [m]")
+    elastic_stiffness: float = Field(60.0, gt=0.0)
+    damping_stiffness: float = Field(0.1, ge=0.0)
+    bending_stiffness: float = Field(2.0, ge=0.0)
+    friction: float = Field(0.8, ge=0.0)
+    collision_margin: float = Field(0.003, gt=0.0)
+    settle_time: float = Field(1.0, gt=0.0, description="simulated time to let a cloth settle [s]")
+
+
+class StationConfig(StrictModel):
+    """The Fig. 7 model-generation station: one camera `distance` above a green sheet."""
+
+    distance: float = Field(0.40, gt=0.05)
+    image_size: tuple[int, int] = (640, 480)
+    hfov_deg: float = Field(48.0, gt=1.0, lt=170.0)
+    sheet_size: Vec2 = (0.6, 0.5)
+
+
+class WorldConfig(StrictModel):
+    """Everything that places and drives the simulated cell."""
+
+    table: TableConfig = TableConfig()
+    range: RangeConfig = RangeConfig()
+    box: BoxConfig = BoxConfig()
+    robot: RobotConfig = RobotConfig()
+    observation: ObservationConfig = ObservationConfig()
+    cameras: CameraConfig = CameraConfig()
+    cloth: ClothPhysicsConfig = ClothPhysicsConfig()
+    station: StationConfig = StationConfig()
+    physics_hz: float = Field(240.0, ge=60.0, le=2000.0)
+    gravity: float = Field(9.81, ge=0.0)
+
+
+class SceneConfig(StrictModel):
+    """What `make_scene` puts on the table."""
+
+    target: int = Field(3, ge=1, le=12, description="catalogue number No.1-No.12")
+    occluder: bool = False
+    occluded_fraction: float = Field(0.45, ge=0.0, lt=1.0)
+    occluder_size: Vec2 = (0.30, 0.30)
+    distractor: int | None = Field(None, ge=1, le=12)
+    drop_height: float = Field(0.0, ge=0.0, le=0.5)
+    position_margin: float = Field(
+        0.02, ge=0.0, description="keep the target's centre this far inside the range [m]"
+    )
+
+
+def load_world_config(path: str | Path | None = None, overrides: tuple[str, ...] = ()) -> WorldConfig:
+    """Reads a world YAML (default: `configs/world.yaml` when present, else built-in defaults)."""
+    if path is None and DEFAULT_WORLD_CONFIG.is_file():
+        path = DEFAULT_WORLD_CONFIG
+    return load_config(WorldConfig, path, overrides)
+
+
+__all__ = [
+    "DEFAULT_URDF",
+    "DEFAULT_WORLD_CONFIG",
+    "BoxConfig",
+    "CameraConfig",
+    "ClothPhysicsConfig",
+    "ObservationConfig",
+    "RangeConfig",
+    "RobotConfig",
+    "SceneConfig",
+    "StationConfig",
+    "TableConfig",
+    "WorldConfig",
+    "load_world_config",
+]

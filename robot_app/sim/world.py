@@ -1,0 +1,320 @@
+"""The simulated cell: floor, table, green sheet, PA10, collection box, occluder, cloths.
+
+One `World` owns one pybullet client (DIRECT unless `gui=True`), reset as a deformable
+world so cloths are soft bodies. Visual surfaces of the table and the green sheet sit a
+few millimetres below the table's collision face, so a cloth resting on the table is
+always drawn above them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+
+import numpy as np
+import numpy.typing as npt
+import pybullet as pb
+
+from robot_app.errors import InputError, SimulationError
+from robot_app.geometry import FloatArray, make_transform, quaternion_xyzw_from_matrix, rotation_about_z
+from robot_app.sim.cameras import RIGHT_FRAME, StereoCamera
+from robot_app.sim.cloth_body import ClothBody
+from robot_app.sim.cloth_mesh import build_cloth_mesh, cache_dir
+from robot_app.sim.cloths import ClothSpec
+from robot_app.sim.config import WorldConfig, load_world_config
+from robot_app.sim.robot import SimRobot
+
+FLIP_FACE_UP = np.diag([1.0, -1.0, -1.0])  # Σ_M of a face-up cloth: z into the table
+OCCLUDER_RGBA = (0.12, 0.25, 0.85, 1.0)  # the blue paper of Fig. 11 (b)
+SETTLE_CHECK_STEPS = 12
+
+
+@dataclass(frozen=True)
+class BoxGeometry:
+    """The collection box.
+
+    Attributes:
+        centre: (3,) centre of its floor (on the table top) [m].
+        inner_size: inner side length [m] (paper: 0.22).
+        wall_height: [m].
+    """
+
+    centre: FloatArray
+    inner_size: float
+    wall_height: float
+
+    def contains(self, points: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+        """True for points inside the walls and below their top."""
+        P = np.asarray(points, dtype=float).reshape(-1, 3)
+        half = self.inner_size / 2
+        d = P - self.centre
+        return (np.abs(d[:, 0]) <= half) & (np.abs(d[:, 1]) <= half) & (d[:, 2] <= self.wall_height)
+
+
+class World:
+    """The cell in one pybullet client; a context manager that disconnects on exit.
+
+    Args:
+        config: the cell's settings (default: configs/world.yaml or built-in defaults).
+        gui: open pybullet's GUI instead of DIRECT mode.
+    """
+
+    def __init__(self, config: WorldConfig | None = None, *, gui: bool = False) -> None:
+        self.config = config or load_world_config()
+        self._client = pb.connect(pb.GUI if gui else pb.DIRECT)
+        if self._client < 0:
+            raise SimulationError("could not connect to pybullet (is another GUI open?)")
+        try:
+            self._build()
+        except Exception:
+            pb.disconnect(self._client)
+            raise
+
+    def _build(self) -> None:
+        c = self.config
+        client = self._client
+        pb.resetSimulation(pb.RESET_USE_DEFORMABLE_WORLD, physicsClientId=client)
+        pb.setGravity(0, 0, -c.gravity, physicsClientId=client)
+        self.dt = 1.0 / c.physics_hz
+        pb.setTimeStep(self.dt, physicsClientId=client)
+        pb.setPhysicsEngineParameter(sparseSdfVoxelSize=0.25, physicsClientId=client)
+        self.time = 0.0
+        self._cache = cache_dir()
+        top = c.table.top_z
+        tx, ty = c.table.centre_xy
+        sx, sy = c.table.size_xy
+        rx, ry = c.range.centre_xy
+        m = 2 * c.range.sheet_margin
+        sheet = (c.range.size_xy[0] + m, c.range.size_xy[1] + m)
+        table_box = ((tx - sx / 2, tx + sx / 2), (ty - sy / 2, ty + sy / 2))
+        sheet_box = ((rx - sheet[0] / 2, rx + sheet[0] / 2), (ry - sheet[1] / 2, ry + sheet[1] / 2))
+        # pybullet's CPU renderer scans each triangle's whole screen bounding box: big
+        # quads cost a full image each even when off screen. Visible surfaces are therefore
+        # fine tiled meshes, and nothing is drawn under the green sheet or under the table.
+        floor_z = top - c.table.height
+        self.floor_id = self._box((tx, ty, floor_z - 0.01), (sx, sy, 0.02), collision=True, rgb=None)
+        self._tiles(
+            _frame(((tx - 2.0, tx + 2.0), (ty - 2.0, ty + 2.0)), table_box), floor_z, (0.55, 0.55, 0.5), 0.2
+        )
+        self.table_id = self._box(
+            (tx, ty, top - c.table.height / 2), (sx, sy, c.table.height), collision=True, rgb=None
+        )
+        self._tiles(_frame(table_box, sheet_box), top - 0.003, (0.8, 0.75, 0.65), 0.05)
+        self.sheet_id = self._tiles([(*sheet_box[0], *sheet_box[1])], top - 0.0015, c.range.sheet_rgb, 0.04)
+        b = c.box
+        bx, by = b.centre_xy
+        wall = (0.85, 0.6, 0.3)
+        self.box = BoxGeometry(np.array([bx, by, top]), b.inner_size, b.wall_height)
+        outer = b.inner_size + 2 * b.wall_thickness
+        offset = (b.inner_size + b.wall_thickness) / 2
+        zc = top + b.wall_height / 2
+        self.box_ids = (
+            self._box((bx + offset, by, zc), (b.wall_thickness, outer, b.wall_height), wall),
+            self._box((bx - offset, by, zc), (b.wall_thickness, outer, b.wall_height), wall),
+            self._box((bx, by + offset, zc), (outer, b.wall_thickness, b.wall_height), wall),
+            self._box((bx, by - offset, zc), (outer, b.wall_thickness, b.wall_height), wall),
+        )
+        self.robot = SimRobot(self._client, c.robot)
+        self.transform_observation_camera_to_world = self._observation_camera_pose()
+        self.observation_joints = self.robot.solve_frame_ik(
+            RIGHT_FRAME, self.transform_observation_camera_to_world, c.robot.home_joints
+        )
+        self.observation_joints.setflags(write=False)
+        self.robot.reset_joints(self.observation_joints)
+        self.stereo = StereoCamera(self._client, self.robot, c.cameras, self)
+        self.cloths: list[ClothBody] = []
+
+    @property
+    def client(self) -> int:
+        """The pybullet client id (for code inside robot_app.sim only)."""
+        return self._client
+
+    @property
+    def static_obstacles(self) -> tuple[int, ...]:
+        """Bodies the arm must not touch: table and box walls."""
+        return (self.table_id, *self.box_ids)
+
+    def step(self, n: int = 1) -> None:
+        """Advances the simulation by `n` steps of `dt` [s]."""
+        if n < 0:
+            raise InputError(f"step count must be >= 0, got {n}")
+        for _ in range(n):
+            pb.stepSimulation(physicsClientId=self._client)
+        self.time += n * self.dt
+
+    def add_cloth(
+        self,
+        spec: ClothSpec,
+        x: float,
+        y: float,
+        yaw: float,
+        drop_height: float = 0.0,
+        settle: bool = True,
+    ) -> ClothBody:
+        """Lays a catalogue cloth face up with Σ_M's origin at (x, y) [m], turned by `yaw` [rad].
+
+        The cloth starts `drop_height` [m] (plus its collision margin) above the table;
+        with `settle` the simulation runs until it lies still (at most settle_time).
+        """
+        physics = self.config.cloth
+        mesh = build_cloth_mesh(spec, physics.node_spacing, physics.boundary_spacing)
+        z = self.config.table.top_z + physics.collision_margin + drop_height
+        pose = make_transform(rotation_about_z(yaw) @ FLIP_FACE_UP, [x, y, z])
+        cloth = ClothBody(self._client, mesh, pose, physics, self._cache)
+        self.cloths.append(cloth)
+        if settle:
+            self.settle([cloth])
+        return cloth
+
+    def settle(self, cloths: list[ClothBody] | None = None, tolerance: float = 2e-4) -> float:
+        """Steps until the cloths' nodes move less than `tolerance` [m] on average per check.
+
+        Returns the simulated time spent [s] (at most `cloth.settle_time`).
+        """
+        bodies = self.cloths if cloths is None else cloths
+        spent = 0.0
+        previous = [b.nodes() for b in bodies]
+        while spent < self.config.cloth.settle_time:
+            self.step(SETTLE_CHECK_STEPS)
+            spent += SETTLE_CHECK_STEPS * self.dt
+            current = [b.nodes() for b in bodies]
+            moved = max(
+                (np.linalg.norm(a - b, axis=1).mean() for a, b in zip(current, previous, strict=True)),
+                default=0.0,
+            )
+            previous = current
+            if moved < tolerance:
+                break
+        return spent
+
+    def add_occluder(
+        self, centre_xy: tuple[float, float], yaw: float, size: tuple[float, float], height: float = 0.004
+    ) -> int:
+        """A sheet of blue paper (visual only) lying `height` [m] above the table; returns its id."""
+        if size[0] <= 0 or size[1] <= 0 or height <= 0:
+            raise InputError(f"occluder size and height must be positive [m], got {size}, {height}")
+        z = self.config.table.top_z + height
+        return self._box((*centre_xy, z), (*size, 0.0005), OCCLUDER_RGBA[:3], collision=False, yaw=yaw)
+
+    def remove_body(self, body: int | ClothBody) -> None:
+        """Removes a cloth or a rigid body from the world."""
+        if isinstance(body, ClothBody):
+            body.remove()
+            self.cloths.remove(body)
+        else:
+            pb.removeBody(int(body), physicsClientId=self._client)
+
+    def cloth_in_box(self, cloth: ClothBody) -> float:
+        """Fraction of the cloth's nodes inside the collection box."""
+        return float(np.mean(self.box.contains(cloth.nodes())))
+
+    def transform_model_to_camera(self, cloth: ClothBody, frame: str = RIGHT_FRAME) -> FloatArray:
+        """Ground truth ^C T_M of a cloth in a camera frame (default: the right camera)."""
+        camera = self.robot.frame_pose(frame)
+        return np.linalg.solve(camera, cloth.pose())
+
+    def save_rig(self, path: str | Path) -> Path:
+        """Writes the hand stereo rig file the recogniser reads."""
+        return self.stereo.save_rig(path)
+
+    def close(self) -> None:
+        """Disconnects the pybullet client (idempotent)."""
+        if self._client >= 0:
+            pb.disconnect(self._client)
+            self._client = -1
+
+    def __enter__(self) -> World:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    def _observation_camera_pose(self) -> FloatArray:
+        c = self.config
+        rx, ry = c.range.centre_xy
+        turn = rotation_about_z(c.observation.camera_yaw)
+        axes = np.column_stack([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+        return make_transform(turn @ axes, [rx, ry, c.table.top_z + c.observation.height])
+
+    def _tiles(
+        self,
+        rectangles: list[tuple[float, float, float, float]],
+        z: float,
+        rgb: tuple[float, float, float],
+        tile: float,
+    ) -> int:
+        """A visual-only horizontal surface at height `z` [m] made of small tiles."""
+        vertices, indices = _tile_mesh(rectangles, z, tile)
+        vis = pb.createVisualShape(
+            pb.GEOM_MESH,
+            vertices=vertices,
+            indices=indices,
+            normals=[[0.0, 0.0, 1.0]] * len(vertices),
+            rgbaColor=[*rgb, 1.0],
+            physicsClientId=self._client,
+        )
+        return pb.createMultiBody(0, -1, vis, [0, 0, 0], physicsClientId=self._client)
+
+    def _box(
+        self,
+        centre: tuple[float, float, float],
+        size: tuple[float, float, float],
+        rgb: tuple[float, float, float] | None,
+        collision: bool = True,
+        yaw: float = 0.0,
+    ) -> int:
+        """A static box; `rgb=None` makes it invisible, `collision=False` intangible."""
+        client = self._client
+        half = [s / 2 for s in size]
+        col = (
+            pb.createCollisionShape(pb.GEOM_BOX, halfExtents=half, physicsClientId=client)
+            if collision
+            else -1
+        )
+        vis = -1
+        if rgb is not None:
+            vis = pb.createVisualShape(
+                pb.GEOM_BOX, halfExtents=half, rgbaColor=[*rgb, 1.0], physicsClientId=client
+            )
+        quat = quaternion_xyzw_from_matrix(rotation_about_z(yaw)).tolist()
+        body = pb.createMultiBody(0, col, vis, list(centre), quat, physicsClientId=client)
+        if rgb is None:  # pybullet draws the collision shape of a body without a visual
+            pb.changeVisualShape(body, -1, rgbaColor=[0, 0, 0, 0], physicsClientId=client)
+        return body
+
+
+def _tile_mesh(
+    rectangles: list[tuple[float, float, float, float]], z: float, tile: float
+) -> tuple[list[list[float]], list[int]]:
+    """Vertices and triangle indices of rectangles (x0, x1, y0, y1) cut into `tile` [m] cells."""
+    vertices: list[list[float]] = []
+    indices: list[int] = []
+    for x0, x1, y0, y1 in rectangles:
+        xs = np.linspace(x0, x1, max(1, int(np.ceil((x1 - x0) / tile))) + 1)
+        ys = np.linspace(y0, y1, max(1, int(np.ceil((y1 - y0) / tile))) + 1)
+        base = len(vertices)
+        vertices += [[float(x), float(y), z] for y in ys for x in xs]
+        n = len(xs)
+        for j in range(len(ys) - 1):
+            for i in range(n - 1):
+                a = base + j * n + i
+                indices += [a, a + 1, a + n + 1, a, a + n + 1, a + n]
+    return vertices, indices
+
+
+def _frame(
+    outer: tuple[tuple[float, float], tuple[float, float]],
+    inner: tuple[tuple[float, float], tuple[float, float]],
+) -> list[tuple[float, float, float, float]]:
+    """Rectangles (x0, x1, y0, y1) covering `outer` minus `inner` (inner clipped to outer)."""
+    (ox0, ox1), (oy0, oy1) = outer
+    ix0, ix1 = max(inner[0][0], ox0), min(inner[0][1], ox1)
+    iy0, iy1 = max(inner[1][0], oy0), min(inner[1][1], oy1)
+    pieces = [(ox0, ix0, oy0, oy1), (ix1, ox1, oy0, oy1), (ix0, ix1, oy0, iy0), (ix0, ix1, iy1, oy1)]
+    return [p for p in pieces if p[1] - p[0] > 1e-6 and p[3] - p[2] > 1e-6]
+
+
+__all__ = ["BoxGeometry", "World"]
