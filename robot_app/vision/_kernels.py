@@ -71,9 +71,19 @@ def _bilinear_sum(M, px, py, pz, row_offsets, table, codes, width, height):
 
 
 @_jit
+def _projection(K, pose, out):
+    """out (3, 4) float32 = K @ pose[:3, :], pose a float64 (4, 4) transform."""
+    for r in range(3):
+        for c in range(4):
+            out[r, c] = K[r, 0] * pose[0, c] + K[r, 1] * pose[1, c] + K[r, 2] * pose[2, c]
+
+
+@_jit
 def score_poses(
-    projections_left,
-    projections_right,
+    transforms,
+    K_left,
+    K_right,
+    left_from_right,
     px,
     py,
     pz,
@@ -88,11 +98,12 @@ def score_poses(
     """Sum of the scores of all points in both images, for each pose.
 
     Args:
-        projections_left, projections_right: (P, 3, 4) float32 matrices K [R | t] of Σ_M
-            into each image.
+        transforms: (P, 4, 4) float64 poses ^CR T_M.
+        K_left, K_right: (3, 3) camera matrices.
+        left_from_right: (4, 4) transform Σ_CR -> Σ_CL.
         px, py, pz: (N,) float32 model point coordinates [m].
         row_offsets: (N,) int32 start of each point's row in the flat table.
-        table: flat float32 score table, rows of `width*height`-independent codes.
+        table: flat float32 score table.
         codes_left, codes_right: (H*W + 1,) uint16 pixel codes, row-major, then the sentinel.
         width, height: image size [px].
         bilinear: interpolate the scores of the four neighbouring pixels instead of taking
@@ -101,22 +112,107 @@ def score_poses(
     Returns:
         (P,) left sum + right sum, unnormalised.
     """
-    n_poses = projections_left.shape[0]
+    n_poses = transforms.shape[0]
     out = np.empty(n_poses)
     indices = np.empty(px.shape[0], np.int32)
+    M_left = np.empty((3, 4), np.float32)
+    M_right = np.empty((3, 4), np.float32)
     for p in range(n_poses):
+        pose = transforms[p]
+        _projection(K_right, pose, M_right)
+        _projection(K_left, left_from_right @ pose, M_left)
         if bilinear:
-            out[p] = _bilinear_sum(
-                projections_left[p], px, py, pz, row_offsets, table, codes_left, width, height
-            ) + _bilinear_sum(
-                projections_right[p], px, py, pz, row_offsets, table, codes_right, width, height
-            )
+            out[p] = _bilinear_sum(M_left, px, py, pz, row_offsets, table, codes_left, width, height)
+            out[p] += _bilinear_sum(M_right, px, py, pz, row_offsets, table, codes_right, width, height)
             continue
-        _pixel_indices(projections_left[p], px, py, pz, width, height, indices)
+        _pixel_indices(M_left, px, py, pz, width, height, indices)
         total = _gather_sum(indices, row_offsets, table, codes_left)
-        _pixel_indices(projections_right[p], px, py, pz, width, height, indices)
+        _pixel_indices(M_right, px, py, pz, width, height, indices)
         out[p] = total + _gather_sum(indices, row_offsets, table, codes_right)
     return out
 
 
-__all__ = ["score_poses"]
+@_jit
+def breed(ranked, cdf, uniforms, n_children, crossover_rate, mutation_rate):
+    """Offspring of one GA generation: ranking selection, two-point crossover, mutation.
+
+    Args:
+        ranked: (n, 6) uint16 genes, best first.
+        cdf: (n,) cumulative selection probability of each rank.
+        uniforms: (pairs, 5 + 144) uniform [0, 1) draws: 2 parents, crossover yes/no,
+            2 cut points, then one per bit of each child for mutation.
+        n_children: offspring wanted (<= 2 * pairs).
+        crossover_rate, mutation_rate: per pair, per bit probabilities.
+
+    Returns:
+        (n_children, 6) uint16 genes.
+    """
+    n_genes, n_bits = ranked.shape[1], 12
+    total_bits = n_genes * n_bits
+    children = np.empty((n_children, n_genes), np.uint16)
+    for k in range(uniforms.shape[0]):
+        a = min(np.searchsorted(cdf, uniforms[k, 0]), ranked.shape[0] - 1)
+        b = min(np.searchsorted(cdf, uniforms[k, 1]), ranked.shape[0] - 1)
+        cross = uniforms[k, 2] < crossover_rate
+        c1 = int(uniforms[k, 3] * (total_bits + 1))
+        c2 = int(uniforms[k, 4] * (total_bits + 1))
+        if c1 > c2:
+            c1, c2 = c2, c1
+        for child in range(2):
+            index = 2 * k + child
+            if index >= n_children:
+                break
+            first, second = (a, b) if child == 0 else (b, a)
+            base = 5 + child * total_bits
+            for g in range(n_genes):
+                value = 0
+                for j in range(n_bits):
+                    bit = g * n_bits + j
+                    weight = 1 << (n_bits - 1 - j)
+                    source = second if (cross and c1 <= bit < c2) else first
+                    on = (ranked[source, g] & weight) != 0
+                    if uniforms[k, base + bit] < mutation_rate:
+                        on = not on
+                    if on:
+                        value |= weight
+                children[index, g] = value
+    return children
+
+
+@_jit
+def transforms_from_genes(genes, lows, spans, gray_code):
+    """(P, 6) 12-bit genes -> (P, 4, 4) poses; |ε| > 1 is normalised to 1 (see ga.py)."""
+    n = genes.shape[0]
+    T = np.zeros((n, 4, 4))
+    x = np.empty(6)
+    for p in range(n):
+        for g in range(6):
+            v = np.int64(genes[p, g])
+            if gray_code:
+                v ^= v >> 1
+                v ^= v >> 2
+                v ^= v >> 4
+                v ^= v >> 8
+            x[g] = lows[g] + v / 4095.0 * spans[g]
+        e1, e2, e3 = x[3], x[4], x[5]
+        norm2 = e1 * e1 + e2 * e2 + e3 * e3
+        if norm2 > 1.0:
+            scale = 1.0 / np.sqrt(norm2)
+            e1, e2, e3 = e1 * scale, e2 * scale, e3 * scale
+            norm2 = 1.0
+        e0 = np.sqrt(1.0 - norm2)
+        T[p, 0, 0] = 1 - 2 * (e2 * e2 + e3 * e3)
+        T[p, 0, 1] = 2 * (e1 * e2 - e0 * e3)
+        T[p, 0, 2] = 2 * (e1 * e3 + e0 * e2)
+        T[p, 1, 0] = 2 * (e1 * e2 + e0 * e3)
+        T[p, 1, 1] = 1 - 2 * (e1 * e1 + e3 * e3)
+        T[p, 1, 2] = 2 * (e2 * e3 - e0 * e1)
+        T[p, 2, 0] = 2 * (e1 * e3 - e0 * e2)
+        T[p, 2, 1] = 2 * (e2 * e3 + e0 * e1)
+        T[p, 2, 2] = 1 - 2 * (e1 * e1 + e2 * e2)
+        T[p, 0, 3], T[p, 1, 3], T[p, 2, 3] = x[0], x[1], x[2]
+        T[p, 3, 3] = 1.0
+    return T
+
+
+__all__ = ["breed", "score_poses", "transforms_from_genes"]

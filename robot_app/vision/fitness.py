@@ -18,6 +18,8 @@ at most reach the fraction of the maximum that is in view.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import cv2
 import numpy as np
 import numpy.typing as npt
@@ -109,22 +111,19 @@ class FitnessEvaluator:
         self.model = model
         self.rig = rig
         self.params = params if params is not None else FitnessParams()
-        points = np.vstack([model.points_in, model.points_out]).astype(np.float32)
-        self._xyz = tuple(np.ascontiguousarray(points[:, k]) for k in range(3))
         table = score_table(model.background_hue, self.params)
-        rows = np.concatenate([model.hues_in.astype(np.int32), np.full(model.n_out, _OUTSIDE_ROW, np.int32)])
-        self._row_offsets = np.ascontiguousarray(rows * np.int32(table.shape[1]))
         self._table = np.ascontiguousarray(table.ravel())
-        p = self.params
-        self._maximum = p.score_in_match * model.n_in + p.score_out_background * model.n_out
-        self._left_from_right = rig.transform_right_to_left[:3, :]
+        self._columns = table.shape[1]
+        self._subsets: dict[int, _PointSet] = {}
+        self._full = self._point_set(1)
+        self._left_from_right = np.ascontiguousarray(rig.transform_right_to_left)
         self._codes: tuple[npt.NDArray[np.uint16], npt.NDArray[np.uint16]] | None = None
         self.evaluations = 0
 
     @property
     def n_points(self) -> int:
         """Model points scored per image and pose (N_in + N_out)."""
-        return len(self._xyz[0])
+        return len(self._full.x)
 
     @property
     def point_evaluations(self) -> int:
@@ -166,22 +165,33 @@ class FitnessEvaluator:
             codes[hsv[:, :, 1] < self.params.min_saturation] = NO_HUE
         return np.append(codes.ravel(), np.uint16(OFF_IMAGE))  # + the sentinel pixel
 
-    def projections(self, transforms_model_to_right: npt.ArrayLike) -> tuple[FloatArray, FloatArray]:
-        """(P, 3, 4) matrices K [R | t] taking Σ_M points to the left and right images."""
-        T = _as_poses(transforms_model_to_right)
-        right = self.rig.right.camera_matrix @ T[:, :3, :]
-        left_pose = self._left_from_right[:, :3] @ T[:, :3, :]
-        left_pose[:, :, 3] += self._left_from_right[:, 3]
-        left = self.rig.left.camera_matrix @ left_pose
-        return left, right
+    def _point_set(self, stride: int) -> _PointSet:
+        """Every `stride`-th S_in and S_out point (all of them for 1), cached."""
+        if stride not in self._subsets:
+            m, p = self.model, self.params
+            inside, outside = m.points_in[::stride], m.points_out[::stride]
+            points = np.vstack([inside, outside]).astype(np.float32)
+            rows = np.concatenate(
+                [m.hues_in[::stride].astype(np.int32), np.full(len(outside), _OUTSIDE_ROW, np.int32)]
+            )
+            self._subsets[stride] = _PointSet(
+                *(np.ascontiguousarray(points[:, k]) for k in range(3)),
+                np.ascontiguousarray(rows * np.int32(self._columns)),
+                p.score_in_match * len(inside) + p.score_out_background * len(outside),
+            )
+        return self._subsets[stride]
 
-    def evaluate(self, transforms_model_to_right: npt.ArrayLike, *, subpixel: bool = False) -> FloatArray:
+    def evaluate(
+        self, transforms_model_to_right: npt.ArrayLike, *, subpixel: bool = False, stride: int = 1
+    ) -> FloatArray:
         """Normalised fitness of each pose (1.0 = perfect match).
 
         Args:
             transforms_model_to_right: (P, 4, 4) or (4, 4) poses ^CR T_M [m].
             subpixel: interpolate each point's score between its four neighbouring pixels
                 (smooth in the pose, for refinement) instead of the paper's nearest pixel.
+            stride: score only every `stride`-th S_in and S_out point (a cheaper, noisier
+                estimate of the same normalised fitness, for early GA generations).
 
         Returns:
             (P,) fitness, F(^C φ_M) / (score_in_match·N_in + score_out_background·N_out).
@@ -191,19 +201,21 @@ class FitnessEvaluator:
         """
         if self._codes is None:
             raise InputError("no stereo pair to evaluate on: call update(left, right) first")
-        left, right = (
-            np.ascontiguousarray(M, dtype=np.float32) for M in self.projections(transforms_model_to_right)
-        )
+        T = np.ascontiguousarray(_as_poses(transforms_model_to_right))
         width, height = self.rig.image_size
-        x, y, z = self._xyz
+        if stride < 1:
+            raise InputError(f"stride must be a positive integer, got {stride}")
+        points = self._point_set(int(stride))
         codes_left, codes_right = self._codes
         sums = score_poses(
-            left,
-            right,
-            x,
-            y,
-            z,
-            self._row_offsets,
+            T,
+            self.rig.left.camera_matrix,
+            self.rig.right.camera_matrix,
+            self._left_from_right,
+            points.x,
+            points.y,
+            points.z,
+            points.row_offsets,
             self._table,
             codes_left,
             codes_right,
@@ -212,7 +224,15 @@ class FitnessEvaluator:
             subpixel,
         )
         self.evaluations += len(sums)
-        return sums / (2.0 * self._maximum)
+        return sums / (2.0 * points.maximum)
+
+
+class _PointSet(NamedTuple):
+    x: npt.NDArray[np.float32]
+    y: npt.NDArray[np.float32]
+    z: npt.NDArray[np.float32]
+    row_offsets: npt.NDArray[np.int32]
+    maximum: float  # score of a perfect match in one image
 
 
 def _as_poses(transforms: npt.ArrayLike) -> FloatArray:

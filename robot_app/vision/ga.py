@@ -1,0 +1,307 @@
+"""The 72-bit genetic algorithm of the paper (Sec. II-E): one-shot search and multi-step tracking.
+
+A chromosome is six 12-bit genes (t_x, t_y, t_z, ε1, ε2, ε3): the position of Σ_M in Σ_CR
+and the vector part ε of a unit quaternion with ε0 = sqrt(1 - |ε|²) ≥ 0. Each gene maps
+its 4096 levels linearly onto the `SearchBounds` range of its variable, Gray-coded by
+default so that one bit flip moves a variable by one level. The ε box can hold |ε| > 1;
+such an ε is repaired by normalising it to |ε| = 1 (ε0 = 0, a half turn), which keeps
+every chromosome a valid rotation. The tilt of Σ_M from the camera axis depends only on
+ε1² + ε2² (cos tilt = 1 - 2(ε1² + ε2²)), so bounding ε1 and ε2 by sin(max_tilt / 2)
+bounds the tilt by `max_tilt_deg` along the axes (and by at most ~1.4x that on diagonals).
+
+One generation: rank the population, copy the `elite` best unchanged, draw parents by
+linear ranking selection, two-point crossover over the 72 bits, bit-flip mutation, and
+evaluate only the offspring. `run` starts from a random population; `track` keeps the
+last population, moves every individual by the camera motion and evolves a few
+generations. The RNG is a seeded `np.random.Generator`: same seed, same result.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from pydantic import Field, model_validator
+
+from robot_app.config import StrictModel
+from robot_app.errors import InputError
+from robot_app.geometry import FloatArray
+from robot_app.vision._kernels import breed, transforms_from_genes
+
+BITS = 12
+GENES = 6
+LEVELS = (1 << BITS) - 1  # highest gene value, 4095
+Genes = npt.NDArray[np.uint16]
+FitnessFunction = Callable[[FloatArray], FloatArray]  # (P, 4, 4) poses -> (P,) fitness
+
+
+class SearchBounds(StrictModel):
+    """The search space, in the right camera frame Σ_CR (defaults: DESIGN.md).
+
+    Attributes:
+        x, y, z: ranges of the position of Σ_M [m].
+        max_tilt_deg: bound on tilt about the camera x and y axes [deg].
+        max_yaw_deg: bound on yaw about the camera z axis [deg] (180 = full turn).
+    """
+
+    x: tuple[float, float] = (-0.255, 0.255)
+    y: tuple[float, float] = (-0.195, 0.195)
+    z: tuple[float, float] = (0.52, 0.64)
+    max_tilt_deg: float = Field(default=20.0, ge=0.0, le=90.0)
+    max_yaw_deg: float = Field(default=180.0, gt=0.0, le=180.0)
+
+    @model_validator(mode="after")
+    def _ranges_increase(self) -> SearchBounds:
+        for name in ("x", "y", "z"):
+            low, high = getattr(self, name)
+            if not low < high:
+                raise ValueError(f"{name} range must be (low, high) with low < high")
+        if self.z[0] <= 0:
+            raise ValueError("z range must be in front of the camera (z > 0)")
+        return self
+
+    def gene_ranges(self) -> FloatArray:
+        """(6, 2) low/high of (t_x, t_y, t_z, ε1, ε2, ε3)."""
+        tilt = np.sin(np.deg2rad(self.max_tilt_deg) / 2.0)
+        yaw = np.sin(np.deg2rad(self.max_yaw_deg) / 2.0)
+        return np.array([self.x, self.y, self.z, (-tilt, tilt), (-tilt, tilt), (-yaw, yaw)], dtype=float)
+
+
+class GASettings(StrictModel):
+    """GA parameters; 100 generations as in the paper.
+
+    Attributes:
+        population: individuals per generation.
+        generations: generations of a one-shot `run`.
+        tracking_generations: generations per frame of `track`.
+        elite: best individuals copied unchanged into the next generation.
+        crossover_rate: probability that a pair of parents is crossed.
+        mutation_rate: probability of flipping each of the 72 bits of an offspring.
+        selection_pressure: linear ranking, expected offspring of the best (1-2).
+        gray_code: Gray-code the genes.
+        seed: seed of the random generator.
+    """
+
+    population: int = Field(default=100, ge=4)
+    generations: int = Field(default=100, ge=1)
+    tracking_generations: int = Field(default=3, ge=0)
+    elite: int = Field(default=2, ge=0)
+    crossover_rate: float = Field(default=0.9, ge=0.0, le=1.0)
+    mutation_rate: float = Field(default=0.02, ge=0.0, le=1.0)
+    selection_pressure: float = Field(default=1.8, ge=1.0, le=2.0)
+    gray_code: bool = True
+    seed: int = 0
+
+    @model_validator(mode="after")
+    def _elite_fits(self) -> GASettings:
+        if self.elite >= self.population:
+            raise ValueError("elite must be smaller than population")
+        return self
+
+
+def encode(parameters: npt.ArrayLike, bounds: SearchBounds, gray_code: bool = True) -> Genes:
+    """(P, 6) (t_x, t_y, t_z, ε1, ε2, ε3) -> (P, 6) genes; values outside the bounds are clipped."""
+    x = np.asarray(parameters, dtype=float).reshape(-1, GENES)
+    ranges = bounds.gene_ranges()
+    scaled = (x - ranges[:, 0]) / (ranges[:, 1] - ranges[:, 0]) * LEVELS
+    genes = np.clip(np.rint(scaled), 0, LEVELS).astype(np.uint16)
+    return (genes ^ (genes >> 1)).astype(np.uint16) if gray_code else genes
+
+
+def decode(genes: Genes, bounds: SearchBounds, gray_code: bool = True) -> FloatArray:
+    """(P, 6) genes -> (P, 6) (t_x, t_y, t_z, ε1, ε2, ε3) [m, -]."""
+    g = np.asarray(genes, dtype=np.uint16).reshape(-1, GENES).copy()
+    if gray_code:
+        for shift in (1, 2, 4, 8):
+            g ^= g >> shift
+    ranges = bounds.gene_ranges()
+    return ranges[:, 0] + g / LEVELS * (ranges[:, 1] - ranges[:, 0])
+
+
+def transforms_from_parameters(parameters: npt.ArrayLike) -> FloatArray:
+    """(P, 6) (t, ε) -> (P, 4, 4) ^CR T_M; an ε with |ε| > 1 is normalised (ε0 = 0)."""
+    x = np.asarray(parameters, dtype=float).reshape(-1, GENES)
+    eps = x[:, 3:].copy()
+    norm = np.linalg.norm(eps, axis=1)
+    long = norm > 1.0
+    eps[long] /= norm[long, None]
+    e1, e2, e3 = eps.T
+    e0 = np.sqrt(np.clip(1.0 - (e1 * e1 + e2 * e2 + e3 * e3), 0.0, 1.0))
+    T = np.zeros((len(x), 4, 4))
+    T[:, 0, 0] = 1 - 2 * (e2 * e2 + e3 * e3)
+    T[:, 0, 1] = 2 * (e1 * e2 - e0 * e3)
+    T[:, 0, 2] = 2 * (e1 * e3 + e0 * e2)
+    T[:, 1, 0] = 2 * (e1 * e2 + e0 * e3)
+    T[:, 1, 1] = 1 - 2 * (e1 * e1 + e3 * e3)
+    T[:, 1, 2] = 2 * (e2 * e3 - e0 * e1)
+    T[:, 2, 0] = 2 * (e1 * e3 - e0 * e2)
+    T[:, 2, 1] = 2 * (e2 * e3 + e0 * e1)
+    T[:, 2, 2] = 1 - 2 * (e1 * e1 + e2 * e2)
+    T[:, :3, 3] = x[:, :3]
+    T[:, 3, 3] = 1.0
+    return T
+
+
+def parameters_from_transforms(transforms: npt.ArrayLike) -> FloatArray:
+    """(P, 4, 4) ^CR T_M -> (P, 6) (t, ε) with ε0 ≥ 0 (the inverse of `transforms_from_parameters`)."""
+    T = np.asarray(transforms, dtype=float).reshape(-1, 4, 4)
+    R = T[:, :3, :3]
+    # Shepperd-style: the largest of the four squared components gives a stable division.
+    squares = np.stack(
+        [
+            1 + R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2],
+            1 + R[:, 0, 0] - R[:, 1, 1] - R[:, 2, 2],
+            1 - R[:, 0, 0] + R[:, 1, 1] - R[:, 2, 2],
+            1 - R[:, 0, 0] - R[:, 1, 1] + R[:, 2, 2],
+        ],
+        axis=1,
+    )
+    pick = np.argmax(squares, axis=1)
+    q = np.empty((len(T), 4))  # (ε0, ε1, ε2, ε3)
+    s = np.sqrt(np.maximum(squares[np.arange(len(T)), pick], 1e-300)) * 2.0
+    d21, d02, d10 = R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]
+    a01, a02, a12 = R[:, 0, 1] + R[:, 1, 0], R[:, 0, 2] + R[:, 2, 0], R[:, 1, 2] + R[:, 2, 1]
+    candidates = np.stack(
+        [
+            np.stack([s / 4, d21 / s, d02 / s, d10 / s], axis=1),
+            np.stack([d21 / s, s / 4, a01 / s, a02 / s], axis=1),
+            np.stack([d02 / s, a01 / s, s / 4, a12 / s], axis=1),
+            np.stack([d10 / s, a02 / s, a12 / s, s / 4], axis=1),
+        ],
+        axis=1,
+    )
+    q[:] = candidates[np.arange(len(T)), pick]
+    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    return np.concatenate([T[:, :3, 3], q[:, 1:]], axis=1)
+
+
+@dataclass(frozen=True)
+class GAResult:
+    """Outcome of `run` or `track`.
+
+    Attributes:
+        transform_model_to_camera: (4, 4) best pose ^CR T_M found.
+        fitness: its normalised fitness.
+        generations: generations evolved in this call.
+        evaluations: poses evaluated in this call.
+        best_per_generation: (generations + 1,) best fitness after each generation.
+    """
+
+    transform_model_to_camera: FloatArray
+    fitness: float
+    generations: int
+    evaluations: int
+    best_per_generation: FloatArray
+
+
+class GeneticAlgorithm:
+    """The GA over a fitness function of poses; holds the population between calls."""
+
+    def __init__(
+        self,
+        fitness: FitnessFunction,
+        bounds: SearchBounds | None = None,
+        settings: GASettings | None = None,
+        rng: np.random.Generator | None = None,
+    ) -> None:
+        self.fitness = fitness
+        self.bounds = bounds if bounds is not None else SearchBounds()
+        self.settings = settings if settings is not None else GASettings()
+        self.rng = rng if rng is not None else np.random.default_rng(self.settings.seed)
+        self.population: Genes | None = None
+        self.scores: FloatArray | None = None
+        ranges = self.bounds.gene_ranges()
+        self._lows, self._spans = ranges[:, 0].copy(), ranges[:, 1] - ranges[:, 0]
+        n = self.settings.population
+        s = self.settings.selection_pressure
+        probability = (s - 2 * (s - 1) * np.arange(n) / (n - 1)) / n  # linear ranking, best first
+        self._cdf = np.cumsum(probability / probability.sum())
+
+    def transforms(self, genes: Genes) -> FloatArray:
+        """(P, 4, 4) poses of (P, 6) genes."""
+        return transforms_from_genes(genes, self._lows, self._spans, self.settings.gray_code)
+
+    def run(self, generations: int | None = None) -> GAResult:
+        """One-shot search: a random population evolved `generations` (default: settings) times."""
+        genes = self.rng.integers(0, LEVELS + 1, (self.settings.population, GENES), dtype=np.uint16)
+        return self._evolve(genes, self.settings.generations if generations is None else generations)
+
+    def evolve(self, generations: int) -> GAResult:
+        """Continues from the kept population (re-scored with the current `fitness`)."""
+        if self.population is None:
+            raise InputError("evolve() needs a population: call run() first")
+        return self._evolve(self.population, generations)
+
+    def track(
+        self, transform_motion: npt.ArrayLike | None = None, generations: int | None = None
+    ) -> GAResult:
+        """Multi-step search: moves the kept population by the camera motion, then evolves.
+
+        Args:
+            transform_motion: (4, 4) ^CR_new T_CR_old; every individual becomes
+                transform_motion @ T_old (clipped into the bounds). None: no motion.
+            generations: generations this frame (default: settings.tracking_generations).
+
+        Returns:
+            The result of this frame. Without a kept population this is a `run`.
+        """
+        if self.population is None:
+            return self.run()
+        genes = self.population
+        if transform_motion is not None:
+            motion = np.asarray(transform_motion, dtype=float)
+            if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
+                raise InputError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
+            moved = motion @ self.transforms(genes)
+            genes = encode(parameters_from_transforms(moved), self.bounds, self.settings.gray_code)
+        count = self.settings.tracking_generations if generations is None else generations
+        return self._evolve(genes, count)
+
+    def _evolve(self, genes: Genes, generations: int) -> GAResult:
+        if generations < 0:
+            raise InputError(f"generations must be >= 0, got {generations}")
+        scores = self.fitness(self.transforms(genes))
+        evaluations = len(genes)
+        history = [float(scores.max())]
+        for _ in range(generations):
+            genes, scores, evaluated = self._generation(genes, scores)
+            evaluations += evaluated
+            history.append(float(scores.max()))
+        self.population, self.scores = genes, scores
+        best = int(np.argmax(scores))
+        return GAResult(
+            self.transforms(genes[best : best + 1])[0],
+            float(scores[best]),
+            generations,
+            evaluations,
+            np.array(history),
+        )
+
+    def _generation(self, genes: Genes, scores: FloatArray) -> tuple[Genes, FloatArray, int]:
+        s = self.settings
+        order = np.argsort(-scores, kind="stable")
+        ranked, ranked_scores = genes[order], scores[order]
+        n_children = len(genes) - s.elite
+        uniforms = self.rng.random(((n_children + 1) // 2, 5 + 2 * GENES * BITS))
+        children = breed(ranked, self._cdf, uniforms, n_children, s.crossover_rate, s.mutation_rate)
+        children_scores = self.fitness(self.transforms(children))
+        new_genes = np.concatenate([ranked[: s.elite], children])
+        new_scores = np.concatenate([ranked_scores[: s.elite], children_scores])
+        return new_genes, new_scores, n_children
+
+
+__all__ = [
+    "BITS",
+    "GENES",
+    "GAResult",
+    "GASettings",
+    "GeneticAlgorithm",
+    "SearchBounds",
+    "decode",
+    "encode",
+    "parameters_from_transforms",
+    "transforms_from_parameters",
+]
