@@ -308,6 +308,9 @@ def test_a_motion_that_would_overshoot_the_range_raises_positional_limits() -> N
         online.step()
     assert info.value.code == -102
     np.testing.assert_array_equal(online.state.q, before.q)  # the state did not advance
+    with pytest.raises(TrajectoryPlanningError):  # nor does it on a second try
+        online.step()
+    np.testing.assert_array_equal(online.state.q, before.q)
 
 
 def test_ruckig_exceptions_become_typed_errors() -> None:
