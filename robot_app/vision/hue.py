@@ -40,7 +40,8 @@ def circular_mean_hue(hues: npt.ArrayLike) -> float:
     if angles.size == 0:
         raise InputError("circular_mean_hue of no hues")
     mean = np.arctan2(np.sin(angles).mean(), np.cos(angles).mean())
-    return float((mean * HUE_RANGE / (2 * np.pi)) % HUE_RANGE)
+    hue = float((mean * HUE_RANGE / (2 * np.pi)) % HUE_RANGE)
+    return 0.0 if hue >= HUE_RANGE else hue  # -1e-15 % 256 rounds to 256.0
 
 
 __all__ = ["HUE_RANGE", "circular_mean_hue", "hue_distance", "to_hsv", "to_hue"]
