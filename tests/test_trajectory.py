@@ -133,7 +133,7 @@ def test_check_limits_counts_each_kind_of_violation() -> None:
 # --- offline ----------------------------------------------------------------------------
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40, deadline=None, derandomize=True, database=None)
 @given(start=unit_vectors, goal=unit_vectors, v_frac=signed_vectors, a_frac=signed_vectors)
 def test_point_to_point_respects_every_limit_and_reaches_the_goal(
     start: np.ndarray, goal: np.ndarray, v_frac: np.ndarray, a_frac: np.ndarray
@@ -174,7 +174,7 @@ def test_trajectory_sampling_clamps_to_its_duration() -> None:
 # --- online -----------------------------------------------------------------------------
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=25, deadline=None, derandomize=True, database=None)
 @given(
     targets=st.lists(st.tuples(unit_vectors, st.integers(1, 60)), min_size=1, max_size=5),
     q0=unit_vectors,
