@@ -34,14 +34,14 @@ class RangeConfig(StrictModel):
 
     centre_xy: Vec2 = (0.55, 0.0)
     size_xy: Vec2 = Field((0.39, 0.51), description="extent along world x, y [m]")
-    sheet_margin: float = Field(0.06, ge=0.0, description="green sheet beyond the range [m]")
+    sheet_margin: float = Field(0.12, ge=0.0, description="green sheet beyond the range [m]")
     sheet_rgb: Vec3 = (0.10, 0.62, 0.16)
 
 
 class BoxConfig(StrictModel):
     """The collection box: open top, four walls standing on the table."""
 
-    centre_xy: Vec2 = (0.30, -0.50)
+    centre_xy: Vec2 = (0.30, -0.56)
     inner_size: float = Field(0.22, gt=0.0)
     wall_height: float = Field(0.10, gt=0.0)
     wall_thickness: float = Field(0.01, gt=0.0)

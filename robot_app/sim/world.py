@@ -157,11 +157,17 @@ class World:
         The cloth starts `drop_height` [m] (plus its collision margin) above the table;
         with `settle` the simulation runs until it lies still (at most settle_time).
         """
+        z = self.config.table.top_z + self.config.cloth.collision_margin + drop_height
+        pose = make_transform(rotation_about_z(yaw) @ FLIP_FACE_UP, [x, y, z])
+        return self.add_cloth_at(spec, pose, settle)
+
+    def add_cloth_at(
+        self, spec: ClothSpec, transform_model_to_world: npt.ArrayLike, settle: bool = False
+    ) -> ClothBody:
+        """Adds a cloth in its rest shape with Σ_M at the given 4x4 pose [m]."""
         physics = self.config.cloth
         mesh = build_cloth_mesh(spec, physics.node_spacing, physics.boundary_spacing)
-        z = self.config.table.top_z + physics.collision_margin + drop_height
-        pose = make_transform(rotation_about_z(yaw) @ FLIP_FACE_UP, [x, y, z])
-        cloth = ClothBody(self._client, mesh, pose, physics, self._cache)
+        cloth = ClothBody(self._client, mesh, transform_model_to_world, physics, self._cache)
         self.cloths.append(cloth)
         if settle:
             self.settle([cloth])

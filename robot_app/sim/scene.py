@@ -1,0 +1,155 @@
+"""Scenes from a seed: the target cloth at a random pose in the recognition range, and
+optionally the blue paper occluding a given fraction of it and a distractor cloth.
+
+Same world config, same `SceneConfig`, same seed: same scene.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from robot_app.errors import SimulationError
+from robot_app.geometry import FloatArray, make_transform, rotation_about_z, rotation_from_rpy
+from robot_app.sim.cloth_body import ClothBody
+from robot_app.sim.cloths import ClothSpec, cloth_spec, outline_polygon, polygon_area
+from robot_app.sim.config import SceneConfig
+from robot_app.sim.world import FLIP_FACE_UP, World
+
+MAX_TRIES = 500
+
+
+@dataclass(frozen=True)
+class Scene:
+    """What `make_scene` placed.
+
+    Attributes:
+        seed: the seed it was made from.
+        target: the cloth to recognise and pick.
+        distractor: a second cloth, or None.
+        occluder: pybullet id of the blue paper, or None.
+        occluded_fraction: fraction of the target's area under the paper (0 without one).
+        settle_time: simulated time the cloths took to settle [s].
+    """
+
+    seed: int
+    target: ClothBody
+    distractor: ClothBody | None
+    occluder: int | None
+    occluded_fraction: float
+    settle_time: float
+
+    @property
+    def target_spec(self) -> ClothSpec:
+        return self.target.spec
+
+
+def make_scene(world: World, config: SceneConfig | None = None, seed: int = 0) -> Scene:
+    """Places the scene's cloths (and paper) in `world` and lets them settle."""
+    config = config or SceneConfig()
+    rng = np.random.default_rng(seed)
+    range_cfg = world.config.range
+    centre = np.asarray(range_cfg.centre_xy)
+    half = np.asarray(range_cfg.size_xy) / 2 - config.position_margin
+    target_spec = cloth_spec(config.target)
+    x, y, yaw = _free_pose(rng, target_spec, centre, half, [])
+    target = _drop(world, rng, target_spec, x, y, yaw, config.drop_height)
+    placed = [(np.array([x, y]), _radius(target_spec))]
+    distractor = None
+    if config.distractor is not None:
+        spec = cloth_spec(config.distractor)
+        dx, dy, dyaw = _free_pose(rng, spec, centre, half, placed)
+        distractor = _drop(world, rng, spec, dx, dy, dyaw, config.drop_height)
+    settle_time = world.settle()
+    occluder, fraction = None, 0.0
+    if config.occluder and config.occluded_fraction > 0:
+        outline = target.outline_world()[:, :2]
+        direction = rng.uniform(-np.pi, np.pi)
+        normal = np.array([np.cos(direction), np.sin(direction)])
+        offset = _cover_offset(outline, normal, config.occluded_fraction)
+        depth, width = config.occluder_size
+        paper_centre = outline.mean(axis=0) + normal * (offset + depth / 2)
+        occluder = world.add_occluder(tuple(paper_centre), direction, (depth, width))
+        fraction = _covered_fraction(outline, normal, offset)
+    return Scene(seed, target, distractor, occluder, fraction, settle_time)
+
+
+def _radius(spec: ClothSpec) -> float:
+    return 0.5 * float(np.hypot(*spec.size))
+
+
+def _free_pose(
+    rng: np.random.Generator,
+    spec: ClothSpec,
+    centre: FloatArray,
+    half: FloatArray,
+    placed: list[tuple[FloatArray, float]],
+) -> tuple[float, float, float]:
+    """A yaw and a centroid keeping the outline inside the range and clear of `placed`."""
+    outline = outline_polygon(spec)
+    outline = outline - outline.mean(axis=0)
+    for _ in range(MAX_TRIES):
+        yaw = float(rng.uniform(-np.pi, np.pi))
+        xy = centre + rng.uniform(-half, half)
+        corners = outline @ rotation_about_z(yaw)[:2, :2].T + xy
+        if np.any(np.abs(corners - centre) > half + 1e-9):
+            continue
+        if all(np.linalg.norm(xy - p) > r + _radius(spec) + 0.01 for p, r in placed):
+            return float(xy[0]), float(xy[1]), yaw
+    raise SimulationError(
+        f"could not place cloth No.{spec.number} in the range after {MAX_TRIES} tries "
+        "(range too small or too crowded)"
+    )
+
+
+def _drop(
+    world: World, rng: np.random.Generator, spec: ClothSpec, x: float, y: float, yaw: float, height: float
+) -> ClothBody:
+    if height <= 0:
+        return world.add_cloth(spec, x, y, yaw, settle=False)
+    # tilted drops land edge first and fold: a wrinkled cloth
+    tilt = rotation_from_rpy(rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), 0.0)
+    z = world.config.table.top_z + world.config.cloth.collision_margin + height
+    pose = make_transform(tilt @ rotation_about_z(yaw) @ FLIP_FACE_UP, [x, y, z])
+    return world.add_cloth_at(spec, pose, settle=False)
+
+
+def _clip_half_plane(polygon: FloatArray, normal: FloatArray, offset: float) -> FloatArray:
+    """Part of `polygon` where normal · p >= offset (Sutherland-Hodgman)."""
+    out = []
+    n = len(polygon)
+    for i in range(n):
+        a, b = polygon[i], polygon[(i + 1) % n]
+        da, db = a @ normal - offset, b @ normal - offset
+        if da >= 0:
+            out.append(a)
+        if da * db < 0:
+            out.append(a + (b - a) * da / (da - db))
+    return np.asarray(out) if out else np.zeros((0, 2))
+
+
+def _covered_fraction(outline: npt.ArrayLike, normal: FloatArray, offset: float) -> float:
+    """Fraction of the outline's area beyond `offset` [m] from its mean along `normal`."""
+    P = np.asarray(outline, dtype=float)
+    mean = P.mean(axis=0)
+    covered = _clip_half_plane(P - mean, normal, offset)
+    total = abs(polygon_area(P))
+    return abs(polygon_area(covered)) / total if len(covered) >= 3 else 0.0
+
+
+def _cover_offset(outline: FloatArray, normal: FloatArray, fraction: float) -> float:
+    """Offset of the paper's edge along `normal` covering `fraction` of the outline (bisection)."""
+    projections = (outline - outline.mean(axis=0)) @ normal
+    low, high = float(projections.min()), float(projections.max())
+    for _ in range(50):
+        middle = 0.5 * (low + high)
+        if _covered_fraction(outline, normal, middle) > fraction:
+            low = middle
+        else:
+            high = middle
+    return 0.5 * (low + high)
+
+
+__all__ = ["Scene", "make_scene"]
