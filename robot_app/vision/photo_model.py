@@ -427,7 +427,7 @@ def _symmetry_angles(
         hits = 0
         for (i, j), hue in zip(np.rint(rotated[:, :2] / step).astype(int), hues, strict=True):
             other = cells.get((int(i), int(j)))
-            hits += other is not None and hue_distance(hue, other) <= settings.min_hue_difference
+            hits += int(other is not None and bool(hue_distance(hue, other) <= settings.min_hue_difference))
         if hits >= settings.symmetry_agreement * len(points):
             angles.append(float(angle))
     return tuple(angles)

@@ -58,7 +58,7 @@ def save_preview(model: ClothModel, photo_bgr: npt.NDArray[np.uint8], path: str 
     s_in = np.zeros_like(photo)
     overlay = (photo * 0.6).astype(np.uint8)
     for (u, v), hue in zip(np.rint(pix_in).astype(int), model.hues_in, strict=True):
-        hsv = np.uint8([[[hue, 255, 255]]])
+        hsv = np.array([[[hue, 255, 255]]], dtype=np.uint8)
         colour = tuple(int(c) for c in cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR_FULL)[0, 0])
         cv2.circle(s_in, (u, v), radius, colour, -1)
         cv2.circle(overlay, (u, v), radius, S_IN_BGR, -1)
