@@ -9,18 +9,55 @@ from robot_app.vision.camera import (
     save_model_camera,
     save_rig,
 )
+from robot_app.vision.fitness import FitnessEvaluator, FitnessParams
+from robot_app.vision.full_search import FitnessPeak, FullSearchResult, find_peaks, full_search
+from robot_app.vision.ga import GAResult, GASettings, GeneticAlgorithm, SearchBounds
 from robot_app.vision.hue import circular_mean_hue, hue_distance, to_hsv, to_hue
+from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
+from robot_app.vision.plots import plot_full_search, save_preview
+from robot_app.vision.synthetic import (
+    CATALOGUE_SIZE,
+    SyntheticCloth,
+    model_photo_transform,
+    occluder_covering,
+    render_model_photo,
+    render_stereo_pair,
+    synthetic_cloth,
+)
 
 __all__ = [
+    "CATALOGUE_SIZE",
+    "ClothModel",
+    "FitnessEvaluator",
+    "FitnessParams",
+    "FitnessPeak",
+    "FullSearchResult",
+    "GAResult",
+    "GASettings",
+    "GeneticAlgorithm",
     "ModelCamera",
+    "ModelSettings",
     "PinholeCamera",
+    "SearchBounds",
     "StereoRig",
+    "SyntheticCloth",
     "circular_mean_hue",
+    "find_peaks",
+    "full_search",
     "hue_distance",
     "load_model_camera",
+    "load_photo",
     "load_rig",
+    "make_model",
+    "model_photo_transform",
+    "occluder_covering",
+    "plot_full_search",
+    "render_model_photo",
+    "render_stereo_pair",
     "save_model_camera",
+    "save_preview",
     "save_rig",
+    "synthetic_cloth",
     "to_hsv",
     "to_hue",
 ]
