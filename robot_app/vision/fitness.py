@@ -175,7 +175,9 @@ class FitnessEvaluator:
                 [m.hues_in[::stride].astype(np.int32), np.full(len(outside), _OUTSIDE_ROW, np.int32)]
             )
             self._subsets[stride] = _PointSet(
-                *(np.ascontiguousarray(points[:, k]) for k in range(3)),
+                np.ascontiguousarray(points[:, 0]),
+                np.ascontiguousarray(points[:, 1]),
+                np.ascontiguousarray(points[:, 2]),
                 np.ascontiguousarray(rows * np.int32(self._columns)),
                 p.score_in_match * len(inside) + p.score_out_background * len(outside),
             )

@@ -1,0 +1,129 @@
+"""`robot-app recognize` and `robot-app fullsearch`: recognition on a stereo pair of image files."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+
+from robot_app.config import dump_config, load_config
+from robot_app.errors import InputError
+from robot_app.vision.camera import load_rig
+from robot_app.vision.fitness import FitnessEvaluator
+from robot_app.vision.full_search import find_peaks, full_search
+from robot_app.vision.photo_model import ClothModel, load_photo
+from robot_app.vision.plots import plot_full_search
+from robot_app.vision.recognizer import RecognitionSettings, Recognizer
+
+ModelOption = Annotated[Path, typer.Option("--model", help="Cloth model file (.npz from 'model make').")]
+RigOption = Annotated[
+    Path, typer.Option("--rig", help="Stereo rig YAML (OpenCV stereoCalibrate conventions).")
+]
+LeftOption = Annotated[Path, typer.Option("--left", help="Left camera image.")]
+RightOption = Annotated[Path, typer.Option("--right", help="Right camera image.")]
+ConfigOption = Annotated[
+    Path | None, typer.Option("--config", help="YAML of recognition settings (fitness, ga, bounds, ...).")
+]
+SetOption = Annotated[list[str] | None, typer.Option("--set", help="Setting key=value (repeatable).")]
+
+
+def recognize(
+    model: ModelOption,
+    rig: RigOption,
+    left: LeftOption,
+    right: RightOption,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the GA (default: settings).")] = None,
+    as_json: Annotated[
+        bool, typer.Option("--json", help="One compact JSON line instead of indented.")
+    ] = False,
+    peaks: Annotated[bool, typer.Option("--peaks", help="Also report the best pose of each peak.")] = False,
+    config: ConfigOption = None,
+    overrides: SetOption = None,
+) -> None:
+    """Recognise the model's cloth in a stereo pair; print the pose of Σ_M in the right camera as JSON.
+
+    A cloth that is not there is a result, not an error: `found` is false and the exit
+    code is 0. Bad input (missing file, image size not the rig's, non-rotation R, a file
+    that is not a cloth model) exits with 2.
+    """
+    settings = load_config(RecognitionSettings, config, overrides or [])
+    recognizer = Recognizer(ClothModel.load(model), load_rig(rig), settings)
+    result = recognizer.recognize(load_photo(left), load_photo(right), seed=seed, report_peaks=peaks)
+    typer.echo(json.dumps(result.to_json(), indent=None if as_json else 2))
+
+
+def fullsearch(
+    model: ModelOption,
+    rig: RigOption,
+    left: LeftOption,
+    right: RightOption,
+    out: Annotated[Path, typer.Option("--out", help="Folder for the plots and summary.json.")],
+    step: Annotated[float, typer.Option("--step", help="Grid step [m] (paper: 0.001).")] = 0.002,
+    depth: Annotated[float, typer.Option("--depth", help="Depth of the model origin [m].")] = 0.58,
+    yaw_step_deg: Annotated[
+        float | None, typer.Option("--yaw-step-deg", help="Also search yaw over a full turn in these steps.")
+    ] = None,
+    seed: Annotated[int | None, typer.Option("--seed", help="Seed of the GA drawn on top.")] = None,
+    config: ConfigOption = None,
+    overrides: SetOption = None,
+) -> None:
+    """Fitness distribution over the x-y plane (Fig. 13) with the GA's individuals on top."""
+    settings = load_config(RecognitionSettings, config, overrides or [])
+    cloth_model, stereo_rig = ClothModel.load(model), load_rig(rig)
+    image_left, image_right = load_photo(left), load_photo(right)
+    if yaw_step_deg is not None and not 0 < yaw_step_deg <= 360:
+        raise InputError(f"--yaw-step-deg must be in (0, 360], got {yaw_step_deg}")
+    out.mkdir(parents=True, exist_ok=True)
+    evaluator = FitnessEvaluator(cloth_model, stereo_rig, settings.fitness)
+    evaluator.update(image_left, image_right)
+    yaws = None if yaw_step_deg is None else np.deg2rad(np.arange(-180.0, 180.0, yaw_step_deg)).tolist()
+    bounds = settings.bounds
+    with typer.progressbar(length=1, label="full search") as bar:
+
+        def progress(done: int, total: int) -> None:
+            bar.length = total
+            bar.update(done - bar.pos)
+
+        result = full_search(evaluator, bounds.x, bounds.y, step, depth, None, yaws, progress=progress)
+    recognizer = Recognizer(cloth_model, stereo_rig, settings)
+    recognition = recognizer.recognize(image_left, image_right, seed=seed, report_peaks=True)
+    plot_full_search(
+        result,
+        out / "fullsearch_2d.png",
+        out / "fullsearch_3d.png",
+        individuals=recognizer.population,
+        title=f"{cloth_model.name}: fitness distribution",
+    )
+    dump_config(settings, out / "config.yaml")
+    summary = {
+        "full_search": {
+            "best_fitness": result.best_fitness,
+            "best_position": result.best_transform[:3, 3].tolist(),
+            "best_yaw_deg": float(np.rad2deg(np.arctan2(result.rotation[1, 0], result.rotation[0, 0]))),
+            "evaluations": result.evaluations,
+            "step_m": step,
+            "depth_m": depth,
+            "peaks": [
+                p._asdict() for p in find_peaks(result, settings.peak_separation, settings.peak_min_fitness)
+            ],
+        },
+        "ga": recognition.to_json(),
+    }
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    typer.echo(
+        f"full search: best fitness {result.best_fitness:.3f} at "
+        f"({result.best_transform[0, 3] * 1e3:.1f}, {result.best_transform[1, 3] * 1e3:.1f}) mm; "
+        f"GA: {recognition.fitness:.3f}; plots and summary in {out}"
+    )
+
+
+def register(app: typer.Typer) -> None:
+    """Adds `recognize` and `fullsearch` to the CLI."""
+    app.command("recognize")(recognize)
+    app.command("fullsearch")(fullsearch)
+
+
+__all__ = ["fullsearch", "recognize", "register"]
