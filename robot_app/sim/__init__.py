@@ -1,1 +1,60 @@
-"""sim subpackage."""
+"""Simulation: the pybullet cell, its soft-body cloths, cameras and model station.
+
+One image source and one robot among possible others; `robot_app.vision` never imports
+this package.
+"""
+
+from robot_app.sim.cameras import (
+    Lighting,
+    StereoCamera,
+    StereoFrame,
+    gl_projection_matrix,
+    gl_view_matrix,
+    render_bgr,
+)
+from robot_app.sim.cloth_body import ClothBody
+from robot_app.sim.cloth_mesh import ClothMesh, build_cloth_mesh, cache_dir
+from robot_app.sim.cloths import CATALOGUE, ClothSpec, cloth_spec, outline_polygon, texture_image
+from robot_app.sim.config import (
+    ClothPhysicsConfig,
+    SceneConfig,
+    StationConfig,
+    WorldConfig,
+    load_world_config,
+)
+from robot_app.sim.robot import JOINT_NAMES, Contact, SimRobot
+from robot_app.sim.scene import Scene, make_scene
+from robot_app.sim.station import ModelStation, StationPhoto
+from robot_app.sim.world import BoxGeometry, World
+
+__all__ = [
+    "CATALOGUE",
+    "JOINT_NAMES",
+    "BoxGeometry",
+    "ClothBody",
+    "ClothMesh",
+    "ClothPhysicsConfig",
+    "ClothSpec",
+    "Contact",
+    "Lighting",
+    "ModelStation",
+    "Scene",
+    "SceneConfig",
+    "SimRobot",
+    "StationConfig",
+    "StationPhoto",
+    "StereoCamera",
+    "StereoFrame",
+    "World",
+    "WorldConfig",
+    "build_cloth_mesh",
+    "cache_dir",
+    "cloth_spec",
+    "gl_projection_matrix",
+    "gl_view_matrix",
+    "load_world_config",
+    "make_scene",
+    "outline_polygon",
+    "render_bgr",
+    "texture_image",
+]

@@ -162,12 +162,16 @@ class SimRobot:
         return make_transform(matrix_from_quaternion_xyzw(quat), pos)
 
     def arm_collisions(self, bodies: tuple[int, ...] | list[int], margin: float = 0.0) -> list[Contact]:
-        """Contacts (closer than `margin` [m]) between robot links and the given bodies."""
+        """Contacts (closer than `margin` [m]) between moving robot links and the given bodies.
+
+        The base link stands on the table and is not reported.
+        """
         names = {index: name for name, index in self._links.items()}
         contacts = []
         for body in bodies:
             for point in pb.getClosestPoints(self.body_id, body, margin, physicsClientId=self._client):
-                contacts.append(Contact(names[point[3]], body, float(point[8])))
+                if point[3] >= 0:
+                    contacts.append(Contact(names[point[3]], body, float(point[8])))
         return contacts
 
     def solve_frame_ik(

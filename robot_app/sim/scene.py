@@ -54,14 +54,25 @@ def make_scene(world: World, config: SceneConfig | None = None, seed: int = 0) -
     centre = np.asarray(range_cfg.centre_xy)
     half = np.asarray(range_cfg.size_xy) / 2 - config.position_margin
     target_spec = cloth_spec(config.target)
-    x, y, yaw = _free_pose(rng, target_spec, centre, half, [])
+    other = cloth_spec(config.distractor) if config.distractor is not None else None
+    for _ in range(MAX_TRIES):
+        x, y, yaw = _free_pose(rng, target_spec, centre, half, [])
+        if other is None:
+            break
+        try:
+            placed = [(np.array([x, y]), _radius(target_spec))]
+            dx, dy, dyaw = _free_pose(rng, other, centre, half, placed, tries=40)
+            break
+        except SimulationError:
+            continue
+    else:
+        raise SimulationError(
+            f"no room for cloths No.{target_spec.number} and No.{config.distractor} side by side in the range"
+        )
     target = _drop(world, rng, target_spec, x, y, yaw, config.drop_height)
-    placed = [(np.array([x, y]), _radius(target_spec))]
     distractor = None
-    if config.distractor is not None:
-        spec = cloth_spec(config.distractor)
-        dx, dy, dyaw = _free_pose(rng, spec, centre, half, placed)
-        distractor = _drop(world, rng, spec, dx, dy, dyaw, config.drop_height)
+    if other is not None:
+        distractor = _drop(world, rng, other, dx, dy, dyaw, config.drop_height)
     settle_time = world.settle()
     occluder, fraction = None, 0.0
     if config.occluder and config.occluded_fraction > 0:
@@ -86,11 +97,12 @@ def _free_pose(
     centre: FloatArray,
     half: FloatArray,
     placed: list[tuple[FloatArray, float]],
+    tries: int = MAX_TRIES,
 ) -> tuple[float, float, float]:
     """A yaw and a centroid keeping the outline inside the range and clear of `placed`."""
     outline = outline_polygon(spec)
     outline = outline - outline.mean(axis=0)
-    for _ in range(MAX_TRIES):
+    for _ in range(tries):
         yaw = float(rng.uniform(-np.pi, np.pi))
         xy = centre + rng.uniform(-half, half)
         corners = outline @ rotation_about_z(yaw)[:2, :2].T + xy
@@ -99,7 +111,7 @@ def _free_pose(
         if all(np.linalg.norm(xy - p) > r + _radius(spec) + 0.01 for p, r in placed):
             return float(xy[0]), float(xy[1]), yaw
     raise SimulationError(
-        f"could not place cloth No.{spec.number} in the range after {MAX_TRIES} tries "
+        f"could not place cloth No.{spec.number} in the range after {tries} tries "
         "(range too small or too crowded)"
     )
 

@@ -1,0 +1,144 @@
+"""The cell: cloths settle flat with a correct ground truth, grasp/lift/release, scenes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robot_app.errors import GraspError, InputError
+from robot_app.geometry import make_transform, rotation_about_z, rotation_angle_between, wrap_angle, yaw_of
+from robot_app.sim.cloth_body import ClothBody
+from robot_app.sim.cloths import cloth_spec
+from robot_app.sim.config import CameraConfig, ClothPhysicsConfig, SceneConfig, WorldConfig
+from robot_app.sim.scene import make_scene
+from robot_app.sim.world import World
+
+SMALL = WorldConfig(cameras=CameraConfig(image_size=(160, 120)))
+
+
+def _lift_and_measure(world: World, cloth: ClothBody, height: float = 0.3) -> tuple[float, float]:
+    """Lifts the cloth by `height` from its highest-x node with the arm; returns (max stretch, top z)."""
+    nodes = cloth.nodes()
+    # tcp 12 mm above the cloth: the fingertips (10 mm below the tcp) just clear the table
+    grip = nodes[np.argmax(nodes[:, 0])] + [-0.01, 0, 0.012]
+    down = np.diag([1.0, -1.0, -1.0])
+    q_grip = world.robot.solve_frame_ik("tcp", make_transform(down, grip), world.observation_joints)
+    q_up = world.robot.solve_frame_ik("tcp", make_transform(down, grip + np.array([0, 0, height])), q_grip)
+    world.robot.reset_joints(q_grip)
+    world.robot.set_gripper(0.0)
+    assert cloth.grasp(world.robot, radius=0.025) >= 2
+    stretch = 0.0
+    steps = 360
+    for k in range(1, steps + 1):
+        world.robot.command_joints(q_grip + (q_up - q_grip) * min(1.0, k / 240))
+        world.step()
+        if k % 12 == 0:
+            stretch = max(stretch, cloth.max_edge_stretch())
+    return stretch, float(cloth.nodes()[:, 2].max())
+
+
+def test_flat_cloth_ground_truth_is_the_placement() -> None:
+    with World(SMALL) as world:
+        yaw = 0.8
+        cloth = world.add_cloth(cloth_spec(4), 0.5, 0.05, yaw)
+        pose = cloth.pose()
+        np.testing.assert_allclose(pose[:2, 3], [0.5, 0.05], atol=1e-3)
+        assert abs(pose[2, 3] - world.config.table.top_z) < 0.004
+        expected = rotation_about_z(yaw) @ np.diag([1.0, -1.0, -1.0])
+        assert np.degrees(rotation_angle_between(pose[:3, :3], expected)) < 0.5
+        assert cloth.max_edge_stretch() < 1.05
+        # both frames look down (z flipped), so a world turn by +a is a camera turn by -a;
+        # a cloth turned so its x runs along the image x has ^CR R_M = I
+        camera_yaw = yaw_of(world.robot.frame_pose("camera_right_optical")[:3, :3])
+        in_camera = world.transform_model_to_camera(cloth)
+        assert abs(np.degrees(wrap_angle(yaw_of(in_camera[:3, :3]) - (camera_yaw - yaw)))) < 0.5
+        aligned = world.add_cloth(cloth_spec(9), 0.6, -0.1, camera_yaw)
+        in_camera = world.transform_model_to_camera(aligned)
+        assert np.degrees(rotation_angle_between(in_camera[:3, :3], np.eye(3))) < 0.5
+
+
+def test_cloth_settles_within_one_simulated_second() -> None:
+    with World(SMALL) as world:
+        cloth = world.add_cloth(cloth_spec(1), 0.55, 0.0, 0.3, drop_height=0.03, settle=False)
+        spent = world.settle([cloth])
+        assert spent < 1.0
+        assert cloth.nodes()[:, 2].max() < world.config.table.top_z + 0.01
+
+
+def test_grasp_lift_release_keeps_the_cloth_whole() -> None:
+    with World(SMALL) as world:
+        cloth = world.add_cloth(cloth_spec(1), 0.55, 0.0, 0.3)
+        stretch, top = _lift_and_measure(world, cloth)
+        assert top > world.config.table.top_z + 0.25
+        assert stretch < 1.3
+        assert cloth.release() > 0
+        world.step(240)
+        assert cloth.nodes()[:, 2].max() < world.config.table.top_z + 0.05  # it fell back down
+        assert np.all(np.isfinite(cloth.nodes()))
+
+
+def test_grasp_needs_nodes_within_reach() -> None:
+    with World(SMALL) as world:
+        cloth = world.add_cloth(cloth_spec(12), 0.45, 0.15, 0.0, settle=False)
+        with pytest.raises(GraspError, match="within"):
+            cloth.grasp(world.robot, radius=0.02)  # the hand is 0.5 m above the table
+
+
+def test_cloth_in_box_and_arm_collisions() -> None:
+    with World(SMALL) as world:
+        cx, cy, _ = world.box.centre
+        cloth = world.add_cloth(cloth_spec(12), cx, cy, 0.0, drop_height=0.05)
+        assert world.cloth_in_box(cloth) == pytest.approx(1.0)
+        outside = world.add_cloth(cloth_spec(9), 0.55, 0.0, 0.0, settle=False)
+        assert world.cloth_in_box(outside) == 0.0
+        assert world.robot.arm_collisions(world.static_obstacles) == []
+        down = np.diag([1.0, -1.0, -1.0])
+        into_table = make_transform(down, [0.6, 0.2, world.config.table.top_z - 0.02])
+        world.robot.reset_joints(world.robot.solve_frame_ik("tcp", into_table, world.observation_joints))
+        links = {c.link for c in world.robot.arm_collisions(world.static_obstacles)}
+        assert links & {"finger_left", "finger_right"}
+
+
+def test_robot_rejects_bad_commands() -> None:
+    with World(SMALL) as world:
+        with pytest.raises(InputError, match="7 finite"):
+            world.robot.command_joints(np.zeros(6))
+        with pytest.raises(InputError, match="opening"):
+            world.robot.set_gripper(0.2)
+        with pytest.raises(InputError, match="unknown robot link"):
+            world.robot.frame_pose("nose")
+
+
+def test_joint_position_control_tracks_a_target() -> None:
+    with World(SMALL) as world:
+        target = world.observation_joints + np.array([0.1, -0.05, 0.1, 0.05, 0.1, -0.1, 0.2])
+        world.robot.command_joints(target)
+        world.step(480)
+        np.testing.assert_allclose(world.robot.q(), target, atol=2e-3)
+        assert np.abs(world.robot.dq()).max() < 0.05
+
+
+def test_same_seed_same_scene_and_occluder_fraction() -> None:
+    config = SceneConfig(target=3, occluder=True, occluded_fraction=0.45, distractor=4)
+    nodes = []
+    for seed in (5, 5, 6):
+        with World(SMALL) as world:
+            scene = make_scene(world, config, seed)
+            assert scene.occluded_fraction == pytest.approx(0.45, abs=0.02)
+            assert scene.distractor is not None and scene.occluder is not None
+            gap = np.linalg.norm(scene.target.pose()[:2, 3] - scene.distractor.pose()[:2, 3])
+            assert gap > 0.1
+            nodes.append(scene.target.nodes().copy())
+    np.testing.assert_array_equal(nodes[0], nodes[1])
+    assert np.abs(nodes[0] - nodes[2]).max() > 0.01
+
+
+def test_config_validation_names_the_key() -> None:
+    from robot_app.errors import ConfigError
+    from robot_app.sim.config import load_world_config
+
+    with pytest.raises(ConfigError, match="physics_hz"):
+        load_world_config(overrides=("physics_hz=10",))
+    with pytest.raises(ConfigError, match=r"cloth\.node_spacing"):
+        load_world_config(overrides=("cloth.node_spacing=-1",))
+    assert ClothPhysicsConfig().settle_time == 1.0
