@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pinocchio as pin
 import pybullet as p
@@ -233,3 +235,16 @@ def test_bad_chain_raises_input_error(tmp_path) -> None:
         broken = tmp_path / "broken.urdf"
         broken.write_text("<robot name='x'><link name='a'></robot>")
         Kinematics.from_urdf(broken, "a", "a")
+
+
+def test_demo_command_drives_pybullet_to_the_ik_solution(capsys: pytest.CaptureFixture[str]) -> None:
+    """Closed loop: our IK solution, commanded to pybullet, puts pybullet's tcp on the target."""
+    from robot_app.cli import main
+
+    assert main(["demo", "--x", "0.5", "--y", "-0.1", "--z", "0.3", "--yaw-deg", "30", "--seconds", "2"]) == 0
+    out = capsys.readouterr().out
+    match = re.search(r"error ([0-9.]+) mm, ([0-9.]+) deg", out)
+    assert match, out
+    assert float(match.group(1)) < 0.5 and float(match.group(2)) < 0.05
+    assert "IK: success" in out and "IK FAILED" in out  # reachable, then the unreachable target
+    assert main(["demo", "--seconds", "0"]) == 2  # bad input
