@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import typer
 
@@ -68,9 +68,10 @@ def register(app: typer.Typer) -> None:
         settings = list(overrides or []) + ([f"trials={trials}"] if trials is not None else [])
         config = load_trial_config(config_path, settings)
         folder = out if out is not None else Path("results") / config.name
+        backend_name: Literal["local", "ray"] = "ray" if backend == "ray" else "local"
         result = run_trials(
-            config, folder, workers=workers, backend=backend, ray_address=ray_address, progress=progress
-        )  # type: ignore[arg-type]
+            config, folder, workers=workers, backend=backend_name, ray_address=ray_address, progress=progress
+        )
         _print_summary(result.summary, result.out_dir)
         if result.summary["ok"] == 0:
             raise RobotAppError(f"all {result.total} trials failed; see {result.out_dir / 'trials.csv'}")

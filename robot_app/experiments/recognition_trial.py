@@ -115,10 +115,10 @@ def recognizer_settings(overrides: dict[str, Any]) -> Any:
             message names the key under `recognition.`.
     """
     from robot_app.config import apply_overrides, validate
-    from robot_app.vision.recognizer import RecognizerSettings
+    from robot_app.vision.recognizer import RecognitionSettings
 
     data = apply_overrides({}, [f"{k}={json.dumps(v)}" for k, v in overrides.items()])
-    return validate(RecognizerSettings, data, "recognition settings (config key 'recognition')")
+    return validate(RecognitionSettings, data, "recognition settings (config key 'recognition')")
 
 
 @functools.lru_cache(maxsize=64)

@@ -57,8 +57,12 @@ def plot_error_histograms(
     if columns is None:
         columns = [c for c in (rows[0].keys() if rows else []) if c.startswith("error_")]
     columns = list(columns) or ["error"]
-    fig, axes = plt.subplots(1, len(columns), figsize=(3.6 * len(columns), 3.2), squeeze=False)
-    for ax, column in zip(axes[0], columns, strict=True):
+    ncols = min(3, len(columns))
+    nrows = -(-len(columns) // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(4.2 * ncols, 3.3 * nrows), squeeze=False)
+    for ax in axes.ravel()[len(columns) :]:
+        ax.set_visible(False)
+    for ax, column in zip(axes.ravel(), columns, strict=False):
         data = column_values(rows, column) if rows and column in rows[0] else np.empty(0)
         stats = error_stats(data)
         if data.size:

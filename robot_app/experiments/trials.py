@@ -92,7 +92,7 @@ def run_sweep(
     ray_address: str = "auto",
     resume: bool = True,
     progress: bool = True,
-    on_finished: Callable[[Path], None] | None = None,
+    on_finished: Callable[[Path], object] | None = None,
 ) -> SweepResult:
     """Runs `config.trials` trials, streaming rows to `out_dir/trials.csv`.
 
@@ -131,12 +131,19 @@ def run_sweep(
             ran += 1
 
         run_args = (trial_fn, config, todo, record)
-        bar = {"progress": progress, "initial": config.trials - len(todo), "total": config.trials}
+        initial = config.trials - len(todo)
         try:
             if backend == "ray":
-                run_ray(*run_args, address=ray_address, local_cpus=workers, **bar)
+                run_ray(
+                    *run_args,
+                    address=ray_address,
+                    local_cpus=workers,
+                    progress=progress,
+                    initial=initial,
+                    total=config.trials,
+                )
             else:
-                run_local(*run_args, workers=workers, **bar)
+                run_local(*run_args, workers=workers, progress=progress, initial=initial, total=config.trials)
         except KeyboardInterrupt as err:
             raise SweepInterruptedError(
                 f"interrupted after {ran} of {len(todo)} trials; finished rows are in {table.path}; "
