@@ -56,6 +56,21 @@ class RobotConfig(StrictModel):
     position_gain: float = Field(0.3, gt=0.0, le=1.0)
     home_joints: tuple[float, ...] = (0.0, 0.5, 0.0, 1.4, 0.0, 1.2, 0.0)
 
+    @field_validator("urdf")
+    @classmethod
+    def _resolve_urdf(cls, value: Path) -> Path:
+        """A relative path is taken from the current folder, else from the repository root."""
+        if value.is_absolute() or value.is_file():
+            return value
+        return REPO_ROOT / value
+
+    @field_validator("home_joints")
+    @classmethod
+    def _seven_joints(cls, value: tuple[float, ...]) -> tuple[float, ...]:
+        if len(value) != 7:
+            raise ValueError(f"home_joints needs 7 angles [rad] (S1..W2), got {len(value)}")
+        return value
+
 
 class ObservationConfig(StrictModel):
     """Observation pose: the right camera `height` above the range centre, looking down.
@@ -130,7 +145,7 @@ class SceneConfig(StrictModel):
     target: int = Field(3, ge=1, le=12, description="catalogue number No.1-No.12")
     occluder: bool = False
     occluded_fraction: float = Field(0.45, ge=0.0, lt=1.0)
-    occluder_size: Vec2 = (0.30, 0.30)
+    occluder_size: Vec2 = (0.20, 0.34)
     distractor: int | None = Field(None, ge=1, le=12)
     drop_height: float = Field(0.0, ge=0.0, le=0.5)
     position_margin: float = Field(

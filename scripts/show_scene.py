@@ -1,0 +1,31 @@
+"""Writes PNGs of the simulated cell: overview, hand stereo pair, the 12 cloths side by side.
+
+python scripts/show_scene.py --out out/sim_pictures [--seed 3] [--target 3] [--occluder] [--distractor 4]
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from robot_app.sim import SceneConfig, load_world_config
+from robot_app.sim.pictures import write_pictures
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    parser.add_argument("--out", default="out/sim_pictures")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--target", type=int, default=3)
+    parser.add_argument("--occluder", action="store_true")
+    parser.add_argument("--distractor", type=int, default=None)
+    parser.add_argument("--drop-height", type=float, default=0.0)
+    args = parser.parse_args()
+    scene = SceneConfig(
+        target=args.target, occluder=args.occluder, distractor=args.distractor, drop_height=args.drop_height
+    )
+    for path in write_pictures(args.out, load_world_config(), scene, args.seed):
+        print(path)
+
+
+if __name__ == "__main__":
+    main()
