@@ -226,9 +226,10 @@ class Recognizer:
         peaks: list[Peak] = []
         generations = 0
         for _ in range(s.max_peaks if report_peaks else 1):
-            ga = self._search(rng, [p.transform_model_to_camera for p in peaks])
+            centres = np.array([p.position[:2] for p in peaks]).reshape(-1, 2)
+            ga = self._search(rng, centres)
             generations += s.ga.generations
-            pose, fitness = self._finish(ga, s.refinement.max_iterations, s.refinement.enabled)
+            pose, fitness = self._finish(ga, s.refinement.max_iterations, s.refinement.enabled, centres)
             if peaks and fitness < s.peak_min_fitness:
                 break
             peaks.append(Peak(pose, fitness))
@@ -279,17 +280,14 @@ class Recognizer:
             time_s=time.perf_counter() - start,
         )
 
-    def _search(self, rng: np.random.Generator, excluded: list[FloatArray]) -> GeneticAlgorithm:
-        """A GA run (coarse generations on a point subset, then all points), away from `excluded`."""
+    def _search(self, rng: np.random.Generator, centres: FloatArray) -> GeneticAlgorithm:
+        """A GA run (coarse generations on a point subset, then all points), away from `centres`."""
         s = self.settings
-        centres = np.array([T[:2, 3] for T in excluded]).reshape(-1, 2)
 
         def fitness(stride: int) -> Callable[[FloatArray], FloatArray]:
             def f(transforms: FloatArray) -> FloatArray:
                 scores = self.evaluator.evaluate(transforms, stride=stride)
-                if len(centres):
-                    d = np.linalg.norm(transforms[:, None, :2, 3] - centres[None], axis=2).min(axis=1)
-                    scores[d < s.peak_separation] = -1.0
+                scores[self._excluded(transforms, centres)] = -1.0
                 return scores
 
             return f
@@ -301,7 +299,16 @@ class Recognizer:
         ga.evolve(s.ga.generations - coarse)
         return ga
 
-    def _finish(self, ga: GeneticAlgorithm, iterations: int, refine: bool) -> tuple[FloatArray, float]:
+    def _excluded(self, transforms: FloatArray, centres: FloatArray) -> npt.NDArray[np.bool_]:
+        """Poses within `peak_separation` (x-y) of a peak already reported."""
+        if not len(centres):
+            return np.zeros(len(transforms), dtype=bool)
+        d = np.linalg.norm(transforms[:, None, :2, 3] - centres[None], axis=2).min(axis=1)
+        return np.asarray(d < self.settings.peak_separation)
+
+    def _finish(
+        self, ga: GeneticAlgorithm, iterations: int, refine: bool, centres: FloatArray | None = None
+    ) -> tuple[FloatArray, float]:
         """Best pose of the population, refined (and injected back), with its paper fitness."""
         if ga.population is None or ga.scores is None:
             raise RuntimeError("the GA has no population")  # unreachable: _search/track ran it
@@ -309,7 +316,7 @@ class Recognizer:
         pose = ga.transforms(ga.population[best : best + 1])[0]
         if not refine:
             return pose, float(ga.scores[best])
-        pose = self._refine(pose, iterations)
+        pose = self._refine(pose, iterations, np.zeros((0, 2)) if centres is None else centres)
         fitness = float(self.evaluator.evaluate(pose)[0])
         if fitness >= ga.scores[best]:  # the population keeps the polished pose for tracking
             worst = int(np.argmin(ga.scores))
@@ -319,16 +326,27 @@ class Recognizer:
             ga.scores[worst] = fitness
         return pose, fitness
 
-    def _refine(self, pose: FloatArray, iterations: int) -> FloatArray:
-        """Compass search on (x, y, z, rotation about camera x, y, z), halving steps on failure."""
+    def _refine(self, pose: FloatArray, iterations: int, centres: FloatArray) -> FloatArray:
+        """Compass search on (x, y, z, rotation about camera x, y, z), halving steps on failure.
+
+        Neighbours outside the search bounds or near `centres` (peaks already reported)
+        are not evaluated.
+        """
         r = self.settings.refinement
         steps = np.array(
             [r.step_position, r.step_position, r.step_depth, *[np.deg2rad(r.step_angle_deg)] * 3]
         )
+        ranges = self.settings.bounds.gene_ranges()  # the refinement stays inside the search space
         current = float(self.evaluator.evaluate(pose, subpixel=r.subpixel)[0])
         for _ in range(iterations):
             candidates = _neighbours(pose, steps)
-            scores = self.evaluator.evaluate(candidates, subpixel=r.subpixel)
+            parameters = parameters_from_transforms(candidates)
+            inside = np.all((parameters >= ranges[:, 0]) & (parameters <= ranges[:, 1]), axis=1)
+            inside &= ~self._excluded(candidates, centres)
+            if not inside.any():
+                break
+            scores = np.full(len(candidates), -np.inf)
+            scores[inside] = self.evaluator.evaluate(candidates[inside], subpixel=r.subpixel)
             best = int(np.argmax(scores))
             if scores[best] > current:
                 pose, current = candidates[best], float(scores[best])

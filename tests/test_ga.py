@@ -1,0 +1,119 @@
+"""The 72-bit GA: chromosome coding, repair, seeded determinism, convergence and tracking."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robot_app.config import validate
+from robot_app.errors import ConfigError
+from robot_app.geometry import is_rotation, make_transform, rotation_about_z, rotation_from_rpy
+from robot_app.vision.ga import (
+    GASettings,
+    GeneticAlgorithm,
+    SearchBounds,
+    decode,
+    encode,
+    parameters_from_transforms,
+    transforms_from_parameters,
+)
+
+BOUNDS = SearchBounds()
+
+
+def random_parameters(rng: np.random.Generator, n: int) -> np.ndarray:
+    ranges = BOUNDS.gene_ranges()
+    x = rng.uniform(ranges[:, 0], ranges[:, 1], (n, 6))
+    x[:, 5] = rng.uniform(-0.95, 0.95, n)  # keep |ε| < 1: no repair
+    return x
+
+
+@pytest.mark.parametrize("gray", [True, False])
+def test_encode_decode_round_trip_to_one_level(gray: bool) -> None:
+    rng = np.random.default_rng(0)
+    x = random_parameters(rng, 500)
+    back = decode(encode(x, BOUNDS, gray), BOUNDS, gray)
+    level = np.ptp(BOUNDS.gene_ranges(), axis=1) / 4095
+    assert np.all(np.abs(back - x) <= level / 2 + 1e-12)
+    assert np.all(encode(x, BOUNDS, gray) < 4096)
+
+
+def test_gray_code_neighbouring_levels_differ_by_one_bit() -> None:
+    ranges = BOUNDS.gene_ranges()
+    values = np.zeros((4095, 6))
+    values[:, 0] = ranges[0, 0] + np.arange(4095) / 4095 * np.ptp(ranges[0])
+    values[:, 1:] = ranges[1:, 0]
+    a = encode(values, BOUNDS)[:, 0].astype(int)
+    b = encode(values + np.array([np.ptp(ranges[0]) / 4095, 0, 0, 0, 0, 0]), BOUNDS)[:, 0].astype(int)
+    assert all(bin(x ^ y).count("1") == 1 for x, y in zip(a, b, strict=True))
+
+
+def test_parameters_and_transforms_are_inverse_and_repair_long_epsilon() -> None:
+    rng = np.random.default_rng(1)
+    x = random_parameters(rng, 200)
+    T = transforms_from_parameters(x)
+    assert all(is_rotation(R, tol=1e-9) for R in T[:, :3, :3])
+    np.testing.assert_allclose(parameters_from_transforms(T), x, atol=1e-9)
+    long = transforms_from_parameters([[0, 0, 0.6, 0.17, 0.17, 1.0]])[0]  # |ε| > 1: normalised
+    assert is_rotation(long[:3, :3], tol=1e-9)
+    # A yaw of the cloth is a rotation about the camera z axis with ε = (0, 0, sin(yaw / 2)).
+    yaw = transforms_from_parameters([[0, 0, 0.6, 0, 0, np.sin(0.7 / 2)]])[0]
+    np.testing.assert_allclose(yaw[:3, :3], rotation_about_z(0.7), atol=1e-12)
+
+
+def test_tilt_bound_is_respected_along_the_axes() -> None:
+    ranges = SearchBounds(max_tilt_deg=20).gene_ranges()
+    T = transforms_from_parameters([[0, 0, 0.6, ranges[3, 1], 0, 0]])[0]
+    assert np.rad2deg(np.arccos(T[2, 2])) == pytest.approx(20.0)
+
+
+def target_fitness(target: np.ndarray):
+    def fitness(T: np.ndarray) -> np.ndarray:
+        d = np.linalg.norm(T[:, :3, 3] - target[:3, 3], axis=1)
+        angle = np.linalg.norm(T[:, :3, :3] - target[:3, :3], axis=(1, 2))
+        return 1.0 / (1.0 + 100 * d + angle)
+
+    return fitness
+
+
+TARGET = make_transform(rotation_from_rpy(0.05, -0.03, 2.0), [0.1, -0.05, 0.6])
+
+
+def test_run_converges_and_same_seed_gives_same_result() -> None:
+    settings = GASettings(population=60, generations=80, seed=4)
+    first = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, settings).run()
+    again = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, settings).run()
+    other = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, settings.model_copy(update={"seed": 5})).run()
+    assert np.linalg.norm(first.transform_model_to_camera[:3, 3] - TARGET[:3, 3]) < 0.01
+    np.testing.assert_array_equal(first.transform_model_to_camera, again.transform_model_to_camera)
+    assert not np.array_equal(first.transform_model_to_camera, other.transform_model_to_camera)
+    assert first.evaluations == 60 + 80 * (60 - settings.elite)
+    assert np.all(np.diff(first.best_per_generation) >= 0)  # elitism: the best never gets worse
+
+
+def test_track_moves_the_population_by_the_camera_motion() -> None:
+    ga = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, GASettings(population=60, generations=80, seed=2))
+    ga.run()
+    before = ga.transforms(ga.population)
+    motion = make_transform(rotation_about_z(0.2), [0.01, -0.02, 0.005])  # ^CR_new T_CR_old
+    ga.track(motion, generations=0)
+    after = ga.transforms(ga.population)
+    moved = motion @ before
+    np.testing.assert_allclose(after[:, :3, 3], moved[:, :3, 3], atol=2e-4)
+    np.testing.assert_allclose(after[:, :3, :3], moved[:, :3, :3], atol=2e-3)
+    # The target moved with the camera: a few generations from the moved population find it.
+    ga.fitness = target_fitness(motion @ TARGET)
+    result = ga.track(None, generations=5)
+    assert np.linalg.norm(result.transform_model_to_camera[:3, 3] - (motion @ TARGET)[:3, 3]) < 0.01
+    assert result.evaluations == 60 + 5 * 58
+
+
+def test_settings_are_validated() -> None:
+    with pytest.raises(ConfigError, match="elite"):
+        validate(GASettings, {"population": 10, "elite": 10})
+    with pytest.raises(ConfigError, match="mutation_rate"):
+        validate(GASettings, {"mutation_rate": 2})
+    with pytest.raises(ConfigError, match="low < high"):
+        validate(SearchBounds, {"x": [0.1, -0.1]})
+    with pytest.raises(ConfigError, match="z > 0"):
+        validate(SearchBounds, {"z": [-0.1, 0.5]})
