@@ -65,7 +65,7 @@ class ClothSpec:
 
 RED, WHITE, NAVY, YELLOW = (40, 30, 200), (225, 225, 225), (110, 40, 30), (30, 200, 225)
 MAGENTA, ORANGE, PURPLE, PINK = (170, 40, 200), (30, 120, 230), (150, 50, 110), (160, 110, 230)
-BLUE, BROWN, SKY, BLACK = (200, 90, 30), (40, 60, 120), (220, 170, 60), (35, 30, 30)
+BLUE, BROWN, SKY, MAROON = (200, 90, 30), (40, 60, 120), (220, 170, 60), (50, 30, 130)
 
 CATALOGUE: tuple[ClothSpec, ...] = (
     ClothSpec(1, "plain red towel", (0.24, 0.19), "rectangle", "plain", (RED,), 0.060),
@@ -94,7 +94,9 @@ CATALOGUE: tuple[ClothSpec, ...] = (
     ),
     ClothSpec(10, "sky-blue oval mat", (0.20, 0.14), "ellipse", "dots", (SKY, NAVY), 0.04, 0.035),
     ClothSpec(11, "tartan", (0.25, 0.18), "rectangle", "plaid", (RED, NAVY, YELLOW), 0.065, 0.05),
-    ClothSpec(12, "black handkerchief, white dots", (0.14, 0.12), "rectangle", "dots", (BLACK, WHITE), 0.015),
+    ClothSpec(
+        12, "maroon handkerchief, white dots", (0.14, 0.12), "rectangle", "dots", (MAROON, WHITE), 0.015
+    ),
 )
 
 
