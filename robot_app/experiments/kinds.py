@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from pathlib import Path
 from typing import Literal
 
@@ -30,16 +31,18 @@ def trial_kind(config: AnyTrialConfig) -> tuple[TrialFunction, type]:
 
         check_recognition_config(config)
         return run_recognition_trial, RecognitionOutcome
+    if importlib.util.find_spec(PICK_PLACE_MODULE) is None:
+        raise RobotAppError(f"pick_place trials need {PICK_PLACE_MODULE} (the closed loop), not installed yet")
     try:
-        importlib.import_module(PICK_PLACE_MODULE)
-        from robot_app.experiments.pick_place_trial import (
+        from robot_app.experiments.pick_place_trial import (  # type: ignore[import-not-found]
             PickPlaceOutcome,
             check_pick_place_config,
             run_pick_place_trial,
         )
     except ImportError as err:
         raise RobotAppError(
-            f"pick_place trials need {PICK_PLACE_MODULE} (the closed loop), which is not available: {err}"
+            f"pick_place trials are not wired to {PICK_PLACE_MODULE} yet "
+            f"(robot_app/experiments/pick_place_trial.py): {err}"
         ) from err
     check_pick_place_config(config)
     return run_pick_place_trial, PickPlaceOutcome
