@@ -97,3 +97,12 @@ def test_unknown_arm_raises_input_error() -> None:
         arm_spec("ur5")
     with pytest.raises(InputError, match="unknown arm"):
         load_arm("kuka")
+
+
+def test_package_carries_a_link_to_the_urdf_folder_for_wheels() -> None:
+    """A regular (non-editable) install finds the URDF at robot_app/urdf/ (wheel package data)."""
+    import robot_app
+
+    packaged = Path(robot_app.__file__).parent / "urdf" / "pa10.urdf"
+    assert packaged.resolve() == (Path(__file__).resolve().parents[1] / "urdf" / "pa10.urdf")
+    assert packaged.parent in _paths.urdf_search_dirs()

@@ -1,9 +1,9 @@
 """Where robot_app's own URDF files live, for editable and regular installs.
 
 The URDFs are kept in the repository's top-level `urdf/` folder (see DESIGN.md). An
-editable install or a source checkout finds them next to the package; a regular install
-finds them in `robot_app/urdf/` if the build copied them there; `ROBOT_APP_URDF_DIR`
-overrides both.
+editable install or a source checkout finds them next to the package. `robot_app/urdf`
+is a symlink to that folder, so a wheel that lists `urdf/*.urdf` in its package data
+carries a copy and a regular install finds it there. `ROBOT_APP_URDF_DIR` overrides both.
 """
 
 from __future__ import annotations
