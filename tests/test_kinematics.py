@@ -248,3 +248,14 @@ def test_demo_command_drives_pybullet_to_the_ik_solution(capsys: pytest.CaptureF
     assert float(match.group(1)) < 0.5 and float(match.group(2)) < 0.05
     assert "IK: success" in out and "IK FAILED" in out  # reachable, then the unreachable target
     assert main(["demo", "--seconds", "0"]) == 2  # bad input
+
+
+def test_chain_covering_the_whole_tree_needs_no_reduction(tmp_path) -> None:
+    """With the fingers welded, every joint is in the chain: the model is used as is."""
+    welded = tmp_path / "pa10_welded.urdf"
+    welded.write_text(URDF.read_text().replace('type="prismatic"', 'type="fixed"'))
+    kin = Kinematics.from_urdf(welded, "base_link", "tcp")
+    reference = Kinematics.from_urdf(URDF, "base_link", "tcp")
+    q = np.linspace(-0.5, 0.5, 7)
+    np.testing.assert_allclose(kin.tip_pose(q), reference.tip_pose(q), atol=1e-12)
+    assert kin.solve_ik(kin.tip_pose(q), time_budget=0.2).success

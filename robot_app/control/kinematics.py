@@ -7,9 +7,10 @@ continuous joint is wrapped into [-pi, pi)) or a displacement [m] for prismatic 
 Poses are 4x4 transforms expressed in the base link's frame ("world" of this model).
 
 The IK is a Levenberg-Marquardt / damped-least-squares iteration on the SE(3) error
-log6(T_tip^-1 T_target) with the exact Jacobian of that error (Jlog6), a null-space
-pull toward a preferred posture, joint limits enforced by clamping after every step,
-and seeded random restarts when an attempt stalls, all within a wall-clock budget.
+log6(T_tip^-1 T_target) with the exact Jacobian of that error (Jlog6), an optional
+null-space pull toward a preferred posture, joint limits enforced every step (joints
+pushed against a limit are frozen, the rest clamped), and seeded random restarts when
+an attempt stalls, all within a wall-clock budget (see `_ik_solver`).
 """
 
 from __future__ import annotations
@@ -85,6 +86,13 @@ class Kinematics:
         tip_frame: end frame of the chain; `solve_ik` targets it by default.
         locked_positions: joint name -> position [rad or m] for joints outside the
             chain; others are locked at their neutral value, clipped into their limits.
+
+    Raises:
+        InputError: unknown frames or joints, a base not on the path to the tip, or a
+            chain joint that is not 1-DoF revolute/prismatic.
+
+    One instance owns one Pinocchio data buffer: it is not thread-safe; use one per
+    thread or process. Arrays it hands out are read-only or fresh copies.
     """
 
     def __init__(
