@@ -10,6 +10,8 @@ target fails quickly with its residual instead of raising.
 from __future__ import annotations
 
 import math
+import os
+import sys
 import time
 from typing import Annotated
 
@@ -49,6 +51,9 @@ def _describe(result: IKResult) -> str:
 
 def _drive(kin: Kinematics, q_goal: FloatArray, gui: bool, seconds: float) -> tuple[FloatArray, FloatArray]:
     """Position control from READY_POSTURE to q_goal; returns (tcp pose 4x4, final q)."""
+    if gui and sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
+        # pybullet's GUI would print "cannot connect to X server" and exit the process.
+        raise SimulationError("--gui needs a display (DISPLAY is not set); run without --gui")
     try:
         client = p.connect(p.GUI if gui else p.DIRECT)
     except p.error as err:
@@ -99,11 +104,11 @@ def _drive(kin: Kinematics, q_goal: FloatArray, gui: bool, seconds: float) -> tu
 
 
 def demo(
-    x: Annotated[float, typer.Option(help="Target tcp x in the base frame [m].")] = 0.55,
-    y: Annotated[float, typer.Option(help="Target tcp y [m].")] = 0.10,
-    z: Annotated[float, typer.Option(help="Target tcp height above the floor [m].")] = 0.35,
-    yaw_deg: Annotated[float, typer.Option("--yaw-deg", help="Tool x from world +y [deg].")] = 0.0,
-    seconds: Annotated[float, typer.Option(help="Simulated time of position control [s].")] = 3.0,
+    x: Annotated[float, typer.Option(help="Target tcp x in the base frame, in m.")] = 0.55,
+    y: Annotated[float, typer.Option(help="Target tcp y, in m.")] = 0.10,
+    z: Annotated[float, typer.Option(help="Target tcp height above the floor, in m.")] = 0.35,
+    yaw_deg: Annotated[float, typer.Option("--yaw-deg", help="Tool x from world +y, in deg.")] = 0.0,
+    seconds: Annotated[float, typer.Option(help="Simulated time of position control, in s.")] = 3.0,
     gui: Annotated[bool, typer.Option("--gui", help="Open pybullet's GUI (needs a display).")] = False,
 ) -> None:
     """Solve IK for a tcp pose looking down, drive the PA10 there in pybullet, compare."""
