@@ -7,12 +7,14 @@ attempt iterates a Levenberg-Marquardt step on the SE(3) error e = log6(T^-1 T_t
     lambda = DAMPING_GAIN * |e|^2 + BASE_DAMPING        (Sugihara 2011, damping ~ error),
     z = gain * (q_preferred - q)                        (null-space pull, damped projection),
 
-then clamps q into the joint limits (wraps continuous joints). It ends on success, when
-the error stops falling (STALL_PATIENCE iterations without a 2 % improvement), after
-MAX_ITERATIONS_PER_ATTEMPT, or at the deadline. With a posture pull, a successful
-attempt is then polished: the same step keeps moving along the self-motion toward the
-posture for as long as the residual stays within tolerance. The linear algebra of a step is one
-numba kernel (a 6x6 Cholesky) because numpy's per-call overhead dominated at this size.
+Joints on a limit that the step pushes outward are frozen and the step recomputed
+without them; then q is clamped into the limits (continuous joints wrapped). An attempt
+ends on success, when the error stops falling (STALL_PATIENCE iterations without a 2 %
+improvement), after MAX_ITERATIONS_PER_ATTEMPT, or at the deadline. With a posture
+pull, a successful attempt is then polished: pulled steps along the self-motion, each
+re-converged within tolerance. A step's linear algebra is one numba kernel (a 6x6
+Cholesky) because numpy's per-call overhead dominated at this size. Sugihara 2011:
+"Solvability-unconcerned inverse kinematics by the Levenberg-Marquardt method", T-RO.
 """
 
 from __future__ import annotations
