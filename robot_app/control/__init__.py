@@ -1,5 +1,6 @@
 """Control: PA10 kinematics, jerk-limited trajectories, the cloth pose filter, the loop."""
 
+from robot_app.control.kinematics import IKResult, Kinematics
 from robot_app.control.limits import (
     PA10_JOINT_NAMES,
     JointLimits,
@@ -15,6 +16,16 @@ from robot_app.control.pose_filter import (
     PoseXYZYaw,
     UpdateReason,
 )
+from robot_app.control.robot_models import (
+    ARM_NAMES,
+    ArmSpec,
+    arm_spec,
+    baxter_right_arm_spec,
+    example_robot_data_dir,
+    load_arm,
+    pa10_spec,
+    pr2_right_arm_spec,
+)
 from robot_app.control.trajectory import (
     JointTrajectory,
     OnlineTrajectory,
@@ -25,10 +36,14 @@ from robot_app.control.trajectory import (
 )
 
 __all__ = [
+    "ARM_NAMES",
     "PA10_JOINT_NAMES",
+    "ArmSpec",
     "FilterUpdate",
+    "IKResult",
     "JointLimits",
     "JointTrajectory",
+    "Kinematics",
     "LimitReport",
     "OnlineTrajectory",
     "PoseEstimate",
@@ -40,6 +55,12 @@ __all__ = [
     "TrajectorySamples",
     "TrajectorySettings",
     "UpdateReason",
+    "arm_spec",
+    "baxter_right_arm_spec",
     "check_limits",
+    "example_robot_data_dir",
+    "load_arm",
+    "pa10_spec",
     "plan_point_to_point",
+    "pr2_right_arm_spec",
 ]
