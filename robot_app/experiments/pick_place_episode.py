@@ -61,7 +61,7 @@ class PickPlaceConfig(StrictModel):
     model_cloth: int | None = Field(
         None, ge=1, le=12, description="cloth the robot looks for (default: scene.target); another = absent"
     )
-    grasp_radius: float = Field(0.02, gt=0.0, le=0.1, description="nodes anchored around the TCP [m]")
+    grasp_radius: float = Field(0.03, gt=0.0, le=0.1, description="nodes anchored around the TCP [m]")
     nudge: NudgeConfig | None = None
 
     @property
@@ -154,7 +154,7 @@ def run_episode(
         return Episode(result, config.wanted, present, tuple(float(v) for v in world.box.centre))
 
 
-def _make_target_model(config: PickPlaceConfig):  # noqa: ANN202 (ClothModel)
+def _make_target_model(config: PickPlaceConfig):
     with ModelStation(config.world.station, config.world.cloth, config.world.range.sheet_rgb) as station:
         photo = station.photograph(cloth_spec(config.wanted))
     return make_model(
@@ -165,7 +165,7 @@ def _make_target_model(config: PickPlaceConfig):  # noqa: ANN202 (ClothModel)
 class _Nudger:
     """Moves the target cloth once, `after` seconds into APPROACH."""
 
-    def __init__(self, world: World, cloth, config: NudgeConfig) -> None:  # noqa: ANN001
+    def __init__(self, world: World, cloth, config: NudgeConfig) -> None:
         self.world, self.cloth, self.config = world, cloth, config
         self.start: float | None = None
         self.done = False

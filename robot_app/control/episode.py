@@ -1,0 +1,149 @@
+"""Typed records of one pick-and-place episode: phases, recognitions, outcome."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from enum import StrEnum
+from typing import Any
+
+import numpy as np
+
+from robot_app.control.limits import LimitReport
+
+
+class Phase(StrEnum):
+    """States of the pick-and-place state machine, in their usual order."""
+
+    OBSERVE = "observe"
+    SEARCH = "search"
+    APPROACH = "approach"
+    DESCEND = "descend"
+    GRASP = "grasp"
+    LIFT = "lift"
+    TRANSFER = "transfer"
+    RELEASE = "release"
+    HOME = "home"
+
+
+class Outcome(StrEnum):
+    """How an episode ended. Only PLACED is a pick and place; the rest are reasons."""
+
+    PLACED = "placed"
+    NOT_PRESENT = "not_present"
+    LOST = "lost"
+    IK_UNREACHABLE = "ik_unreachable"
+    GRASP_FAILED = "grasp_failed"
+    TRAJECTORY_ERROR = "trajectory_error"
+    TIMEOUT = "timeout"
+
+
+@dataclass(frozen=True)
+class PhaseRecord:
+    """One pass through a phase: simulated start/end [s] and wall time [s]."""
+
+    phase: str
+    start_time: float
+    end_time: float
+    wall_s: float
+    note: str = ""
+
+    @property
+    def duration(self) -> float:
+        return self.end_time - self.start_time
+
+
+@dataclass(frozen=True)
+class RecognitionRecord:
+    """One recognition of the loop, in the world frame; errors only with ground truth.
+
+    Units: metres and radians, except the `_mm`/`_deg` error fields for reports.
+    """
+
+    time: float
+    phase: str
+    mode: str  # "search" (one-shot GA) or "track" (multi-step GA)
+    found: bool
+    fitness: float
+    accepted: bool
+    reason: str
+    x: float
+    y: float
+    z: float
+    yaw: float
+    evaluations: int
+    recognition_s: float
+    error_x_mm: float | None = None
+    error_y_mm: float | None = None
+    error_z_mm: float | None = None
+    error_yaw_deg: float | None = None
+
+
+@dataclass(frozen=True)
+class EpisodeResult:
+    """Everything one episode measured.
+
+    Attributes:
+        outcome: how it ended; `success` additionally needs the cloth in the box and no
+            limit violation.
+        placed_fraction: fraction of the cloth's nodes inside the box at the end (sim).
+        limit_report: limit check over every commanded sample.
+        sim_time: simulated duration [s]; wall_s: wall-clock duration [s].
+    """
+
+    outcome: Outcome
+    success: bool
+    reason: str
+    placed_fraction: float | None
+    sim_time: float
+    wall_s: float
+    phases: tuple[PhaseRecord, ...]
+    recognitions: tuple[RecognitionRecord, ...]
+    limit_report: LimitReport
+    commanded_samples: int
+    collisions: int
+    grasp_attempts: int
+    observe_returns: int
+    filter_accepted: int
+    filter_rejected: int
+    ruckig_times_us: tuple[float, ...] = field(repr=False, default=())
+    ik_times_ms: tuple[float, ...] = field(repr=False, default=())
+    final_pose: tuple[float, ...] | None = None  # (x, y, z, yaw) of the cloth at the end
+
+    def summary(self) -> dict[str, Any]:
+        """JSON-friendly summary (no per-sample data)."""
+
+        def stats(values: tuple[float, ...]) -> dict[str, float | None]:
+            if not values:
+                return {"median": None, "max": None, "count": 0}
+            return {"median": float(np.median(values)), "max": float(np.max(values)), "count": len(values)}
+
+        return {
+            "outcome": self.outcome.value,
+            "success": self.success,
+            "reason": self.reason,
+            "placed_fraction": self.placed_fraction,
+            "sim_time_s": self.sim_time,
+            "wall_s": self.wall_s,
+            "commanded_samples": self.commanded_samples,
+            "limit_violations": self.limit_report.violations,
+            "limits": _limit_dict(self.limit_report),
+            "collisions": self.collisions,
+            "grasp_attempts": self.grasp_attempts,
+            "observe_returns": self.observe_returns,
+            "filter_accepted": self.filter_accepted,
+            "filter_rejected": self.filter_rejected,
+            "recognitions": len(self.recognitions),
+            "ruckig_us": stats(self.ruckig_times_us),
+            "ik_ms": stats(self.ik_times_ms),
+            "final_cloth_pose": self.final_pose,
+            "phases": [asdict(p) for p in self.phases],
+        }
+
+
+def _limit_dict(report: LimitReport) -> dict[str, Any]:
+    return {
+        key: float(value) if isinstance(value, float) else value for key, value in report._asdict().items()
+    }
+
+
+__all__ = ["EpisodeResult", "Outcome", "Phase", "PhaseRecord", "RecognitionRecord"]
