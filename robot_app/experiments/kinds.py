@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import importlib
-import importlib.util
 from pathlib import Path
 from typing import Literal
 
@@ -12,7 +11,8 @@ from robot_app.experiments.experiment_config import AnyTrialConfig, RecognitionT
 from robot_app.experiments.trial_result import TrialFunction
 from robot_app.experiments.trials import SweepResult, run_sweep
 
-PICK_PLACE_MODULE = "robot_app.control.pick_place"
+PICK_PLACE_MODULE = "robot_app.experiments.pick_place_episode"
+"""Where `run_episode` (the closed loop of robot_app.control.pick_place, in a cell) lives."""
 
 
 def trial_kind(config: AnyTrialConfig) -> tuple[TrialFunction, type]:
@@ -31,19 +31,16 @@ def trial_kind(config: AnyTrialConfig) -> tuple[TrialFunction, type]:
 
         check_recognition_config(config)
         return run_recognition_trial, RecognitionOutcome
-    if importlib.util.find_spec(PICK_PLACE_MODULE) is None:
-        raise RobotAppError(f"pick_place trials need {PICK_PLACE_MODULE} (the closed loop), not installed yet")
     try:
-        from robot_app.experiments.pick_place_trial import (  # type: ignore[import-not-found]
-            PickPlaceOutcome,
-            check_pick_place_config,
-            run_pick_place_trial,
-        )
+        importlib.import_module(PICK_PLACE_MODULE)
     except ImportError as err:
-        raise RobotAppError(
-            f"pick_place trials are not wired to {PICK_PLACE_MODULE} yet "
-            f"(robot_app/experiments/pick_place_trial.py): {err}"
-        ) from err
+        raise RobotAppError(f"pick_place trials need the closed loop ({PICK_PLACE_MODULE}): {err}") from err
+    from robot_app.experiments.pick_place_trial import (
+        PickPlaceOutcome,
+        check_pick_place_config,
+        run_pick_place_trial,
+    )
+
     check_pick_place_config(config)
     return run_pick_place_trial, PickPlaceOutcome
 

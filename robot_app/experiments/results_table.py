@@ -51,6 +51,21 @@ def _parse(text: str) -> Any:
     return text
 
 
+def table_columns(outcome_type: type) -> tuple[str, ...]:
+    """The CSV header for an outcome dataclass: `BASE_COLUMNS` then its fields.
+
+    Raises:
+        InputError: not a dataclass, or a field named like a base column.
+    """
+    if not dataclasses.is_dataclass(outcome_type):
+        raise InputError(f"outcome_type must be a dataclass, got {outcome_type!r}")
+    fields = tuple(f.name for f in dataclasses.fields(outcome_type))
+    clash = set(fields) & set(BASE_COLUMNS)
+    if clash:
+        raise InputError(f"outcome fields {sorted(clash)} clash with the table's base columns {BASE_COLUMNS}")
+    return BASE_COLUMNS + fields
+
+
 def read_table(path: str | Path) -> list[Row]:
     """Rows of a per-trial CSV, values parsed back to bool/int/float/str ('' stays '')."""
     file = Path(path)
@@ -69,14 +84,9 @@ class ResultsTable:
     """
 
     def __init__(self, path: str | Path, outcome_type: type) -> None:
-        if not dataclasses.is_dataclass(outcome_type):
-            raise InputError(f"outcome_type must be a dataclass, got {outcome_type!r}")
         self.path = Path(path)
-        self.outcome_fields = tuple(f.name for f in dataclasses.fields(outcome_type))
-        clash = set(self.outcome_fields) & set(BASE_COLUMNS)
-        if clash:
-            raise InputError(f"outcome fields {sorted(clash)} clash with the table's base columns")
-        self.columns = BASE_COLUMNS + self.outcome_fields
+        self.columns = table_columns(outcome_type)
+        self.outcome_fields = self.columns[len(BASE_COLUMNS) :]
         self._repair()
 
     def _repair(self) -> None:
@@ -159,4 +169,4 @@ class ResultsTable:
         self._write_atomic(buffer.getvalue())
 
 
-__all__ = ["BASE_COLUMNS", "ResultsTable", "Row", "is_timing_column", "read_table"]
+__all__ = ["BASE_COLUMNS", "ResultsTable", "Row", "is_timing_column", "read_table", "table_columns"]

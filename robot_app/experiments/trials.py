@@ -22,7 +22,7 @@ from typing import Any, Literal
 from robot_app.config import dump_config, read_yaml
 from robot_app.errors import ConfigError, InputError, RobotAppError
 from robot_app.experiments.experiment_config import AnyTrialConfig, parse_trial_config
-from robot_app.experiments.results_table import ResultsTable
+from robot_app.experiments.results_table import ResultsTable, table_columns
 from robot_app.experiments.runners import run_local, run_ray
 from robot_app.experiments.summary import summarize, write_summary
 from robot_app.experiments.trial_result import TrialFunction, TrialResult
@@ -116,6 +116,7 @@ def run_sweep(
         raise InputError(f"workers must be >= 1, got {workers}")
     if backend not in ("local", "ray"):
         raise InputError(f"backend must be 'local' or 'ray', got {backend!r}")
+    table_columns(outcome_type)  # a bad outcome type fails before the folder is made
     folder = Path(out_dir)
     _prepare_folder(config, folder, resume)
     table = ResultsTable(folder / TABLE_FILE, outcome_type)
