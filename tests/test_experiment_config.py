@@ -122,3 +122,15 @@ def test_cli_bad_config_exits_2_naming_the_key(tmp_path: Path, capsys: pytest.Ca
     assert not (tmp_path / "out").exists()
     assert main(["trial", str(tmp_path / "missing.yaml")]) == 2
     assert main(["trial", str(config), "--backend", "slurm"]) == 2
+
+
+def test_recognition_overrides_are_checked_before_any_trial(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    bad_key = "recognition.ga.generationz=3"
+    code = main(["trial", str(CONFIGS / "default.yaml"), "--out", str(out), "--set", bad_key])
+    assert code == 2 and "ga.generationz: unknown key" in capsys.readouterr().err
+    code = main(["trial", str(CONFIGS / "ga_sweep.yaml"), "--out", str(out), "--set", "sweep.values=[10, 0]"])
+    assert code == 2 and "ga.generations" in capsys.readouterr().err
+    assert not (out / "trials.csv").exists()

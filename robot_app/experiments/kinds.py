@@ -29,7 +29,8 @@ def trial_kind(config: AnyTrialConfig) -> tuple[TrialFunction, type]:
             run_recognition_trial,
         )
 
-        check_recognition_config(config)
+        for point in range(config.point_count):
+            check_recognition_config(config.at_point(point))  # type: ignore[arg-type]
         return run_recognition_trial, RecognitionOutcome
     try:
         importlib.import_module(PICK_PLACE_MODULE)
