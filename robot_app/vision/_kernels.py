@@ -4,9 +4,9 @@ The fitness of a pose is a sum over model points of a score that depends only on
 of the point (its model hue, or "outside") and on the code of the image pixel it lands on
 (its hue, "no hue", or "off the image"). `fitness.py` builds that score table once per
 model; these kernels project the points with a 3x4 matrix per pose and camera and add up
-the table entries. Each image is a flat code array with one extra element, the sentinel,
-whose code scores 0 in every row: points off the image or behind the camera look it up,
-so the projection loop has no branches and vectorises. Numba's `error_model="numpy"`
+the table entries. Each image is a flat code array framed by pixels whose code scores 0
+in every row: points off the image or behind the camera are clamped onto the frame, so
+the projection loop has no data-dependent branches. Numba's `error_model="numpy"`
 matters: python's model checks every division for zero and stops vectorisation.
 Everything here is internal: callers go through `FitnessEvaluator`.
 """
@@ -20,53 +20,76 @@ _jit = njit(cache=True, fastmath=True, nogil=True, error_model="numpy")
 
 
 @_jit
-def _pixel_indices(M, px, py, pz, width, height, out):
-    """Nearest-pixel flat index of each point, or width*height (the sentinel)."""
-    sentinel = width * height
-    wf, hf = np.float32(width), np.float32(height)
-    zero, half = np.float32(0.0), np.float32(0.5)
-    m00, m01, m02, m03 = M[0, 0], M[0, 1], M[0, 2], M[0, 3]
-    m10, m11, m12, m13 = M[1, 0], M[1, 1], M[1, 2], M[1, 3]
-    m20, m21, m22, m23 = M[2, 0], M[2, 1], M[2, 2], M[2, 3]
-    for i in range(px.shape[0]):
-        x, y, z = px[i], py[i], pz[i]
-        w = m20 * x + m21 * y + m22 * z + m23
-        inv = np.float32(1.0) / w
-        u = (m00 * x + m01 * y + m02 * z + m03) * inv + half
-        v = (m10 * x + m11 * y + m12 * z + m13) * inv + half
-        ok = (w > zero) & (u >= zero) & (v >= zero) & (u < wf) & (v < hf)
-        iu = np.int32(u if ok else zero)
-        iv = np.int32(v if ok else zero)
-        out[i] = iv * width + iu if ok else sentinel
+def hsv_codes(hsv, min_saturation, no_hue, fill):
+    """(H, W, 3) HSV_FULL image -> flat pixel codes: the hue, or `no_hue` where saturation
+    < min_saturation, framed by `fill` (one pixel left and top, two right and bottom;
+    row stride width + 3), as the scoring kernels read them."""
+    height, width = hsv.shape[0], hsv.shape[1]
+    stride = width + 3
+    out = np.full((height + 3) * stride, fill, dtype=np.uint16)
+    for v in range(height):
+        base = (v + 1) * stride + 1
+        for u in range(width):
+            hue = np.uint16(hsv[v, u, 0])
+            out[base + u] = hue if hsv[v, u, 1] >= min_saturation else np.uint16(no_hue)
+    return out
 
 
 @_jit
-def _gather_sum(indices, row_offsets, table, codes):
+def _nearest_sum(M, px, py, pz, weights, row_offsets, table, codes, width, height):
+    """Sum of the scores of all points in one image at their nearest pixels, branch-free.
+
+    Pixel j of a row is padded column j + 1. A point's coordinate is clamped into the
+    padded frame, so every point off the image (or behind the camera) reads frame
+    pixels, whose code scores 0, and the loop has no data-dependent branch.
+    """
+    stride = width + 3
+    zero, one, eps, shift = np.float32(0.0), np.float32(1.0), np.float32(1e-6), np.float32(1.5)
+    umax, vmax = np.float32(width + 1), np.float32(height + 1)
+    m00, m01, m02, m03 = M[0, 0], M[0, 1], M[0, 2], M[0, 3]
+    m10, m11, m12, m13 = M[1, 0], M[1, 1], M[1, 2], M[1, 3]
+    m20, m21, m22, m23 = M[2, 0], M[2, 1], M[2, 2], M[2, 3]
     total = np.float32(0.0)
-    for i in range(indices.shape[0]):
-        total += table[row_offsets[i] + codes[indices[i]]]
+    for i in range(px.shape[0]):
+        x, y, z = px[i], py[i], pz[i]
+        w = m20 * x + m21 * y + m22 * z + m23
+        front = w > eps
+        inv = one / (w if front else one)
+        u = (m00 * x + m01 * y + m02 * z + m03) * inv + shift
+        v = (m10 * x + m11 * y + m12 * z + m13) * inv + shift
+        u = min(max(u if front else zero, zero), umax)  # floor(u + 0.5) + 1 below
+        v = min(max(v if front else zero, zero), vmax)
+        total += weights[i] * table[row_offsets[i] + codes[np.int32(v) * stride + np.int32(u)]]
     return total
 
 
 @_jit
-def _bilinear_sum(M, px, py, pz, row_offsets, table, codes, width, height):
-    """Scores (not hues: hue has no linear interpolation on a circle) of the 4 neighbours."""
-    total = 0.0
+def _bilinear_sum(M, px, py, pz, weights, row_offsets, table, codes, width, height):
+    """Like `_nearest_sum`, with each score interpolated between the four neighbouring
+    pixels (scores, not hues: hue has no linear interpolation on a circle)."""
+    stride = width + 3
+    zero, one, eps = np.float32(0.0), np.float32(1.0), np.float32(1e-6)
+    umax, vmax = np.float32(width + 1), np.float32(height + 1)
+    m00, m01, m02, m03 = M[0, 0], M[0, 1], M[0, 2], M[0, 3]
+    m10, m11, m12, m13 = M[1, 0], M[1, 1], M[1, 2], M[1, 3]
+    m20, m21, m22, m23 = M[2, 0], M[2, 1], M[2, 2], M[2, 3]
+    total = np.float32(0.0)
     for i in range(px.shape[0]):
         x, y, z = px[i], py[i], pz[i]
-        w = M[2, 0] * x + M[2, 1] * y + M[2, 2] * z + M[2, 3]
-        if w <= 0.0:
-            continue
-        u = (M[0, 0] * x + M[0, 1] * y + M[0, 2] * z + M[0, 3]) / w
-        v = (M[1, 0] * x + M[1, 1] * y + M[1, 2] * z + M[1, 3]) / w
-        if u < 0.0 or v < 0.0 or u >= width - 1 or v >= height - 1:
-            continue
-        iu, iv = int(u), int(v)
-        fu, fv = u - iu, v - iv
-        k, r = iv * width + iu, row_offsets[i]
-        top = (1.0 - fu) * table[r + codes[k]] + fu * table[r + codes[k + 1]]
-        bottom = (1.0 - fu) * table[r + codes[k + width]] + fu * table[r + codes[k + width + 1]]
-        total += (1.0 - fv) * top + fv * bottom
+        w = m20 * x + m21 * y + m22 * z + m23
+        front = w > eps
+        inv = one / (w if front else one)
+        u = (m00 * x + m01 * y + m02 * z + m03) * inv + one
+        v = (m10 * x + m11 * y + m12 * z + m13) * inv + one
+        u = min(max(u if front else zero, zero), umax)
+        v = min(max(v if front else zero, zero), vmax)
+        iu, iv = np.int32(u), np.int32(v)
+        fu, fv = u - np.float32(iu), v - np.float32(iv)
+        k, r = iv * stride + iu, row_offsets[i]
+        a, b = table[r + codes[k]], table[r + codes[k + 1]]
+        c, d = table[r + codes[k + stride]], table[r + codes[k + stride + 1]]
+        top = a + fu * (b - a)
+        total += weights[i] * (top + fv * (c + fu * (d - c) - top))
     return total
 
 
@@ -87,6 +110,7 @@ def score_poses(
     px,
     py,
     pz,
+    weights,
     row_offsets,
     table,
     codes_left,
@@ -102,9 +126,10 @@ def score_poses(
         K_left, K_right: (3, 3) camera matrices.
         left_from_right: (4, 4) transform Σ_CR -> Σ_CL.
         px, py, pz: (N,) float32 model point coordinates [m].
+        weights: (N,) float32 weight of each point's score.
         row_offsets: (N,) int32 start of each point's row in the flat table.
         table: flat float32 score table.
-        codes_left, codes_right: (H*W + 1,) uint16 pixel codes, row-major, then the sentinel.
+        codes_left, codes_right: pixel codes as made by `hsv_codes` (the frame scores 0).
         width, height: image size [px].
         bilinear: interpolate the scores of the four neighbouring pixels instead of taking
             the nearest one.
@@ -114,7 +139,6 @@ def score_poses(
     """
     n_poses = transforms.shape[0]
     out = np.empty(n_poses)
-    indices = np.empty(px.shape[0], np.int32)
     M_left = np.empty((3, 4), np.float32)
     M_right = np.empty((3, 4), np.float32)
     for p in range(n_poses):
@@ -122,13 +146,15 @@ def score_poses(
         _projection(K_right, pose, M_right)
         _projection(K_left, left_from_right @ pose, M_left)
         if bilinear:
-            out[p] = _bilinear_sum(M_left, px, py, pz, row_offsets, table, codes_left, width, height)
-            out[p] += _bilinear_sum(M_right, px, py, pz, row_offsets, table, codes_right, width, height)
-            continue
-        _pixel_indices(M_left, px, py, pz, width, height, indices)
-        total = _gather_sum(indices, row_offsets, table, codes_left)
-        _pixel_indices(M_right, px, py, pz, width, height, indices)
-        out[p] = total + _gather_sum(indices, row_offsets, table, codes_right)
+            out[p] = _bilinear_sum(M_left, px, py, pz, weights, row_offsets, table, codes_left, width, height)
+            out[p] += _bilinear_sum(
+                M_right, px, py, pz, weights, row_offsets, table, codes_right, width, height
+            )
+        else:
+            out[p] = _nearest_sum(M_left, px, py, pz, weights, row_offsets, table, codes_left, width, height)
+            out[p] += _nearest_sum(
+                M_right, px, py, pz, weights, row_offsets, table, codes_right, width, height
+            )
     return out
 
 
@@ -215,4 +241,4 @@ def transforms_from_genes(genes, lows, spans, gray_code):
     return T
 
 
-__all__ = ["breed", "score_poses", "transforms_from_genes"]
+__all__ = ["breed", "hsv_codes", "score_poses", "transforms_from_genes"]

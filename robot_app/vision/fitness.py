@@ -28,13 +28,13 @@ from pydantic import Field, model_validator
 from robot_app.config import StrictModel
 from robot_app.errors import InputError
 from robot_app.geometry import FloatArray
-from robot_app.vision._kernels import score_poses
+from robot_app.vision._kernels import hsv_codes, score_poses
 from robot_app.vision.camera import PinholeCamera, StereoRig
 from robot_app.vision.hue import HUE_RANGE, hue_distance, to_hsv
 from robot_app.vision.photo_model import ClothModel
 
 NO_HUE = HUE_RANGE  # pixel code of a pixel too grey to have a hue (see min_saturation)
-OFF_IMAGE = HUE_RANGE + 1  # code of the sentinel pixel that off-image points look up: scores 0
+OFF_IMAGE = HUE_RANGE + 1  # code of the frame around each image that off-image points read: scores 0
 _OUTSIDE_ROW = HUE_RANGE  # table row of S_out points; rows 0-255 are S_in points by model hue
 
 
@@ -51,6 +51,11 @@ class FitnessParams(StrictModel):
         hue_threshold_out: hue tolerance of eq. 10 [HSV_FULL steps, 0-128].
         min_saturation: pixels with saturation below this (0-255) have no hue: they match
             neither a model hue nor the background. 0 (the paper) gives every pixel a hue.
+        score_out_foreign: S_out point on a pixel whose hue is neither background nor
+            within `hue_threshold_in` of any of the model's hues (a blue sheet over a red
+            cloth, a cloth of another colour). None (the paper): `score_out_other`. The
+            paper's -0.5 there makes an occluder push the model away from it; the
+            recognizer searches with 0 (RecognitionSettings.search_out_foreign).
     """
 
     score_in_match: float = Field(default=2.0, gt=0)
@@ -61,6 +66,7 @@ class FitnessParams(StrictModel):
     hue_threshold_in: int = Field(default=30, ge=0, le=128)
     hue_threshold_out: int = Field(default=20, ge=0, le=128)
     min_saturation: int = Field(default=0, ge=0, le=255)
+    score_out_foreign: float | None = None
 
     @model_validator(mode="after")
     def _scores_ordered(self) -> FitnessParams:
@@ -71,7 +77,9 @@ class FitnessParams(StrictModel):
         return self
 
 
-def score_table(background_hue: float, params: FitnessParams) -> npt.NDArray[np.float32]:
+def score_table(
+    background_hue: float, params: FitnessParams, model_hues: npt.ArrayLike | None = None
+) -> npt.NDArray[np.float32]:
     """(257, 258) table of eqs. 9-10: row = model hue 0-255 or 256 (S_out), column = pixel code.
 
     Pixel codes are hues 0-255, `NO_HUE` and `OFF_IMAGE` (always 0).
@@ -79,6 +87,7 @@ def score_table(background_hue: float, params: FitnessParams) -> npt.NDArray[np.
     Args:
         background_hue: H̄_B [HSV_FULL, 0-256).
         params: scores and thresholds.
+        model_hues: the model's S_in hues; needed only for `params.score_out_foreign`.
     """
     codes = np.arange(HUE_RANGE)
     d_background = np.abs(codes - background_hue) % HUE_RANGE
@@ -96,23 +105,41 @@ def score_table(background_hue: float, params: FitnessParams) -> npt.NDArray[np.
         d_background <= params.hue_threshold_out, params.score_out_background, params.score_out_other
     )
     table[_OUTSIDE_ROW, NO_HUE] = params.score_out_other
+    if params.score_out_foreign is not None and model_hues is not None:
+        hues = np.unique(np.asarray(model_hues, dtype=int))
+        near_model = (hue_distance(codes[:, None], hues[None, :]) <= params.hue_threshold_in).any(axis=1)
+        foreign = (d_background > params.hue_threshold_out) & ~near_model
+        table[_OUTSIDE_ROW, :HUE_RANGE][foreign] = params.score_out_foreign
     return table
 
 
 class FitnessEvaluator:
     """Eqs. 9-11 for one model on one stereo pair; `update` swaps the pair.
 
+    `params` define the reported fitness; `search_params` (default: the same) the one
+    `evaluate(..., search=True)` scores, e.g. with `score_out_foreign` for occlusions.
+    The normalisation is the same for both.
+
     Attributes:
         evaluations: number of poses evaluated since construction (each pose scores all
             model points in both images).
     """
 
-    def __init__(self, model: ClothModel, rig: StereoRig, params: FitnessParams | None = None) -> None:
+    def __init__(
+        self,
+        model: ClothModel,
+        rig: StereoRig,
+        params: FitnessParams | None = None,
+        search_params: FitnessParams | None = None,
+    ) -> None:
         self.model = model
         self.rig = rig
         self.params = params if params is not None else FitnessParams()
-        table = score_table(model.background_hue, self.params)
+        self.search_params = search_params if search_params is not None else self.params
+        table = score_table(model.background_hue, self.params, model.hues_in)
         self._table = np.ascontiguousarray(table.ravel())
+        search_table = score_table(model.background_hue, self.search_params, model.hues_in)
+        self._search_table = np.ascontiguousarray(search_table.ravel())
         self._columns = table.shape[1]
         self._subsets: dict[int, _PointSet] = {}
         self._full = self._point_set(1)
@@ -160,10 +187,7 @@ class FitnessEvaluator:
             K = camera.camera_matrix
             image = np.asarray(cv2.undistort(image, K, camera.dist_coeffs, None, K), dtype=np.uint8)
         hsv = to_hsv(image)
-        codes = hsv[:, :, 0].astype(np.uint16)
-        if self.params.min_saturation > 0:
-            codes[hsv[:, :, 1] < self.params.min_saturation] = NO_HUE
-        return np.append(codes.ravel(), np.uint16(OFF_IMAGE))  # + the sentinel pixel
+        return hsv_codes(hsv, self.params.min_saturation, NO_HUE, OFF_IMAGE)  # framed by OFF_IMAGE
 
     def _point_set(self, stride: int) -> _PointSet:
         """Every `stride`-th S_in and S_out point (all of them for 1), cached."""
@@ -174,17 +198,24 @@ class FitnessEvaluator:
             rows = np.concatenate(
                 [m.hues_in[::stride].astype(np.int32), np.full(len(outside), _OUTSIDE_ROW, np.int32)]
             )
+            w_in, w_out = np.asarray(m.weights_in)[::stride], np.asarray(m.weights_out)[::stride]
             self._subsets[stride] = _PointSet(
                 np.ascontiguousarray(points[:, 0]),
                 np.ascontiguousarray(points[:, 1]),
                 np.ascontiguousarray(points[:, 2]),
+                np.concatenate([w_in, w_out]).astype(np.float32),
                 np.ascontiguousarray(rows * np.int32(self._columns)),
-                p.score_in_match * len(inside) + p.score_out_background * len(outside),
+                p.score_in_match * float(w_in.sum()) + p.score_out_background * float(w_out.sum()),
             )
         return self._subsets[stride]
 
     def evaluate(
-        self, transforms_model_to_right: npt.ArrayLike, *, subpixel: bool = False, stride: int = 1
+        self,
+        transforms_model_to_right: npt.ArrayLike,
+        *,
+        subpixel: bool = False,
+        stride: int = 1,
+        search: bool = False,
     ) -> FloatArray:
         """Normalised fitness of each pose (1.0 = perfect match).
 
@@ -194,9 +225,12 @@ class FitnessEvaluator:
                 (smooth in the pose, for refinement) instead of the paper's nearest pixel.
             stride: score only every `stride`-th S_in and S_out point (a cheaper, noisier
                 estimate of the same normalised fitness, for early GA generations).
+            search: score with `search_params` instead of `params`.
 
         Returns:
-            (P,) fitness, F(^C φ_M) / (score_in_match·N_in + score_out_background·N_out).
+            (P,) fitness, F(^C φ_M) / (score_in_match·N_in + score_out_background·N_out),
+            each point's score weighted by the area it stands for (`ClothModel.weights_in`,
+            `weights_out`; all 1 for the paper's uniform grid, which gives eqs. 9-11 exactly).
 
         Raises:
             InputError: no images yet (call `update`) or poses of the wrong shape.
@@ -217,8 +251,9 @@ class FitnessEvaluator:
             points.x,
             points.y,
             points.z,
+            points.weights,
             points.row_offsets,
-            self._table,
+            self._search_table if search else self._table,
             codes_left,
             codes_right,
             width,
@@ -233,6 +268,7 @@ class _PointSet(NamedTuple):
     x: npt.NDArray[np.float32]
     y: npt.NDArray[np.float32]
     z: npt.NDArray[np.float32]
+    weights: npt.NDArray[np.float32]
     row_offsets: npt.NDArray[np.int32]
     maximum: float  # score of a perfect match in one image
 

@@ -15,18 +15,19 @@ import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import cv2
 import numpy as np
 import numpy.typing as npt
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from robot_app.config import StrictModel
 from robot_app.errors import InputError, ModelError
 from robot_app.geometry import FloatArray, rotation_about_z
 from robot_app.vision.camera import ModelCamera, PinholeCamera
 from robot_app.vision.hue import circular_mean_hue, hue_distance, to_hsv
+from robot_app.vision.sampling import sample_model
 
 Image = npt.NDArray[np.uint8]
 
@@ -57,6 +58,11 @@ class ClothModel:
         symmetry_angles: yaw angles [rad] other than 0 under which S_in and its hues
             look the same (e.g. (pi,) for a plain rectangle).
         metadata: photo size, metres per pixel, settings used, source file names.
+        weights_in: (N_in,) area each S_in point stands for, in units of one interior
+            grid cell (ones for the paper's uniform grid; smaller for the dense rings of
+            edge sampling, so the fitness stays an area integral and a partly hidden
+            cloth does not pull the dense outline onto its visible part).
+        weights_out: (N_out,) the same for S_out.
     """
 
     name: str
@@ -68,6 +74,8 @@ class ClothModel:
     extent: tuple[float, float]
     symmetry_angles: tuple[float, ...] = ()
     metadata: dict[str, Any] = field(default_factory=dict)
+    weights_in: FloatArray | None = None
+    weights_out: FloatArray | None = None
 
     def __post_init__(self) -> None:
         points_in = _frozen_points(self.points_in, "points_in")
@@ -97,11 +105,18 @@ class ClothModel:
         object.__setattr__(self, "extent", extent)
         object.__setattr__(self, "symmetry_angles", tuple(float(a) for a in self.symmetry_angles))
         object.__setattr__(self, "metadata", dict(self.metadata))
+        for name, n in (("weights_in", len(points_in)), ("weights_out", len(points_out))):
+            value = getattr(self, name)
+            weights = np.ones(n) if value is None else np.array(value, dtype=float).reshape(-1)
+            if weights.shape != (n,) or not np.all(np.isfinite(weights)) or np.any(weights <= 0):
+                raise ModelError(f"{name} must be {n} positive weights, got shape {weights.shape}")
+            weights.setflags(write=False)
+            object.__setattr__(self, name, weights)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, ClothModel):
             return NotImplemented
-        arrays = ("points_in", "hues_in", "points_out", "grasp_point")
+        arrays = ("points_in", "hues_in", "points_out", "grasp_point", "weights_in", "weights_out")
         return all(np.array_equal(getattr(self, a), getattr(other, a)) for a in arrays) and (
             self.name,
             self.background_hue,
@@ -145,6 +160,8 @@ class ClothModel:
                 hues_in=self.hues_in,
                 points_out=self.points_out,
                 grasp_point=self.grasp_point,
+                weights_in=np.asarray(self.weights_in),
+                weights_out=np.asarray(self.weights_out),
             )
 
     @classmethod
@@ -190,6 +207,8 @@ class ClothModel:
                 extent=tuple(header["extent"]),
                 symmetry_angles=tuple(header["symmetry_angles"]),
                 metadata=header["metadata"],
+                weights_in=arrays.get("weights_in"),  # absent in files of older builds: ones
+                weights_out=arrays.get("weights_out"),
             )
         except (KeyError, TypeError, ValueError) as err:
             raise ModelError(f"{file}: malformed cloth model: {err}") from err
@@ -202,11 +221,22 @@ class ModelSettings(StrictModel):
     grey, black, glare): they never count as cloth by themselves and are never
     sampled into S_in, but holes they leave inside the cloth are filled
     (`fill_holes`) so that S_out stays outside the whole cloth.
+
+    Where the points go is `sampling` (see `robot_app.vision.sampling`): "edge" (rings
+    along the outline at `edge_offsets` inside and `band_rings` rings from `band_gap` to
+    `band_gap + band_width` outside, every `edge_spacing`, plus the interior on a
+    `point_spacing` grid) or "grid" (the paper's uniform grid and band).
     """
 
-    point_spacing: float = Field(0.006, gt=0.0005, le=0.05, description="S_in/S_out grid step [m]")
-    band_width: float = Field(0.01, gt=0.0, le=0.1, description="width of the S_out band [m]")
-    band_gap: float = Field(0.003, ge=0.0, le=0.05, description="gap between S_in and S_out [m]")
+    sampling: Literal["edge", "grid"] = "edge"
+    point_spacing: float = Field(0.008, gt=0.0005, le=0.05, description="S_in (interior) grid step [m]")
+    edge_spacing: float = Field(0.004, gt=0.0005, le=0.05, description="step along the edge rings [m]")
+    edge_offsets: tuple[float, ...] = Field(
+        (0.001, 0.004), min_length=1, description="S_in rings inside the outline [m]"
+    )
+    band_rings: int = Field(2, ge=1, le=10, description="S_out rings from band_gap to band_gap+band_width")
+    band_width: float = Field(0.008, ge=0.0, le=0.1, description="width of the S_out band [m]")
+    band_gap: float = Field(0.001, ge=0.0, le=0.05, description="outline to the first S_out ring [m]")
     min_hue_difference: int = Field(30, gt=0, lt=128, description="cloth vs background hue [0-255]")
     min_saturation: int = Field(40, ge=0, lt=255, description="below this, hue is undefined [0-255]")
     speckle_size: float = Field(0.003, ge=0.0, le=0.05, description="specks smaller are removed [m]")
@@ -217,6 +247,13 @@ class ModelSettings(StrictModel):
         0.9, gt=0.5, le=1.0, description="share of background pixels within the hue threshold"
     )
     symmetry_agreement: float = Field(0.9, gt=0.5, le=1.0, description="self-overlap to call a yaw symmetric")
+
+    @field_validator("edge_offsets")
+    @classmethod
+    def _offsets_inside(cls, offsets: tuple[float, ...]) -> tuple[float, ...]:
+        if any(not 0.0 < d <= 0.05 for d in offsets):
+            raise ValueError("edge_offsets must be distances in (0, 0.05] m inside the outline")
+        return offsets
 
 
 def load_photo(path: str | Path) -> Image:
@@ -269,35 +306,18 @@ def make_model(
     xy = metric[mask] - origin
     extent = (float(np.ptp(xy[:, 0]) + metres_per_pixel), float(np.ptp(xy[:, 1]) + metres_per_pixel))
 
-    # Sample S_in on a grid through the centroid; keep only pixels with a meaningful hue.
     smooth = to_hsv(cv2.GaussianBlur(np.ascontiguousarray(photo_bgr), (0, 0), 1.0))
-    step = settings.point_spacing
-    gx, gy = (np.arange(np.floor(lo / step), np.ceil(hi / step) + 1) * step for lo, hi in zip(
-        xy.min(axis=0) - settings.band_gap - settings.band_width - step,
-        xy.max(axis=0) + settings.band_gap + settings.band_width + step, strict=True))  # fmt: skip
-    grid = np.stack(np.meshgrid(gx, gy), axis=-1).reshape(-1, 2)
-    u, v = _to_pixel_index(camera, model_camera.distance, grid + origin)
-    pad = int(np.ceil((settings.band_gap + settings.band_width) / metres_per_pixel)) + 2
-    padded = cv2.copyMakeBorder(mask.astype(np.uint8), pad, pad, pad, pad, cv2.BORDER_CONSTANT, value=0)
-    outside_px = cv2.distanceTransform(1 - padded, cv2.DIST_L2, 5)  # distance to S_in [px]
-    inside_px = cv2.distanceTransform(padded, cv2.DIST_L2, 5)
-    pu, pv = np.clip(u + pad, 0, padded.shape[1] - 1), np.clip(v + pad, 0, padded.shape[0] - 1)
-    in_photo = (u >= 0) & (u < camera.width) & (v >= 0) & (v < camera.height)
-    on_cloth = padded[pv, pu].astype(bool) & in_photo
-    saturated = smooth[np.clip(v, 0, camera.height - 1), np.clip(u, 0, camera.width - 1), 1]
-    take_in = on_cloth & (saturated >= settings.min_saturation)
-    gap = outside_px[pv, pu] * metres_per_pixel
-    take_out = ~on_cloth & (gap > settings.band_gap) & (gap <= settings.band_gap + settings.band_width)
-    if take_in.sum() < 3:
+    samples = sample_model(mask, smooth, camera, model_camera.distance, origin, settings)
+    if len(samples.points_in) < 3:
         raise ModelError(
-            f"the cloth has only {int(take_in.sum())} sample points at point_spacing={step} m; "
-            "use a smaller point_spacing or a larger cloth"
+            f"the cloth has only {len(samples.points_in)} sample points at point_spacing="
+            f"{settings.point_spacing} m; use a smaller point_spacing or a larger cloth"
         )
-    points_in = np.column_stack([grid[take_in], np.zeros(take_in.sum())])
-    hues_in = smooth[v[take_in], u[take_in], 0]
-    points_out = np.column_stack([grid[take_out], np.zeros(take_out.sum())])
-    depth_px = inside_px[pad:-pad, pad:-pad]  # the deepest point; on a ridge, the one nearest the centroid
-    deepest = depth_px >= depth_px.max() - 1.0
+    points_in = np.column_stack([samples.points_in, np.zeros(len(samples.points_in))])
+    hues_in = samples.hues_in
+    points_out = np.column_stack([samples.points_out, np.zeros(len(samples.points_out))])
+    inside_px = cv2.distanceTransform(mask.astype(np.uint8), cv2.DIST_L2, 5)
+    deepest = inside_px >= inside_px.max() - 1.0  # on a ridge, the point nearest the centroid
     grasp_xy = metric[deepest][np.argmin(np.linalg.norm(metric[deepest] - origin, axis=1))] - origin
     grasp = np.append(grasp_xy, 0.0)
     metadata = {
@@ -312,8 +332,21 @@ def make_model(
         "settings": settings.model_dump(mode="json"),
         "sources": dict(sources or {}),
     }
-    symmetry = _symmetry_angles(points_in, hues_in, step, settings)
-    return ClothModel(name, points_in, hues_in, points_out, H_B, grasp, extent, symmetry, metadata)
+    grid = np.column_stack([samples.grid_in, np.zeros(len(samples.grid_in))])
+    symmetry = _symmetry_angles(grid, samples.grid_hues, settings.point_spacing, settings)
+    return ClothModel(
+        name,
+        points_in,
+        hues_in,
+        points_out,
+        H_B,
+        grasp,
+        extent,
+        symmetry,
+        metadata,
+        weights_in=samples.weights_in,
+        weights_out=samples.weights_out,
+    )
 
 
 def _checked_hsv(image: Image, camera: PinholeCamera, what: str) -> Image:
