@@ -27,37 +27,13 @@ import numpy.typing as npt
 from pydantic import Field
 
 from robot_app.config import StrictModel
+from robot_app.errors import InputError
 from robot_app.geometry import FloatArray, quaternion_xyzw_from_matrix, yaw_of
 from robot_app.vision.camera import StereoRig
 from robot_app.vision.fitness import FitnessEvaluator, FitnessParams
 from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBounds, encode, parameters_from_transforms
 from robot_app.vision.photo_model import ClothModel
-
-
-class RefinementSettings(StrictModel):
-    """Compass search after the GA (set `enabled: false` for the paper's GA alone).
-
-    Attributes:
-        enabled: refine one-shot results.
-        in_tracking: refine tracking results too.
-        subpixel: search on the bilinear-score fitness (else the nearest-pixel one).
-        step_position: first step along camera x and y [m].
-        step_depth: first step along the camera axis [m].
-        step_angle_deg: first rotation step about each camera axis [deg].
-        min_step_position: stop when the x-y step falls below this [m].
-        max_iterations: cap on search iterations (12 poses each).
-        tracking_iterations: cap when tracking.
-    """
-
-    enabled: bool = True
-    in_tracking: bool = True
-    subpixel: bool = True
-    step_position: float = Field(default=0.002, gt=0.0)
-    step_depth: float = Field(default=0.006, gt=0.0)
-    step_angle_deg: float = Field(default=1.0, gt=0.0)
-    min_step_position: float = Field(default=0.0001, gt=0.0)
-    max_iterations: int = Field(default=40, ge=1)
-    tracking_iterations: int = Field(default=6, ge=1)
+from robot_app.vision.refinement import RefinementSettings, compass_search
 
 
 class RecognitionSettings(StrictModel):
@@ -76,6 +52,20 @@ class RecognitionSettings(StrictModel):
         max_peaks: peaks reported with `report_peaks`.
         peak_separation: x-y distance between distinct peaks [m].
         peak_min_fitness: weaker peaks are not reported.
+        search_out_foreign: the score the search gives an S_out point on a pixel of a
+            foreign hue (neither background nor any of the model's hues: an occluder,
+            another cloth); None searches with the paper's `score_out_other`. The
+            reported fitness and `found` always use `fitness` (the paper's eqs.).
+        search_out_other: the search's score of an S_out point on a pixel of the model's
+            own hues (the model sits inside a cloth like it); None: `fitness.score_out_other`.
+            -1.25 balances the outermost S_out ring against the outermost S_in ring, so
+            the smoothed peak is not skewed towards a smaller (farther) model: on the
+            synthetic bench the median depth error fell from 4.2 to 1.0 mm.
+        tracking_population: individuals kept between tracking frames (the best ones).
+        tracking_window: half-width of the x-y search window around the motion-predicted
+            pose while tracking [m].
+        tracking_depth_window: half-width of the depth window while tracking [m]; the
+            window moves with the camera, so a descending camera keeps its cloth.
     """
 
     fitness: FitnessParams = FitnessParams()
@@ -89,6 +79,11 @@ class RecognitionSettings(StrictModel):
     max_peaks: int = Field(default=3, ge=1)
     peak_separation: float = Field(default=0.06, gt=0.0)
     peak_min_fitness: float = Field(default=0.2, ge=0.0, le=1.0)
+    search_out_foreign: float | None = 0.0
+    search_out_other: float | None = -1.25
+    tracking_population: int = Field(default=24, ge=4)
+    tracking_window: float = Field(default=0.02, gt=0.0)
+    tracking_depth_window: float = Field(default=0.03, gt=0.0)
 
 
 @dataclass(frozen=True)
@@ -177,7 +172,7 @@ class Recognition:
 
 
 class Recognizer:
-    """Recognises one cloth model in stereo pairs; keeps the GA population for tracking."""
+    """Recognises one cloth model in stereo pairs; keeps the best poses for tracking."""
 
     def __init__(
         self, model: ClothModel, rig: StereoRig, settings: RecognitionSettings | None = None
@@ -185,20 +180,30 @@ class Recognizer:
         self.model = model
         self.rig = rig
         self.settings = settings if settings is not None else RecognitionSettings()
-        self.evaluator = FitnessEvaluator(model, rig, self.settings.fitness)
+        s = self.settings
+        search = s.fitness.model_copy(
+            update={
+                "score_out_foreign": s.search_out_foreign,
+                "score_out_other": s.fitness.score_out_other
+                if s.search_out_other is None
+                else s.search_out_other,
+            }
+        )
+        self.evaluator = FitnessEvaluator(model, rig, s.fitness, search)
+        self._tracking_ga = s.ga.model_copy(
+            update={"population": s.tracking_population, "elite": min(s.ga.elite, s.tracking_population - 1)}
+        )
         self.reset()
 
     @property
     def population(self) -> FloatArray | None:
-        """(P, 4, 4) poses of the kept GA population (None before the first recognition)."""
-        if self._ga is None or self._ga.population is None:
-            return None
-        return self._ga.transforms(self._ga.population)
+        """(P, 4, 4) poses kept for tracking, best first (None before the first recognition)."""
+        return None if self._poses is None else self._poses.copy()
 
     def reset(self) -> None:
-        """Forgets the tracked population and reseeds the random generator."""
+        """Forgets the tracked poses and reseeds the random generator."""
         self._rng = np.random.default_rng(self.settings.ga.seed)
-        self._ga: GeneticAlgorithm | None = None
+        self._poses: FloatArray | None = None
 
     def recognize(
         self,
@@ -234,7 +239,7 @@ class Recognizer:
                 break
             peaks.append(Peak(pose, fitness))
             if len(peaks) == 1:
-                self._ga = ga  # tracking continues from the target's population
+                self._keep(ga)  # tracking continues from the target's best poses
         best = peaks[0]
         return Recognition(
             found=best.fitness >= s.acceptance_threshold,
@@ -254,23 +259,54 @@ class Recognizer:
         *,
         generations: int | None = None,
     ) -> Recognition:
-        """Multi-step recognition: continues from the last population (a one-shot run if none).
+        """Multi-step recognition: continues from the kept poses (a one-shot run if none).
+
+        The kept poses (the best `tracking_population` of the last frame) move by the
+        camera motion; a GA of that size then evolves them inside a window of
+        ±`tracking_window` (x, y) and ±`tracking_depth_window` (z) around the best moved
+        pose, with the full yaw and the configured tilt, and the refinement polishes
+        the best for at most `refinement.tracking_iterations` iterations.
 
         Args:
             image_left_bgr, image_right_bgr: the new stereo pair.
             transform_motion: (4, 4) ^CR_new T_CR_old, the previous right-camera frame in
-                the new one; every individual moves by it. None: the camera did not move.
+                the new one; every kept pose moves by it. None: the camera did not move.
             generations: GA generations this frame (default: settings.ga.tracking_generations).
+
+        Raises:
+            InputError: images of the wrong type or size, or a motion that is not a 4x4
+                transform.
         """
-        if self._ga is None:
+        if self._poses is None:
             return self.recognize(image_left_bgr, image_right_bgr)
         start = time.perf_counter()
         s = self.settings
+        count = s.ga.tracking_generations if generations is None else generations
+        if count < 0:
+            raise InputError(f"generations must be >= 0, got {count}")
+        poses = self._poses
+        if transform_motion is not None:
+            motion = np.asarray(transform_motion, dtype=float)
+            if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
+                raise InputError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
+            poses = motion @ poses
         self.evaluator.update(image_left_bgr, image_right_bgr)
         before = self.evaluator.evaluations
-        result = self._ga.track(transform_motion, generations)
+        x, y, z = poses[0, :3, 3]
+        w, wz = s.tracking_window, s.tracking_depth_window
+        window = SearchBounds(
+            x=(x - w, x + w),
+            y=(y - w, y + w),
+            z=(max(z - wz, 1e-3), max(z + wz, 2e-3)),
+            max_tilt_deg=s.bounds.max_tilt_deg,
+            max_yaw_deg=s.bounds.max_yaw_deg,
+        )
+        ga = GeneticAlgorithm(self._score(s.fine_stride), window, self._tracking_ga, self._rng)
+        ga.population = encode(parameters_from_transforms(poses), window, self._tracking_ga.gray_code)
+        result = ga.evolve(count)
         refine = s.refinement.enabled and s.refinement.in_tracking
-        pose, fitness = self._finish(self._ga, s.refinement.tracking_iterations, refine)
+        pose, fitness = self._finish(ga, s.refinement.tracking_iterations, refine)
+        self._keep(ga)
         return Recognition(
             found=fitness >= s.acceptance_threshold,
             fitness=fitness,
@@ -280,24 +316,35 @@ class Recognizer:
             time_s=time.perf_counter() - start,
         )
 
+    def _score(
+        self, stride: int = 1, subpixel: bool = False, centres: FloatArray | None = None
+    ) -> Callable[[FloatArray], FloatArray]:
+        """The search fitness of poses; poses near `centres` (peaks already reported) score -1."""
+
+        def f(transforms: FloatArray) -> FloatArray:
+            scores = self.evaluator.evaluate(transforms, stride=stride, subpixel=subpixel, search=True)
+            if centres is not None and len(centres):
+                scores[self._excluded(transforms, centres)] = -1.0
+            return scores
+
+        return f
+
     def _search(self, rng: np.random.Generator, centres: FloatArray) -> GeneticAlgorithm:
         """A GA run (coarse generations on a point subset, then all points), away from `centres`."""
         s = self.settings
-
-        def fitness(stride: int) -> Callable[[FloatArray], FloatArray]:
-            def f(transforms: FloatArray) -> FloatArray:
-                scores = self.evaluator.evaluate(transforms, stride=stride)
-                scores[self._excluded(transforms, centres)] = -1.0
-                return scores
-
-            return f
-
         coarse = min(s.coarse_generations, s.ga.generations)
-        ga = GeneticAlgorithm(fitness(s.coarse_stride), s.bounds, s.ga, rng)
+        ga = GeneticAlgorithm(self._score(s.coarse_stride, centres=centres), s.bounds, s.ga, rng)
         ga.run(coarse)
-        ga.fitness = fitness(s.fine_stride)
+        ga.fitness = self._score(s.fine_stride, centres=centres)
         ga.evolve(s.ga.generations - coarse)
         return ga
+
+    def _keep(self, ga: GeneticAlgorithm) -> None:
+        """Keeps the best `tracking_population` poses of `ga`, best first."""
+        if ga.population is None or ga.scores is None:
+            raise RuntimeError("the GA has no population")  # unreachable: it ran
+        order = np.argsort(-ga.scores, kind="stable")[: self.settings.tracking_population]
+        self._poses = ga.transforms(ga.population[order])
 
     def _excluded(self, transforms: FloatArray, centres: FloatArray) -> npt.NDArray[np.bool_]:
         """Poses within `peak_separation` (x-y) of a peak already reported."""
@@ -309,74 +356,32 @@ class Recognizer:
     def _finish(
         self, ga: GeneticAlgorithm, iterations: int, refine: bool, centres: FloatArray | None = None
     ) -> tuple[FloatArray, float]:
-        """Best pose of the population, refined (and injected back), with its paper fitness."""
+        """Best pose of the population, refined (and injected back), with its paper fitness.
+
+        The refinement stays inside the GA's bounds and away from `centres`.
+        """
         if ga.population is None or ga.scores is None:
             raise RuntimeError("the GA has no population")  # unreachable: _search/track ran it
         best = int(np.argmax(ga.scores))
         pose = ga.transforms(ga.population[best : best + 1])[0]
-        if not refine:
-            return pose, float(ga.scores[best])
-        pose = self._refine(pose, iterations, np.zeros((0, 2)) if centres is None else centres)
-        fitness = float(self.evaluator.evaluate(pose)[0])
-        if fitness >= ga.scores[best]:  # the population keeps the polished pose for tracking
-            worst = int(np.argmin(ga.scores))
-            ga.population[worst] = encode(parameters_from_transforms(pose), ga.bounds, ga.settings.gray_code)[
-                0
-            ]
-            ga.scores[worst] = fitness
-        return pose, fitness
+        if refine:
+            r = self.settings.refinement
+            ranges = ga.bounds.gene_ranges()
+            excluded = np.zeros((0, 2)) if centres is None else centres
 
-    def _refine(self, pose: FloatArray, iterations: int, centres: FloatArray) -> FloatArray:
-        """Compass search on (x, y, z, rotation about camera x, y, z), halving steps on failure.
+            def allowed(candidates: FloatArray) -> npt.NDArray[np.bool_]:
+                parameters = parameters_from_transforms(candidates)
+                inside = np.all((parameters >= ranges[:, 0]) & (parameters <= ranges[:, 1]), axis=1)
+                return np.asarray(inside & ~self._excluded(candidates, excluded))
 
-        Neighbours outside the search bounds or near `centres` (peaks already reported)
-        are not evaluated.
-        """
-        r = self.settings.refinement
-        steps = np.array(
-            [r.step_position, r.step_position, r.step_depth, *[np.deg2rad(r.step_angle_deg)] * 3]
-        )
-        ranges = self.settings.bounds.gene_ranges()  # the refinement stays inside the search space
-        current = float(self.evaluator.evaluate(pose, subpixel=r.subpixel)[0])
-        for _ in range(iterations):
-            candidates = _neighbours(pose, steps)
-            parameters = parameters_from_transforms(candidates)
-            inside = np.all((parameters >= ranges[:, 0]) & (parameters <= ranges[:, 1]), axis=1)
-            inside &= ~self._excluded(candidates, centres)
-            if not inside.any():
-                break
-            scores = np.full(len(candidates), -np.inf)
-            scores[inside] = self.evaluator.evaluate(candidates[inside], subpixel=r.subpixel)
-            best = int(np.argmax(scores))
-            if scores[best] > current:
-                pose, current = candidates[best], float(scores[best])
-                continue
-            steps /= 2.0
-            if steps[0] < r.min_step_position:
-                break
-        return pose
-
-
-def _neighbours(pose: FloatArray, steps: FloatArray) -> FloatArray:
-    """The 12 poses one step away along each of the six coordinates, both ways."""
-    out = np.repeat(pose[None], 12, axis=0)
-    for k in range(3):
-        out[2 * k, k, 3] += steps[k]
-        out[2 * k + 1, k, 3] -= steps[k]
-    for k in range(3):
-        for sign, index in ((1.0, 6 + 2 * k), (-1.0, 7 + 2 * k)):
-            axis = np.zeros(3)
-            axis[k] = sign * steps[3 + k]
-            out[index, :3, :3] = _rotation_vector(axis) @ pose[:3, :3]
-    return out
-
-
-def _rotation_vector(omega: FloatArray) -> FloatArray:
-    """Rodrigues: rotation by |omega| [rad] about omega."""
-    angle = float(np.linalg.norm(omega))
-    k = omega / angle
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+            pose, _ = compass_search(pose, self._score(subpixel=r.subpixel), r, iterations, allowed)
+            search_fitness = float(self.evaluator.evaluate(pose, search=True)[0])
+            if search_fitness >= ga.scores[best]:  # the population keeps the polished pose
+                worst = int(np.argmin(ga.scores))
+                genes = encode(parameters_from_transforms(pose), ga.bounds, ga.settings.gray_code)
+                ga.population[worst] = genes[0]
+                ga.scores[worst] = search_fitness
+        return pose, float(self.evaluator.evaluate(pose)[0])
 
 
 __all__ = ["Peak", "Recognition", "RecognitionSettings", "Recognizer", "RefinementSettings"]
