@@ -26,7 +26,7 @@ Image = npt.NDArray[np.uint8]
 Placement = tuple["SyntheticCloth", FloatArray]
 
 TABLE_GREEN_BGR = (60, 150, 45)  # hue ≈ 86 of 255 (HSV_FULL), the paper's green sheet
-OCCLUDER_BLUE_BGR = (190, 90, 25)  # the blue paper of Fig. 11 (b)
+OCCLUDER_BLUE_BGR = (205, 35, 30)  # the blue paper of Fig. 11 (b), hue ≈ 169 of 255
 
 
 @dataclass(frozen=True)
@@ -111,8 +111,11 @@ def synthetic_cloth(index: int, seed: int = 0) -> SyntheticCloth:
 
 # --- the catalogue: 12+ cloths (paper Fig. 10: No.1 .. No.12), up to 0.25 x 0.20 m ----------
 CLOTH_TEXEL = 0.0005  # texture resolution [m]
-RED, ORANGE, YELLOW = (35, 30, 215), (20, 120, 240), (25, 205, 230)
-PINK, PURPLE, CRIMSON = (150, 60, 230), (150, 35, 120), (70, 20, 170)
+# Four hue classes more than the paper's hue threshold (30 of 256) apart from each other,
+# from the green sheet (91) and from the blue occluder (169): red 255, yellow 37, cyan 135,
+# violet 205 (HSV_FULL). Orange (19) and crimson (242) are accents only: they match red.
+RED, YELLOW, CYAN, VIOLET = (35, 30, 215), (25, 205, 230), (200, 170, 20), (190, 30, 160)
+ORANGE, CRIMSON = (20, 120, 240), (70, 20, 170)
 Array = npt.NDArray[np.float64]
 
 
@@ -164,12 +167,12 @@ def _l_shape(x: Array, y: Array) -> Mask:
 
 def _dots(x: Array, y: Array, rng: np.random.Generator) -> Array:
     centres = rng.uniform(0.08, 0.92, (14, 2))
-    dots = [(RED, lambda x, y, c=c: (x - c[0]) ** 2 + ((y - c[1]) * 0.8) ** 2 < 0.06**2) for c in centres]
-    return _paint(x, y, [(YELLOW, None), *dots])
+    dots = [(YELLOW, lambda x, y, c=c: (x - c[0]) ** 2 + ((y - c[1]) * 0.8) ** 2 < 0.08**2) for c in centres]
+    return _paint(x, y, [(CYAN, None), *dots])
 
 
 def _patchwork(x: Array, y: Array, rng: np.random.Generator) -> Array:
-    palette = [RED, ORANGE, YELLOW, PINK, PURPLE, CRIMSON]
+    palette = [RED, YELLOW, CYAN, VIOLET]
     edges_x, edges_y = np.sort(rng.uniform(0.15, 0.85, 2)), np.sort(rng.uniform(0.15, 0.85, 2))
     cells = [
         (palette[int(rng.integers(len(palette)))], lambda x, y, k=k: (
@@ -199,20 +202,19 @@ Pattern = Callable[[Array, Array, np.random.Generator], Array]
 _CATALOGUE: list[tuple[str, tuple[float, float], Callable[[Array, Array], Mask], Pattern]] = [
     ("red_plain", (0.20, 0.15), _rectangle, _layered([(RED, None)])),
     ("yellow_square", (0.18, 0.18), _rectangle, _layered([(YELLOW, None)])),
-    ("orange_yellow_stripes", (0.25, 0.20), _rectangle, _layered([(ORANGE, None), (YELLOW, _stripes)])),
+    ("red_yellow_stripes", (0.25, 0.20), _rectangle, _layered([(RED, None), (YELLOW, _stripes)])),
     ("small_colourful", (0.15, 0.12), _rectangle, _layered([
-        (ORANGE, None), (RED, lambda x, y: x < 0.5), (YELLOW, lambda x, y: y > 0.6),
-        (PURPLE, lambda x, y: (x - 0.7) ** 2 + (y - 0.3) ** 2 < 0.05)])),
-    ("pink_purple_checks", (0.22, 0.18), _rectangle, _layered([(PINK, None), (PURPLE, _checks)])),
-    ("red_dots_on_yellow", (0.20, 0.16), _rectangle, _dots),
-    ("pink_rounded", (0.22, 0.16), _rounded(0.2), _layered([(PINK, None)])),
-    ("orange_red_trapezoid", (0.20, 0.16), _trapezoid,
-     _layered([(ORANGE, None), (RED, lambda x, y: y > 0.5)])),
-    ("red_tshirt", (0.25, 0.20), _tshirt,
-     _layered([(RED, None), (YELLOW, lambda x, y: np.abs(y - 0.55) < 0.06)])),
-    ("purple_ellipse", (0.20, 0.14), _ellipse,
-     _layered([(PURPLE, None), (ORANGE, lambda x, y: (x - 0.5) ** 2 + (y - 0.5) ** 2 > 0.16)])),
-    ("crimson_yellow_diagonal", (0.20, 0.20), _rectangle, _layered([(CRIMSON, None), (YELLOW, _diagonals)])),
+        (CYAN, None), (RED, lambda x, y: x < 0.5), (YELLOW, lambda x, y: y > 0.6),
+        (VIOLET, lambda x, y: (x - 0.7) ** 2 + (y - 0.3) ** 2 < 0.05)])),
+    ("violet_yellow_checks", (0.22, 0.18), _rectangle, _layered([(VIOLET, None), (YELLOW, _checks)])),
+    ("yellow_dots_on_cyan", (0.20, 0.16), _rectangle, _dots),
+    ("cyan_rounded", (0.22, 0.16), _rounded(0.2), _layered([(CYAN, None)])),
+    ("violet_red_trapezoid", (0.20, 0.16), _trapezoid,
+     _layered([(VIOLET, None), (RED, lambda x, y: y > 0.5)])),
+    ("red_cyan_tshirt", (0.25, 0.20), _tshirt,
+     _layered([(RED, None), (CYAN, lambda x, y: y > 0.45)])),
+    ("violet_ellipse", (0.20, 0.14), _ellipse, _layered([(VIOLET, None)])),
+    ("cyan_violet_diagonals", (0.20, 0.20), _rectangle, _layered([(CYAN, None), (VIOLET, _diagonals)])),
     ("patchwork", (0.24, 0.18), _rectangle, _patchwork),
     ("orange_l_shape", (0.20, 0.18), _l_shape, _layered([(ORANGE, None), (CRIMSON, lambda x, y: x < 0.2)])),
 ]  # fmt: skip
