@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import csv
 import shutil
+import time
 from pathlib import Path
 
 from robot_app.experiments import load_trial_config, run_trials
@@ -28,6 +29,11 @@ def _comparable(folder: Path) -> list[dict[str, str]]:
         return [{k: v for k, v in row.items() if not is_timing_column(k)} for row in csv.DictReader(file)]
 
 
+def _newest_source() -> float:
+    """Latest modification time of the package's sources (edits mid-run spoil equality)."""
+    return max(path.stat().st_mtime for path in (ROOT / "robot_app").rglob("*.py"))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--config", type=Path, default=ROOT / "configs" / "recognition_1000.yaml")
@@ -38,6 +44,7 @@ def main() -> None:
     config = load_trial_config(args.config, [f"trials={args.trials}"])
     runs = [("local", 1), ("local", 2)] + ([] if args.no_ray else [("ray", 2)])
     tables = {}
+    started = time.time()
     for backend, workers in runs:
         folder = args.out / f"{backend}_{workers}"
         shutil.rmtree(folder, ignore_errors=True)
@@ -52,6 +59,8 @@ def main() -> None:
             flush=True,
         )
         tables[f"{backend}_{workers}"] = _comparable(folder)
+    if _newest_source() > started:
+        print("WARNING: robot_app sources changed during the run; the backends ran different code")
     reference = tables["local_1"]
     for name, rows in tables.items():
         differing = sum(a != b for a, b in zip(rows, reference, strict=False))
