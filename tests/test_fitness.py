@@ -20,17 +20,20 @@ def make_rig(size: tuple[int, int] = (320, 240)) -> StereoRig:
     return StereoRig(camera, camera, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
 
 
-def hand_model(index: int, spacing: float = 0.006, band: float = 0.012) -> ClothModel:
+def hand_model(
+    index: int, spacing: float = 0.006, band: float = 0.006, margin_m: float = 0.002
+) -> ClothModel:
     """A model read straight off a synthetic cloth's texture: S_in on a grid inside the
-    outline (away from its edge), S_out on a ring `band` outside it."""
+    outline (at least `margin_m` from its edge), S_out on a ring `band` outside it."""
     cloth = synthetic_cloth(index)
     hues = to_hsv(np.ascontiguousarray(cloth.texture_bgr))[:, :, 0]
     sx, _ = cloth.texel_size
     step = round(spacing / sx)
     height, width = cloth.alpha.shape
-    v, u = np.mgrid[0:height:step, 0:width:step]
+    v0, u0 = ((height - 1) % step) // 2, ((width - 1) % step) // 2  # a grid centred on the texture
+    v, u = np.mgrid[v0:height:step, u0:width:step]
     u, v = u.ravel(), v.ravel()
-    margin = round(0.004 / sx)
+    margin = round(margin_m / sx)
     inner = np.ones_like(u, dtype=bool)
     for du, dv in ((margin, 0), (-margin, 0), (0, margin), (0, -margin)):
         uu, vv = np.clip(u + du, 0, width - 1), np.clip(v + dv, 0, height - 1)
@@ -80,9 +83,9 @@ def reference_fitness(model: ClothModel, rig: StereoRig, left, right, T, p: Fitn
 @pytest.fixture(scope="module")
 def scene():
     rig = make_rig()
-    model = hand_model(3)
+    model = hand_model(4)  # checks: colour edges in both directions pin the pose inside the outline
     pose = make_transform(rotation_about_z(0.4), [0.02, -0.01, 0.58])
-    left, right = render_stereo_pair(rig, [(synthetic_cloth(3), pose)], rng=np.random.default_rng(1))
+    left, right = render_stereo_pair(rig, [(synthetic_cloth(4), pose)], rng=np.random.default_rng(1))
     evaluator = FitnessEvaluator(model, rig)
     evaluator.update(left, right)
     return rig, model, pose, left, right, evaluator
