@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from robot_app.cli import main
-from robot_app.experiments.paper_report import Fig13Case, PaperFigures, write_paper_report
+from robot_app.experiments.paper_report import ClothRow, Fig13Case, PaperFigures, write_paper_report
 from robot_app.experiments.recognition_trial import pose_error
 from robot_app.experiments.report import plot_error_histograms, plot_matrix, plot_sweep
 from robot_app.experiments.summary import error_stats
@@ -50,6 +50,7 @@ def _figures(rng: np.random.Generator) -> PaperFigures:
         fig12_found_rate=0.99,
         fig12_success_rate=0.97,
         fig12_trials_per_s=3.0,
+        fig12_per_cloth=[ClothRow(3, 100, 0.9, 7), ClothRow(4, 100, 1.0, 0)],
         identification_ids=[3, 4],
         identification_fitness=[[0.95, 0.3], [0.2, 0.9]],
         identification_found=[[True, False], [True, True]],
@@ -74,6 +75,7 @@ def test_report_writer_puts_ours_beside_the_paper(tmp_path: Path) -> None:
     assert "within ±10 mm" in row_x and f"{stats.low:+.2f}" in row_x and f"{stats.high:+.2f}" in row_x
     row_id = next(line for line in lines if line.startswith("| identification"))
     assert "2/2 own cloth found" in row_id and "1/2 other cloths" in row_id
+    assert "| No.3 | 100 | 90.0 % | 7 |" in text
     for image in ("fig13_c_map.png", "fig13_c_surface.png", "fig12_errors.png", "identification.png"):
         assert f"({image})" in text
 

@@ -181,3 +181,18 @@ def test_bad_workers_and_backend_are_input_errors(tmp_path: Path) -> None:
         run_sweep(_config(), fake_trial, FakeOutcome, tmp_path, workers=0, progress=False)
     with pytest.raises(InputError, match="backend"):
         run_sweep(_config(), fake_trial, FakeOutcome, tmp_path, backend="slurm", progress=False)  # type: ignore[arg-type]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("source", ["synthetic", "sim"])
+def test_real_recognition_trials_measure_small_errors(tmp_path: Path, source: str) -> None:
+    from robot_app.experiments import run_trials
+
+    config = _config(trials=2, source=source, scene={"cloth_ids": [1, 9]})
+    result = run_trials(config, tmp_path, progress=False)
+    rows = _rows(tmp_path)
+    assert result.failed == 0 and [r["cloth_id"] for r in rows] == ["1", "9"]
+    for row in rows:
+        assert row["found"] == "True"
+        assert abs(float(row["error_x_mm"])) < 10 and abs(float(row["error_y_mm"])) < 10
+    assert (tmp_path / "errors.png").exists()

@@ -32,7 +32,7 @@ from robot_app.experiments.experiment_config import (
 )
 from robot_app.experiments.image_sources import image_source
 from robot_app.experiments.kinds import run_trials
-from robot_app.experiments.paper_report import Fig13Case, PaperFigures, write_paper_report
+from robot_app.experiments.paper_report import ClothRow, Fig13Case, PaperFigures, write_paper_report
 from robot_app.experiments.recognition_trial import (
     check_recognition_config,
     recognizer_for,
@@ -305,6 +305,7 @@ def run_paper(
         fig12_found_rate=fig12.summary["rates"].get("found", float("nan")),
         fig12_success_rate=fig12.summary["rates"].get("success", float("nan")),
         fig12_trials_per_s=fig12.summary["run"].get("trials_per_s") or float("nan"),
+        fig12_per_cloth=_per_cloth(rows),
         identification_ids=ids,
         identification_fitness=fitness.tolist(),
         identification_found=found.tolist(),
@@ -316,6 +317,17 @@ def run_paper(
     report_path, table = write_paper_report(figures, out)
     write_summary(asdict(figures), out / "summary.json")
     return PaperReport(out, report_path, table, figures.wall_time_s, figures)
+
+
+def _per_cloth(rows: list[dict[str, Any]]) -> list[ClothRow]:
+    ok = [r for r in rows if r["status"] == "ok"]
+    table = []
+    for cloth in sorted({int(r["cloth_id"]) for r in ok}):
+        mine = [r for r in ok if int(r["cloth_id"]) == cloth]
+        success = sum(bool(r["success"]) for r in mine) / len(mine)
+        half_turns = sum(abs(float(r["error_yaw_deg"])) > 90.0 for r in mine)
+        table.append(ClothRow(cloth, len(mine), success, half_turns))
+    return table
 
 
 def _rows(folder: Path) -> list[dict[str, Any]]:

@@ -14,7 +14,7 @@ import numpy as np
 
 from robot_app.experiments.image_sources import RenderedScene
 from robot_app.experiments.scenes import Placement, SceneSample
-from robot_app.geometry import rotation_about_z, yaw_of
+from robot_app.geometry import invert_transform, rotation_about_z, yaw_of
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.vision.photo_model import ClothModel, make_model
 
@@ -91,8 +91,9 @@ class SimSource:
             )
         frame = self.world.stereo.render()
         camera = frame.transform_right_camera_to_world
-        truth_target = np.linalg.solve(camera, target.pose()) if target is not None else None
-        truth_distractor = np.linalg.solve(camera, distractor.pose()) if distractor is not None else None
+        to_camera = invert_transform(camera)
+        truth_target = to_camera @ target.pose() if target is not None else None
+        truth_distractor = to_camera @ distractor.pose() if distractor is not None else None
         return RenderedScene(frame.left_bgr, frame.right_bgr, truth_target, truth_distractor)
 
 
