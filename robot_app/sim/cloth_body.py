@@ -25,6 +25,9 @@ if TYPE_CHECKING:
     from robot_app.sim.robot import SimRobot
 
 
+REFERENCE_NODE_MASS = 0.0005  # [kg]: the config's spring constants are for this node mass
+
+
 class ClothBody:
     """One soft-body cloth in a pybullet client (owned by a `World` or `ModelStation`).
 
@@ -49,6 +52,10 @@ class ClothBody:
         self._client = client
         self.mesh = mesh
         obj = mesh_obj_path(mesh, cache)
+        # Springs scale with the mass per node so that every cloth has the same natural
+        # frequency: a light cloth (No.3) with the springs of a heavy one explodes when it
+        # hangs, and a heavy one with light springs stretches past 1.3x.
+        scale = mesh.spec.mass / len(mesh.vertices) / REFERENCE_NODE_MASS
         self.body_id = pb.loadSoftBody(
             str(obj),
             basePosition=T[:3, 3].tolist(),
@@ -57,9 +64,9 @@ class ClothBody:
             useNeoHookean=0,
             useMassSpring=1,
             useBendingSprings=1,
-            springElasticStiffness=physics.elastic_stiffness,
-            springDampingStiffness=physics.damping_stiffness,
-            springBendingStiffness=physics.bending_stiffness,
+            springElasticStiffness=physics.elastic_stiffness * scale,
+            springDampingStiffness=physics.damping_stiffness * scale,
+            springBendingStiffness=physics.bending_stiffness * scale,
             useSelfCollision=0,
             frictionCoeff=physics.friction,
             useFaceContact=0,
