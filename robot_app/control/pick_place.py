@@ -56,9 +56,9 @@ class PickPlaceSettings(StrictModel):
     settle_time: float = Field(0.3, ge=0.0, description="wait after arriving at the observation pose")
     pregrasp_height: float = Field(0.08, gt=0.0, description="TCP above the cloth before the last move")
     grasp_height: float = Field(
-        0.013, ge=0.0, description="TCP above the recognised cloth surface (fingertips reach 0.01 below it)"
+        0.022, ge=0.0, description="TCP above the recognised cloth surface (fingertips reach 0.01 below it)"
     )
-    min_table_clearance: float = Field(0.012, ge=0.0, description="TCP never lower above the table")
+    min_table_clearance: float = Field(0.02, ge=0.0, description="TCP never lower above the table")
     close_time: float = Field(0.3, gt=0.0, description="time the fingers get to close")
     lift_height: float = Field(0.40, gt=0.05, description="TCP above the table after lifting")
     lift_check: float = Field(0.05, gt=0.0, description="cloth must be this far off the table [m]")
@@ -322,8 +322,8 @@ class PickPlaceLoop:
         low[2] = self.table_z + s.release_height
         self._move_to_joints(self._solve_tcp(low))
         self.cell.release()
+        self._hold(s.release_wait)  # let the cloth fall clear before the fingers open
         self.cell.set_gripper(s.gripper_open)
-        self._hold(s.release_wait)
 
     # ------------------------------------------------------------------ targets
     def _hover_position(self) -> FloatArray:

@@ -61,7 +61,7 @@ class PickPlaceConfig(StrictModel):
     model_cloth: int | None = Field(
         None, ge=1, le=12, description="cloth the robot looks for (default: scene.target); another = absent"
     )
-    grasp_radius: float = Field(0.03, gt=0.0, le=0.1, description="nodes anchored around the TCP [m]")
+    grasp_radius: float = Field(0.035, gt=0.0, le=0.1, description="nodes anchored around the TCP [m]")
     nudge: NudgeConfig | None = None
 
     @property
