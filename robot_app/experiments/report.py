@@ -117,7 +117,7 @@ def plot_sweep(summary: dict[str, Any], path: str | Path, columns: Sequence[str]
         ax.set_xticks(positions, values)
         ax.set_xlabel(key)
     ax_error.set_ylabel("3σ error [mm or deg]")
-    ax_error.legend(fontsize=7, loc="upper right")
+    ax_error.legend(fontsize=7, loc="center right")
     ax_time.set_ylabel("mean recognition time [s]")
     fig.tight_layout()
     return _save(fig, path)
