@@ -63,7 +63,9 @@ class PickPlaceSettings(StrictModel):
     lift_height: float = Field(0.40, gt=0.05, description="TCP above the table after lifting")
     lift_check: float = Field(0.05, gt=0.0, description="cloth must be this far off the table [m]")
     transfer_height: float = Field(0.40, gt=0.05, description="TCP above the table over the box")
-    release_height: float = Field(0.22, gt=0.0, description="TCP above the table when letting go")
+    release_height: float = Field(
+        0.06, gt=0.0, description="TCP above the table when letting go: the cloth is laid down, not dropped"
+    )
     release_wait: float = Field(1.0, ge=0.0, description="time for the cloth to fall and settle")
     gripper_open: float = Field(0.08, gt=0.0, le=0.08)
     max_episode_time: float = Field(60.0, gt=0.0)

@@ -160,6 +160,12 @@ class ClothBody:
         self._anchors.clear()
         return count
 
+    def translate(self, dx: float, dy: float) -> None:
+        """Shifts the whole cloth by (dx, dy) [m] on the table, as a push would (tests)."""
+        position, orientation = pb.getBasePositionAndOrientation(self.body_id, physicsClientId=self._client)
+        moved = [position[0] + dx, position[1] + dy, position[2]]
+        pb.resetBasePositionAndOrientation(self.body_id, moved, orientation, physicsClientId=self._client)
+
     def pin(self, node_indices: npt.ArrayLike) -> None:
         """Anchors the given rest-mesh nodes to their current place in the world (tests)."""
         for k in np.asarray(node_indices, dtype=int).reshape(-1):
