@@ -66,7 +66,7 @@ def test_cloth_nudged_during_approach_is_followed() -> None:
 
 
 def test_bad_config_is_a_config_error() -> None:
-    with pytest.raises(ConfigError, match="loop.vision_rate_hz"):
+    with pytest.raises(ConfigError, match=r"loop\.vision_rate_hz"):
         load_config(PickPlaceConfig, None, ["loop.vision_rate_hz=100"])
     with pytest.raises(ConfigError, match="unknown key"):
         load_config(PickPlaceConfig, None, ["loop.speed=3"])

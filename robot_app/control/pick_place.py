@@ -39,8 +39,7 @@ from robot_app.geometry import (
     wrap_angle,
     yaw_of,
 )
-from robot_app.vision import ClothModel
-from robot_app.vision.recognizer import Recognition, Recognizer
+from robot_app.vision import ClothModel, Recognition, Recognizer
 
 
 class PickPlaceSettings(StrictModel):

@@ -15,6 +15,9 @@ from robot_app.vision.ga import GAResult, GASettings, GeneticAlgorithm, SearchBo
 from robot_app.vision.hue import circular_mean_hue, hue_distance, to_hsv, to_hue
 from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
 from robot_app.vision.plots import plot_full_search, save_preview
+from robot_app.vision.recognizer import Peak, Recognition, RecognitionSettings, Recognizer
+from robot_app.vision.refinement import RefinementSettings, compass_search
+from robot_app.vision.sampling import ModelSamples, sample_model
 from robot_app.vision.synthetic import (
     CATALOGUE_SIZE,
     SyntheticCloth,
@@ -36,12 +39,19 @@ __all__ = [
     "GASettings",
     "GeneticAlgorithm",
     "ModelCamera",
+    "ModelSamples",
     "ModelSettings",
+    "Peak",
     "PinholeCamera",
+    "Recognition",
+    "RecognitionSettings",
+    "Recognizer",
+    "RefinementSettings",
     "SearchBounds",
     "StereoRig",
     "SyntheticCloth",
     "circular_mean_hue",
+    "compass_search",
     "find_peaks",
     "full_search",
     "hue_distance",
@@ -54,6 +64,7 @@ __all__ = [
     "plot_full_search",
     "render_model_photo",
     "render_stereo_pair",
+    "sample_model",
     "save_model_camera",
     "save_preview",
     "save_rig",
