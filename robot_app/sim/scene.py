@@ -60,8 +60,10 @@ def make_scene(world: World, config: SceneConfig | None = None, seed: int = 0) -
         if other is None:
             break
         try:
-            placed = [(np.array([x, y]), _radius(target_spec))]
-            dx, dy, dyaw = _free_pose(rng, other, centre, half, placed, tries=40)
+            # the distractor may reach beyond the range onto the green sheet's margin
+            sheet_half = half + range_cfg.sheet_margin
+            placed = [_placed_outline(target_spec, x, y, yaw)]
+            dx, dy, dyaw = _free_pose(rng, other, centre, sheet_half, placed, tries=40)
             break
         except SimulationError:
             continue
@@ -87,8 +89,24 @@ def make_scene(world: World, config: SceneConfig | None = None, seed: int = 0) -
     return Scene(seed, target, distractor, occluder, fraction, settle_time)
 
 
-def _radius(spec: ClothSpec) -> float:
-    return 0.5 * float(np.hypot(*spec.size))
+def _placed_outline(spec: ClothSpec, x: float, y: float, yaw: float) -> FloatArray:
+    """(K, 2) outline of a cloth whose centroid is at (x, y), turned by yaw [m]."""
+    outline = outline_polygon(spec)
+    outline = outline - outline.mean(axis=0)
+    return outline @ rotation_about_z(yaw)[:2, :2].T + np.array([x, y])
+
+
+def _apart(a: FloatArray, b: FloatArray, gap: float) -> bool:
+    """True if the convex hulls of two outlines are at least `gap` [m] apart (separating axes)."""
+    for polygon in (a, b):
+        edges = np.roll(polygon, -1, axis=0) - polygon
+        normals = np.column_stack([-edges[:, 1], edges[:, 0]])
+        normals = normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+        pa, pb = a @ normals.T, b @ normals.T
+        separated = (pa.min(axis=0) - pb.max(axis=0) >= gap) | (pb.min(axis=0) - pa.max(axis=0) >= gap)
+        if np.any(separated):
+            return True
+    return False
 
 
 def _free_pose(
@@ -96,10 +114,10 @@ def _free_pose(
     spec: ClothSpec,
     centre: FloatArray,
     half: FloatArray,
-    placed: list[tuple[FloatArray, float]],
+    placed: list[FloatArray],
     tries: int = MAX_TRIES,
 ) -> tuple[float, float, float]:
-    """A yaw and a centroid keeping the outline inside the range and clear of `placed`."""
+    """A yaw and a centroid keeping the outline inside `half` and 1 cm clear of the `placed` outlines."""
     outline = outline_polygon(spec)
     outline = outline - outline.mean(axis=0)
     for _ in range(tries):
@@ -108,7 +126,7 @@ def _free_pose(
         corners = outline @ rotation_about_z(yaw)[:2, :2].T + xy
         if np.any(np.abs(corners - centre) > half + 1e-9):
             continue
-        if all(np.linalg.norm(xy - p) > r + _radius(spec) + 0.01 for p, r in placed):
+        if all(_apart(corners, other, 0.01) for other in placed):
             return float(xy[0]), float(xy[1]), yaw
     raise SimulationError(
         f"could not place cloth No.{spec.number} in the range after {tries} tries "
