@@ -218,9 +218,8 @@ class ModelSettings(StrictModel):
     """How a photo becomes a model (paper Sec. II-B).
 
     Pixels whose saturation is below `min_saturation` have no meaningful hue (white,
-    grey, black, glare): they never count as cloth by themselves and are never
-    sampled into S_in, but holes they leave inside the cloth are filled
-    (`fill_holes`) so that S_out stays outside the whole cloth.
+    grey, black): they belong to the cloth's outline (the sheet is saturated green) but
+    are never sampled into S_in, so S_out stays outside the whole cloth.
 
     Where the points go is `sampling` (see `robot_app.vision.sampling`): "edge" (rings
     along the outline at `edge_offsets` inside and `band_rings` rings from `band_gap` to
@@ -397,10 +396,14 @@ def _background_hue(pixels_hsv: Image, settings: ModelSettings, what: str) -> tu
 def _cloth_mask(
     hsv: Image, H_B: float, settings: ModelSettings, metres_per_pixel: float
 ) -> tuple[npt.NDArray[np.bool_], int]:
-    """S_in in the photo: hue far from H̄_B, specks removed, objects selected, holes filled."""
-    differs = (hue_distance(hsv[..., 0], H_B) > settings.min_hue_difference) & (
-        hsv[..., 1] >= settings.min_saturation
-    )
+    """S_in in the photo: not the sheet, specks removed, objects selected, holes filled.
+
+    A pixel is cloth if its hue is far from H̄_B, or if it has no hue at all (white,
+    grey, black: the sheet is verified to be saturated): a white stripe is part of the
+    cloth's outline even though it carries no hue sample.
+    """
+    saturated = hsv[..., 1] >= settings.min_saturation
+    differs = (saturated & (hue_distance(hsv[..., 0], H_B) > settings.min_hue_difference)) | ~saturated
     mask = differs.astype(np.uint8)
     speck = round(settings.speckle_size / metres_per_pixel)
     if speck >= 2:
