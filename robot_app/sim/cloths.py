@@ -63,27 +63,32 @@ class ClothSpec:
             raise InputError("a cloth needs a positive mass [kg] and at least one colour")
 
 
-RED, WHITE, NAVY, YELLOW = (40, 30, 200), (225, 225, 225), (110, 40, 30), (30, 200, 225)
+# BGR. No cloth colour is within the fitness' hue threshold (30 of 256) of the green sheet
+# (hue ~88) or of the blue occluder paper (hue ~162): a blue cloth would match the paper
+# that hides it. White and black carry no hue; they shape the outline only.
+RED, WHITE, BLACK, YELLOW = (40, 30, 200), (225, 225, 225), (35, 35, 35), (30, 200, 225)
 MAGENTA, ORANGE, PURPLE, PINK = (170, 40, 200), (30, 120, 230), (150, 50, 110), (160, 110, 230)
-BLUE, BROWN, SKY, MAROON = (200, 90, 30), (40, 60, 120), (220, 170, 60), (50, 30, 130)
+VIOLET, BROWN, TURQUOISE, MAROON = (210, 60, 150), (40, 60, 120), (190, 200, 40), (50, 30, 130)
 
 CATALOGUE: tuple[ClothSpec, ...] = (
     ClothSpec(1, "plain red towel", (0.24, 0.19), "rectangle", "plain", (RED,), 0.060),
-    ClothSpec(2, "navy-white stripes", (0.22, 0.18), "rectangle", "stripes", (WHITE, NAVY), 0.050, 0.016),
+    ClothSpec(
+        2, "turquoise-white stripes", (0.22, 0.18), "rectangle", "stripes", (WHITE, TURQUOISE), 0.050, 0.016
+    ),
     ClothSpec(
         3,
         "small colourful patchwork, light",
         (0.16, 0.13),
         "rounded",
         "patches",
-        (YELLOW, RED, MAGENTA, BLUE, ORANGE, SKY),
+        (YELLOW, RED, MAGENTA, VIOLET, ORANGE, TURQUOISE),
         0.018,
         0.032,
     ),
-    ClothSpec(4, "yellow-navy checks", (0.20, 0.17), "rectangle", "checks", (YELLOW, NAVY), 0.045, 0.025),
+    ClothSpec(4, "yellow-black checks", (0.20, 0.17), "rectangle", "checks", (YELLOW, BLACK), 0.045, 0.025),
     ClothSpec(5, "pink with white dots", (0.21, 0.16), "rounded", "dots", (PINK, WHITE), 0.035, 0.03),
     ClothSpec(
-        6, "white with printed motifs", (0.19, 0.19), "rectangle", "motifs", (WHITE, RED, BLUE), 0.04, 0.05
+        6, "white with printed motifs", (0.19, 0.19), "rectangle", "motifs", (WHITE, RED, VIOLET), 0.04, 0.05
     ),
     ClothSpec(7, "purple child's shirt", (0.25, 0.20), "shirt", "plain", (PURPLE, WHITE), 0.070),
     ClothSpec(
@@ -92,8 +97,10 @@ CATALOGUE: tuple[ClothSpec, ...] = (
     ClothSpec(
         9, "magenta-yellow stripes", (0.18, 0.15), "rectangle", "stripes", (MAGENTA, YELLOW), 0.03, 0.022
     ),
-    ClothSpec(10, "sky-blue oval mat", (0.20, 0.14), "ellipse", "dots", (SKY, NAVY), 0.04, 0.035),
-    ClothSpec(11, "tartan", (0.25, 0.18), "rectangle", "plaid", (RED, NAVY, YELLOW), 0.065, 0.05),
+    ClothSpec(
+        10, "turquoise oval mat, black dots", (0.20, 0.14), "ellipse", "dots", (TURQUOISE, BLACK), 0.04, 0.035
+    ),
+    ClothSpec(11, "tartan", (0.25, 0.18), "rectangle", "plaid", (RED, BLACK, YELLOW), 0.065, 0.05),
     ClothSpec(
         12, "maroon handkerchief, white dots", (0.14, 0.12), "rectangle", "dots", (MAROON, WHITE), 0.015
     ),
