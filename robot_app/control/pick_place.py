@@ -47,6 +47,9 @@ class PickPlaceSettings(StrictModel):
 
     vision_rate_hz: float = Field(15.0, ge=10.0, le=30.0, description="vision cycles per second")
     search_attempts: int = Field(3, ge=1, description="one-shot GA runs before 'not present'")
+    candidate_fitness: float = Field(
+        0.3, ge=0.0, le=1.0, description="below 'found' but above this: centre the cameras on it, look again"
+    )
     max_observe_returns: int = Field(2, ge=0, description="returns to OBSERVE after losing the cloth")
     grasp_retries: int = Field(2, ge=0, description="new attempts after a missed grasp")
     min_accepted_updates: int = Field(3, ge=1, description="fused recognitions before descending")
@@ -226,22 +229,41 @@ class PickPlaceLoop:
     def _search(self) -> bool:
         s = self.settings
         for attempt in range(s.search_attempts):
-            capture = self.cell.capture()
-            recognition = self.recognizer.recognize(capture.left_bgr, capture.right_bgr, seed=attempt)
-            pose = capture.transform_right_camera_to_world @ recognition.transform_model_to_camera
+            capture, recognition, pose = self._recognize_once(seed=attempt)
+            if not recognition.found and recognition.fitness >= s.candidate_fitness:
+                # A partial view (image border, occluder) scores low: look again with the
+                # cameras centred over the candidate before deciding.
+                self._log_recognition(
+                    capture, recognition, pose, "search", False, "candidate: looking closer"
+                )
+                self._move_to_joints(self._solve_tcp(self._centring_position(pose[:3, 3])))
+                self._hold(s.settle_time)
+                capture, recognition, pose = self._recognize_once(seed=attempt + s.search_attempts)
             accepted = recognition.found
             if accepted:
                 self.filter.reset(pose, capture.time)
             self._log_recognition(
                 capture, recognition, pose, "search", accepted, "reset" if accepted else "not found"
             )
-            self._hold(0.0)
             if accepted:
                 self._note = f"found with fitness {recognition.fitness:.3f} (attempt {attempt + 1})"
                 self._last_capture = capture
                 return True
+            self._move_to_joints(self.observation_joints)
         self._note = "not found"
         return False
+
+    def _recognize_once(self, seed: int) -> tuple[StereoCapture, Recognition, FloatArray]:
+        capture = self.cell.capture()
+        recognition = self.recognizer.recognize(capture.left_bgr, capture.right_bgr, seed=seed)
+        pose = capture.transform_right_camera_to_world @ recognition.transform_model_to_camera
+        return capture, recognition, pose
+
+    def _centring_position(self, point: FloatArray) -> FloatArray:
+        """TCP position (at the observation height) that puts the right camera above `point`."""
+        tcp = self.kinematics.frame_pose(self.observation_joints, "tcp")[:3, 3]
+        camera = self.kinematics.frame_pose(self.observation_joints, "camera_right_optical")[:3, 3]
+        return np.array([point[0] - (camera[0] - tcp[0]), point[1] - (camera[1] - tcp[1]), tcp[2]])
 
     def _approach(self) -> bool:
         """Servo the TCP above the grasp point at the observation height; False if lost."""

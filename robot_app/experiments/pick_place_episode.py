@@ -53,13 +53,22 @@ class PickPlaceConfig(StrictModel):
     world: WorldConfig = WorldConfig()
     scene: SceneConfig = SceneConfig()
     model: ModelSettings = ModelSettings()
-    recognition: RecognitionSettings = RecognitionSettings()
+    # 0.45: a cloth 45% under the paper scores ~0.55 (S_out on the paper counts against it),
+    # absent cloths stay below (checked by the absent-target tests and benchmark).
+    recognition: RecognitionSettings = RecognitionSettings(acceptance_threshold=0.45)
     filter: PoseFilterSettings = PoseFilterSettings()
     trajectory: TrajectorySettings = TrajectorySettings()
     loop: PickPlaceSettings = PickPlaceSettings()
     model_cloth: int | None = Field(
         None, ge=1, le=12, description="cloth the robot looks for (default: scene.target); another = absent"
     )
+    table_depth_window: float | None = Field(
+        0.015,
+        gt=0.0,
+        description="the cloth lies on the known table: search depth = observation height ± this [m], "
+        "tilt ≤ table_tilt_deg, depth window while tracking = this; None keeps recognition.bounds",
+    )
+    table_tilt_deg: float = Field(5.0, gt=0.0, le=90.0)
     grasp_radius: float = Field(0.035, gt=0.0, le=0.1, description="nodes anchored around the TCP [m]")
     nudge: NudgeConfig | None = None
 
@@ -112,7 +121,7 @@ def run_episode(
         cell = SimCell(world, grasp_radius=config.grasp_radius)
         kinematics = Kinematics.from_urdf(w.robot.urdf, "base_link", "tcp")
         limits = JointLimits.from_urdf(w.robot.urdf, PA10_JOINT_NAMES, config.trajectory)
-        recognizer = Recognizer(model, world.stereo.rig, config.recognition)
+        recognizer = Recognizer(model, world.stereo.rig, _recognition_settings(config))
         video = EpisodeVideo(world, cell, video_path) if video_path is not None else None
         nudge = _Nudger(world, scene.target, config.nudge) if config.nudge is not None else None
 
@@ -151,6 +160,18 @@ def run_episode(
             success = result.outcome is Outcome.NOT_PRESENT and result.grasp_attempts == 0
         result = replace(result, placed_fraction=placed, final_pose=final, success=success)
         return Episode(result, config.wanted, present, tuple(float(v) for v in world.box.centre))
+
+
+def _recognition_settings(config: PickPlaceConfig) -> RecognitionSettings:
+    """The recogniser's settings with the depth narrowed to the known table, if asked."""
+    window = config.table_depth_window
+    if window is None:
+        return config.recognition
+    height = config.world.observation.height
+    bounds = config.recognition.bounds.model_copy(
+        update={"z": (height - window, height + window), "max_tilt_deg": config.table_tilt_deg}
+    )
+    return config.recognition.model_copy(update={"bounds": bounds, "tracking_depth_window": window})
 
 
 def _make_target_model(config: PickPlaceConfig):
