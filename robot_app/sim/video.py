@@ -9,25 +9,14 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.errors import InputError
-from robot_app.geometry import make_transform
 from robot_app.sim.cameras import render_bgr
+from robot_app.sim.cell import SimCell
+from robot_app.sim.pictures import look_at
+from robot_app.sim.world import World
 from robot_app.vision import PinholeCamera
 
 OVERVIEW_SIZE = (480, 360)
 INSET_WIDTH = 160
-
-
-def look_at(
-    eye: npt.ArrayLike, target: npt.ArrayLike, up: npt.ArrayLike = (0.0, 0.0, 1.0)
-) -> npt.NDArray[np.float64]:
-    """4x4 pose of an OpenCV camera at `eye` looking at `target` (y down, z forward) [m]."""
-    eye, target, up = (np.asarray(v, dtype=float) for v in (eye, target, up))
-    z = target - eye
-    z /= np.linalg.norm(z)
-    x = np.cross(z, up)
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    return make_transform(np.column_stack([x, y, z]), eye)
 
 
 class EpisodeVideo:
@@ -40,7 +29,7 @@ class EpisodeVideo:
         fps: frames per simulated second (also the playback rate: real time).
     """
 
-    def __init__(self, world, cell, path: str | Path, fps: float = 10.0) -> None:
+    def __init__(self, world: World, cell: SimCell, path: str | Path, fps: float = 10.0) -> None:
         import imageio.v2 as imageio
 
         self.path = Path(path)
@@ -55,6 +44,7 @@ class EpisodeVideo:
         box = np.asarray(world.box.centre)
         focus = (centre + box) / 2 + np.array([0.0, 0.0, 0.25])
         self.pose = look_at(focus + np.array([1.3, -0.6, 0.9]), focus)
+        self.lighting = world.stereo.lighting
         self.writer = imageio.get_writer(str(self.path), fps=fps, codec="libx264", macro_block_size=8)
         self.frames = 0
 
@@ -63,8 +53,8 @@ class EpisodeVideo:
         if self.world.time + 1e-9 < self.next_time:
             return
         self.next_time += self.period
-        frame = render_bgr(self.world.client, self.camera, self.pose)
-        capture = getattr(self.cell, "last_capture", None)
+        frame = render_bgr(self.world.client, self.camera, self.pose, lighting=self.lighting)
+        capture = self.cell.last_capture
         if capture is not None:
             left = _inset(capture.left_bgr)
             right = _inset(capture.right_bgr)
@@ -94,4 +84,4 @@ def _inset(image: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
     return cv2.copyMakeBorder(small, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=(255, 255, 255))
 
 
-__all__ = ["EpisodeVideo", "look_at"]
+__all__ = ["EpisodeVideo"]
