@@ -25,9 +25,16 @@ from robot_app.control.pick_place import PickPlaceLoop, PickPlaceSettings
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.errors import ConfigError
 from robot_app.geometry import yaw_of
-from robot_app.sim import ModelStation, SceneConfig, World, WorldConfig, cloth_spec, make_scene
-from robot_app.sim.cell import SimCell
-from robot_app.sim.video import EpisodeVideo
+from robot_app.sim import (
+    EpisodeVideo,
+    ModelStation,
+    SceneConfig,
+    SimCell,
+    World,
+    WorldConfig,
+    cloth_spec,
+    make_scene,
+)
 from robot_app.vision import ModelSettings, RecognitionSettings, Recognizer, make_model
 
 SUCCESS_FRACTION = 0.9  # of the cloth's nodes inside the box walls (issue's definition)

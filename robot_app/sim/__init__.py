@@ -12,6 +12,7 @@ from robot_app.sim.cameras import (
     gl_view_matrix,
     render_bgr,
 )
+from robot_app.sim.cell import SimCell
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloth_mesh import ClothMesh, build_cloth_mesh, cache_dir
 from robot_app.sim.cloths import CATALOGUE, ClothSpec, cloth_spec, outline_polygon, texture_image
@@ -25,6 +26,7 @@ from robot_app.sim.config import (
 from robot_app.sim.robot import JOINT_NAMES, Contact, SimRobot
 from robot_app.sim.scene import Scene, make_scene
 from robot_app.sim.station import ModelStation, StationPhoto
+from robot_app.sim.video import EpisodeVideo
 from robot_app.sim.world import BoxGeometry, World
 
 __all__ = [
@@ -36,10 +38,12 @@ __all__ = [
     "ClothPhysicsConfig",
     "ClothSpec",
     "Contact",
+    "EpisodeVideo",
     "Lighting",
     "ModelStation",
     "Scene",
     "SceneConfig",
+    "SimCell",
     "SimRobot",
     "StationConfig",
     "StationPhoto",
