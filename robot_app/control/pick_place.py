@@ -148,6 +148,8 @@ class PickPlaceLoop:
         self.ground_truth = ground_truth
         # the hand keeps the observation orientation: cameras look straight down throughout
         self.tcp_rotation = kinematics.frame_pose(self.observation_joints, "tcp")[:3, :3].copy()
+        self._note = ""
+        self._last_capture: StereoCapture | None = None
         self._reset_logs()
 
     @property
@@ -276,6 +278,8 @@ class PickPlaceLoop:
         accepted_updates = 0
         target_xyz: FloatArray | None = None
         previous = self._last_capture
+        if previous is None:
+            raise _AbortError(Outcome.LOST, "APPROACH needs the capture the cloth was found in")
         while True:
             if self.cell.time >= next_vision:
                 next_vision += period
@@ -358,6 +362,8 @@ class PickPlaceLoop:
     def _grasp_position(self) -> FloatArray:
         """TCP position for grasping: the model's grasp point under the filtered pose."""
         estimate = self.filter.estimate
+        if estimate is None:
+            raise _AbortError(Outcome.LOST, "no filtered cloth pose to grasp")
         pose = estimate.as_transform()
         point = transform_points(pose, self._grasp_point_model[None])[0]
         z = max(point[2] + self.settings.grasp_height, self.table_z + self.settings.min_table_clearance)
@@ -460,7 +466,7 @@ class PickPlaceLoop:
         self._current = Phase.OBSERVE
         self._episode_start = self.cell.time
         self._next_collision_check = self.cell.time
-        self._last_capture: StereoCapture | None = None
+        self._last_capture = None
         self._grasp_point_model = np.asarray(self.model.grasp_point, dtype=float)
 
     def _log_recognition(

@@ -166,7 +166,8 @@ def run_episode(
         else:  # nothing to pick: success is saying so without touching anything
             success = result.outcome is Outcome.NOT_PRESENT and result.grasp_attempts == 0
         result = replace(result, placed_fraction=placed, final_pose=final, success=success)
-        return Episode(result, config.wanted, present, tuple(float(v) for v in world.box.centre))
+        bx, by, bz = (float(v) for v in world.box.centre)
+        return Episode(result, config.wanted, present, (bx, by, bz))
 
 
 def _recognition_settings(config: PickPlaceConfig) -> RecognitionSettings:
