@@ -65,9 +65,11 @@ class PickPlaceSettings(StrictModel):
     lift_height: float = Field(0.40, gt=0.05, description="TCP above the table after lifting")
     lift_check: float = Field(0.05, gt=0.0, description="cloth must be this far off the table [m]")
     transfer_height: float = Field(0.40, gt=0.05, description="TCP above the table over the box")
-    release_height: float = Field(
-        0.06, gt=0.0, description="TCP above the table when letting go: the cloth is laid down, not dropped"
+    release_clearance: float = Field(
+        0.02, ge=0.0, description="lowest point of the hanging cloth above the box floor when let go [m]"
     )
+    min_release_height: float = Field(0.06, gt=0.0, description="TCP never lower than this over the box")
+    release_speed: float = Field(0.3, gt=0.0, le=1.0, description="limit scale for lowering into the box")
     release_wait: float = Field(1.0, ge=0.0, description="time for the cloth to fall and settle")
     gripper_open: float = Field(0.08, gt=0.0, le=0.08)
     max_episode_time: float = Field(60.0, gt=0.0)
@@ -345,9 +347,15 @@ class PickPlaceLoop:
 
     def _release(self) -> None:
         s = self.settings
+        # Lower the cloth until its lowest point (at most its longest reach from the grasp
+        # point below the fingers) is just above the floor, slowly: a soft body that hits
+        # the table fast goes through it.
+        reach = float(
+            np.max(np.linalg.norm(self.model.points_in[:, :2] - self._grasp_point_model[:2], axis=1))
+        )
         low = self.place_position.copy()
-        low[2] = self.table_z + s.release_height
-        self._move_to_joints(self._solve_tcp(low))
+        low[2] = self.table_z + max(s.min_release_height, s.grasp_height + reach + s.release_clearance)
+        self._move_to_joints(self._solve_tcp(low), speed=s.release_speed)
         self.cell.release()
         self._hold(s.release_wait)  # let the cloth fall clear before the fingers open
         self.cell.set_gripper(s.gripper_open)
@@ -395,11 +403,12 @@ class PickPlaceLoop:
         return np.array(result.q)
 
     # ------------------------------------------------------------------ motion
-    def _move_to_joints(self, q_goal: FloatArray) -> None:
+    def _move_to_joints(self, q_goal: FloatArray, speed: float = 1.0) -> None:
+        """Jerk-limited move to rest at `q_goal`, with the limits scaled by `speed` (0, 1]."""
         trajectory = plan_point_to_point(
             self._command.q,
             q_goal,
-            self.limits,
+            self.limits if speed >= 1.0 else self.limits.scaled(speed),
             v_start=self._command.v,
             a_start=self._command.a,
             dt=self.cell.dt,
