@@ -105,7 +105,7 @@ class EpisodeResult:
     observe_returns: int
     filter_accepted: int
     filter_rejected: int
-    ruckig_times_us: tuple[float, ...] = field(repr=False, default=())
+    ruckig_times_us: tuple[float, ...] = field(repr=False, default=())  # every offline plan and online replan
     ik_times_ms: tuple[float, ...] = field(repr=False, default=())
     final_pose: tuple[float, ...] | None = None  # (x, y, z, yaw) of the cloth at the end
 

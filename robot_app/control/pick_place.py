@@ -313,6 +313,7 @@ class PickPlaceLoop:
                 reached = self.kinematics.frame_pose(self._command.q, "tcp")[:3, 3]
                 if np.linalg.norm(reached - target_xyz) <= s.approach_tolerance:
                     self._note = f"{accepted_updates} fused recognitions"
+                    self._record_online(online)
                     return True
             if self.cell.time - start > s.approach_timeout:
                 self._note = f"no stable target within {s.approach_timeout:.1f} s"
@@ -423,8 +424,11 @@ class PickPlaceLoop:
 
     def _finish_online(self, online: OnlineTrajectory) -> None:
         """Brings an interrupted online motion to rest where it is heading (jerk-limited)."""
-        del online
+        self._record_online(online)
         self._move_to_joints(self._clip(self._command.q))
+
+    def _record_online(self, online: OnlineTrajectory) -> None:
+        self.ruckig_times_us.extend(t * 1e6 for t in online.calculation_times)
 
     def _clip(self, q: FloatArray) -> FloatArray:
         return np.clip(np.asarray(q, dtype=float), self.limits.lower, self.limits.upper)
