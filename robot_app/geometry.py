@@ -22,9 +22,7 @@ def make_transform(rotation: npt.ArrayLike, translation: npt.ArrayLike) -> Float
     R = np.asarray(rotation, dtype=float)
     t = np.asarray(translation, dtype=float).reshape(-1)
     if R.shape != (3, 3) or t.shape != (3,):
-        raise InputError(
-            f"make_transform needs a 3x3 rotation and a 3-vector, got {R.shape}, {t.shape}"
-        )
+        raise InputError(f"make_transform needs a 3x3 rotation and a 3-vector, got {R.shape}, {t.shape}")
     T = np.eye(4)
     T[:3, :3] = R
     T[:3, 3] = t
@@ -95,6 +93,16 @@ def wrap_angle(angle: npt.ArrayLike) -> npt.NDArray[np.float64] | float:
     return float(wrapped) if np.ndim(wrapped) == 0 else wrapped
 
 
+def yaw_error(yaw_difference: float, symmetry_angles: tuple[float, ...] = ()) -> float:
+    """The yaw difference [rad] modulo a shape's symmetry: the smallest |wrap(d - s)|, s in {0, *angles}.
+
+    All angles are tried (not reduced one after another: with 90° symmetry a -90.4° error
+    reduced by 180° first would stay at 89.6°).
+    """
+    candidates = [float(wrap_angle(yaw_difference - s)) for s in (0.0, *symmetry_angles)]
+    return min(candidates, key=abs)
+
+
 def rotation_angle_between(rotation_a: npt.ArrayLike, rotation_b: npt.ArrayLike) -> float:
     """Geodesic angle [rad] between two rotations, |log(A^T B)|."""
     A = np.asarray(rotation_a, dtype=float)
@@ -118,9 +126,7 @@ def kabsch(source: npt.ArrayLike, target: npt.ArrayLike) -> FloatArray:
     S = np.asarray(source, dtype=float).reshape(-1, 3)
     D = np.asarray(target, dtype=float).reshape(-1, 3)
     if S.shape != D.shape or len(S) < 3:
-        raise InputError(
-            f"kabsch needs two (N>=3, 3) arrays of equal shape, got {S.shape}, {D.shape}"
-        )
+        raise InputError(f"kabsch needs two (N>=3, 3) arrays of equal shape, got {S.shape}, {D.shape}")
     cs, cd = S.mean(axis=0), D.mean(axis=0)
     H = (S - cs).T @ (D - cd)
     U, _, Vt = np.linalg.svd(H)
@@ -143,5 +149,6 @@ __all__ = [
     "tilt_of",
     "transform_points",
     "wrap_angle",
+    "yaw_error",
     "yaw_of",
 ]

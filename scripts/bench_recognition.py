@@ -22,7 +22,8 @@ from robot_app.geometry import (
     make_transform,
     rotation_about_z,
     rotation_from_rpy,
-    wrap_angle,
+    yaw_error,
+    yaw_of,
 )
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.fitness import FitnessEvaluator
@@ -63,10 +64,7 @@ def random_pose(rng: np.random.Generator, model: ClothModel, max_tilt_deg: float
 
 def pose_error(model: ClothModel, estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
     """(dx, dy, dz [mm], dyaw [deg]); yaw modulo the cloth's symmetry."""
-    d = float(wrap_angle(np.arctan2(estimate[1, 0], estimate[0, 0]) - np.arctan2(truth[1, 0], truth[0, 0])))
-    for angle in model.symmetry_angles:
-        if abs(float(wrap_angle(d - angle))) < abs(d):
-            d = float(wrap_angle(d - angle))
+    d = yaw_error(yaw_of(estimate[:3, :3]) - yaw_of(truth[:3, :3]), model.symmetry_angles)
     return np.array([*((estimate[:3, 3] - truth[:3, 3]) * 1e3), np.rad2deg(d)])
 
 

@@ -49,3 +49,12 @@ def test_kabsch_recovers_transform() -> None:
 def test_zero_quaternion_is_an_error() -> None:
     with pytest.raises(InputError):
         g.matrix_from_quaternion_xyzw([0, 0, 0, 0])
+
+
+def test_yaw_error_takes_the_nearest_symmetric_yaw_not_the_first() -> None:
+    quarter_turns = (np.pi / 2, np.pi, 3 * np.pi / 2)
+    # -90.4° from the truth is -0.4° from the 90°-symmetric shape's next copy; reducing by
+    # 180° first would leave 89.6°.
+    assert g.yaw_error(np.deg2rad(-90.4), quarter_turns) == pytest.approx(np.deg2rad(-0.4))
+    assert g.yaw_error(np.deg2rad(179.0), (np.pi,)) == pytest.approx(np.deg2rad(-1.0))
+    assert g.yaw_error(np.deg2rad(179.0)) == pytest.approx(np.deg2rad(179.0))

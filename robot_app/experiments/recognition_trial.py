@@ -20,7 +20,7 @@ import numpy as np
 from robot_app.experiments.experiment_config import RecognitionTrialConfig
 from robot_app.experiments.image_sources import image_source
 from robot_app.experiments.scenes import sample_scene
-from robot_app.geometry import FloatArray, wrap_angle, yaw_of
+from robot_app.geometry import FloatArray, wrap_angle, yaw_error, yaw_of
 from robot_app.vision.photo_model import ClothModel
 
 NAN = float("nan")
@@ -56,8 +56,7 @@ def pose_error(
     """
     d = 1000.0 * (transform_recognised[:3, 3] - transform_true[:3, 3])
     yaw = float(wrap_angle(yaw_of(transform_recognised[:3, :3]) - yaw_of(transform_true[:3, :3])))
-    candidates = [float(wrap_angle(yaw - s)) for s in (0.0, *symmetry_angles)]
-    yaw = min(candidates, key=abs)
+    yaw = yaw_error(yaw, symmetry_angles)
     cos_tilt = float(np.clip(transform_recognised[:3, 2] @ transform_true[:3, 2], -1.0, 1.0))
     tilt = float(np.rad2deg(np.arccos(cos_tilt)))
     return PoseError(float(d[0]), float(d[1]), float(d[2]), float(np.rad2deg(yaw)), tilt)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_app.geometry import make_transform, wrap_angle, yaw_of
+from robot_app.geometry import make_transform, yaw_error, yaw_of
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloths import ClothSpec
 from robot_app.sim.config import WorldConfig
@@ -118,10 +118,7 @@ def recognition_check(
         elapsed = time.perf_counter() - start
     T = result.transform_model_to_camera
     d = (T[:3, 3] - truth[:3, 3]) * 1000.0
-    yaw_error = float(wrap_angle(yaw_of(T[:3, :3]) - yaw_of(truth[:3, :3])))
-    for angle in model.symmetry_angles:
-        other = float(wrap_angle(yaw_error - angle))
-        yaw_error = other if abs(other) < abs(yaw_error) else yaw_error
+    d_yaw = yaw_error(yaw_of(T[:3, :3]) - yaw_of(truth[:3, :3]), model.symmetry_angles)
     tilt = np.arccos(np.clip(T[:3, 2] @ truth[:3, 2], -1.0, 1.0))  # angle between the normals
     return RecognitionCheck(
         spec.number,
@@ -130,7 +127,7 @@ def recognition_check(
         float(d[0]),
         float(d[1]),
         float(d[2]),
-        float(np.degrees(yaw_error)),
+        float(np.degrees(d_yaw)),
         float(np.degrees(tilt)),
         elapsed,
     )

@@ -44,22 +44,16 @@ class PinholeCamera:
     def __post_init__(self) -> None:
         K = _readonly(self.camera_matrix, (3, 3), "camera_matrix")
         if K[0, 0] <= 0 or K[1, 1] <= 0 or K[0, 1] != 0 or K[1, 0] != 0 or K[2, 0] != 0:
-            raise CalibrationError(
-                f"camera_matrix must be [[fx,0,cx],[0,fy,cy],[0,0,1]], got {K.tolist()}"
-            )
+            raise CalibrationError(f"camera_matrix must be [[fx,0,cx],[0,fy,cy],[0,0,1]], got {K.tolist()}")
         if not np.allclose(K[2], [0.0, 0.0, 1.0]):
             raise CalibrationError(f"camera_matrix last row must be [0, 0, 1], got {K[2].tolist()}")
         width, height = (int(v) for v in self.image_size)
         if width <= 0 or height <= 0:
-            raise CalibrationError(
-                f"image_size must be two positive integers, got {self.image_size}"
-            )
+            raise CalibrationError(f"image_size must be two positive integers, got {self.image_size}")
         dist = np.zeros(5)
         given = np.asarray(self.dist_coeffs, dtype=float).reshape(-1)
         if given.size > 5 or not np.all(np.isfinite(given)):
-            raise CalibrationError(
-                f"dist_coeffs must be up to 5 finite numbers, got {given.tolist()}"
-            )
+            raise CalibrationError(f"dist_coeffs must be up to 5 finite numbers, got {given.tolist()}")
         dist[: given.size] = given
         dist.setflags(write=False)
         object.__setattr__(self, "camera_matrix", K)
@@ -223,9 +217,7 @@ class ModelCamera:
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.distance) or self.distance <= 0:
-            raise CalibrationError(
-                f"distance must be a positive number of metres, got {self.distance}"
-            )
+            raise CalibrationError(f"distance must be a positive number of metres, got {self.distance}")
 
     def to_dict(self) -> dict[str, Any]:
         return {
