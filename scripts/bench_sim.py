@@ -3,6 +3,7 @@
 python scripts/bench_sim.py                 # everything (several minutes)
 python scripts/bench_sim.py --only speed    # just the two speed figures
 python scripts/bench_sim.py --cloths 1 3 7  # a subset of the catalogue
+python scripts/bench_sim.py --set cloth.damping_stiffness=0.3  # a world.yaml value changed
 """
 
 from __future__ import annotations
@@ -17,8 +18,8 @@ from robot_app.sim.checks import lift_check, recognition_check
 from robot_app.sim.station import ModelStation
 
 
-def bench_speed(repeats: int) -> None:
-    config = load_world_config(overrides=("cameras.image_size=[320, 240]",))
+def bench_speed(repeats: int, overrides: tuple[str, ...]) -> None:
+    config = load_world_config(overrides=("cameras.image_size=[320, 240]", *overrides))
     with World(config) as world:
         world.add_cloth(cloth_spec(11), *config.range.centre_xy, 0.4)  # the largest cloth, 104 nodes
         world.add_cloth(cloth_spec(3), config.range.centre_xy[0] + 0.1, 0.15, 1.0)
@@ -47,8 +48,8 @@ def bench_speed(repeats: int) -> None:
             )
 
 
-def bench_cloths(numbers: list[int], recognise: bool, seed: int) -> None:
-    config = load_world_config()
+def bench_cloths(numbers: list[int], recognise: bool, seed: int, overrides: tuple[str, ...]) -> None:
+    config = load_world_config(overrides=overrides)
     print(
         "No. nodes settle_s lift_stretch lifted_m | found fitness  dx_mm  dy_mm  dz_mm "
         "dyaw_deg dtilt_deg  time_s"
@@ -84,11 +85,20 @@ def main() -> None:
     parser.add_argument("--no-recognition", action="store_true")
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a world.yaml value (repeatable)",
+    )
     args = parser.parse_args()
+    overrides = tuple(args.overrides)
     if args.only in (None, "speed"):
-        bench_speed(args.repeats)
+        bench_speed(args.repeats, overrides)
     if args.only in (None, "cloths"):
-        bench_cloths(args.cloths, not args.no_recognition, args.seed)
+        bench_cloths(args.cloths, not args.no_recognition, args.seed, overrides)
 
 
 if __name__ == "__main__":
