@@ -77,6 +77,17 @@ def test_grasp_lift_release_keeps_the_cloth_whole() -> None:
         assert np.all(np.isfinite(cloth.nodes()))
 
 
+def test_fingers_do_not_push_the_nodes_next_to_the_anchored_ones() -> None:
+    # on this coarse mesh a node beside the anchored ones sits under the closed fingers;
+    # with finger contacts it was pushed against its anchored neighbours and exploded
+    coarse = SMALL.model_copy(update={"cloth": ClothPhysicsConfig(node_spacing=0.035, boundary_spacing=0.03)})
+    with World(coarse) as world:
+        cloth = world.add_cloth(cloth_spec(9), 0.55, 0.0, 0.5, drop_height=0.03)
+        stretch, top = _lift_and_measure(world, cloth)
+    assert stretch < 1.3
+    assert top > world.config.table.top_z + 0.25
+
+
 def test_grasp_needs_nodes_within_reach() -> None:
     with World(SMALL) as world:
         cloth = world.add_cloth(cloth_spec(12), 0.45, 0.15, 0.0, settle=False)

@@ -160,6 +160,11 @@ class ClothBody:
         self._anchors.clear()
         return count
 
+    def ignore_collisions_with(self, body: int, links: tuple[int, ...]) -> None:
+        """The cloth passes through these links of a rigid or multi-body (-1 = its base)."""
+        for link in links:
+            pb.setCollisionFilterPair(body, self.body_id, link, -1, 0, physicsClientId=self._client)
+
     def translate(self, dx: float, dy: float) -> None:
         """Shifts the whole cloth by (dx, dy) [m] on the table, as a push would (tests)."""
         position, orientation = pb.getBasePositionAndOrientation(self.body_id, physicsClientId=self._client)

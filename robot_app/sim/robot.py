@@ -21,6 +21,7 @@ from robot_app.sim.config import RobotConfig
 
 JOINT_NAMES = ("S1", "S2", "S3", "E1", "E2", "W1", "W2")
 FINGER_JOINTS = ("finger_left_joint", "finger_right_joint")
+GRIPPER_LINKS = ("gripper_palm", "finger_left", "finger_right")
 MAX_OPENING = 0.08  # both fingers fully open [m] (0.04 m each side)
 
 
@@ -90,6 +91,11 @@ class SimRobot:
     @property
     def link_names(self) -> tuple[str, ...]:
         return tuple(self._links)
+
+    @property
+    def gripper_links(self) -> tuple[int, ...]:
+        """pybullet link indices of the gripper's palm and fingers."""
+        return tuple(self.link_index(name) for name in GRIPPER_LINKS)
 
     def link_index(self, name: str) -> int:
         """pybullet link index of a URDF link (-1 for the base)."""
@@ -259,4 +265,4 @@ def _log_so3(R: FloatArray) -> FloatArray:
     return angle / (2 * np.sin(angle)) * axis
 
 
-__all__ = ["FINGER_JOINTS", "JOINT_NAMES", "MAX_OPENING", "Contact", "SimRobot"]
+__all__ = ["FINGER_JOINTS", "GRIPPER_LINKS", "JOINT_NAMES", "MAX_OPENING", "Contact", "SimRobot"]

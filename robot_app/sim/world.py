@@ -164,10 +164,16 @@ class World:
     def add_cloth_at(
         self, spec: ClothSpec, transform_model_to_world: npt.ArrayLike, settle: bool = False
     ) -> ClothBody:
-        """Adds a cloth in its rest shape with Σ_M at the given 4x4 pose [m]."""
+        """Adds a cloth in its rest shape with Σ_M at the given 4x4 pose [m].
+
+        The gripper holds cloths by anchors only and never touches them: nodes next to
+        the anchored ones, pushed by the fingers they are anchored to, make the cloth
+        explode as it is lifted, and released nodes stay caught between the closed fingers.
+        """
         physics = self.config.cloth
         mesh = build_cloth_mesh(spec, physics.node_spacing, physics.boundary_spacing)
         cloth = ClothBody(self._client, mesh, transform_model_to_world, physics, self._cache)
+        cloth.ignore_collisions_with(self.robot.body_id, self.robot.gripper_links)
         self.cloths.append(cloth)
         if settle:
             self.settle([cloth])
