@@ -88,6 +88,25 @@ def test_fingers_do_not_push_the_nodes_next_to_the_anchored_ones() -> None:
     assert top > world.config.table.top_z + 0.25
 
 
+def _hang(numbers: tuple[int, ...]) -> float:
+    """Loads the cloths in this order and hangs the last by one corner for 0.5 s; its stretch."""
+    with World(SMALL) as world:
+        for k, number in enumerate(numbers):
+            pose = make_transform(np.diag([1.0, -1.0, -1.0]), [0.45, -0.2 + 0.25 * k, 0.3])
+            cloth = world.add_cloth_at(cloth_spec(number), pose)
+        corner = np.argmax(cloth.mesh.vertices @ [1.0, 1.0, 0.0])
+        cloth.pin([corner])
+        world.step(120)
+        return cloth.max_edge_stretch()
+
+
+def test_a_cloth_hangs_alike_alone_and_after_another_cloth() -> None:
+    # pybullet gives every soft body in a world the springs of the first one loaded
+    alone = _hang((3,))
+    assert alone > 1.01
+    assert _hang((7, 3)) == pytest.approx(alone, abs=0.005)
+
+
 def test_grasp_needs_nodes_within_reach() -> None:
     with World(SMALL) as world:
         cloth = world.add_cloth(cloth_spec(12), 0.45, 0.15, 0.0, settle=False)

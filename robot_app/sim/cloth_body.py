@@ -3,6 +3,14 @@
 Ground truth of Σ_M is the Kabsch fit of the rest-mesh nodes (in Σ_M) to the current
 nodes (in Σ_W). A cloth lying face up has Σ_M's z pointing down into the table, so a
 camera looking straight down with its image axes along the texture's sees ^CR R_M = I.
+
+Every node of every cloth weighs NODE_MASS; a cloth's simulated mass is its node count
+times NODE_MASS, not the catalogue's `mass`. pybullet keeps one mass-spring force per
+world, with the constants of the first soft body loaded, so springs scaled per cloth held
+for the first cloth only (a light cloth loaded after a heavy one got springs 2.5x too
+stiff for its nodes). With one node mass, one set of constants suits every cloth in any
+order, and a cloth alone moves as it did with scaled springs: only the ratios of the
+spring constants to the node mass matter.
 """
 
 from __future__ import annotations
@@ -25,7 +33,7 @@ if TYPE_CHECKING:
     from robot_app.sim.robot import SimRobot
 
 
-REFERENCE_NODE_MASS = 0.0005  # [kg]: the config's spring constants are for this node mass
+NODE_MASS = 0.0005  # [kg] of each node of every cloth; the config's spring constants are for it
 
 
 class ClothBody:
@@ -52,21 +60,17 @@ class ClothBody:
         self._client = client
         self.mesh = mesh
         obj = mesh_obj_path(mesh, cache)
-        # Springs scale with the mass per node so that every cloth has the same natural
-        # frequency: a light cloth (No.3) with the springs of a heavy one explodes when it
-        # hangs, and a heavy one with light springs stretches past 1.3x.
-        scale = mesh.spec.mass / len(mesh.vertices) / REFERENCE_NODE_MASS
         self.body_id = pb.loadSoftBody(
             str(obj),
             basePosition=T[:3, 3].tolist(),
             baseOrientation=quaternion_xyzw_from_matrix(T[:3, :3]).tolist(),
-            mass=mesh.spec.mass,
+            mass=len(mesh.vertices) * NODE_MASS,
             useNeoHookean=0,
             useMassSpring=1,
             useBendingSprings=1,
-            springElasticStiffness=physics.elastic_stiffness * scale,
-            springDampingStiffness=physics.damping_stiffness * scale,
-            springBendingStiffness=physics.bending_stiffness * scale,
+            springElasticStiffness=physics.elastic_stiffness,
+            springDampingStiffness=physics.damping_stiffness,
+            springBendingStiffness=physics.bending_stiffness,
             useSelfCollision=0,
             frictionCoeff=physics.friction,
             useFaceContact=0,

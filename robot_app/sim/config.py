@@ -108,7 +108,7 @@ class ClothPhysicsConfig(StrictModel):
     node_spacing: float = Field(0.025, gt=0.005, description="interior mesh spacing [m]")
     boundary_spacing: float = Field(0.018, gt=0.003, description="outline node spacing [m]")
     elastic_stiffness: float = Field(
-        100.0, gt=0.0, description="spring stiffness for a node mass of 0.5 g (scaled per cloth)"
+        100.0, gt=0.0, description="spring stiffness [N/m] between nodes of 0.5 g (cloth_body.NODE_MASS)"
     )
     damping_stiffness: float = Field(0.4, ge=0.0)
     bending_stiffness: float = Field(2.0, ge=0.0)
