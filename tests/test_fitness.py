@@ -59,7 +59,7 @@ def hand_model(
 
 def reference_fitness(model: ClothModel, rig: StereoRig, left, right, T, p: FitnessParams) -> float:
     """Eqs. 9-11 read literally, one point at a time, with the rig's own projection."""
-    total = 0.0
+    total, in_view = 0.0, 0.0
     pix_left, pix_right = rig.project_model(T, np.vstack([model.points_in, model.points_out]))
     for image, pixels in ((left, pix_left), (right, pix_right)):
         hue = to_hsv(image)[:, :, 0]
@@ -67,6 +67,7 @@ def reference_fitness(model: ClothModel, rig: StereoRig, left, right, T, p: Fitn
             if not np.isfinite(u) or not (0 <= u + 0.5 < image.shape[1] and 0 <= v + 0.5 < image.shape[0]):
                 continue
             h = hue[int(v + 0.5), int(u + 0.5)]
+            in_view += p.score_in_match if i < model.n_in else p.score_out_background
             near_bg = hue_distance(h, round(model.background_hue))
             if i < model.n_in:
                 if hue_distance(h, model.hues_in[i]) <= p.hue_threshold_in:
@@ -77,7 +78,10 @@ def reference_fitness(model: ClothModel, rig: StereoRig, left, right, T, p: Fitn
                     total += p.score_in_other
             else:
                 total += p.score_out_background if near_bg <= p.hue_threshold_out else p.score_out_other
-    return total / 2.0 / (p.score_in_match * model.n_in + p.score_out_background * model.n_out)
+    full = 2.0 * (p.score_in_match * model.n_in + p.score_out_background * model.n_out)
+    if p.normalisation == "model":
+        return total / full
+    return total / max(in_view, p.min_view_fraction * full)
 
 
 @pytest.fixture(scope="module")
@@ -113,16 +117,34 @@ def test_kernel_matches_reference_including_points_off_the_image(scene) -> None:
         poses.append(
             make_transform(R, [rng.uniform(-0.3, 0.3), rng.uniform(-0.25, 0.25), rng.uniform(0.5, 0.7)])
         )
-    got = evaluator.evaluate(np.stack(poses))
-    p = evaluator.params
-    want = [reference_fitness(model, rig, left, right, T, p) for T in poses]
-    np.testing.assert_allclose(got, want, atol=1e-5)
-    # Half the model out of view: the off-image points count for nothing, not as penalties.
-    edge = pose.copy()
+    edge = pose.copy()  # half the model out of view
     edge[0, 3] = 0.23
-    assert evaluator.evaluate(edge)[0] == pytest.approx(
-        reference_fitness(model, rig, left, right, edge, p), abs=1e-5
-    )
+    poses.append(edge)
+    for normalisation in ("view", "model"):
+        p = FitnessParams(normalisation=normalisation)
+        evaluator = FitnessEvaluator(model, rig, p)
+        evaluator.update(left, right)
+        got = evaluator.evaluate(np.stack(poses))
+        want = [reference_fitness(model, rig, left, right, T, p) for T in poses]
+        np.testing.assert_allclose(got, want, atol=1e-5)
+
+
+def test_a_cloth_reaching_past_the_image_edge_matches_fully_at_its_true_pose() -> None:
+    rig = make_rig()
+    model = hand_model(4)
+    pose = make_transform(rotation_about_z(0.4), [-0.2, 0.0, 0.58])  # partly out of the left image
+    left, right = render_stereo_pair(rig, [(synthetic_cloth(4), pose)], rng=np.random.default_rng(2))
+    fitness = {}
+    for normalisation in ("view", "model"):
+        evaluator = FitnessEvaluator(model, rig, FitnessParams(normalisation=normalisation))
+        evaluator.update(left, right)
+        fitness[normalisation] = evaluator.evaluate(pose)[0]
+        farther = pose.copy()
+        farther[2, 3] += 0.03  # smaller: more of it fits into the left image
+        fitness[normalisation + " farther"] = evaluator.evaluate(farther)[0]
+    assert fitness["model"] < 0.95  # the paper's divisor counts the points off the left image
+    assert fitness["view"] > 0.97
+    assert fitness["view farther"] < fitness["view"] - 0.05
 
 
 def test_hue_is_compared_on_the_circle() -> None:

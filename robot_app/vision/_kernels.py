@@ -3,8 +3,9 @@
 The fitness of a pose is a sum over model points of a score that depends only on the row
 of the point (its model hue, or "outside") and on the code of the image pixel it lands on
 (its hue, "no hue", or "off the image"). `fitness.py` builds that score table once per
-model; these kernels project the points with a 3x4 matrix per pose and camera and add up
-the table entries. Each image is a flat code array framed by pixels whose code scores 0
+model, beside each score a "seen" flag (does the point count towards the divisor of the
+fitness); these kernels project the points with a 3x4 matrix per pose and camera and add
+up the table entries. Each image is a flat code array framed by pixels whose code scores 0
 in every row: points off the image or behind the camera are clamped onto the frame, so
 the projection loop has no data-dependent branches. Numba's `error_model="numpy"`
 matters: python's model checks every division for zero and stops vectorisation.
@@ -36,12 +37,15 @@ def hsv_codes(hsv, min_saturation, no_hue, fill):
 
 
 @_jit
-def _nearest_sum(M, px, py, pz, weights, row_offsets, table, codes, width, height):
-    """Sum of the scores of all points in one image at their nearest pixels, branch-free.
+def _nearest_sum(M, px, py, pz, weights, best, row_offsets, table, codes, width, height, pixel):
+    """Sum of the scores of all points in one image at their nearest pixels, branch-free,
+    and the sum of `best` over the points that count as seen (the most they could score).
 
-    Pixel j of a row is padded column j + 1. A point's coordinate is clamped into the
-    padded frame, so every point off the image (or behind the camera) reads frame
-    pixels, whose code scores 0, and the loop has no data-dependent branch.
+    `table` holds (score, seen) pairs: entry 2 (row offset + code) is the score, the next
+    one 1 if the point counts as seen on that pixel, else 0. Pixel j of a row is padded
+    column j + 1. A point's coordinate is clamped into the padded frame, so every point
+    off the image (or behind the camera) reads frame pixels, whose code scores 0 and is
+    not seen, and the loop has no data-dependent branch.
     """
     stride = width + 3
     zero, one, eps, shift = np.float32(0.0), np.float32(1.0), np.float32(1e-6), np.float32(1.5)
@@ -49,8 +53,7 @@ def _nearest_sum(M, px, py, pz, weights, row_offsets, table, codes, width, heigh
     m00, m01, m02, m03 = M[0, 0], M[0, 1], M[0, 2], M[0, 3]
     m10, m11, m12, m13 = M[1, 0], M[1, 1], M[1, 2], M[1, 3]
     m20, m21, m22, m23 = M[2, 0], M[2, 1], M[2, 2], M[2, 3]
-    total = np.float32(0.0)
-    for i in range(px.shape[0]):
+    for i in range(px.shape[0]):  # projection first: this loop vectorises
         x, y, z = px[i], py[i], pz[i]
         w = m20 * x + m21 * y + m22 * z + m23
         front = w > eps
@@ -59,14 +62,20 @@ def _nearest_sum(M, px, py, pz, weights, row_offsets, table, codes, width, heigh
         v = (m10 * x + m11 * y + m12 * z + m13) * inv + shift
         u = min(max(u if front else zero, zero), umax)  # floor(u + 0.5) + 1 below
         v = min(max(v if front else zero, zero), vmax)
-        total += weights[i] * table[row_offsets[i] + codes[np.int32(v) * stride + np.int32(u)]]
-    return total
+        pixel[i] = np.int32(v) * stride + np.int32(u)
+    total = np.float32(0.0)
+    view = np.float32(0.0)
+    for i in range(px.shape[0]):  # then the gathers
+        k = row_offsets[i] + 2 * np.int32(codes[pixel[i]])
+        total += weights[i] * table[k]
+        view += best[i] * table[k + 1]
+    return total, view
 
 
 @_jit
-def _bilinear_sum(M, px, py, pz, weights, row_offsets, table, codes, width, height):
-    """Like `_nearest_sum`, with each score interpolated between the four neighbouring
-    pixels (scores, not hues: hue has no linear interpolation on a circle)."""
+def _bilinear_sum(M, px, py, pz, weights, best, row_offsets, table, codes, width, height):
+    """Like `_nearest_sum`, with each score (and "seen") interpolated between the four
+    neighbouring pixels (scores, not hues: hue has no linear interpolation on a circle)."""
     stride = width + 3
     zero, one, eps = np.float32(0.0), np.float32(1.0), np.float32(1e-6)
     umax, vmax = np.float32(width + 1), np.float32(height + 1)
@@ -74,6 +83,7 @@ def _bilinear_sum(M, px, py, pz, weights, row_offsets, table, codes, width, heig
     m10, m11, m12, m13 = M[1, 0], M[1, 1], M[1, 2], M[1, 3]
     m20, m21, m22, m23 = M[2, 0], M[2, 1], M[2, 2], M[2, 3]
     total = np.float32(0.0)
+    view = np.float32(0.0)
     for i in range(px.shape[0]):
         x, y, z = px[i], py[i], pz[i]
         w = m20 * x + m21 * y + m22 * z + m23
@@ -86,11 +96,15 @@ def _bilinear_sum(M, px, py, pz, weights, row_offsets, table, codes, width, heig
         iu, iv = np.int32(u), np.int32(v)
         fu, fv = u - np.float32(iu), v - np.float32(iv)
         k, r = iv * stride + iu, row_offsets[i]
-        a, b = table[r + codes[k]], table[r + codes[k + 1]]
-        c, d = table[r + codes[k + stride]], table[r + codes[k + stride + 1]]
+        ka, kb = r + 2 * np.int32(codes[k]), r + 2 * np.int32(codes[k + 1])
+        kc, kd = r + 2 * np.int32(codes[k + stride]), r + 2 * np.int32(codes[k + stride + 1])
+        a, b, c, d = table[ka], table[kb], table[kc], table[kd]
         top = a + fu * (b - a)
         total += weights[i] * (top + fv * (c + fu * (d - c) - top))
-    return total
+        a, b, c, d = table[ka + 1], table[kb + 1], table[kc + 1], table[kd + 1]
+        top = a + fu * (b - a)
+        view += best[i] * (top + fv * (c + fu * (d - c) - top))
+    return total, view
 
 
 @_jit
@@ -111,6 +125,7 @@ def score_poses(
     py,
     pz,
     weights,
+    best,
     row_offsets,
     table,
     codes_left,
@@ -119,7 +134,8 @@ def score_poses(
     height,
     bilinear,
 ):
-    """Sum of the scores of all points in both images, for each pose.
+    """Sum of the scores of all points in both images, for each pose, and the most the
+    points in view could have scored.
 
     Args:
         transforms: (P, 4, 4) float64 poses ^CR T_M.
@@ -127,35 +143,46 @@ def score_poses(
         left_from_right: (4, 4) transform Σ_CR -> Σ_CL.
         px, py, pz: (N,) float32 model point coordinates [m].
         weights: (N,) float32 weight of each point's score.
+        best: (N,) float32 weight x the highest score of each point's row.
         row_offsets: (N,) int32 start of each point's row in the flat table.
-        table: flat float32 score table.
-        codes_left, codes_right: pixel codes as made by `hsv_codes` (the frame scores 0).
+        table: flat float32 table of (score, seen) pairs, row by row (see `_nearest_sum`).
+        codes_left, codes_right: pixel codes as made by `hsv_codes` (the frame's code
+            scores 0 and is not seen in every row).
         width, height: image size [px].
         bilinear: interpolate the scores of the four neighbouring pixels instead of taking
             the nearest one.
 
     Returns:
-        (P,) left sum + right sum, unnormalised.
+        (P,) left sum + right sum, unnormalised; (P,) the sum of `best` over the points
+        seen in each image, left + right.
     """
     n_poses = transforms.shape[0]
     out = np.empty(n_poses)
+    view = np.empty(n_poses)
     M_left = np.empty((3, 4), np.float32)
     M_right = np.empty((3, 4), np.float32)
+    pixel = np.empty(px.shape[0], np.int32)  # scratch: each point's pixel index
     for p in range(n_poses):
         pose = transforms[p]
         _projection(K_right, pose, M_right)
         _projection(K_left, left_from_right @ pose, M_left)
         if bilinear:
-            out[p] = _bilinear_sum(M_left, px, py, pz, weights, row_offsets, table, codes_left, width, height)
-            out[p] += _bilinear_sum(
-                M_right, px, py, pz, weights, row_offsets, table, codes_right, width, height
+            sum_l, view_l = _bilinear_sum(
+                M_left, px, py, pz, weights, best, row_offsets, table, codes_left, width, height
+            )
+            sum_r, view_r = _bilinear_sum(
+                M_right, px, py, pz, weights, best, row_offsets, table, codes_right, width, height
             )
         else:
-            out[p] = _nearest_sum(M_left, px, py, pz, weights, row_offsets, table, codes_left, width, height)
-            out[p] += _nearest_sum(
-                M_right, px, py, pz, weights, row_offsets, table, codes_right, width, height
+            sum_l, view_l = _nearest_sum(
+                M_left, px, py, pz, weights, best, row_offsets, table, codes_left, width, height, pixel
             )
-    return out
+            sum_r, view_r = _nearest_sum(
+                M_right, px, py, pz, weights, best, row_offsets, table, codes_right, width, height, pixel
+            )
+        out[p] = sum_l + sum_r
+        view[p] = view_l + view_r
+    return out, view
 
 
 @_jit
@@ -206,6 +233,42 @@ def breed(ranked, cdf, uniforms, n_children, crossover_rate, mutation_rate):
 
 
 @_jit
+def next_generation(genes, scores, starts, elite, cdfs, uniforms, crossover_rate, mutation_rate):
+    """Elites and offspring of every island for one generation (the offspring unscored).
+
+    Args:
+        genes: (P, 6) uint16 population; island i holds rows starts[i]:starts[i + 1].
+        scores: (P,) fitness of `genes`.
+        starts: (islands + 1,) int64 first row of each island, then P.
+        elite: best individuals each island copies unchanged.
+        cdfs: (islands, max island size) cumulative ranking probabilities, best first.
+        uniforms: (pairs in all islands, 5 + 144) uniform draws (see `breed`), island by island.
+        crossover_rate, mutation_rate: per pair, per bit probabilities.
+
+    Returns:
+        new genes (P, 6) island by island, elites first; (P,) the row of `genes` each
+        elite came from, -1 for offspring.
+    """
+    new = np.empty_like(genes)
+    source = np.full(genes.shape[0], -1, np.int64)
+    pair = 0
+    for i in range(starts.shape[0] - 1):
+        a, b = starts[i], starts[i + 1]
+        order = a + np.argsort(-scores[a:b], kind="mergesort")
+        ranked = genes[order]
+        n_children = (b - a) - elite
+        pairs = (n_children + 1) // 2
+        children = breed(ranked, cdfs[i, : b - a], uniforms[pair : pair + pairs], n_children,
+                         crossover_rate, mutation_rate)  # fmt: skip
+        pair += pairs
+        for k in range(elite):
+            new[a + k] = ranked[k]
+            source[a + k] = order[k]
+        new[a + elite : b] = children
+    return new, source
+
+
+@_jit
 def transforms_from_genes(genes, lows, spans, gray_code):
     """(P, 6) 12-bit genes -> (P, 4, 4) poses; |ε| > 1 is normalised to 1 (see ga.py)."""
     n = genes.shape[0]
@@ -241,4 +304,39 @@ def transforms_from_genes(genes, lows, spans, gray_code):
     return T
 
 
-__all__ = ["breed", "hsv_codes", "score_poses", "transforms_from_genes"]
+@_jit
+def moved_poses(pose, deltas):
+    """(K, 4, 4) copies of `pose` each moved by a row of `deltas` (K, 6): dx, dy [m], depth
+    change along the ray through the model origin [m], rotation vector about the camera
+    axes through the model origin [rad] (see refinement.moved)."""
+    out = np.empty((deltas.shape[0], 4, 4))
+    depth = pose[2, 3]
+    for k in range(deltas.shape[0]):
+        out[k] = pose
+        out[k, 0, 3] += deltas[k, 0]
+        out[k, 1, 3] += deltas[k, 1]
+        if depth > 0:
+            scale = (depth + deltas[k, 2]) / depth
+            for r in range(3):
+                out[k, r, 3] *= scale
+        else:
+            out[k, 2, 3] += deltas[k, 2]
+        wx, wy, wz = deltas[k, 3], deltas[k, 4], deltas[k, 5]
+        angle = np.sqrt(wx * wx + wy * wy + wz * wz)
+        if angle > 0:
+            x, y, z = wx / angle, wy / angle, wz / angle
+            c, s_, t = np.cos(angle), np.sin(angle), 1.0 - np.cos(angle)
+            R = np.array(
+                [
+                    [c + x * x * t, x * y * t - z * s_, x * z * t + y * s_],
+                    [y * x * t + z * s_, c + y * y * t, y * z * t - x * s_],
+                    [z * x * t - y * s_, z * y * t + x * s_, c + z * z * t],
+                ]
+            )
+            for r in range(3):
+                for c in range(3):
+                    out[k, r, c] = R[r, 0] * pose[0, c] + R[r, 1] * pose[1, c] + R[r, 2] * pose[2, c]
+    return out
+
+
+__all__ = ["breed", "hsv_codes", "moved_poses", "next_generation", "score_poses", "transforms_from_genes"]

@@ -10,15 +10,33 @@ scores by the hue of the pixel it lands on (nearest pixel, as in the paper):
   `hue_threshold_out` (20) of H̄_B, else `score_out_other` (-0.5).
 
 Hue differences are taken on the circle (HSV_FULL, 256 steps per turn). F = (F_R + F_L) / 2
-(eq. 11) is reported divided by its maximum, 2·N_in + 0.1·N_out with the default scores,
-so a perfect match is 1.0. Points that fall outside an image (or behind a camera)
-contribute nothing to that image's sum, so a pose that shows only part of the model can
-at most reach the fraction of the maximum that is in view.
+(eq. 11) is reported divided by its maximum, so that a perfect match is 1.0. Points that
+fall outside an image (or behind a camera) contribute nothing to that image's sum.
+
+Which maximum (`FitnessParams.normalisation`):
+- "model" (the paper): 2·N_in + 0.1·N_out with the default scores, over all points in
+  both images. A pose that shows only part of the model can then at most reach the
+  fraction of the maximum in view, so a cloth that reaches past the edge of one image
+  scores below 1 at its true pose, and a smaller (farther, tilted) pose that squeezes
+  more points into that image can beat the truth.
+- "view" (default): the most that the points which land on the images could score,
+  but not less than `min_view_fraction` of the model's maximum. A perfect match of a
+  cloth partly out of view is 1.0; a pose with less than that fraction in view scores
+  in proportion to the points in view.
+
+With `hidden_foreign` (the recognizer's search uses it), a point on a pixel of a foreign
+hue (neither the background's nor near any of the model's hues: a blue sheet over the
+cloth, a cloth of other colours) is taken as hidden, like a point off the image: it
+scores 0 and leaves the divisor. A cloth 45 % under a sheet then matches fully at its
+true pose, and a smaller (farther) pose that squeezes the model into the visible part
+is worse, because its S_out band lands on the cloth. Without it the smaller pose wins:
+the fitness counts model points, and a smaller model fits more of them onto the visible
+part.
 """
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Literal, NamedTuple
 
 import cv2
 import numpy as np
@@ -56,6 +74,19 @@ class FitnessParams(StrictModel):
             cloth, a cloth of another colour). None (the paper): `score_out_other`. The
             paper's -0.5 there makes an occluder push the model away from it; the
             recognizer searches with 0 (RecognitionSettings.search_out_foreign).
+        normalisation: "model" divides by the maximum of all points (the paper), "view" by
+            the maximum of the points that land on the images (see the module docstring).
+        min_view_fraction: with "view", the divisor is at least this fraction of the
+            model's maximum.
+        hidden_foreign: with "view", points on a foreign hue score 0 and leave the
+            divisor (hidden, see the module docstring); `score_out_foreign` is then unused.
+        model_hue_min_share: for the foreign-hue test, a model hue counts if at least this
+            share of the S_in points have it.
+        hidden_penalty: with "view", subtracted times the share of the model's maximum
+            that is not seen (off the images or hidden). Hiding then costs a little, so a
+            cloth in full view beats the same model laid over another cloth that shares
+            some of its hues (whose other hues would be "hidden"); 45 % hidden under a
+            sheet still beats a smaller pose squeezed onto the visible part.
     """
 
     score_in_match: float = Field(default=2.0, gt=0)
@@ -67,6 +98,11 @@ class FitnessParams(StrictModel):
     hue_threshold_out: int = Field(default=20, ge=0, le=128)
     min_saturation: int = Field(default=0, ge=0, le=255)
     score_out_foreign: float | None = None
+    normalisation: Literal["model", "view"] = "view"
+    min_view_fraction: float = Field(default=0.5, gt=0.0, le=1.0)
+    hidden_foreign: bool = False
+    model_hue_min_share: float = Field(default=0.01, ge=0.0, le=1.0)
+    hidden_penalty: float = Field(default=0.0, ge=0.0, le=1.0)
 
     @model_validator(mode="after")
     def _scores_ordered(self) -> FitnessParams:
@@ -74,6 +110,8 @@ class FitnessParams(StrictModel):
             raise ValueError("score_in_match must be the largest S_in score")
         if self.score_out_background < self.score_out_other:
             raise ValueError("score_out_background must be at least score_out_other")
+        if self.hidden_foreign and self.normalisation != "view":
+            raise ValueError('hidden_foreign needs normalisation "view"')
         return self
 
 
@@ -106,11 +144,48 @@ def score_table(
     )
     table[_OUTSIDE_ROW, NO_HUE] = params.score_out_other
     if params.score_out_foreign is not None and model_hues is not None:
-        hues = np.unique(np.asarray(model_hues, dtype=int))
-        near_model = (hue_distance(codes[:, None], hues[None, :]) <= params.hue_threshold_in).any(axis=1)
-        foreign = (d_background > params.hue_threshold_out) & ~near_model
+        foreign = (d_background > params.hue_threshold_out) & ~_near_model_hues(model_hues, params)
         table[_OUTSIDE_ROW, :HUE_RANGE][foreign] = params.score_out_foreign
+    if params.hidden_foreign and model_hues is not None:
+        table[~seen_table(background_hue, params, model_hues)] = 0.0
     return table
+
+
+def seen_table(
+    background_hue: float, params: FitnessParams, model_hues: npt.ArrayLike | None = None
+) -> npt.NDArray[np.bool_]:
+    """(257, 258) like `score_table`: does a point of that row on that pixel code count as seen?
+
+    Not seen: `OFF_IMAGE`, and with `params.hidden_foreign` a foreign hue, i.e. one
+    farther than `hue_threshold_in` from every model hue and, from the background's,
+    farther than `hue_threshold_in` (S_in rows) or `hue_threshold_out` (the S_out row).
+
+    Args:
+        background_hue: H̄_B [HSV_FULL, 0-256).
+        params: thresholds.
+        model_hues: the model's S_in hues; needed for `params.hidden_foreign`.
+    """
+    seen = np.ones((HUE_RANGE + 1, HUE_RANGE + 2), dtype=bool)
+    seen[:, OFF_IMAGE] = False
+    if params.hidden_foreign and model_hues is not None:
+        codes = np.arange(HUE_RANGE)
+        d_background = hue_distance(codes, round(background_hue))
+        near_model = _near_model_hues(model_hues, params)
+        seen[:HUE_RANGE, :HUE_RANGE] = ~((d_background > params.hue_threshold_in) & ~near_model)[None, :]
+        seen[_OUTSIDE_ROW, :HUE_RANGE] = ~((d_background > params.hue_threshold_out) & ~near_model)
+    return seen
+
+
+def _near_model_hues(model_hues: npt.ArrayLike, params: FitnessParams) -> npt.NDArray[np.bool_]:
+    """(256,) hues within `hue_threshold_in` of a hue the model really has: one that at least
+    `model_hue_min_share` of its S_in points have (a few mixed pixels along colour edges
+    would otherwise make a blue sheet "near" a cyan cloth)."""
+    counts = np.bincount(np.asarray(model_hues, dtype=int).ravel() % HUE_RANGE, minlength=HUE_RANGE)
+    hues = np.flatnonzero(counts >= params.model_hue_min_share * max(int(counts.sum()), 1))
+    if not len(hues):  # a spread-out model: every hue it has
+        hues = np.flatnonzero(counts)
+    codes = np.arange(HUE_RANGE)
+    return np.asarray((hue_distance(codes[:, None], hues[None, :]) <= params.hue_threshold_in).any(axis=1))
 
 
 class FitnessEvaluator:
@@ -136,11 +211,9 @@ class FitnessEvaluator:
         self.rig = rig
         self.params = params if params is not None else FitnessParams()
         self.search_params = search_params if search_params is not None else self.params
-        table = score_table(model.background_hue, self.params, model.hues_in)
-        self._table = np.ascontiguousarray(table.ravel())
-        search_table = score_table(model.background_hue, self.search_params, model.hues_in)
-        self._search_table = np.ascontiguousarray(search_table.ravel())
-        self._columns = table.shape[1]
+        self._table = _paired_table(model, self.params)
+        self._search_table = _paired_table(model, self.search_params)
+        self._columns = HUE_RANGE + 2
         self._subsets: dict[int, _PointSet] = {}
         self._full = self._point_set(1)
         self._left_from_right = np.ascontiguousarray(rig.transform_right_to_left)
@@ -199,12 +272,14 @@ class FitnessEvaluator:
                 [m.hues_in[::stride].astype(np.int32), np.full(len(outside), _OUTSIDE_ROW, np.int32)]
             )
             w_in, w_out = np.asarray(m.weights_in)[::stride], np.asarray(m.weights_out)[::stride]
+            best = np.concatenate([p.score_in_match * w_in, p.score_out_background * w_out])
             self._subsets[stride] = _PointSet(
                 np.ascontiguousarray(points[:, 0]),
                 np.ascontiguousarray(points[:, 1]),
                 np.ascontiguousarray(points[:, 2]),
                 np.concatenate([w_in, w_out]).astype(np.float32),
-                np.ascontiguousarray(rows * np.int32(self._columns)),
+                best.astype(np.float32),
+                np.ascontiguousarray(rows * np.int32(2 * self._columns)),
                 p.score_in_match * float(w_in.sum()) + p.score_out_background * float(w_out.sum()),
             )
         return self._subsets[stride]
@@ -228,8 +303,9 @@ class FitnessEvaluator:
             search: score with `search_params` instead of `params`.
 
         Returns:
-            (P,) fitness, F(^C φ_M) / (score_in_match·N_in + score_out_background·N_out),
-            each point's score weighted by the area it stands for (`ClothModel.weights_in`,
+            (P,) fitness, F(^C φ_M) / its maximum (see `FitnessParams.normalisation`; with
+            "model" that is score_in_match·N_in + score_out_background·N_out), each
+            point's score weighted by the area it stands for (`ClothModel.weights_in`,
             `weights_out`; all 1 for the paper's uniform grid, which gives eqs. 9-11 exactly).
 
         Raises:
@@ -243,7 +319,7 @@ class FitnessEvaluator:
             raise InputError(f"stride must be a positive integer, got {stride}")
         points = self._point_set(int(stride))
         codes_left, codes_right = self._codes
-        sums = score_poses(
+        sums, seen = score_poses(
             T,
             self.rig.left.camera_matrix,
             self.rig.right.camera_matrix,
@@ -252,6 +328,7 @@ class FitnessEvaluator:
             points.y,
             points.z,
             points.weights,
+            points.best,
             points.row_offsets,
             self._search_table if search else self._table,
             codes_left,
@@ -261,7 +338,21 @@ class FitnessEvaluator:
             subpixel,
         )
         self.evaluations += len(sums)
-        return sums / (2.0 * points.maximum)
+        full = 2.0 * points.maximum
+        params = self.search_params if search else self.params
+        if params.normalisation == "model":
+            return sums / full
+        fitness = sums / np.maximum(seen, params.min_view_fraction * full)
+        if params.hidden_penalty:
+            fitness -= params.hidden_penalty * np.clip(1.0 - seen / full, 0.0, 1.0)
+        return fitness
+
+
+def _paired_table(model: ClothModel, params: FitnessParams) -> npt.NDArray[np.float32]:
+    """The flat (score, seen) table the kernels read: entry 2 (row · columns + code) is the score."""
+    scores = score_table(model.background_hue, params, model.hues_in)
+    seen = seen_table(model.background_hue, params, model.hues_in)
+    return np.ascontiguousarray(np.stack([scores, seen.astype(np.float32)], axis=-1).ravel())
 
 
 class _PointSet(NamedTuple):
@@ -269,6 +360,7 @@ class _PointSet(NamedTuple):
     y: npt.NDArray[np.float32]
     z: npt.NDArray[np.float32]
     weights: npt.NDArray[np.float32]
+    best: npt.NDArray[np.float32]  # weight x the highest score of the point's row
     row_offsets: npt.NDArray[np.int32]
     maximum: float  # score of a perfect match in one image
 
@@ -282,4 +374,4 @@ def _as_poses(transforms: npt.ArrayLike) -> FloatArray:
     return T
 
 
-__all__ = ["NO_HUE", "OFF_IMAGE", "FitnessEvaluator", "FitnessParams", "score_table"]
+__all__ = ["NO_HUE", "OFF_IMAGE", "FitnessEvaluator", "FitnessParams", "score_table", "seen_table"]
