@@ -79,15 +79,16 @@ def target_fitness(target: np.ndarray):
 TARGET = make_transform(rotation_from_rpy(0.05, -0.03, 2.0), [0.1, -0.05, 0.6])
 
 
-def test_run_converges_and_same_seed_gives_same_result() -> None:
-    settings = GASettings(population=60, generations=80, seed=4)
+@pytest.mark.parametrize("islands", [1, 4])
+def test_run_converges_and_same_seed_gives_same_result(islands: int) -> None:
+    settings = GASettings(population=60, generations=80, seed=4, islands=islands)
     first = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, settings).run()
     again = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, settings).run()
     other = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, settings.model_copy(update={"seed": 5})).run()
     assert np.linalg.norm(first.transform_model_to_camera[:3, 3] - TARGET[:3, 3]) < 0.01
     np.testing.assert_array_equal(first.transform_model_to_camera, again.transform_model_to_camera)
     assert not np.array_equal(first.transform_model_to_camera, other.transform_model_to_camera)
-    assert first.evaluations == 60 + 80 * (60 - settings.elite)
+    assert first.evaluations == 60 + 80 * (60 - islands * settings.elite)  # each island keeps its elite
     assert np.all(np.diff(first.best_per_generation) >= 0)  # elitism: the best never gets worse
 
 
@@ -105,7 +106,7 @@ def test_track_moves_the_population_by_the_camera_motion() -> None:
     ga.fitness = target_fitness(motion @ TARGET)
     result = ga.track(None, generations=5)
     assert np.linalg.norm(result.transform_model_to_camera[:3, 3] - (motion @ TARGET)[:3, 3]) < 0.01
-    assert result.evaluations == 60 + 5 * 58
+    assert result.evaluations == 60 + 5 * (60 - 4 * 2)  # 4 islands keep 2 elites each
 
 
 def test_settings_are_validated() -> None:
@@ -117,3 +118,25 @@ def test_settings_are_validated() -> None:
         validate(SearchBounds, {"x": [0.1, -0.1]})
     with pytest.raises(ConfigError, match="z > 0"):
         validate(SearchBounds, {"z": [-0.1, 0.5]})
+
+
+def test_islands_breed_only_among_themselves() -> None:
+    # Two targets far apart: islands that converged on different ones stay there.
+    other = make_transform(rotation_from_rpy(0.0, 0.0, -1.0), [-0.15, 0.1, 0.6])
+    near_a, near_b = target_fitness(TARGET), target_fitness(other)
+
+    def two_peaks(T: np.ndarray) -> np.ndarray:
+        return np.maximum(near_a(T), near_b(T))
+
+    ga = GeneticAlgorithm(two_peaks, BOUNDS, GASettings(population=40, generations=1, seed=1, islands=2))
+    ga.run(0)
+    assert ga.population is not None
+    half = len(ga.population) // 2
+    # Seed each island with copies of one target only; evolution must not mix them.
+    ga.population[:half] = encode(parameters_from_transforms(np.repeat(TARGET[None], half, 0)), BOUNDS)
+    ga.population[half:] = encode(parameters_from_transforms(np.repeat(other[None], half, 0)), BOUNDS)
+    ga.evolve(5)
+    for (genes, _), centre in zip(ga.islands(), (TARGET, other), strict=True):
+        positions = ga.transforms(genes)[:, :3, 3]
+        # mutation moves individuals a little, never to the other island's target
+        assert np.median(np.linalg.norm(positions - centre[:3, 3], axis=1)) < 0.02

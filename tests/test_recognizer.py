@@ -132,13 +132,14 @@ def test_wrong_image_size_is_bad_input() -> None:
 def test_settings_reach_the_parts() -> None:
     settings = RecognitionSettings.model_validate(
         {
-            "ga": {"population": 20, "generations": 5},
+            "ga": {"population": 20, "generations": 5, "islands": 1},
             "refinement": {"enabled": False},
             "coarse_generations": 2,
+            "restarts": 0,
         }
     )
     left, right = render_stereo_pair(RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(6))
     result = Recognizer(model(0), RIG, settings).recognize(left, right, seed=0)
     assert (
-        result.generations == 5 and result.evaluations == 20 + 2 * 18 + 20 + 3 * 18 + 1
-    )  # rescored at the coarse-to-fine switch; + the reported (paper) fitness of the result
+        result.generations == 5 and result.evaluations == 20 + 2 * 18 + 20 + 3 * 18 + 2
+    )  # rescored at the coarse-to-fine switch; + the search and the reported (paper) fitness of the result
