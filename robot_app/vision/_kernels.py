@@ -37,7 +37,7 @@ def hsv_codes(hsv, min_saturation, no_hue, fill):
 
 
 @_jit
-def _nearest_sum(M, px, py, pz, weights, best, row_offsets, table, codes, width, height, pixel):
+def _nearest_sum(M, points, table, codes, width, height, pixel):
     """Sum of the scores of all points in one image at their nearest pixels, branch-free,
     and the sum of `best` over the points that count as seen (the most they could score).
 
@@ -47,6 +47,7 @@ def _nearest_sum(M, px, py, pz, weights, best, row_offsets, table, codes, width,
     off the image (or behind the camera) reads frame pixels, whose code scores 0 and is
     not seen, and the loop has no data-dependent branch.
     """
+    px, py, pz, weights, best, row_offsets = points
     stride = width + 3
     zero, one, eps, shift = np.float32(0.0), np.float32(1.0), np.float32(1e-6), np.float32(1.5)
     umax, vmax = np.float32(width + 1), np.float32(height + 1)
@@ -73,18 +74,18 @@ def _nearest_sum(M, px, py, pz, weights, best, row_offsets, table, codes, width,
 
 
 @_jit
-def _bilinear_sum(M, px, py, pz, weights, best, row_offsets, table, codes, width, height):
+def _bilinear_sum(M, points, table, codes, width, height, pixel, fraction):
     """Like `_nearest_sum`, with each score (and "seen") interpolated between the four
-    neighbouring pixels (scores, not hues: hue has no linear interpolation on a circle)."""
+    neighbouring pixels (scores, not hues: hue has no linear interpolation on a circle).
+    `fraction` is (2, N) float32 scratch for the sub-pixel offsets."""
+    px, py, pz, weights, best, row_offsets = points
     stride = width + 3
     zero, one, eps = np.float32(0.0), np.float32(1.0), np.float32(1e-6)
     umax, vmax = np.float32(width + 1), np.float32(height + 1)
     m00, m01, m02, m03 = M[0, 0], M[0, 1], M[0, 2], M[0, 3]
     m10, m11, m12, m13 = M[1, 0], M[1, 1], M[1, 2], M[1, 3]
     m20, m21, m22, m23 = M[2, 0], M[2, 1], M[2, 2], M[2, 3]
-    total = np.float32(0.0)
-    view = np.float32(0.0)
-    for i in range(px.shape[0]):
+    for i in range(px.shape[0]):  # projection first: this loop vectorises
         x, y, z = px[i], py[i], pz[i]
         w = m20 * x + m21 * y + m22 * z + m23
         front = w > eps
@@ -94,8 +95,14 @@ def _bilinear_sum(M, px, py, pz, weights, best, row_offsets, table, codes, width
         u = min(max(u if front else zero, zero), umax)
         v = min(max(v if front else zero, zero), vmax)
         iu, iv = np.int32(u), np.int32(v)
-        fu, fv = u - np.float32(iu), v - np.float32(iv)
-        k, r = iv * stride + iu, row_offsets[i]
+        fraction[0, i] = u - np.float32(iu)
+        fraction[1, i] = v - np.float32(iv)
+        pixel[i] = iv * stride + iu
+    total = np.float32(0.0)
+    view = np.float32(0.0)
+    for i in range(px.shape[0]):  # then the gathers
+        k, r = pixel[i], row_offsets[i]
+        fu, fv = fraction[0, i], fraction[1, i]
         ka, kb = r + 2 * np.int32(codes[k]), r + 2 * np.int32(codes[k + 1])
         kc, kd = r + 2 * np.int32(codes[k + stride]), r + 2 * np.int32(codes[k + stride + 1])
         a, b, c, d = table[ka], table[kb], table[kc], table[kd]
@@ -162,24 +169,18 @@ def score_poses(
     M_left = np.empty((3, 4), np.float32)
     M_right = np.empty((3, 4), np.float32)
     pixel = np.empty(px.shape[0], np.int32)  # scratch: each point's pixel index
+    fraction = np.empty((2, px.shape[0]), np.float32)  # scratch: sub-pixel offsets
+    points = (px, py, pz, weights, best, row_offsets)
     for p in range(n_poses):
         pose = transforms[p]
         _projection(K_right, pose, M_right)
         _projection(K_left, left_from_right @ pose, M_left)
         if bilinear:
-            sum_l, view_l = _bilinear_sum(
-                M_left, px, py, pz, weights, best, row_offsets, table, codes_left, width, height
-            )
-            sum_r, view_r = _bilinear_sum(
-                M_right, px, py, pz, weights, best, row_offsets, table, codes_right, width, height
-            )
+            sum_l, view_l = _bilinear_sum(M_left, points, table, codes_left, width, height, pixel, fraction)
+            sum_r, view_r = _bilinear_sum(M_right, points, table, codes_right, width, height, pixel, fraction)
         else:
-            sum_l, view_l = _nearest_sum(
-                M_left, px, py, pz, weights, best, row_offsets, table, codes_left, width, height, pixel
-            )
-            sum_r, view_r = _nearest_sum(
-                M_right, px, py, pz, weights, best, row_offsets, table, codes_right, width, height, pixel
-            )
+            sum_l, view_l = _nearest_sum(M_left, points, table, codes_left, width, height, pixel)
+            sum_r, view_r = _nearest_sum(M_right, points, table, codes_right, width, height, pixel)
         out[p] = sum_l + sum_r
         view[p] = view_l + view_r
     return out, view

@@ -92,7 +92,7 @@ class RecognitionSettings(StrictModel):
     acceptance_threshold: float = Field(default=0.6, ge=0.0, le=1.0)
     coarse_generations: int = Field(default=60, ge=0)
     coarse_stride: int = Field(default=4, ge=1)
-    fine_stride: int = Field(default=1, ge=1)
+    fine_stride: int = Field(default=2, ge=1)
     refinement: RefinementSettings = RefinementSettings()
     max_peaks: int = Field(default=3, ge=1)
     peak_separation: float = Field(default=0.06, gt=0.0)

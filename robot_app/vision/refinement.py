@@ -51,8 +51,8 @@ class RefinementSettings(StrictModel):
     step_depth: float = Field(default=0.006, gt=0.0)
     step_angle_deg: float = Field(default=1.0, gt=0.0)
     min_step_position: float = Field(default=0.0001, gt=0.0)
-    max_iterations: int = Field(default=40, ge=1)
-    candidate_iterations: int = Field(default=10, ge=1)
+    max_iterations: int = Field(default=30, ge=1)
+    candidate_iterations: int = Field(default=6, ge=1)
     tracking_iterations: int = Field(default=6, ge=1)
 
 
