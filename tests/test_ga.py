@@ -140,3 +140,28 @@ def test_islands_breed_only_among_themselves() -> None:
         positions = ga.transforms(genes)[:, :3, 3]
         # mutation moves individuals a little, never to the other island's target
         assert np.median(np.linalg.norm(positions - centre[:3, 3], axis=1)) < 0.02
+
+
+@pytest.mark.parametrize("rate", [0.0, 0.02, 0.3, 1.0])
+def test_mutation_flips_each_bit_with_the_mutation_rate(rate: float) -> None:
+    from robot_app.vision._kernels import breed
+    from robot_app.vision.ga import mutation_draws
+
+    rng = np.random.default_rng(3)
+    parent = rng.integers(0, 4096, (1, 6)).astype(np.uint16)
+    uniforms = rng.random((10000, 5 + mutation_draws(rate)))
+    uniforms[:, 2] = 1.0  # no crossover: every difference from the parent is a mutation
+    children = breed(parent, np.array([1.0]), uniforms, 20000, 0.9, rate)
+    flipped = np.unpackbits((children ^ parent).view(np.uint8)).reshape(len(children), -1).sum(axis=1)
+    assert flipped.mean() / 72 == pytest.approx(rate, abs=0.003)
+
+
+def test_two_point_crossover_swaps_the_bits_between_the_cuts() -> None:
+    from robot_app.vision._kernels import breed
+
+    parents = np.array([[0] * 6, [4095] * 6], np.uint16)
+    cut_6, cut_15 = 6.5 / 73, 15.5 / 73  # bits [6, 15) of the 72 are swapped
+    uniforms = np.array([[0.1, 0.9, 0.0, cut_6, cut_15]])
+    first, second = breed(parents, np.array([0.5, 1.0]), uniforms, 2, 1.0, 0.0)
+    assert [int(g) for g in first] == [0b000000111111, 0b111000000000, 0, 0, 0, 0]
+    assert [int(g) for g in second] == [0b111111000000, 0b000111111111] + [4095] * 4

@@ -193,8 +193,11 @@ def breed(ranked, cdf, uniforms, n_children, crossover_rate, mutation_rate):
     Args:
         ranked: (n, 6) uint16 genes, best first.
         cdf: (n,) cumulative selection probability of each rank.
-        uniforms: (pairs, 5 + 144) uniform [0, 1) draws: 2 parents, crossover yes/no,
-            2 cut points, then one per bit of each child for mutation.
+        uniforms: (pairs, 5 + m) uniform [0, 1) draws: 2 parents, crossover yes/no, 2 cut
+            points, then the gaps between mutated bits over the pair's 144 bits (geometric
+            with `mutation_rate`: the same law as one draw per bit, with ~144·rate draws
+            instead of 144). A pair that would need more than m gaps keeps the first m
+            mutations; `mutation_draws` picks m so that this practically never happens.
         n_children: offspring wanted (<= 2 * pairs).
         crossover_rate, mutation_rate: per pair, per bit probabilities.
 
@@ -203,6 +206,8 @@ def breed(ranked, cdf, uniforms, n_children, crossover_rate, mutation_rate):
     """
     n_genes, n_bits = ranked.shape[1], 12
     total_bits = n_genes * n_bits
+    full = (1 << n_bits) - 1
+    log_keep = np.log1p(-mutation_rate) if mutation_rate < 1.0 else -np.inf
     children = np.empty((n_children, n_genes), np.uint16)
     for k in range(uniforms.shape[0]):
         a = min(np.searchsorted(cdf, uniforms[k, 0]), ranked.shape[0] - 1)
@@ -212,24 +217,34 @@ def breed(ranked, cdf, uniforms, n_children, crossover_rate, mutation_rate):
         c2 = int(uniforms[k, 4] * (total_bits + 1))
         if c1 > c2:
             c1, c2 = c2, c1
-        for child in range(2):
-            index = 2 * k + child
-            if index >= n_children:
+        first, second = 2 * k, 2 * k + 1
+        for g in range(n_genes):
+            # bits g*12 .. g*12+11, most significant first; those in [c1, c2) are swapped
+            lo, hi = max(c1 - g * n_bits, 0), min(c2 - g * n_bits, n_bits)
+            mask = 0
+            if cross and lo < hi:
+                mask = ((1 << (n_bits - lo)) - 1) ^ ((1 << (n_bits - hi)) - 1)
+            ga, gb = np.int64(ranked[a, g]), np.int64(ranked[b, g])
+            if first < n_children:
+                children[first, g] = (ga & ~mask & full) | (gb & mask)
+            if second < n_children:
+                children[second, g] = (gb & ~mask & full) | (ga & mask)
+        if mutation_rate <= 0.0:
+            continue
+        bit = -1
+        for j in range(5, uniforms.shape[1]):
+            if mutation_rate >= 1.0:
+                bit += 1
+            else:
+                bit += 1 + int(np.log(1.0 - uniforms[k, j]) / log_keep)
+            if bit >= 2 * total_bits:
                 break
-            first, second = (a, b) if child == 0 else (b, a)
-            base = 5 + child * total_bits
-            for g in range(n_genes):
-                value = 0
-                for j in range(n_bits):
-                    bit = g * n_bits + j
-                    weight = 1 << (n_bits - 1 - j)
-                    source = second if (cross and c1 <= bit < c2) else first
-                    on = (ranked[source, g] & weight) != 0
-                    if uniforms[k, base + bit] < mutation_rate:
-                        on = not on
-                    if on:
-                        value |= weight
-                children[index, g] = value
+            child = first if bit < total_bits else second
+            if child >= n_children:
+                break
+            position = bit % total_bits
+            g, j_bit = position // n_bits, position % n_bits
+            children[child, g] ^= np.uint16(1 << (n_bits - 1 - j_bit))
     return children
 
 
@@ -243,7 +258,7 @@ def next_generation(genes, scores, starts, elite, cdfs, uniforms, crossover_rate
         starts: (islands + 1,) int64 first row of each island, then P.
         elite: best individuals each island copies unchanged.
         cdfs: (islands, max island size) cumulative ranking probabilities, best first.
-        uniforms: (pairs in all islands, 5 + 144) uniform draws (see `breed`), island by island.
+        uniforms: (pairs in all islands, 5 + m) uniform draws (see `breed`), island by island.
         crossover_rate, mutation_rate: per pair, per bit probabilities.
 
     Returns:

@@ -309,7 +309,7 @@ class GeneticAlgorithm:
         s = self.settings
         sizes = [sl.stop - sl.start for sl in self._islands]
         pairs = sum((size - s.elite + 1) // 2 for size in sizes)
-        uniforms = self.rng.random((pairs, 5 + 2 * GENES * BITS))
+        uniforms = self.rng.random((pairs, 5 + mutation_draws(s.mutation_rate)))
         new_genes, source = next_generation(
             genes, scores, self._starts, s.elite, self._cdfs, uniforms, s.crossover_rate, s.mutation_rate
         )
@@ -318,6 +318,14 @@ class GeneticAlgorithm:
         new_scores[~offspring] = scores[source[~offspring]]
         new_scores[offspring] = self.fitness(self.transforms(new_genes[offspring]))
         return new_genes, new_scores, int(offspring.sum())
+
+
+def mutation_draws(rate: float) -> int:
+    """Uniform draws per pair of children for the gaps between mutated bits (see `breed`):
+    the mean number of mutations over the pair's 144 bits plus 8 standard deviations and 8."""
+    n = 2 * GENES * BITS
+    mean = n * rate
+    return int(min(n, np.ceil(mean + 8.0 * np.sqrt(mean * (1.0 - rate)) + 8.0)))
 
 
 def _ranking_cdf(size: int, pressure: float) -> FloatArray:

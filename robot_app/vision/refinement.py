@@ -53,7 +53,7 @@ class RefinementSettings(StrictModel):
     min_step_position: float = Field(default=0.0001, gt=0.0)
     max_iterations: int = Field(default=30, ge=1)
     candidate_iterations: int = Field(default=6, ge=1)
-    tracking_iterations: int = Field(default=6, ge=1)
+    tracking_iterations: int = Field(default=4, ge=1)
 
 
 def compass_search(
