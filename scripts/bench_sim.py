@@ -21,8 +21,8 @@ from robot_app.sim.station import ModelStation
 def bench_speed(repeats: int, overrides: tuple[str, ...]) -> None:
     config = load_world_config(overrides=("cameras.image_size=[320, 240]", *overrides))
     with World(config) as world:
-        world.add_cloth(cloth_spec(11), *config.range.centre_xy, 0.4)  # the largest cloth, 104 nodes
-        world.add_cloth(cloth_spec(3), config.range.centre_xy[0] + 0.1, 0.15, 1.0)
+        large = world.add_cloth(cloth_spec(11), *config.range.centre_xy, 0.4)  # the most nodes
+        small = world.add_cloth(cloth_spec(3), config.range.centre_xy[0] + 0.1, 0.15, 1.0)
         times, cpu = [], []
         for _ in range(repeats):
             start, start_cpu = time.perf_counter(), time.process_time()
@@ -35,7 +35,9 @@ def bench_speed(repeats: int, overrides: tuple[str, ...]) -> None:
             "(target <= 80 ms)"
         )
         steps = round(1.0 / world.dt)
-        for label, n_cloths in (("two cloths", 2), ("one cloth", 1)):
+        nodes = (len(large.mesh.vertices), len(small.mesh.vertices))
+        cases = ((f"two cloths ({nodes[0]} + {nodes[1]} nodes)", 2), (f"one cloth ({nodes[0]} nodes)", 1))
+        for label, n_cloths in cases:
             while len(world.cloths) > n_cloths:
                 world.remove_body(world.cloths[-1])
             start, start_cpu = time.perf_counter(), time.process_time()

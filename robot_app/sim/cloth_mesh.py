@@ -3,7 +3,8 @@
 The rest mesh lies in the plane z = 0 of Σ_M: origin at the area centroid of the outline
 (the centroid of S_in as the photo model sees the whole cloth), x along the texture's
 image x, y along its image y. Nodes are the outline resampled every `boundary_spacing`
-plus a square grid of `spacing` inside, Delaunay-triangulated and clipped to the outline.
+plus a lattice of equilateral triangles of side `spacing` inside, Delaunay-triangulated
+and clipped to the outline.
 """
 
 from __future__ import annotations
@@ -65,12 +66,12 @@ class ClothMesh:
         return file
 
 
-def build_cloth_mesh(spec: ClothSpec, spacing: float = 0.025, boundary_spacing: float = 0.018) -> ClothMesh:
+def build_cloth_mesh(spec: ClothSpec, spacing: float = 0.035, boundary_spacing: float = 0.03) -> ClothMesh:
     """Triangulates the cloth's outline.
 
     Args:
         spec: catalogue cloth.
-        spacing: interior grid spacing [m].
+        spacing: side of the interior lattice's triangles [m].
         boundary_spacing: outline node spacing [m].
     """
     if not (0.003 <= boundary_spacing <= spacing <= 0.1):
@@ -80,10 +81,7 @@ def build_cloth_mesh(spec: ClothSpec, spacing: float = 0.025, boundary_spacing: 
     polygon = outline_polygon(spec)
     boundary = _resample_closed(polygon, boundary_spacing)
     w, h = spec.size
-    gx = np.arange(spacing / 2, w, spacing)
-    gy = np.arange(spacing / 2, h, spacing)
-    grid = np.stack(np.meshgrid(gx + (w - gx[-1] - gx[0]) / 2, gy + (h - gy[-1] - gy[0]) / 2), -1)
-    grid = grid.reshape(-1, 2)
+    grid = _triangular_lattice(w, h, spacing)
     outline_path = PolygonPath(polygon)
     inside = outline_path.contains_points(grid)
     far = _distance_to_polyline(grid, boundary) > 0.55 * spacing
@@ -134,6 +132,23 @@ def mesh_obj_path(mesh: ClothMesh, folder: str | Path) -> Path:
         mesh.write_obj(tmp)
         tmp.replace(path)
     return path
+
+
+def _triangular_lattice(width: float, height: float, spacing: float) -> FloatArray:
+    """(P, 2) points of a lattice of equilateral triangles of side `spacing`, centred in the box.
+
+    Rows run along x, every other one shifted by half a side: a cloth on this lattice folds
+    along three directions, not only along the two axes of a square grid.
+    """
+    row = spacing * np.sqrt(3) / 2
+    ys = np.arange(row / 2, height, row)
+    ys += (height - ys[-1] - ys[0]) / 2
+    xs = np.arange(spacing / 2, width, spacing)
+    xs += (width - xs[-1] - xs[0]) / 2
+    shifts = np.where(np.arange(len(ys)) % 2 == 0, -spacing / 4, spacing / 4)
+    return np.concatenate(
+        [np.column_stack([xs + dx, np.full(len(xs), y)]) for y, dx in zip(ys, shifts, strict=True)]
+    )
 
 
 def _resample_closed(polygon: FloatArray, step: float) -> FloatArray:
