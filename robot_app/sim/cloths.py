@@ -38,7 +38,8 @@ class ClothSpec:
         outline: one of OUTLINES.
         pattern: one of PATTERNS.
         colours: BGR colours [0-255] used by the pattern (first = ground colour).
-        mass: total mass [kg].
+        mass: total mass [kg] of the real cloth; the simulation gives every mesh node
+            the same mass instead (see `cloth_body`).
         scale: pattern period [m] (stripe width, check size, dot spacing...).
     """
 

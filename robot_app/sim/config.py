@@ -106,8 +106,8 @@ class ClothPhysicsConfig(StrictModel):
     """pybullet mass-spring cloth parameters (shared by all catalogue cloths)."""
 
     # Physics time grows with the node count (pybullet's solver sweeps every node and spring
-    # about 80 times a step). 35 mm instead of 25 mm has 40% fewer nodes and about halves
-    # the time; every point of a cloth stays within 30 mm of a node (grasp radius 35 mm).
+    # about 80 times a step). 35 mm instead of 25 mm has 40% fewer nodes and takes less than
+    # half the time; every point of a cloth stays within 30 mm of a node (grasp radius 35 mm).
     # The spring constants go with the spacing h: for the same cloth (weight per area
     # against stretch and bend) with a fixed node mass, the elastic and damping constants
     # scale as 1/h^2 and the bending one as 1/h^6 (a bending spring lengthens with the
