@@ -111,7 +111,7 @@ class RecognitionSettings(StrictModel):
     candidate_depths: tuple[float, ...] = (-0.03, -0.015, 0.0, 0.015, 0.03)
     refine_candidates: int = Field(default=3, ge=1)
     restarts: int = Field(default=2, ge=0)
-    restart_below: float = Field(default=0.95, ge=0.0, le=1.0)
+    restart_below: float = Field(default=0.97, ge=0.0, le=1.0)
     tracking_population: int = Field(default=24, ge=4)
     tracking_window: float = Field(default=0.02, gt=0.0)
     tracking_depth_window: float = Field(default=0.03, gt=0.0)
