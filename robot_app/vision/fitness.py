@@ -128,8 +128,7 @@ def score_table(
         model_hues: the model's S_in hues; needed only for `params.score_out_foreign`.
     """
     codes = np.arange(HUE_RANGE)
-    d_background = np.abs(codes - background_hue) % HUE_RANGE
-    d_background = np.minimum(d_background, HUE_RANGE - d_background)
+    d_background = _background_distance(background_hue)
     d_model = hue_distance(codes[:, None], codes[None, :])  # (model hue, pixel hue)
     table = np.zeros((HUE_RANGE + 1, HUE_RANGE + 2), dtype=np.float32)
     inside = np.where(
@@ -144,7 +143,7 @@ def score_table(
     )
     table[_OUTSIDE_ROW, NO_HUE] = params.score_out_other
     if params.score_out_foreign is not None and model_hues is not None:
-        foreign = (d_background > params.hue_threshold_out) & ~_near_model_hues(model_hues, params)
+        foreign = _foreign_hues(background_hue, params, model_hues, params.hue_threshold_out)
         table[_OUTSIDE_ROW, :HUE_RANGE][foreign] = params.score_out_foreign
     if params.hidden_foreign and model_hues is not None:
         table[~seen_table(background_hue, params, model_hues)] = 0.0
@@ -168,12 +167,27 @@ def seen_table(
     seen = np.ones((HUE_RANGE + 1, HUE_RANGE + 2), dtype=bool)
     seen[:, OFF_IMAGE] = False
     if params.hidden_foreign and model_hues is not None:
-        codes = np.arange(HUE_RANGE)
-        d_background = hue_distance(codes, round(background_hue))
-        near_model = _near_model_hues(model_hues, params)
-        seen[:HUE_RANGE, :HUE_RANGE] = ~((d_background > params.hue_threshold_in) & ~near_model)[None, :]
-        seen[_OUTSIDE_ROW, :HUE_RANGE] = ~((d_background > params.hue_threshold_out) & ~near_model)
+        seen[:HUE_RANGE, :HUE_RANGE] = ~_foreign_hues(
+            background_hue, params, model_hues, params.hue_threshold_in
+        )
+        seen[_OUTSIDE_ROW, :HUE_RANGE] = ~_foreign_hues(
+            background_hue, params, model_hues, params.hue_threshold_out
+        )
     return seen
+
+
+def _background_distance(background_hue: float) -> FloatArray:
+    """(256,) distance of each hue from H̄_B on the circle (H̄_B may lie between two hues)."""
+    d = np.abs(np.arange(HUE_RANGE) - background_hue) % HUE_RANGE
+    return np.asarray(np.minimum(d, HUE_RANGE - d), dtype=float)
+
+
+def _foreign_hues(
+    background_hue: float, params: FitnessParams, model_hues: npt.ArrayLike, background_threshold: int
+) -> npt.NDArray[np.bool_]:
+    """(256,) hues that are neither within `background_threshold` of H̄_B nor near a model hue."""
+    far_from_background = _background_distance(background_hue) > background_threshold
+    return np.asarray(far_from_background & ~_near_model_hues(model_hues, params))
 
 
 def _near_model_hues(model_hues: npt.ArrayLike, params: FitnessParams) -> npt.NDArray[np.bool_]:
@@ -192,8 +206,8 @@ class FitnessEvaluator:
     """Eqs. 9-11 for one model on one stereo pair; `update` swaps the pair.
 
     `params` define the reported fitness; `search_params` (default: the same) the one
-    `evaluate(..., search=True)` scores, e.g. with `score_out_foreign` for occlusions.
-    The normalisation is the same for both.
+    `evaluate(..., search=True)` scores, e.g. with `hidden_foreign` for occlusions; each
+    is divided by the maximum its own `normalisation` says.
 
     Attributes:
         evaluations: number of poses evaluated since construction (each pose scores all

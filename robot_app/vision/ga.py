@@ -233,7 +233,10 @@ class GeneticAlgorithm:
         self._lows, self._spans = ranges[:, 0].copy(), ranges[:, 1] - ranges[:, 0]
         self._islands = self.settings.island_slices()
         self._starts = np.array([sl.start for sl in self._islands] + [self.settings.population], np.int64)
-        largest = max(sl.stop - sl.start for sl in self._islands)
+        sizes = [sl.stop - sl.start for sl in self._islands]
+        pairs = sum((size - self.settings.elite + 1) // 2 for size in sizes)
+        self._uniforms_shape = (pairs, 5 + mutation_draws(self.settings.mutation_rate))  # per generation
+        largest = max(sizes)
         self._cdfs = np.ones((len(self._islands), largest))
         for i, sl in enumerate(self._islands):
             size = sl.stop - sl.start
@@ -307,9 +310,7 @@ class GeneticAlgorithm:
 
     def _generation(self, genes: Genes, scores: FloatArray) -> tuple[Genes, FloatArray, int]:
         s = self.settings
-        sizes = [sl.stop - sl.start for sl in self._islands]
-        pairs = sum((size - s.elite + 1) // 2 for size in sizes)
-        uniforms = self.rng.random((pairs, 5 + mutation_draws(s.mutation_rate)))
+        uniforms = self.rng.random(self._uniforms_shape)
         new_genes, source = next_generation(
             genes, scores, self._starts, s.elite, self._cdfs, uniforms, s.crossover_rate, s.mutation_rate
         )
