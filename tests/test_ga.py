@@ -165,3 +165,32 @@ def test_two_point_crossover_swaps_the_bits_between_the_cuts() -> None:
     first, second = breed(parents, np.array([0.5, 1.0]), uniforms, 2, 1.0, 0.0)
     assert [int(g) for g in first] == [0b000000111111, 0b111000000000, 0, 0, 0, 0]
     assert [int(g) for g in second] == [0b111111000000, 0b000111111111] + [4095] * 4
+
+
+def test_compiled_generations_equal_the_python_loop_bit_for_bit() -> None:
+    from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
+    from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
+    from robot_app.vision.photo_model import make_model
+    from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
+
+    camera = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
+    rig = StereoRig(camera, camera, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
+    model_camera = ModelCamera(PinholeCamera.from_fov((640, 480), np.deg2rad(48)), 0.40)
+    photo, background = render_model_photo(synthetic_cloth(5), model_camera)
+    pose = make_transform(rotation_about_z(0.3), [0.01, 0.02, 0.58])
+    left, right = render_stereo_pair(rig, [(synthetic_cloth(5), pose)], rng=np.random.default_rng(2))
+    evaluator = FitnessEvaluator(make_model(photo, model_camera, background), rig)
+    evaluator.update(left, right)
+    compiled = KernelFitness(evaluator, stride=2)
+    results = []
+    for fitness in (compiled, lambda T: compiled(T)):  # the lambda takes the Python loop
+        before = evaluator.evaluations
+        ga = GeneticAlgorithm(fitness, BOUNDS, GASettings(islands=4), np.random.default_rng(9))
+        result = ga.run(30)
+        results.append((ga.population, ga.scores, result, evaluator.evaluations - before))
+    (genes_a, scores_a, run_a, count_a), (genes_b, scores_b, run_b, count_b) = results
+    assert np.array_equal(genes_a, genes_b) and np.array_equal(scores_a, scores_b)
+    assert np.array_equal(run_a.best_per_generation, run_b.best_per_generation)
+    assert run_a.evaluations == run_b.evaluations == count_a == count_b
+    assert run_a.generations == run_b.generations == 30
+    assert run_a.fitness > 0.5  # it did search: the cloth is there

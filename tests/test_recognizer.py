@@ -143,3 +143,21 @@ def test_settings_reach_the_parts() -> None:
     assert (
         result.generations == 5 and result.evaluations == 20 + 2 * 18 + 20 + 3 * 18 + 2
     )  # rescored at the coarse-to-fine switch; + the search and the reported (paper) fitness of the result
+
+
+def test_garbage_collector_runs_again_after_a_recognition() -> None:
+    import gc
+
+    left, right = render_stereo_pair(RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(0))
+    settings = RecognitionSettings(ga={"generations": 5}, restarts=0)
+    recognizer = Recognizer(model(0), RIG, settings)
+    assert gc.isenabled()
+    recognizer.recognize(left, right, seed=0)
+    recognizer.track(left, right)
+    assert gc.isenabled()
+    gc.disable()  # a caller that switched it off keeps it off
+    try:
+        recognizer.recognize(left, right, seed=0)
+        assert not gc.isenabled()
+    finally:
+        gc.enable()

@@ -9,14 +9,14 @@ from robot_app.vision.camera import (
     save_model_camera,
     save_rig,
 )
-from robot_app.vision.fitness import FitnessEvaluator, FitnessParams
+from robot_app.vision.fitness import FitnessEvaluator, FitnessParams, KernelFitness
 from robot_app.vision.full_search import FitnessPeak, FullSearchResult, find_peaks, full_search
 from robot_app.vision.ga import GAResult, GASettings, GeneticAlgorithm, SearchBounds
 from robot_app.vision.hue import circular_mean_hue, hue_distance, to_hsv, to_hue
 from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
 from robot_app.vision.plots import plot_full_search, save_preview
 from robot_app.vision.recognizer import Peak, Recognition, RecognitionSettings, Recognizer
-from robot_app.vision.refinement import RefinementSettings, compass_search
+from robot_app.vision.refinement import RefinementSettings, cma_search, compass_search
 from robot_app.vision.sampling import ModelSamples, sample_model
 from robot_app.vision.synthetic import (
     CATALOGUE_SIZE,
@@ -38,6 +38,7 @@ __all__ = [
     "GAResult",
     "GASettings",
     "GeneticAlgorithm",
+    "KernelFitness",
     "ModelCamera",
     "ModelSamples",
     "ModelSettings",
@@ -51,6 +52,7 @@ __all__ = [
     "StereoRig",
     "SyntheticCloth",
     "circular_mean_hue",
+    "cma_search",
     "compass_search",
     "find_peaks",
     "full_search",

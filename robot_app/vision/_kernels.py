@@ -187,6 +187,67 @@ def score_poses(
 
 
 @_jit
+def normalised(sums, seen, full, view, min_view_fraction, hidden_penalty):
+    """Fitness from `score_poses`' sums: divided by `full` (the paper's "model" normalisation)
+    or, with `view`, by what the points in view could score (at least `min_view_fraction`
+    of `full`), minus `hidden_penalty` times the share of `full` not seen."""
+    out = np.empty(sums.shape[0])
+    floor = min_view_fraction * full
+    for p in range(sums.shape[0]):
+        if not view:
+            out[p] = sums[p] / full
+            continue
+        out[p] = sums[p] / max(seen[p], floor)
+        if hidden_penalty != 0.0:
+            out[p] -= hidden_penalty * min(max(1.0 - seen[p] / full, 0.0), 1.0)
+    return out
+
+
+@_jit
+def evolve(genes, scores, starts, elite, cdfs, uniforms, crossover_rate, mutation_rate,
+           lows, spans, gray_code, fitness_arguments, normalisation):  # fmt: skip
+    """`uniforms.shape[0]` GA generations (`next_generation`, then the offspring scored by
+    `score_poses` at the nearest pixel and `normalised`) in one compiled loop.
+
+    Args:
+        genes, scores: the population and its fitness.
+        starts, elite, cdfs, crossover_rate, mutation_rate: as `next_generation`.
+        uniforms: (generations, pairs, 5 + m) the draws of each generation.
+        lows, spans, gray_code: as `transforms_from_genes`.
+        fitness_arguments: `score_poses`' arguments from K_left to height.
+        normalisation: (full, view, min_view_fraction, hidden_penalty) of `normalised`.
+
+    Returns:
+        the last population, its fitness, the offspring scored, and the best fitness after
+        each generation.
+    """
+    K_left, K_right, left_from_right, px, py, pz, weights, best, rows, table, codes_l, codes_r, w, h = (
+        fitness_arguments
+    )
+    full, view, min_view_fraction, hidden_penalty = normalisation
+    history = np.empty(uniforms.shape[0])
+    evaluated = 0
+    for g in range(uniforms.shape[0]):
+        new, source = next_generation(genes, scores, starts, elite, cdfs, uniforms[g],
+                                      crossover_rate, mutation_rate)  # fmt: skip
+        children = np.flatnonzero(source < 0)
+        sums, seen = score_poses(transforms_from_genes(new[children], lows, spans, gray_code),
+                                 K_left, K_right, left_from_right, px, py, pz, weights, best, rows,
+                                 table, codes_l, codes_r, w, h, False)  # fmt: skip
+        fitness = normalised(sums, seen, full, view, min_view_fraction, hidden_penalty)
+        new_scores = np.empty(new.shape[0])
+        for k in range(new.shape[0]):
+            if source[k] >= 0:
+                new_scores[k] = scores[source[k]]
+        for j in range(children.shape[0]):
+            new_scores[children[j]] = fitness[j]
+        evaluated += children.shape[0]
+        genes, scores = new, new_scores
+        history[g] = scores.max()
+    return genes, scores, evaluated, history
+
+
+@_jit
 def breed(ranked, cdf, uniforms, n_children, crossover_rate, mutation_rate):
     """Offspring of one GA generation: ranking selection, two-point crossover, mutation.
 
@@ -355,4 +416,77 @@ def moved_poses(pose, deltas):
     return out
 
 
-__all__ = ["breed", "hsv_codes", "moved_poses", "next_generation", "score_poses", "transforms_from_genes"]
+@_jit
+def cma_sample(z, B, D, mean, sigma, scale, start):
+    """CMA-ES samples y = B diag(D) z (rows of `z` ~ N(0, I), so y ~ N(0, C)) and the poses
+    `moved_poses(start, (mean + sigma y) scale)`."""
+    lam, n = z.shape
+    y = np.zeros((lam, n))
+    deltas = np.empty((lam, n))
+    for k in range(lam):
+        for i in range(n):
+            acc = 0.0
+            for j in range(n):
+                acc += B[i, j] * D[j] * z[k, j]
+            y[k, i] = acc
+            deltas[k, i] = (mean[i] + sigma * acc) * scale[i]
+    return y, moved_poses(start, deltas)
+
+
+@_jit
+def cma_update(mean, sigma, C, p_c, p_s, B, D, y, order, weights, constants, generation):
+    """One CMA-ES update (Hansen's tutorial, 2016) of mean, C, p_c, p_s, B and D in place,
+    from samples `y` ranked best first by `order`; returns the new step size.
+
+    `constants` are (c_c, c_s, c_1, c_mu, damping, chi_n, mu_eff); `generation` counts from 1.
+    """
+    c_c, c_s, c_1, c_mu, damping, chi_n, mu_eff = constants
+    n, mu = mean.shape[0], weights.shape[0]
+    y_mean = np.zeros(n)
+    for r in range(mu):
+        for i in range(n):
+            y_mean[i] += weights[r] * y[order[r], i]
+    rotated = np.zeros(n)  # diag(1/D) B^T y_mean
+    for j in range(n):
+        for i in range(n):
+            rotated[j] += B[i, j] * y_mean[i]
+        rotated[j] /= D[j]
+    norm_s = 0.0
+    for i in range(n):
+        mean[i] += sigma * y_mean[i]
+        whitened = 0.0  # C^(-1/2) y_mean
+        for j in range(n):
+            whitened += B[i, j] * rotated[j]
+        p_s[i] = (1 - c_s) * p_s[i] + np.sqrt(c_s * (2 - c_s) * mu_eff) * whitened
+        norm_s += p_s[i] * p_s[i]
+    norm_s = np.sqrt(norm_s)
+    h_s = 1.0 if norm_s / np.sqrt(1 - (1 - c_s) ** (2 * generation)) / chi_n < 1.4 + 2 / (n + 1) else 0.0
+    for i in range(n):
+        p_c[i] = (1 - c_c) * p_c[i] + h_s * np.sqrt(c_c * (2 - c_c) * mu_eff) * y_mean[i]
+    keep = 1 - c_1 - c_mu + c_1 * (1 - h_s) * c_c * (2 - c_c)
+    for i in range(n):
+        for j in range(n):
+            rank_mu = 0.0
+            for r in range(mu):
+                rank_mu += weights[r] * y[order[r], i] * y[order[r], j]
+            C[i, j] = keep * C[i, j] + c_1 * p_c[i] * p_c[j] + c_mu * rank_mu
+    values, vectors = np.linalg.eigh(0.5 * (C + C.T))
+    for i in range(n):
+        D[i] = np.sqrt(max(values[i], 1e-20))
+        for j in range(n):
+            B[i, j] = vectors[i, j]
+    return sigma * np.exp(c_s / damping * (norm_s / chi_n - 1))
+
+
+__all__ = [
+    "breed",
+    "cma_sample",
+    "cma_update",
+    "evolve",
+    "hsv_codes",
+    "moved_poses",
+    "next_generation",
+    "normalised",
+    "score_poses",
+    "transforms_from_genes",
+]

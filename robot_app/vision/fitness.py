@@ -46,7 +46,7 @@ from pydantic import Field, model_validator
 from robot_app.config import StrictModel
 from robot_app.errors import InputError
 from robot_app.geometry import FloatArray
-from robot_app.vision._kernels import hsv_codes, score_poses
+from robot_app.vision._kernels import hsv_codes, normalised, score_poses
 from robot_app.vision.camera import PinholeCamera, StereoRig
 from robot_app.vision.hue import HUE_RANGE, hue_distance, to_hsv
 from robot_app.vision.photo_model import ClothModel
@@ -323,18 +323,33 @@ class FitnessEvaluator:
             `weights_out`; all 1 for the paper's uniform grid, which gives eqs. 9-11 exactly).
 
         Raises:
-            InputError: no images yet (call `update`) or poses of the wrong shape.
+            InputError: no images yet (call `update`), poses of the wrong shape or a stride
+                below 1.
+        """
+        T = np.ascontiguousarray(_as_poses(transforms_model_to_right))
+        arguments, normalisation = self.kernel_arguments(stride=stride, search=search)
+        sums, seen = score_poses(T, *arguments, subpixel)  # type: ignore[call-arg]  # numba stub
+        self.evaluations += len(sums)
+        return np.asarray(normalised(sums, seen, *normalisation))
+
+    def kernel_arguments(
+        self, *, stride: int = 1, search: bool = False
+    ) -> tuple[tuple[object, ...], tuple[float, bool, float, float]]:
+        """What the compiled kernels need to score poses on the current pair: the arguments
+        of `score_poses` after the poses (K_left ... height) and the normalisation
+        (full, view, min_view_fraction, hidden_penalty) of `normalised`.
+
+        Raises:
+            InputError: no images yet (call `update`) or a stride below 1.
         """
         if self._codes is None:
             raise InputError("no stereo pair to evaluate on: call update(left, right) first")
-        T = np.ascontiguousarray(_as_poses(transforms_model_to_right))
-        width, height = self.rig.image_size
         if stride < 1:
             raise InputError(f"stride must be a positive integer, got {stride}")
+        width, height = self.rig.image_size
         points = self._point_set(int(stride))
-        codes_left, codes_right = self._codes
-        sums, seen = score_poses(
-            T,
+        params = self.search_params if search else self.params
+        arguments = (
             self.rig.left.camera_matrix,
             self.rig.right.camera_matrix,
             self._left_from_right,
@@ -345,21 +360,44 @@ class FitnessEvaluator:
             points.best,
             points.row_offsets,
             self._search_table if search else self._table,
-            codes_left,
-            codes_right,
+            self._codes[0],
+            self._codes[1],
             width,
             height,
-            subpixel,
         )
-        self.evaluations += len(sums)
-        full = 2.0 * points.maximum
-        params = self.search_params if search else self.params
-        if params.normalisation == "model":
-            return sums / full
-        fitness = sums / np.maximum(seen, params.min_view_fraction * full)
-        if params.hidden_penalty:
-            fitness -= params.hidden_penalty * np.clip(1.0 - seen / full, 0.0, 1.0)
-        return fitness
+        view = params.normalisation == "view"
+        return arguments, (2.0 * points.maximum, view, params.min_view_fraction, params.hidden_penalty)
+
+
+class KernelFitness:
+    """The fitness of one evaluator at one stride as a function of poses, which the GA can
+    also run inside its compiled generation loop (`_kernels.evolve`) instead of calling it
+    once per generation: same scores, bit for bit, without the Python overhead.
+
+    Args:
+        evaluator: the evaluator (its current stereo pair is read at each call).
+        stride: score every `stride`-th model point.
+        search: score with the evaluator's search parameters.
+    """
+
+    def __init__(self, evaluator: FitnessEvaluator, *, stride: int = 1, search: bool = False) -> None:
+        if stride < 1:
+            raise InputError(f"stride must be a positive integer, got {stride}")
+        self.evaluator = evaluator
+        self.stride = stride
+        self.search = search
+
+    def __call__(self, transforms_model_to_right: npt.ArrayLike) -> FloatArray:
+        """(P,) normalised nearest-pixel fitness of (P, 4, 4) poses (see `FitnessEvaluator.evaluate`)."""
+        return self.evaluator.evaluate(transforms_model_to_right, stride=self.stride, search=self.search)
+
+    def kernel_arguments(self) -> tuple[tuple[object, ...], tuple[float, bool, float, float]]:
+        """See `FitnessEvaluator.kernel_arguments`."""
+        return self.evaluator.kernel_arguments(stride=self.stride, search=self.search)
+
+    def count(self, poses: int) -> None:
+        """Adds poses scored inside a compiled loop to the evaluator's `evaluations`."""
+        self.evaluator.evaluations += int(poses)
 
 
 def _paired_table(model: ClothModel, params: FitnessParams) -> npt.NDArray[np.float32]:
@@ -388,4 +426,12 @@ def _as_poses(transforms: npt.ArrayLike) -> FloatArray:
     return T
 
 
-__all__ = ["NO_HUE", "OFF_IMAGE", "FitnessEvaluator", "FitnessParams", "score_table", "seen_table"]
+__all__ = [
+    "NO_HUE",
+    "OFF_IMAGE",
+    "FitnessEvaluator",
+    "FitnessParams",
+    "KernelFitness",
+    "score_table",
+    "seen_table",
+]

@@ -16,7 +16,9 @@ sub-populations that rank and breed only among themselves (their offspring are s
 in one batch): each island converges on its own peak, so one island caught on a wrong
 peak does not take the whole search with it. `run` starts from a random population; `track` keeps the
 last population, moves every individual by the camera motion and evolves a few
-generations. The RNG is a seeded `np.random.Generator`: same seed, same result.
+generations. The RNG is a seeded `np.random.Generator`: same seed, same result. With a
+`KernelFitness` (the recognizer's), all generations of a call run in one compiled loop
+that draws the same random numbers and gives the same population as the loop in Python.
 """
 
 from __future__ import annotations
@@ -32,7 +34,8 @@ from pydantic import Field, model_validator
 from robot_app.config import StrictModel
 from robot_app.errors import InputError
 from robot_app.geometry import FloatArray
-from robot_app.vision._kernels import next_generation, transforms_from_genes
+from robot_app.vision._kernels import evolve, next_generation, transforms_from_genes
+from robot_app.vision.fitness import KernelFitness
 
 BITS = 12
 GENES = 6
@@ -294,7 +297,14 @@ class GeneticAlgorithm:
         scores = self.fitness(self.transforms(genes))
         evaluations = len(genes)
         history = [float(scores.max())]
-        for _ in range(generations):
+        in_python = generations
+        if isinstance(self.fitness, KernelFitness) and generations > 0:
+            compiled = self._compiled_generations(self.fitness, genes, scores, generations)
+            genes, scores, evaluated, best_history = compiled
+            evaluations += evaluated
+            history.extend(best_history.tolist())
+            in_python = 0
+        for _ in range(in_python):
             genes, scores, evaluated = self._generation(genes, scores)
             evaluations += evaluated
             history.append(float(scores.max()))
@@ -307,6 +317,20 @@ class GeneticAlgorithm:
             evaluations,
             np.array(history),
         )
+
+    def _compiled_generations(
+        self, fitness: KernelFitness, genes: Genes, scores: FloatArray, generations: int
+    ) -> tuple[Genes, FloatArray, int, FloatArray]:
+        """`generations` generations in `_kernels.evolve` (the draws of `_generation`, all at once)."""
+        s = self.settings
+        uniforms = self.rng.random((generations, *self._uniforms_shape))
+        arguments, normalisation = fitness.kernel_arguments()
+        genes, scores, evaluated, best = evolve(
+            genes, scores, self._starts, s.elite, self._cdfs, uniforms, s.crossover_rate, s.mutation_rate,
+            self._lows, self._spans, s.gray_code, arguments, normalisation,
+        )  # fmt: skip
+        fitness.count(evaluated)
+        return genes, scores, int(evaluated), best
 
     def _generation(self, genes: Genes, scores: FloatArray) -> tuple[Genes, FloatArray, int]:
         s = self.settings

@@ -1,4 +1,4 @@
-"""Local refinement of a recognised pose: a compass search on the continuous pose.
+"""Local refinement of a recognised pose: a compass search or a CMA-ES on the continuous pose.
 
 The GA's best individual sits on the right peak but only as precisely as its last
 generations happened to land. The compass search steps the pose along the camera x and
@@ -10,18 +10,27 @@ fitness (each point's score interpolated bilinearly between its four neighbourin
 pixels), which is smooth in the pose where the paper's nearest-pixel fitness is a
 staircase, so the search can settle between pixels: that is what pins depth (a 1 mm
 depth change moves the disparity by about 0.2 px at 580 mm).
+
+The compass search stops on ridges where depth, tilt and position must change together
+(a tilted cloth seen a little farther and shifted sideways fills nearly the same pixels).
+`cma_search`, a small (mu/mu_w, lambda) CMA-ES (Hansen, "The CMA Evolution Strategy: A
+Tutorial", 2016, with its default constants), learns that coupling as the covariance of
+its search distribution and follows the ridge: on the synthetic bench it takes results of
+fitness 0.97-0.98 with 4-15 mm depth errors onto the true peak (0.995-0.999). It scores a
+batch of poses per iteration, so its Python overhead is one call per lambda poses.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Literal
 
 import numpy as np
 from pydantic import Field
 
 from robot_app.config import StrictModel
 from robot_app.geometry import FloatArray
-from robot_app.vision._kernels import moved_poses
+from robot_app.vision._kernels import cma_sample, cma_update, moved_poses
 
 PoseScore = Callable[[FloatArray], FloatArray]  # (P, 4, 4) poses -> (P,) fitness
 PoseFilter = Callable[[FloatArray], "np.ndarray"]  # (P, 4, 4) poses -> (P,) bool allowed
@@ -32,8 +41,13 @@ class RefinementSettings(StrictModel):
 
     Attributes:
         enabled: refine one-shot results.
+        method: the final polish of a one-shot result: "cma" (`cma_search`) or
+            "compass" (`compass_search`); the candidates and tracking always use the
+            compass search.
         in_tracking: refine tracking results too.
         subpixel: search on the bilinear-score fitness (else the nearest-pixel one).
+        candidate_subpixel: the same for the short compass searches of the recognizer's
+            best candidates, which only have to tell the right peak from the others.
         step_position: first step along camera x and y [m].
         step_depth: first step along the camera axis [m].
         step_angle_deg: first rotation step about each camera axis [deg].
@@ -42,11 +56,20 @@ class RefinementSettings(StrictModel):
         candidate_iterations: iterations for each of the recognizer's best candidates
             before the best of them goes on.
         tracking_iterations: cap when tracking.
+        cma_population: poses per CMA-ES iteration (lambda).
+        cma_iterations: cap on CMA-ES iterations of the final polish.
+        cma_sigma: initial CMA-ES step, in units of the compass steps (`step_position`,
+            `step_depth`, `step_angle_deg`).
+        cma_tolerance: stop when the CMA-ES step falls below this (same units).
+        cma_fine_iterations: the last CMA-ES iterations, which rank by the sub-pixel
+            fitness (with `subpixel`; the others by the nearest-pixel one, 2-3x cheaper).
+        cma_fine_below: the sub-pixel ranking also starts when the step falls below this.
     """
 
     enabled: bool = True
     in_tracking: bool = True
     subpixel: bool = True
+    candidate_subpixel: bool = False
     step_position: float = Field(default=0.002, gt=0.0)
     step_depth: float = Field(default=0.006, gt=0.0)
     step_angle_deg: float = Field(default=1.0, gt=0.0)
@@ -54,6 +77,18 @@ class RefinementSettings(StrictModel):
     max_iterations: int = Field(default=30, ge=1)
     candidate_iterations: int = Field(default=6, ge=1)
     tracking_iterations: int = Field(default=4, ge=1)
+    method: Literal["cma", "compass"] = "cma"
+    cma_population: int = Field(default=12, ge=4)
+    cma_iterations: int = Field(default=40, ge=1)
+    cma_sigma: float = Field(default=2.0, gt=0.0)
+    cma_tolerance: float = Field(default=0.03, gt=0.0)
+    cma_fine_iterations: int = Field(default=12, ge=0)
+    cma_fine_below: float = Field(default=0.1, ge=0.0)
+
+    def steps(self) -> FloatArray:
+        """(6,) first steps along (x, y, depth [m], rotation about camera x, y, z [rad])."""
+        angle = np.deg2rad(self.step_angle_deg)
+        return np.array([self.step_position, self.step_position, self.step_depth, angle, angle, angle])
 
 
 def compass_search(
@@ -80,14 +115,7 @@ def compass_search(
     Returns:
         (best pose, its score).
     """
-    steps = np.array(
-        [
-            settings.step_position,
-            settings.step_position,
-            settings.step_depth,
-            *[np.deg2rad(settings.step_angle_deg)] * 3,
-        ]
-    )
+    steps = settings.steps()
     current = float(score(pose[None])[0])
     for _ in range(iterations):
         candidates = neighbours(pose, steps)
@@ -116,6 +144,77 @@ def compass_search(
     return pose, current
 
 
+def cma_search(
+    pose: FloatArray,
+    score: PoseScore,
+    settings: RefinementSettings,
+    rng: np.random.Generator,
+    allowed: PoseFilter | None = None,
+    fine_score: PoseScore | None = None,
+) -> tuple[FloatArray, float]:
+    """CMA-ES over the pose moves of `moved` (x, y, depth along the ray, rotation vector).
+
+    The search distribution starts at `pose` with a step of `cma_sigma` compass steps in
+    each coordinate; each iteration scores `cma_population` samples, moves the mean to
+    the weighted best half and adapts step and covariance (rank-one and rank-mu updates,
+    cumulative step-size adaptation). Samples that `allowed` rejects score -inf. It
+    stops after `cma_iterations` or when the step falls below `cma_tolerance`. With
+    `fine_score` (e.g. the sub-pixel fitness, dearer than `score`), the last
+    `cma_fine_iterations` iterations (and those after the step first falls below
+    `cma_fine_below`) rank the samples by it; the ranking is all a CMA-ES uses, so its
+    state carries over.
+
+    Args:
+        pose: (4, 4) start ^CR T_M.
+        score: fitness of (P, 4, 4) poses (higher is better).
+        settings: population, iterations, initial step and tolerance.
+        rng: the random generator (seeded by the caller: same seed, same result).
+        allowed: which poses may be scored; None: all.
+        fine_score: the score of the last iterations; None: `score` throughout.
+
+    Returns:
+        (best pose seen, its score by the score of the last iteration); `pose` itself if
+        nothing better was seen.
+    """
+    n, lam = 6, settings.cma_population
+    mu = lam // 2
+    weights = np.log(mu + 0.5) - np.log(np.arange(1, mu + 1))
+    weights /= weights.sum()
+    mu_eff = 1.0 / float(np.sum(weights**2))
+    constants = (
+        (4 + mu_eff / n) / (n + 4 + 2 * mu_eff / n),  # c_c
+        (mu_eff + 2) / (n + mu_eff + 5),  # c_s
+        2 / ((n + 1.3) ** 2 + mu_eff),  # c_1
+        min(1 - 2 / ((n + 1.3) ** 2 + mu_eff), 2 * (mu_eff - 2 + 1 / mu_eff) / ((n + 2) ** 2 + mu_eff)),
+        1 + 2 * max(0.0, np.sqrt((mu_eff - 1) / (n + 1)) - 1) + (mu_eff + 2) / (n + mu_eff + 5),  # damping
+        np.sqrt(n) * (1 - 1 / (4 * n) + 1 / (21 * n * n)),  # E|N(0, I)|
+        mu_eff,
+    )
+    scale = settings.steps()
+    start = np.ascontiguousarray(pose, dtype=float)
+    best_pose, best = start, float(score(start[None])[0])
+    mean, sigma = np.zeros(n), settings.cma_sigma
+    C, B, D = np.eye(n), np.eye(n), np.ones(n)
+    p_c, p_s = np.zeros(n), np.zeros(n)
+    fine_from = settings.cma_iterations - settings.cma_fine_iterations + 1
+    for generation in range(1, settings.cma_iterations + 1):
+        if fine_score is not None and (generation >= fine_from or sigma * D.max() < settings.cma_fine_below):
+            score, fine_score = fine_score, None
+            best = float(score(best_pose[None])[0])
+        y, poses = cma_sample(rng.standard_normal((lam, n)), B, D, mean, sigma, scale, start)
+        scores = np.full(lam, -np.inf)
+        inside = np.ones(lam, bool) if allowed is None else np.asarray(allowed(poses))
+        if inside.any():
+            scores[inside] = score(poses[inside])
+        order = np.argsort(-scores, kind="stable")
+        if scores[order[0]] > best:
+            best, best_pose = float(scores[order[0]]), poses[order[0]]
+        sigma = cma_update(mean, sigma, C, p_c, p_s, B, D, y, order, weights, constants, generation)
+        if sigma * D.max() < settings.cma_tolerance:
+            break
+    return best_pose, best
+
+
 def neighbours(pose: FloatArray, steps: FloatArray) -> FloatArray:
     """The 12 poses one step away along each of the six coordinates, both ways (+, - pairs).
 
@@ -137,4 +236,4 @@ def moved(pose: FloatArray, delta: FloatArray) -> FloatArray:
     return np.asarray(moved_poses(np.ascontiguousarray(pose, dtype=float), deltas))[0]
 
 
-__all__ = ["RefinementSettings", "compass_search", "moved", "neighbours"]
+__all__ = ["RefinementSettings", "cma_search", "compass_search", "moved", "neighbours"]
