@@ -306,7 +306,7 @@ def make_model(
     extent = (float(np.ptp(xy[:, 0]) + metres_per_pixel), float(np.ptp(xy[:, 1]) + metres_per_pixel))
 
     smooth = to_hsv(cv2.GaussianBlur(np.ascontiguousarray(photo_bgr), (0, 0), 1.0))
-    samples = sample_model(mask, smooth, camera, model_camera.distance, origin, settings)
+    samples = sample_model(mask, smooth, camera, model_camera.distance, origin, settings, H_B)
     if len(samples.points_in) < 3:
         raise ModelError(
             f"the cloth has only {len(samples.points_in)} sample points at point_spacing="
