@@ -18,11 +18,12 @@ far report the best pose of each distinct peak (e.g. each cloth in view, Fig. 13
 
 from __future__ import annotations
 
+import functools
 import gc
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any, TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -36,6 +37,8 @@ from robot_app.vision.fitness import FitnessEvaluator, FitnessParams, KernelFitn
 from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBounds, encode, parameters_from_transforms
 from robot_app.vision.photo_model import ClothModel
 from robot_app.vision.refinement import RefinementSettings, cma_search, compass_search
+
+_Method = TypeVar("_Method", bound=Callable[..., "Recognition"])
 
 
 class RecognitionSettings(StrictModel):
@@ -225,6 +228,23 @@ class Recognition:
         return data
 
 
+def _collector_paused(method: _Method) -> _Method:
+    """Runs a `Recognizer` method with Python's cyclic garbage collector off (if it was on
+    and the recognizer's `settings.pause_garbage_collector` says so)."""
+
+    @functools.wraps(method)
+    def paused(self: Recognizer, *args: Any, **kwargs: Any) -> Recognition:
+        if not self.settings.pause_garbage_collector or not gc.isenabled():
+            return method(self, *args, **kwargs)
+        gc.disable()
+        try:
+            return method(self, *args, **kwargs)
+        finally:
+            gc.enable()
+
+    return cast(_Method, paused)
+
+
 class Recognizer:
     """Recognises one cloth model in stereo pairs; keeps the best poses for tracking."""
 
@@ -266,6 +286,7 @@ class Recognizer:
         self._rng = np.random.default_rng(self.settings.ga.seed)
         self._poses: FloatArray | None = None
 
+    @_collector_paused
     def recognize(
         self,
         image_left_bgr: npt.NDArray[np.uint8],
@@ -284,16 +305,6 @@ class Recognizer:
         Raises:
             InputError: images of the wrong type or size.
         """
-        with _collector_paused(self.settings.pause_garbage_collector):
-            return self._recognize(image_left_bgr, image_right_bgr, seed, report_peaks)
-
-    def _recognize(
-        self,
-        image_left_bgr: npt.NDArray[np.uint8],
-        image_right_bgr: npt.NDArray[np.uint8],
-        seed: int | None,
-        report_peaks: bool,
-    ) -> Recognition:
         start = time.perf_counter()
         s = self.settings
         self.evaluator.update(image_left_bgr, image_right_bgr)
@@ -335,6 +346,7 @@ class Recognizer:
             peaks=tuple(sorted(peaks, key=lambda p: -p.fitness)) if report_peaks else (),
         )
 
+    @_collector_paused
     def track(
         self,
         image_left_bgr: npt.NDArray[np.uint8],
@@ -363,18 +375,6 @@ class Recognizer:
         """
         if self._poses is None:
             return self.recognize(image_left_bgr, image_right_bgr)
-        with _collector_paused(self.settings.pause_garbage_collector):
-            return self._track(image_left_bgr, image_right_bgr, transform_motion, generations)
-
-    def _track(
-        self,
-        image_left_bgr: npt.NDArray[np.uint8],
-        image_right_bgr: npt.NDArray[np.uint8],
-        transform_motion: FloatArray | None,
-        generations: int | None,
-    ) -> Recognition:
-        if self._poses is None:
-            raise RuntimeError("no kept poses")  # unreachable: track() checked
         start = time.perf_counter()
         s = self.settings
         count = s.ga.tracking_generations if generations is None else generations
@@ -575,19 +575,6 @@ class Recognizer:
             ga.population[worst] = genes[0]
             ga.scores[worst] = search_fitness
         return pose, float(self.evaluator.evaluate(pose)[0]), search_fitness
-
-
-@contextmanager
-def _collector_paused(pause: bool) -> Iterator[None]:
-    """Python's cyclic garbage collector off for the block (if it was on and `pause`)."""
-    if not pause or not gc.isenabled():
-        yield
-        return
-    gc.disable()
-    try:
-        yield
-    finally:
-        gc.enable()
 
 
 def _untilted(pose: FloatArray) -> FloatArray:

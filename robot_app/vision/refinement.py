@@ -181,12 +181,13 @@ def cma_search(
     weights = np.log(mu + 0.5) - np.log(np.arange(1, mu + 1))
     weights /= weights.sum()
     mu_eff = 1.0 / float(np.sum(weights**2))
+    c_s, c_1 = (mu_eff + 2) / (n + mu_eff + 5), 2 / ((n + 1.3) ** 2 + mu_eff)
     constants = (
         (4 + mu_eff / n) / (n + 4 + 2 * mu_eff / n),  # c_c
-        (mu_eff + 2) / (n + mu_eff + 5),  # c_s
-        2 / ((n + 1.3) ** 2 + mu_eff),  # c_1
-        min(1 - 2 / ((n + 1.3) ** 2 + mu_eff), 2 * (mu_eff - 2 + 1 / mu_eff) / ((n + 2) ** 2 + mu_eff)),
-        1 + 2 * max(0.0, np.sqrt((mu_eff - 1) / (n + 1)) - 1) + (mu_eff + 2) / (n + mu_eff + 5),  # damping
+        c_s,
+        c_1,
+        min(1 - c_1, 2 * (mu_eff - 2 + 1 / mu_eff) / ((n + 2) ** 2 + mu_eff)),  # c_mu
+        1 + 2 * max(0.0, np.sqrt((mu_eff - 1) / (n + 1)) - 1) + c_s,  # damping
         np.sqrt(n) * (1 - 1 / (4 * n) + 1 / (21 * n * n)),  # E|N(0, I)|
         mu_eff,
     )
