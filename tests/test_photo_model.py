@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import json
+
 import cv2
 import numpy as np
 import pytest
 
 from robot_app.errors import InputError, ModelError
 from robot_app.vision.camera import ModelCamera, PinholeCamera
-from robot_app.vision.hue import hue_distance, to_hue
+from robot_app.vision.hue import DARK, LIGHT, colour_codes, hue_distance, to_hsv, to_hue
 from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
 from robot_app.vision.synthetic import TABLE_GREEN_BGR, SyntheticCloth, render_model_photo, synthetic_cloth
 
@@ -34,7 +36,7 @@ def test_model_file_round_trips_exactly(tmp_path):
     model.save(path)
     loaded = ClothModel.load(path)
     assert loaded == model
-    assert loaded.hues_in.dtype == np.uint8
+    assert loaded.hues_in.dtype == np.uint16
     assert not loaded.points_in.flags.writeable
 
 
@@ -60,6 +62,55 @@ def test_loading_a_text_file_is_a_model_error(tmp_path):
 def test_model_rejects_mismatched_hues():
     with pytest.raises(ModelError, match="hues_in"):
         ClothModel("x", np.zeros((3, 3)), np.zeros(2), np.zeros((0, 3)), 80.0, np.zeros(3), (0, 0))
+    with pytest.raises(ModelError, match="colour codes"):
+        ClothModel("x", np.zeros((1, 3)), np.array([LIGHT + 1]), np.zeros((0, 3)), 80.0, np.zeros(3), (0, 0))
+
+
+def test_a_version_1_file_still_loads(tmp_path):
+    model = _handmade_model()
+    model.save(tmp_path / "new.npz")
+    with np.load(tmp_path / "new.npz") as data:
+        arrays = dict(data)
+    header = json.loads(str(arrays["header"]))
+    header["version"] = 1
+    arrays["header"] = np.array(json.dumps(header))
+    arrays["hues_in"] = arrays["hues_in"].astype(np.uint8)  # version 1: hues only, uint8
+    np.savez(tmp_path / "old.npz", **arrays)
+    assert ClothModel.load(tmp_path / "old.npz") == model
+    header["version"] = 3
+    arrays["header"] = np.array(json.dumps(header))
+    np.savez(tmp_path / "future.npz", **arrays)
+    with pytest.raises(ModelError, match="version 3"):
+        ClothModel.load(tmp_path / "future.npz")
+
+
+def _checks_with_white_stripe() -> SyntheticCloth:
+    """20 x 16 cm: yellow and black 2 cm checks, a white stripe 2 cm wide across the middle."""
+    v, u = np.indices((320, 400))
+    texture = np.where((((u // 40) + (v // 40)) % 2 == 0)[..., None], (30, 200, 225), (35, 35, 35))
+    texture[(v >= 140) & (v < 180)] = (225, 225, 225)
+    return SyntheticCloth("checks", texture.astype(np.uint8), np.ones((320, 400), bool), (0.2, 0.16))
+
+
+def test_black_and_white_parts_become_toned_points():
+    cloth = _checks_with_white_stripe()
+    photo, background = render_model_photo(cloth, MODEL_CAMERA, rng=np.random.default_rng(2))
+    model = make_model(photo, MODEL_CAMERA, background)
+    texel = _model_to_texel(cloth, model.points_in)
+    codes = colour_codes(to_hsv(np.ascontiguousarray(cloth.texture_bgr)), 40, 40, 128)
+    truth = codes[texel[:, 1], texel[:, 0]]
+    dark, light = model.hues_in == DARK, model.hues_in == LIGHT
+    assert dark.sum() > 50 and light.sum() > 20
+    assert np.mean(truth[dark] == DARK) > 0.95 and np.mean(truth[light] == LIGHT) > 0.95
+    # Away from colour edges (±2 photo pixels, where the blur mixes black with yellow) every
+    # black sample is DARK.
+    kernel = np.ones((9, 9), np.uint8)
+    dark_texels = (codes == DARK).astype(np.uint8)
+    deep_dark = cv2.erode(dark_texels, kernel).astype(bool)[texel[:, 1], texel[:, 0]]
+    assert deep_dark.sum() > 50 and np.all(model.hues_in[deep_dark] == DARK)
+    hue_only = make_model(photo, MODEL_CAMERA, background, ModelSettings(tones=False))
+    assert (hue_only.hues_in < 256).all() and hue_only.n_in < model.n_in - dark.sum()
+    assert hue_only.extent == model.extent  # the outline is the same either way
 
 
 # --- make_model on rendered photos with exact ground truth -------------------------------
@@ -106,8 +157,12 @@ def test_make_model_recovers_the_cloth_geometry_in_metres(index):
     hue_error = hue_distance(texture_hue[texel[:, 1], texel[:, 0]], model.hues_in)
     assert np.mean(hue_error[clear] <= 4) > 0.99
     assert np.all(model.points_in[:, 2] == 0) and np.all(model.points_out[:, 2] == 0)
-    grid = make_model(photo, MODEL_CAMERA, background, ModelSettings(sampling="grid", point_spacing=0.006))
+    literal = ModelSettings(sampling="grid", point_spacing=0.006, colour_edge_gap=0.0)
+    grid = make_model(photo, MODEL_CAMERA, background, literal)
     assert grid.n_in == pytest.approx(cloth.area / 0.006**2, rel=0.1)
+    # By default the samples within 1 mm of another colour are dropped: a few on a multi-colour cloth.
+    spaced = make_model(photo, MODEL_CAMERA, background, ModelSettings(sampling="grid", point_spacing=0.006))
+    assert (index == 3) == (spaced.n_in < 0.95 * grid.n_in) and spaced.n_in <= grid.n_in
 
 
 def _distance_to_outline(cloth: SyntheticCloth, points: np.ndarray, inside: bool) -> np.ndarray:

@@ -494,7 +494,11 @@ class PickPlaceLoop:
         self._last_capture = capture
         if mode == "search" and recognition.found:
             self._grasp_point_model = visible_grasp_point(
-                self.model, self.recognizer.rig, recognition.transform_model_to_camera, capture
+                self.model,
+                self.recognizer.rig,
+                recognition.transform_model_to_camera,
+                capture,
+                self.recognizer.settings.fitness,
             )
         errors: dict[str, float] = {}
         if self.ground_truth is not None:

@@ -12,7 +12,16 @@ from robot_app.vision.camera import (
 from robot_app.vision.fitness import FitnessEvaluator, FitnessParams, KernelFitness
 from robot_app.vision.full_search import FitnessPeak, FullSearchResult, find_peaks, full_search
 from robot_app.vision.ga import GAResult, GASettings, GeneticAlgorithm, SearchBounds
-from robot_app.vision.hue import circular_mean_hue, hue_distance, to_hsv, to_hue
+from robot_app.vision.hue import (
+    DARK,
+    LIGHT,
+    circular_mean_hue,
+    colour_codes,
+    colours_match,
+    hue_distance,
+    to_hsv,
+    to_hue,
+)
 from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
 from robot_app.vision.plots import plot_full_search, save_preview
 from robot_app.vision.recognizer import Peak, Recognition, RecognitionSettings, Recognizer
@@ -30,6 +39,8 @@ from robot_app.vision.synthetic import (
 
 __all__ = [
     "CATALOGUE_SIZE",
+    "DARK",
+    "LIGHT",
     "ClothModel",
     "FitnessEvaluator",
     "FitnessParams",
@@ -53,6 +64,8 @@ __all__ = [
     "SyntheticCloth",
     "circular_mean_hue",
     "cma_search",
+    "colour_codes",
+    "colours_match",
     "compass_search",
     "find_peaks",
     "full_search",

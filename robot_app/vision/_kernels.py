@@ -1,10 +1,10 @@
 """Compiled inner loops of the fitness (eqs. 9-11): one gather and one table look-up per point.
 
 The fitness of a pose is a sum over model points of a score that depends only on the row
-of the point (its model hue, or "outside") and on the code of the image pixel it lands on
-(its hue, "no hue", or "off the image"). `fitness.py` builds that score table once per
-model, beside each score a "seen" flag (does the point count towards the divisor of the
-fitness); these kernels project the points with a 3x4 matrix per pose and camera and add
+of the point (its model colour, a hue or a tone, or "outside") and on the code of the
+image pixel it lands on (its hue, its tone, or "off the image"). `fitness.py` builds that
+score table once per model, beside each score a "seen" flag (does the point count towards
+the divisor of the fitness); these kernels project the points with a 3x4 matrix per pose and camera and add
 up the table entries. Each image is a flat code array framed by pixels whose code scores 0
 in every row: points off the image or behind the camera are clamped onto the frame, so
 the projection loop has no data-dependent branches. Numba's `error_model="numpy"`
@@ -21,18 +21,22 @@ _jit = njit(cache=True, fastmath=True, nogil=True, error_model="numpy")
 
 
 @_jit
-def hsv_codes(hsv, min_saturation, no_hue, fill):
-    """(H, W, 3) HSV_FULL image -> flat pixel codes: the hue, or `no_hue` where saturation
-    < min_saturation, framed by `fill` (one pixel left and top, two right and bottom;
-    row stride width + 3), as the scoring kernels read them."""
+def hsv_codes(hsv, min_saturation, min_value, value_split, dark, light, fill):
+    """(H, W, 3) HSV_FULL image -> flat pixel codes, framed by `fill` (one pixel left and
+    top, two right and bottom; row stride width + 3), as the scoring kernels read them.
+    A code is the hue, or where saturation < min_saturation or value < min_value the tone:
+    `dark` for value < value_split, else `light` (`hue.colour_codes`, pixel by pixel)."""
     height, width = hsv.shape[0], hsv.shape[1]
     stride = width + 3
     out = np.full((height + 3) * stride, fill, dtype=np.uint16)
     for v in range(height):
         base = (v + 1) * stride + 1
         for u in range(width):
-            hue = np.uint16(hsv[v, u, 0])
-            out[base + u] = hue if hsv[v, u, 1] >= min_saturation else np.uint16(no_hue)
+            value = hsv[v, u, 2]
+            if hsv[v, u, 1] >= min_saturation and value >= min_value:
+                out[base + u] = np.uint16(hsv[v, u, 0])
+            else:
+                out[base + u] = np.uint16(dark) if value < value_split else np.uint16(light)
     return out
 
 

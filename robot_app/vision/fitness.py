@@ -9,7 +9,13 @@ scores by the hue of the pixel it lands on (nearest pixel, as in the paper):
 - S_out point (eq. 10): `score_out_background` (0.1) if the image hue is within
   `hue_threshold_out` (20) of H̄_B, else `score_out_other` (-0.5).
 
-Hue differences are taken on the circle (HSV_FULL, 256 steps per turn). F = (F_R + F_L) / 2
+Hue differences are taken on the circle (HSV_FULL, 256 steps per turn). Beyond the paper,
+a pixel without hue (`min_saturation`, `min_value`) has a tone, DARK or LIGHT
+(`robot_app.vision.hue`), and so may an S_in point (`ModelSettings.tones`): a tone point
+matches a pixel of its tone as a hue point matches its hue; a hue point on a toned
+pixel, or a tone point on another tone, scores `score_in_other`; an S_out point on a
+toned pixel `score_out_other`. With the defaults (`min_saturation` 0) every pixel has
+its hue, as in the paper. F = (F_R + F_L) / 2
 (eq. 11) is reported divided by its maximum, so that a perfect match is 1.0. Points that
 fall outside an image (or behind a camera) contribute nothing to that image's sum.
 
@@ -48,12 +54,12 @@ from robot_app.errors import InputError
 from robot_app.geometry import FloatArray
 from robot_app.vision._kernels import hsv_codes, normalised, score_poses
 from robot_app.vision.camera import PinholeCamera, StereoRig
-from robot_app.vision.hue import HUE_RANGE, hue_distance, to_hsv
+from robot_app.vision.hue import COLOUR_CODES, DARK, HUE_RANGE, LIGHT, colours_match, to_hsv
 from robot_app.vision.photo_model import ClothModel
 
-NO_HUE = HUE_RANGE  # pixel code of a pixel too grey to have a hue (see min_saturation)
-OFF_IMAGE = HUE_RANGE + 1  # code of the frame around each image that off-image points read: scores 0
-_OUTSIDE_ROW = HUE_RANGE  # table row of S_out points; rows 0-255 are S_in points by model hue
+OFF_IMAGE = COLOUR_CODES  # code of the frame around each image that off-image points read: scores 0
+OUTSIDE_ROW = COLOUR_CODES  # table row of S_out points; rows 0-257 are S_in points by colour code
+_COLUMNS = COLOUR_CODES + 1  # pixel codes: hues 0-255, DARK, LIGHT, OFF_IMAGE
 
 
 class FitnessParams(StrictModel):
@@ -67,8 +73,13 @@ class FitnessParams(StrictModel):
         score_out_other: S_out point on any other pixel.
         hue_threshold_in: hue tolerance of eq. 9 [HSV_FULL steps, 0-128].
         hue_threshold_out: hue tolerance of eq. 10 [HSV_FULL steps, 0-128].
-        min_saturation: pixels with saturation below this (0-255) have no hue: they match
-            neither a model hue nor the background. 0 (the paper) gives every pixel a hue.
+        min_saturation: pixels with saturation below this (0-255) have no hue but a tone
+            (DARK / LIGHT): they match neither a model hue nor the background, only model
+            points of their tone. 0 (the paper) gives every pixel a hue.
+        min_value: pixels with value below this (0-255) have no hue either (the
+            saturation of a dark pixel is mostly noise). 0: the paper.
+        value_split: a pixel without hue is DARK below this value, else LIGHT; the model's
+            (`ModelSettings.value_split`) should be the same.
         score_out_foreign: S_out point on a pixel whose hue is neither background nor
             within `hue_threshold_in` of any of the model's hues (a blue sheet over a red
             cloth, a cloth of another colour). None (the paper): `score_out_other`. The
@@ -97,6 +108,8 @@ class FitnessParams(StrictModel):
     hue_threshold_in: int = Field(default=30, ge=0, le=128)
     hue_threshold_out: int = Field(default=20, ge=0, le=128)
     min_saturation: int = Field(default=0, ge=0, le=255)
+    min_value: int = Field(default=0, ge=0, le=255)
+    value_split: int = Field(default=128, ge=1, le=255)
     score_out_foreign: float | None = None
     normalisation: Literal["model", "view"] = "view"
     min_view_fraction: float = Field(default=0.5, gt=0.0, le=1.0)
@@ -118,33 +131,31 @@ class FitnessParams(StrictModel):
 def score_table(
     background_hue: float, params: FitnessParams, model_hues: npt.ArrayLike | None = None
 ) -> npt.NDArray[np.float32]:
-    """(257, 258) table of eqs. 9-10: row = model hue 0-255 or 256 (S_out), column = pixel code.
+    """(259, 259) table of eqs. 9-10: row = model colour code 0-257 (hue, DARK, LIGHT) or 258
+    (S_out), column = pixel code.
 
-    Pixel codes are hues 0-255, `NO_HUE` and `OFF_IMAGE` (always 0).
+    Pixel codes are hues 0-255, `DARK`, `LIGHT` and `OFF_IMAGE` (always 0).
 
     Args:
         background_hue: H̄_B [HSV_FULL, 0-256).
         params: scores and thresholds.
-        model_hues: the model's S_in hues; needed only for `params.score_out_foreign`.
+        model_hues: the model's S_in colour codes; needed only for `params.score_out_foreign`
+            and `params.hidden_foreign`.
     """
-    codes = np.arange(HUE_RANGE)
-    d_background = _background_distance(background_hue)
-    d_model = hue_distance(codes[:, None], codes[None, :])  # (model hue, pixel hue)
-    table = np.zeros((HUE_RANGE + 1, HUE_RANGE + 2), dtype=np.float32)
+    codes = np.arange(COLOUR_CODES)
+    d_background = _background_distance(background_hue)  # tones: never the background
+    match = colours_match(codes[:, None], codes[None, :], params.hue_threshold_in)  # (model, pixel)
+    table = np.zeros((COLOUR_CODES + 1, _COLUMNS), dtype=np.float32)
     inside = np.where(
         d_background <= params.hue_threshold_in, params.score_in_background, params.score_in_other
     )
-    table[:HUE_RANGE, :HUE_RANGE] = np.where(
-        d_model <= params.hue_threshold_in, params.score_in_match, inside[None, :]
-    )
-    table[:HUE_RANGE, NO_HUE] = params.score_in_other
-    table[_OUTSIDE_ROW, :HUE_RANGE] = np.where(
+    table[:COLOUR_CODES, :COLOUR_CODES] = np.where(match, params.score_in_match, inside[None, :])
+    table[OUTSIDE_ROW, :COLOUR_CODES] = np.where(
         d_background <= params.hue_threshold_out, params.score_out_background, params.score_out_other
     )
-    table[_OUTSIDE_ROW, NO_HUE] = params.score_out_other
     if params.score_out_foreign is not None and model_hues is not None:
         foreign = _foreign_hues(background_hue, params, model_hues, params.hue_threshold_out)
-        table[_OUTSIDE_ROW, :HUE_RANGE][foreign] = params.score_out_foreign
+        table[OUTSIDE_ROW, :COLOUR_CODES][foreign] = params.score_out_foreign
     if params.hidden_foreign and model_hues is not None:
         table[~seen_table(background_hue, params, model_hues)] = 0.0
     return table
@@ -153,53 +164,55 @@ def score_table(
 def seen_table(
     background_hue: float, params: FitnessParams, model_hues: npt.ArrayLike | None = None
 ) -> npt.NDArray[np.bool_]:
-    """(257, 258) like `score_table`: does a point of that row on that pixel code count as seen?
+    """(259, 259) like `score_table`: does a point of that row on that pixel code count as seen?
 
-    Not seen: `OFF_IMAGE`, and with `params.hidden_foreign` a foreign hue, i.e. one
+    Not seen: `OFF_IMAGE`, and with `params.hidden_foreign` a foreign colour, i.e. a hue
     farther than `hue_threshold_in` from every model hue and, from the background's,
-    farther than `hue_threshold_in` (S_in rows) or `hue_threshold_out` (the S_out row).
+    farther than `hue_threshold_in` (S_in rows) or `hue_threshold_out` (the S_out row), or
+    a tone the model does not have.
 
     Args:
         background_hue: H̄_B [HSV_FULL, 0-256).
         params: thresholds.
-        model_hues: the model's S_in hues; needed for `params.hidden_foreign`.
+        model_hues: the model's S_in colour codes; needed for `params.hidden_foreign`.
     """
-    seen = np.ones((HUE_RANGE + 1, HUE_RANGE + 2), dtype=bool)
+    seen = np.ones((COLOUR_CODES + 1, _COLUMNS), dtype=bool)
     seen[:, OFF_IMAGE] = False
     if params.hidden_foreign and model_hues is not None:
-        seen[:HUE_RANGE, :HUE_RANGE] = ~_foreign_hues(
+        seen[:COLOUR_CODES, :COLOUR_CODES] = ~_foreign_hues(
             background_hue, params, model_hues, params.hue_threshold_in
         )
-        seen[_OUTSIDE_ROW, :HUE_RANGE] = ~_foreign_hues(
+        seen[OUTSIDE_ROW, :COLOUR_CODES] = ~_foreign_hues(
             background_hue, params, model_hues, params.hue_threshold_out
         )
     return seen
 
 
 def _background_distance(background_hue: float) -> FloatArray:
-    """(256,) distance of each hue from H̄_B on the circle (H̄_B may lie between two hues)."""
+    """(258,) distance of each colour code from H̄_B: on the circle for a hue (H̄_B may lie
+    between two hues), infinite for a tone."""
     d = np.abs(np.arange(HUE_RANGE) - background_hue) % HUE_RANGE
-    return np.asarray(np.minimum(d, HUE_RANGE - d), dtype=float)
+    return np.concatenate([np.minimum(d, HUE_RANGE - d), [np.inf, np.inf]])
 
 
 def _foreign_hues(
     background_hue: float, params: FitnessParams, model_hues: npt.ArrayLike, background_threshold: int
 ) -> npt.NDArray[np.bool_]:
-    """(256,) hues that are neither within `background_threshold` of H̄_B nor near a model hue."""
+    """(258,) colour codes neither within `background_threshold` of H̄_B nor near a model colour."""
     far_from_background = _background_distance(background_hue) > background_threshold
     return np.asarray(far_from_background & ~_near_model_hues(model_hues, params))
 
 
 def _near_model_hues(model_hues: npt.ArrayLike, params: FitnessParams) -> npt.NDArray[np.bool_]:
-    """(256,) hues within `hue_threshold_in` of a hue the model really has: one that at least
+    """(258,) colour codes that match one the model really has: one that at least
     `model_hue_min_share` of its S_in points have (a few mixed pixels along colour edges
     would otherwise make a blue sheet "near" a cyan cloth)."""
-    counts = np.bincount(np.asarray(model_hues, dtype=int).ravel() % HUE_RANGE, minlength=HUE_RANGE)
-    hues = np.flatnonzero(counts >= params.model_hue_min_share * max(int(counts.sum()), 1))
-    if not len(hues):  # a spread-out model: every hue it has
-        hues = np.flatnonzero(counts)
-    codes = np.arange(HUE_RANGE)
-    return np.asarray((hue_distance(codes[:, None], hues[None, :]) <= params.hue_threshold_in).any(axis=1))
+    counts = np.bincount(np.asarray(model_hues, dtype=int).ravel(), minlength=COLOUR_CODES)[:COLOUR_CODES]
+    colours = np.flatnonzero(counts >= params.model_hue_min_share * max(int(counts.sum()), 1))
+    if not len(colours):  # a spread-out model: every colour it has
+        colours = np.flatnonzero(counts)
+    codes = np.arange(COLOUR_CODES)
+    return np.asarray(colours_match(codes[:, None], colours[None, :], params.hue_threshold_in).any(axis=1))
 
 
 class FitnessEvaluator:
@@ -227,7 +240,7 @@ class FitnessEvaluator:
         self.search_params = search_params if search_params is not None else self.params
         self._table = _paired_table(model, self.params)
         self._search_table = _paired_table(model, self.search_params)
-        self._columns = HUE_RANGE + 2
+        self._columns = _COLUMNS
         self._subsets: dict[int, _PointSet] = {}
         self._full = self._point_set(1)
         self._left_from_right = np.ascontiguousarray(rig.transform_right_to_left)
@@ -274,7 +287,8 @@ class FitnessEvaluator:
             K = camera.camera_matrix
             image = np.asarray(cv2.undistort(image, K, camera.dist_coeffs, None, K), dtype=np.uint8)
         hsv = to_hsv(image)
-        return hsv_codes(hsv, self.params.min_saturation, NO_HUE, OFF_IMAGE)  # framed by OFF_IMAGE
+        p = self.params  # framed by OFF_IMAGE:
+        return hsv_codes(hsv, p.min_saturation, p.min_value, p.value_split, DARK, LIGHT, OFF_IMAGE)
 
     def _point_set(self, stride: int) -> _PointSet:
         """Every `stride`-th S_in and S_out point (all of them for 1), cached."""
@@ -283,7 +297,7 @@ class FitnessEvaluator:
             inside, outside = m.points_in[::stride], m.points_out[::stride]
             points = np.vstack([inside, outside]).astype(np.float32)
             rows = np.concatenate(
-                [m.hues_in[::stride].astype(np.int32), np.full(len(outside), _OUTSIDE_ROW, np.int32)]
+                [m.hues_in[::stride].astype(np.int32), np.full(len(outside), OUTSIDE_ROW, np.int32)]
             )
             w_in, w_out = np.asarray(m.weights_in)[::stride], np.asarray(m.weights_out)[::stride]
             best = np.concatenate([p.score_in_match * w_in, p.score_out_background * w_out])
@@ -427,8 +441,8 @@ def _as_poses(transforms: npt.ArrayLike) -> FloatArray:
 
 
 __all__ = [
-    "NO_HUE",
     "OFF_IMAGE",
+    "OUTSIDE_ROW",
     "FitnessEvaluator",
     "FitnessParams",
     "KernelFitness",

@@ -17,6 +17,7 @@ from robot_app.errors import InputError, ModelError
 from robot_app.geometry import FloatArray
 from robot_app.vision.camera import PinholeCamera
 from robot_app.vision.full_search import FullSearchResult
+from robot_app.vision.hue import DARK, HUE_RANGE
 from robot_app.vision.photo_model import ClothModel
 
 S_IN_BGR = (0, 230, 255)  # yellow dots
@@ -42,6 +43,15 @@ def model_points_in_photo(model: ClothModel) -> tuple[FloatArray, FloatArray, Fl
     )
 
 
+def _code_bgr(code: int) -> tuple[int, int, int]:
+    """The BGR colour a model colour code is drawn in: its hue at full saturation, or the tone."""
+    if code >= HUE_RANGE:
+        return (60, 60, 60) if code == DARK else (255, 255, 255)
+    hsv = np.array([[[code, 255, 255]]], dtype=np.uint8)
+    b, g, r = (int(c) for c in cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR_FULL)[0, 0])
+    return (b, g, r)
+
+
 def save_preview(model: ClothModel, photo_bgr: npt.NDArray[np.uint8], path: str | Path) -> None:
     """Writes a Fig. 4 style PNG: (a) the photo, (b) S_in, (c) S_in and S_out over the photo.
 
@@ -58,8 +68,7 @@ def save_preview(model: ClothModel, photo_bgr: npt.NDArray[np.uint8], path: str 
     s_in = np.zeros_like(photo)
     overlay = (photo * 0.6).astype(np.uint8)
     for (u, v), hue in zip(np.rint(pix_in).astype(int), model.hues_in, strict=True):
-        hsv = np.array([[[hue, 255, 255]]], dtype=np.uint8)
-        colour = tuple(int(c) for c in cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR_FULL)[0, 0])
+        colour = _code_bgr(int(hue))
         cv2.circle(s_in, (u, v), radius, colour, -1)
         cv2.circle(overlay, (u, v), radius, S_IN_BGR, -1)
     for u, v in np.rint(pix_out).astype(int):

@@ -45,7 +45,10 @@ class RecognitionSettings(StrictModel):
     """Everything the recognizer needs besides the model and rig (one config section).
 
     Attributes:
-        fitness: eqs. 9-11 constants.
+        fitness: eqs. 9-11 constants; by default pixels with saturation or value below 40
+            have a tone (DARK / LIGHT) instead of a hue, the thresholds `ModelSettings`
+            gives a model's black and white parts (with every pixel hued, as in the paper,
+            a white or black pixel reads hue 0, red, and matches a red cloth).
         ga: GA parameters.
         bounds: search space in Σ_CR.
         acceptance_threshold: normalised fitness from which the cloth counts as found. 0.85:
@@ -114,7 +117,7 @@ class RecognitionSettings(StrictModel):
             median on the benchmark went from 62 to 45 ms.
     """
 
-    fitness: FitnessParams = FitnessParams()
+    fitness: FitnessParams = FitnessParams(min_saturation=40, min_value=40)
     ga: GASettings = GASettings()
     bounds: SearchBounds = SearchBounds()
     acceptance_threshold: float = Field(default=0.85, ge=0.0, le=1.0)

@@ -30,7 +30,7 @@ import numpy.typing as npt
 
 from robot_app.geometry import FloatArray
 from robot_app.vision.camera import PinholeCamera
-from robot_app.vision.hue import hue_distance
+from robot_app.vision.hue import HUE_RANGE, colour_codes, colours_match, hue_distance
 
 if TYPE_CHECKING:
     from robot_app.vision.photo_model import ModelSettings
@@ -43,19 +43,19 @@ class ModelSamples(NamedTuple):
 
     Attributes:
         points_in: (N_in, 2) S_in [m].
-        hues_in: (N_in,) hue of each S_in point (HSV_FULL).
+        hues_in: (N_in,) colour code of each S_in point (hue 0-255, or DARK / LIGHT).
         points_out: (N_out, 2) S_out [m].
         grid_in: (G, 2) S_in on the uniform `point_spacing` grid [m] (for symmetry tests).
-        grid_hues: (G,) their hues.
+        grid_hues: (G,) their colour codes.
         weights_in: (N_in,) area each S_in point stands for / point_spacing².
         weights_out: (N_out,) the same for S_out.
     """
 
     points_in: FloatArray
-    hues_in: Image
+    hues_in: npt.NDArray[np.uint16]
     points_out: FloatArray
     grid_in: FloatArray
-    grid_hues: Image
+    grid_hues: npt.NDArray[np.uint16]
     weights_in: FloatArray
     weights_out: FloatArray
 
@@ -73,21 +73,28 @@ def sample_model(
 
     Args:
         mask: (H, W) S_in in the photo (holes filled).
-        smooth_hsv: (H, W, 3) the lightly blurred photo in HSV_FULL (hue and saturation).
+        smooth_hsv: (H, W, 3) the lightly blurred photo in HSV_FULL.
         camera: the model camera.
         distance: lens to the cloth plane [m].
         origin: (2,) the Σ_M origin on the plane [m].
         settings: sampling settings (ModelSettings).
         background_hue: H̄_B; an S_in sample whose (blurred) hue lies within
-            `min_hue_difference` of it is dropped. Such samples sit on dark parts of the
-            cloth next to the sheet, where the blur mixes a little green into black and
-            the low value turns that tint into a saturated background hue: a yellow-black
+            `min_hue_difference` of it is dropped (a tone never is). Such samples sit on
+            dark parts of the cloth next to the sheet, where the blur mixes a little green
+            into black and the low value turns that tint into a saturated background hue: a yellow-black
             check cloth had 84 of its 547 S_in points with the sheet's hue, which in the
             hand images scored as mismatches on the black squares (fitness 0.78 at the
             true pose) and would match the bare sheet.
 
+    An S_in sample nearer than `colour_edge_gap` to a pixel of the cloth of another colour
+    is dropped: the blur mixes colours there, and black next to yellow reads as dark
+    yellow (the yellow-black checks had 69 of 712 S_in points yellow on black squares,
+    fitness 0.885 at the true pose in the simulator's hand images).
+
     Returns:
-        The samples; only S_in points with saturation >= settings.min_saturation are kept.
+        The samples. An S_in sample without hue (saturation < settings.min_saturation or
+        value < settings.min_value) gets its tone (DARK / LIGHT) with settings.tones, and is
+        dropped without.
     """
     metres_per_pixel = distance / float(camera.camera_matrix[0, 0])
     reach = settings.band_gap + settings.band_width + 2 * settings.point_spacing
@@ -96,14 +103,23 @@ def sample_model(
     outside_px = cv2.distanceTransform(1 - padded, cv2.DIST_L2, 5)  # distance to S_in [px]
     inside_px = cv2.distanceTransform(padded, cv2.DIST_L2, 5)  # distance to the outside [px]
 
-    def hue_and_saturation(uv: npt.NDArray[np.intp]) -> tuple[Image, npt.NDArray[np.bool_]]:
+    s = settings
+    photo_codes = colour_codes(smooth_hsv, s.min_saturation, s.min_value, s.value_split)
+    clear = _away_from_colour_edges(
+        photo_codes, mask, round(s.colour_edge_gap / metres_per_pixel), background_hue, s.min_hue_difference
+    )
+
+    def usable_colours(uv: npt.NDArray[np.intp]) -> tuple[npt.NDArray[np.uint16], npt.NDArray[np.bool_]]:
         u = np.clip(uv[:, 0] - pad, 0, camera.width - 1)
         v = np.clip(uv[:, 1] - pad, 0, camera.height - 1)
-        hues = smooth_hsv[v, u, 0]
-        usable = smooth_hsv[v, u, 1] >= settings.min_saturation
+        codes = photo_codes[v, u]
+        hued = codes < HUE_RANGE
+        usable = ~hued if settings.tones else np.zeros(len(codes), dtype=bool)
         if background_hue is not None:
-            usable &= hue_distance(hues, background_hue) > settings.min_hue_difference
-        return hues, usable
+            usable |= hued & (hue_distance(codes, background_hue) > settings.min_hue_difference)
+        else:
+            usable |= hued
+        return codes, usable & clear[v, u]
 
     def plane(uv: npt.NDArray[np.intp]) -> FloatArray:
         return _pixels_to_plane(camera, distance, uv - pad) - origin
@@ -112,8 +128,8 @@ def sample_model(
     step = settings.point_spacing
     grid_uv = _grid_pixels(camera, distance, origin, step, padded.shape, pad)
     on_cloth = padded[grid_uv[:, 1], grid_uv[:, 0]].astype(bool)
-    grid_hues, grid_saturated = hue_and_saturation(grid_uv)
-    take = on_cloth & grid_saturated
+    grid_hues, grid_usable = usable_colours(grid_uv)
+    take = on_cloth & grid_usable
     grid_in, grid_in_hues = plane(grid_uv[take]), grid_hues[take]
     if settings.sampling == "grid":
         gap = outside_px[grid_uv[:, 1], grid_uv[:, 0]] * metres_per_pixel
@@ -136,8 +152,8 @@ def sample_model(
     weights_in = np.concatenate(
         [*(np.full(len(r), w) for r, w in zip(ring_uv, ring_weights, strict=True)), np.ones(interior.sum())]
     )
-    hues, saturated = hue_and_saturation(in_uv)
-    in_uv, hues, weights_in = in_uv[saturated], hues[saturated], weights_in[saturated]
+    hues, usable = usable_colours(in_uv)
+    in_uv, hues, weights_in = in_uv[usable], hues[usable], weights_in[usable]
     distances = np.linspace(settings.band_gap, settings.band_gap + settings.band_width, settings.band_rings)
     out_weight = (
         settings.edge_spacing
@@ -154,6 +170,35 @@ def sample_model(
     return ModelSamples(
         plane(in_uv), hues, plane(out_uv), grid_in, grid_in_hues, weights_in, np.full(len(out_uv), out_weight)
     )
+
+
+def _away_from_colour_edges(
+    codes: npt.NDArray[np.uint16],
+    mask: npt.NDArray[np.bool_],
+    radius: int,
+    background_hue: float | None,
+    hue_threshold: int,
+) -> npt.NDArray[np.bool_]:
+    """(H, W): pixels whose colour matches every cloth pixel within `radius` (a square
+    window); pixels outside the mask or of the background's hue (the sheet mixed in along
+    the outline) do not count as another colour."""
+    clear = np.ones(codes.shape, dtype=bool)
+    if radius < 1:
+        return clear
+    other = mask.copy()
+    if background_hue is not None:
+        other &= ~((codes < HUE_RANGE) & (hue_distance(codes, background_hue) <= hue_threshold))
+    height, width = codes.shape
+    for dv in range(-radius, radius + 1):
+        for du in range(-radius, radius + 1):
+            if du == 0 and dv == 0:
+                continue
+            # the neighbour at (v + dv, u + du) of every pixel (v, u) that has one
+            target = (slice(max(0, -dv), height - max(0, dv)), slice(max(0, -du), width - max(0, du)))
+            source = (slice(max(0, dv), height - max(0, -dv)), slice(max(0, du), width - max(0, -du)))
+            differs = other[source] & ~colours_match(codes[target], codes[source], hue_threshold)
+            clear[target] &= ~differs
+    return clear
 
 
 def _ring(region: npt.NDArray[np.bool_], spacing_px: float) -> npt.NDArray[np.intp]:
