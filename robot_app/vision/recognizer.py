@@ -96,22 +96,28 @@ class RecognitionSettings(StrictModel):
         restarts: further island runs while the best search fitness is below
             `restart_below` or its reported fitness below `acceptance_threshold`, and the
             best peak is not confirmed (two runs ended on it and it scores at least
-            `confirm_above`); the best of all runs is kept. A high search fitness with a
-            low reported one is a model laid over another cloth that shares a hue, the
-            rest of which the search takes as hidden; the next runs search away from it
-            (`peak_separation`): 1 of 200 two-cloth scenes ended there twice at 0.98
-            while the target scored 1.00. So do they from a poor peak (below
-            `confirm_above`) that two runs ended on: a plain cyan cloth drew all five runs
-            of a dotted cyan model (0.66) from its target (0.99, a narrow peak). A poor
-            result is more often a missed peak than a poor view, while a partly hidden
-            cloth scores below `restart_below` at its true pose but ends there twice. An
-            absent cloth costs all these runs. With 2 restarts, 2 of 120 plain synthetic
-            scenes (checks, diagonals) ended all three runs on a wrong peak (0.85, 0.89);
-            4 restarts found both.
+            `confirm_above`); the best of all runs is kept. A poor result is more often a
+            missed peak than a poor view, while a partly hidden cloth scores below
+            `restart_below` at its true pose but ends there twice. An absent cloth costs
+            all these runs. With 2 restarts, 2 of 120 plain synthetic scenes (checks,
+            diagonals) ended all three runs on a wrong peak (0.85, 0.89); 4 found both.
+            Later runs search away (`peak_separation`) from two kinds of peak:
+            - a rejected one, of high search but low reported fitness: a model laid over
+              another cloth that shares a hue, the rest of which the search takes as
+              hidden (1 of 200 two-cloth scenes ended there twice at 0.98 while the
+              target scored 1.00);
+            - a poor one (below `confirm_above`) that two runs ended on: a plain cyan cloth
+              drew all five runs of a dotted cyan model (0.66) from its narrow target
+              peak (0.99). One that scores at least `avoid_any_yaw_below` is a near miss
+              on the cloth itself, so only yaws within `avoid_yaw_deg` of it (modulo a
+              half turn) are avoided: a quarter turn of a check cloth 45 % under the
+              sheet (0.90) drew 6 of 8 seeds from its true pose (0.95, 19 mm away), 3
+              of 8 with this; avoided at every yaw, the true pose was avoided too.
         restart_below: search fitness under which a restart is run.
         confirm_above: the search fitness from which a peak two runs ended on is taken
             (wrong peaks that two runs ended on scored 0.66-0.85; a cloth 45 % hidden
             scores 0.95-0.98 at its true pose).
+        avoid_yaw_deg, avoid_any_yaw_below: see `restarts`.
         tracking_population: individuals kept between tracking frames (the best ones).
         tracking_window: half-width of the x-y search window around the motion-predicted
             pose while tracking [m].
@@ -147,6 +153,8 @@ class RecognitionSettings(StrictModel):
     restarts: int = Field(default=4, ge=0)
     restart_below: float = Field(default=0.97, ge=0.0, le=1.0)
     confirm_above: float = Field(default=0.94, ge=0.0, le=1.0)
+    avoid_yaw_deg: float = Field(default=45.0, gt=0.0, le=90.0)
+    avoid_any_yaw_below: float = Field(default=0.8, ge=0.0, le=1.0)
     tracking_population: int = Field(default=24, ge=4)
     tracking_window: float = Field(default=0.02, gt=0.0)
     tracking_depth_window: float = Field(default=0.03, gt=0.0)
@@ -323,7 +331,7 @@ class Recognizer:
         peaks: list[Peak] = []
         generations = 0
         for _ in range(s.max_peaks if report_peaks else 1):
-            centres = np.array([p.position[:2] for p in peaks]).reshape(-1, 2)
+            centres = np.array([[*p.position[:2], np.nan] for p in peaks]).reshape(-1, 3)
             ga = self._search(rng, centres)
             generations += s.ga.generations
             pose, fitness, search_fitness = self._finish(ga, s.refinement.enabled, rng, centres)
@@ -333,7 +341,7 @@ class Recognizer:
                 if search_fitness >= s.restart_below:
                     if fitness >= s.acceptance_threshold:
                         break
-                    avoid = np.vstack([avoid, pose[:2, 3]])
+                    avoid = np.vstack([avoid, [*pose[:2, 3], np.nan]])
                 again = self._search(rng, avoid)
                 generations += s.ga.generations
                 result = self._finish(again, s.refinement.enabled, rng, avoid)
@@ -346,7 +354,8 @@ class Recognizer:
                 last = result[0]
                 drawn = sum(_same_peak(last, end, s.candidate_separation) for end in ends) >= 2
                 if drawn and result[2] < s.confirm_above:
-                    avoid = np.vstack([avoid, last[:2, 3]])  # a poor peak that draws the runs: elsewhere
+                    yaw = yaw_of(last[:3, :3]) if result[2] >= s.avoid_any_yaw_below else np.nan
+                    avoid = np.vstack([avoid, [*last[:2, 3], yaw]])  # a poor peak that draws the runs
             if peaks and fitness < s.peak_min_fitness:
                 break
             peaks.append(Peak(pose, fitness))
@@ -465,11 +474,20 @@ class Recognizer:
         self._poses = ga.transforms(ga.population[order])
 
     def _excluded(self, transforms: FloatArray, centres: FloatArray) -> npt.NDArray[np.bool_]:
-        """Poses within `peak_separation` (x-y) of a peak already reported."""
+        """Poses within `peak_separation` (x-y) of a centre (x, y, yaw): of a peak already
+        reported or rejected (yaw NaN: at any yaw), or of a poor peak that drew the runs
+        (within `avoid_yaw_deg` of its yaw or of its half turn: a rectangle's half turn is
+        the same peak, a checked cloth's quarter turn may be the true one)."""
         if not len(centres):
             return np.zeros(len(transforms), dtype=bool)
-        d = np.linalg.norm(transforms[:, None, :2, 3] - centres[None], axis=2).min(axis=1)
-        return np.asarray(d < self.settings.peak_separation)
+        near = np.linalg.norm(transforms[:, None, :2, 3] - centres[None, :, :2], axis=2) < (
+            self.settings.peak_separation
+        )
+        yaw = np.arctan2(transforms[:, 1, 0], transforms[:, 0, 0])
+        turn = np.abs(wrap_angle(2.0 * (yaw[:, None] - centres[None, :, 2]))) / 2.0  # modulo a half turn
+        any_yaw = np.isnan(centres[None, :, 2])
+        near &= any_yaw | (np.nan_to_num(turn, nan=0.0) < np.deg2rad(self.settings.avoid_yaw_deg))
+        return np.asarray(near.any(axis=1))
 
     @staticmethod
     def _best_pose(ga: GeneticAlgorithm) -> FloatArray:
@@ -546,7 +564,7 @@ class Recognizer:
         b = ga.bounds
         low, high = np.array([b.x[0], b.y[0], b.z[0]]), np.array([b.x[1], b.y[1], b.z[1]])
         min_cos_tilt = float(np.cos(np.deg2rad(b.max_tilt_deg)))
-        excluded = np.zeros((0, 2)) if centres is None else centres
+        excluded = np.zeros((0, 3)) if centres is None else centres
 
         def allowed(candidates: FloatArray) -> npt.NDArray[np.bool_]:
             t = candidates[:, :3, 3]
