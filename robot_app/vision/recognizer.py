@@ -94,25 +94,23 @@ class RecognitionSettings(StrictModel):
             the cloth normal) that the refinement polishes for
             `refinement.candidate_iterations` before the best goes on.
         restarts: further island runs while the best search fitness is below
-            `restart_below` or its reported fitness below `acceptance_threshold`, and the
-            best peak is not confirmed (two runs ended on it and it scores at least
-            `confirm_above`); the best of all runs is kept. A poor result is more often a
-            missed peak than a poor view, while a partly hidden cloth scores below
-            `restart_below` at its true pose but ends there twice. An absent cloth costs
-            all these runs. With 2 restarts, 2 of 120 plain synthetic scenes (checks,
-            diagonals) ended all three runs on a wrong peak (0.85, 0.89); 4 found both.
-            Later runs search away (`peak_separation`) from two kinds of peak:
-            - a rejected one, of high search but low reported fitness: a model laid over
-              another cloth that shares a hue, the rest of which the search takes as
-              hidden (1 of 200 two-cloth scenes ended there twice at 0.98 while the
-              target scored 1.00);
-            - a poor one (below `confirm_above`) that two runs ended on: a plain cyan cloth
-              drew all five runs of a dotted cyan model (0.66) from its narrow target
-              peak (0.99). One that scores at least `avoid_any_yaw_below` is a near miss
-              on the cloth itself, so only yaws within `avoid_yaw_deg` of it (modulo a
-              half turn) are avoided: a quarter turn of a check cloth 45 % under the
-              sheet (0.90) drew 6 of 8 seeds from its true pose (0.95, 19 mm away), 3
-              of 8 with this; avoided at every yaw, the true pose was avoided too.
+            `restart_below` and the best peak is not confirmed (two runs ended on it and
+            it scores at least `confirm_above`); the best of all runs is kept. A poor
+            result is more often a missed peak than a poor view, while a partly hidden
+            cloth scores below `restart_below` at its true pose but ends there twice. An
+            absent cloth costs all these runs. With 2 restarts, 2 of 120 plain synthetic
+            scenes (checks, diagonals) ended all three runs on a wrong peak (0.85, 0.89);
+            4 found both. Later runs search away (`peak_separation`) from a poor peak
+            (below `confirm_above`) that two runs ended on: a plain cyan cloth drew all
+            five runs of a dotted cyan model (0.66) from its narrow target peak (0.99).
+            One that scores at least `avoid_any_yaw_below` is a near miss on the cloth
+            itself, so only yaws within `avoid_yaw_deg` of it are avoided (its half or
+            quarter turn may be the true pose): a quarter turn of a check cloth 45 %
+            under the sheet (0.90) drew 6 of 8 seeds from its true pose (0.95, 19 mm
+            away), 3 of 8 with this; avoided at every yaw, the true pose was too. (Restarting also when the
+            reported fitness is below `acceptance_threshold`, away from that peak, took
+            a model off another cloth it shared a hue with, but a cloth 45 % hidden
+            reports below it at its true pose: 4 of 100 such scenes ended wrong.)
         restart_below: search fitness under which a restart is run.
         confirm_above: the search fitness from which a peak two runs ended on is taken
             (wrong peaks that two runs ended on scored 0.66-0.85; a cloth 45 % hidden
@@ -336,12 +334,10 @@ class Recognizer:
             generations += s.ga.generations
             pose, fitness, search_fitness = self._finish(ga, s.refinement.enabled, rng, centres)
             ends = [pose]  # where each run ended
-            avoid = centres  # and the peaks that searched well but were rejected
+            avoid = centres  # and poor peaks that draw the runs
             for _ in range(s.restarts):
                 if search_fitness >= s.restart_below:
-                    if fitness >= s.acceptance_threshold:
-                        break
-                    avoid = np.vstack([avoid, [*pose[:2, 3], np.nan]])
+                    break
                 again = self._search(rng, avoid)
                 generations += s.ga.generations
                 result = self._finish(again, s.refinement.enabled, rng, avoid)
@@ -475,16 +471,15 @@ class Recognizer:
 
     def _excluded(self, transforms: FloatArray, centres: FloatArray) -> npt.NDArray[np.bool_]:
         """Poses within `peak_separation` (x-y) of a centre (x, y, yaw): of a peak already
-        reported or rejected (yaw NaN: at any yaw), or of a poor peak that drew the runs
-        (within `avoid_yaw_deg` of its yaw or of its half turn: a rectangle's half turn is
-        the same peak, a checked cloth's quarter turn may be the true one)."""
+        reported (yaw NaN: at any yaw), or of a poor peak that drew the runs (at any yaw,
+        or within `avoid_yaw_deg` of its yaw: see `RecognitionSettings.restarts`)."""
         if not len(centres):
             return np.zeros(len(transforms), dtype=bool)
         near = np.linalg.norm(transforms[:, None, :2, 3] - centres[None, :, :2], axis=2) < (
             self.settings.peak_separation
         )
         yaw = np.arctan2(transforms[:, 1, 0], transforms[:, 0, 0])
-        turn = np.abs(wrap_angle(2.0 * (yaw[:, None] - centres[None, :, 2]))) / 2.0  # modulo a half turn
+        turn = np.abs(wrap_angle(yaw[:, None] - centres[None, :, 2]))
         any_yaw = np.isnan(centres[None, :, 2])
         near &= any_yaw | (np.nan_to_num(turn, nan=0.0) < np.deg2rad(self.settings.avoid_yaw_deg))
         return np.asarray(near.any(axis=1))
