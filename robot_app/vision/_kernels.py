@@ -482,6 +482,23 @@ def cma_update(mean, sigma, C, p_c, p_s, B, D, y, order, weights, constants, gen
     return sigma * np.exp(c_s / damping * (norm_s / chi_n - 1))
 
 
+@_jit
+def poses_inside(transforms, low, high, min_cos_tilt, max_yaw):
+    """(P,) bool: position within [low, high] (each of x, y, z), the model normal's cosine
+    to the camera axis at least `min_cos_tilt`, |yaw| at most `max_yaw` (inf: any)."""
+    n = transforms.shape[0]
+    out = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        ok = transforms[i, 2, 2] >= min_cos_tilt
+        for k in range(3):
+            t = transforms[i, k, 3]
+            ok = ok and low[k] <= t <= high[k]
+        if ok and max_yaw < np.inf:
+            ok = abs(np.arctan2(transforms[i, 1, 0], transforms[i, 0, 0])) <= max_yaw
+        out[i] = ok
+    return out
+
+
 __all__ = [
     "breed",
     "cma_sample",
@@ -491,6 +508,7 @@ __all__ = [
     "moved_poses",
     "next_generation",
     "normalised",
+    "poses_inside",
     "score_poses",
     "transforms_from_genes",
 ]

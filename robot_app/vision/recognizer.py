@@ -32,6 +32,7 @@ from pydantic import Field
 from robot_app.config import StrictModel
 from robot_app.errors import InputError
 from robot_app.geometry import FloatArray, quaternion_xyzw_from_matrix, rotation_about_z, wrap_angle, yaw_of
+from robot_app.vision._kernels import poses_inside
 from robot_app.vision.camera import StereoRig
 from robot_app.vision.fitness import FitnessEvaluator, FitnessParams, KernelFitness
 from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBounds, encode, parameters_from_transforms
@@ -559,15 +560,14 @@ class Recognizer:
         b = ga.bounds
         low, high = np.array([b.x[0], b.y[0], b.z[0]]), np.array([b.x[1], b.y[1], b.z[1]])
         min_cos_tilt = float(np.cos(np.deg2rad(b.max_tilt_deg)))
+        max_yaw = float(np.deg2rad(b.max_yaw_deg)) if b.max_yaw_deg < 180.0 else np.inf
         excluded = np.zeros((0, 3)) if centres is None else centres
 
         def allowed(candidates: FloatArray) -> npt.NDArray[np.bool_]:
-            t = candidates[:, :3, 3]
-            inside = np.all((t >= low) & (t <= high), axis=1) & (candidates[:, 2, 2] >= min_cos_tilt)
-            if b.max_yaw_deg < 180.0:
-                yaw = np.arctan2(candidates[:, 1, 0], candidates[:, 0, 0])
-                inside &= np.abs(yaw) <= np.deg2rad(b.max_yaw_deg)
-            return np.asarray(inside & ~self._excluded(candidates, excluded))
+            inside = poses_inside(np.ascontiguousarray(candidates), low, high, min_cos_tilt, max_yaw)
+            if len(excluded):
+                inside &= ~self._excluded(candidates, excluded)
+            return np.asarray(inside)
 
         return allowed
 

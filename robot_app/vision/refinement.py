@@ -57,7 +57,11 @@ class RefinementSettings(StrictModel):
             before the best of them goes on.
         tracking_iterations: cap when tracking.
         cma_population: poses per CMA-ES iteration (lambda).
-        cma_iterations: cap on CMA-ES iterations of the final polish.
+        cma_iterations: cap on CMA-ES iterations of the final polish. 80 (with 30 fine):
+            on 100 synthetic scenes the 40 (12 fine) of before stopped short on the flat
+            depth and tilt directions: mean±3σ z -4.3..+2.7 mm, now -1.7..+0.3 mm (x, y
+            and yaw halved too; 45 % covered: 2 of 100 gross failures, now none); it
+            costs about 8 ms per recognition.
         cma_sigma: initial CMA-ES step, in units of the compass steps (`step_position`,
             `step_depth`, `step_angle_deg`).
         cma_tolerance: stop when the CMA-ES step falls below this (same units).
@@ -79,10 +83,10 @@ class RefinementSettings(StrictModel):
     tracking_iterations: int = Field(default=4, ge=1)
     method: Literal["cma", "compass"] = "cma"
     cma_population: int = Field(default=12, ge=4)
-    cma_iterations: int = Field(default=40, ge=1)
+    cma_iterations: int = Field(default=80, ge=1)
     cma_sigma: float = Field(default=2.0, gt=0.0)
     cma_tolerance: float = Field(default=0.03, gt=0.0)
-    cma_fine_iterations: int = Field(default=12, ge=0)
+    cma_fine_iterations: int = Field(default=30, ge=0)
     cma_fine_below: float = Field(default=0.1, ge=0.0)
 
     def steps(self) -> FloatArray:
