@@ -9,10 +9,11 @@ from scipy.spatial.transform import Rotation
 from robot_app.config import validate
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform, rotation_from_rpy
+from robot_app.vision._kernels import poses_inside
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
-from robot_app.vision.fitness import FitnessEvaluator
+from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
 from robot_app.vision.photo_model import make_model
-from robot_app.vision.refinement import RefinementSettings, cma_search, moved
+from robot_app.vision.refinement import PoseLimits, RefinementSettings, cma_search, cma_search_compiled, moved
 from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
 
 START = make_transform(rotation_from_rpy(0.05, -0.03, 0.7), [0.02, -0.01, 0.58])
@@ -42,16 +43,25 @@ def test_cma_climbs_a_coupled_ridge_to_the_optimum(seed: int) -> None:
     assert np.linalg.norm(pose[:3, 3] - moved(START, OPTIMUM)[:3, 3]) < 1e-3
 
 
-def test_cma_takes_a_real_fitness_from_a_displaced_start_to_the_true_pose() -> None:
+TRUTH = make_transform(rotation_from_rpy(0.12, -0.05, 1.1), [0.03, -0.02, 0.57])
+
+
+@pytest.fixture(scope="module")
+def evaluator() -> FitnessEvaluator:
+    """The fitness of a synthetic stripe cloth at `TRUTH` (320 x 240 pair)."""
     camera = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
     rig = StereoRig(camera, camera, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
     model_camera = ModelCamera(PinholeCamera.from_fov((640, 480), np.deg2rad(48)), 0.40)
     photo, background = render_model_photo(synthetic_cloth(2), model_camera)
     model = make_model(photo, model_camera, background)
-    truth = make_transform(rotation_from_rpy(0.12, -0.05, 1.1), [0.03, -0.02, 0.57])
-    left, right = render_stereo_pair(rig, [(synthetic_cloth(2), truth)], rng=np.random.default_rng(3))
+    left, right = render_stereo_pair(rig, [(synthetic_cloth(2), TRUTH)], rng=np.random.default_rng(3))
     evaluator = FitnessEvaluator(model, rig)
     evaluator.update(left, right)
+    return evaluator
+
+
+def test_cma_takes_a_real_fitness_from_a_displaced_start_to_the_true_pose(evaluator) -> None:
+    truth = TRUTH
 
     def score(poses: np.ndarray) -> np.ndarray:
         return evaluator.evaluate(poses, subpixel=True)
@@ -62,6 +72,36 @@ def test_cma_takes_a_real_fitness_from_a_displaced_start_to_the_true_pose() -> N
         assert fitness > float(score(start[None])[0])
         assert np.all(np.abs(pose[:2, 3] - truth[:2, 3]) < 0.001)
         assert abs(pose[2, 3] - truth[2, 3]) < 0.003
+
+
+@pytest.mark.parametrize("tight", [False, True])
+def test_compiled_cma_is_the_python_cma_bit_for_bit(evaluator, tight: bool) -> None:
+    # tight: bounds that reject part of the samples (and the z range the start is in).
+    low, high = np.array([-0.25, -0.2, 0.5]), np.array([0.25, 0.2, 0.579 if tight else 0.65])
+    limits = PoseLimits(low, high, float(np.cos(np.deg2rad(8.0 if tight else 20.0))), np.inf)
+    settings = RefinementSettings()
+    start = moved(TRUTH, [0.003, -0.002, 0.008, 0.03, 0.0, 0.02])
+    before = evaluator.evaluations
+    compiled = cma_search_compiled(
+        start, KernelFitness(evaluator, search=True), settings, np.random.default_rng(5), limits, True
+    )
+    counted = evaluator.evaluations - before
+
+    def allowed(poses: np.ndarray) -> np.ndarray:
+        return poses_inside(np.ascontiguousarray(poses), *limits)
+
+    before = evaluator.evaluations
+    python = cma_search(
+        start,
+        KernelFitness(evaluator, search=True),
+        settings,
+        np.random.default_rng(5),
+        allowed,
+        lambda poses: evaluator.evaluate(poses, subpixel=True, search=True),
+    )
+    np.testing.assert_array_equal(compiled[0], python[0])
+    assert compiled[1] == python[1] and counted == evaluator.evaluations - before
+    assert allowed(compiled[0][None])[0] or np.array_equal(compiled[0], start)
 
 
 def test_cma_same_seed_same_result_and_never_leaves_the_allowed_set() -> None:

@@ -483,6 +483,60 @@ def cma_update(mean, sigma, C, p_c, p_s, B, D, y, order, weights, constants, gen
 
 
 @_jit
+def _fitness(poses, fitness_arguments, normalisation, bilinear):
+    """`score_poses` + `normalised`: the normalised fitness of (P, 4, 4) poses."""
+    K_left, K_right, left_from_right, px, py, pz, weights, best, rows, table, codes_l, codes_r, w, h = (
+        fitness_arguments
+    )
+    sums, seen = score_poses(poses, K_left, K_right, left_from_right, px, py, pz, weights, best, rows,
+                             table, codes_l, codes_r, w, h, bilinear)  # fmt: skip
+    full, view, min_view_fraction, hidden_penalty = normalisation
+    return normalised(sums, seen, full, view, min_view_fraction, hidden_penalty)
+
+
+@_jit
+def cma_run(start, draws, scale, sigma, tolerance, fine_from, fine_below, weights, constants,
+            fitness_arguments, normalisation, fine, low, high, min_cos_tilt, max_yaw):  # fmt: skip
+    """`refinement.cma_search` in one compiled loop, for a fitness that is `score_poses` +
+    `normalised` (nearest pixel, then with `fine` bilinear from iteration `fine_from` or
+    once the step is below `fine_below`) and an allowed set that is `poses_inside`.
+
+    `draws` are the (iterations, lambda, 6) standard normal draws; the rest as in
+    `cma_search`. Returns (best pose, its score by the last iteration's fitness, poses
+    scored): the same, bit for bit, as `cma_search` with the same draws.
+    """
+    n, lam = draws.shape[2], draws.shape[1]
+    best = _fitness(start.reshape(1, 4, 4), fitness_arguments, normalisation, False)[0]
+    best_pose = start.copy()
+    evaluated = 1
+    mean = np.zeros(n)
+    C, B, D = np.eye(n), np.eye(n), np.ones(n)
+    p_c, p_s = np.zeros(n), np.zeros(n)
+    bilinear = False
+    for generation in range(1, draws.shape[0] + 1):
+        if fine and not bilinear and (generation >= fine_from or sigma * D.max() < fine_below):
+            bilinear = True
+            best = _fitness(best_pose.reshape(1, 4, 4), fitness_arguments, normalisation, True)[0]
+            evaluated += 1
+        y, poses = cma_sample(draws[generation - 1], B, D, mean, sigma, scale, start)
+        scores = np.full(lam, -np.inf)
+        inside = np.flatnonzero(poses_inside(poses, low, high, min_cos_tilt, max_yaw))
+        if inside.shape[0] > 0:
+            fitness = _fitness(poses[inside], fitness_arguments, normalisation, bilinear)
+            for k in range(inside.shape[0]):
+                scores[inside[k]] = fitness[k]
+            evaluated += inside.shape[0]
+        order = np.argsort(-scores, kind="mergesort")
+        if scores[order[0]] > best:
+            best = scores[order[0]]
+            best_pose = poses[order[0]].copy()
+        sigma = cma_update(mean, sigma, C, p_c, p_s, B, D, y, order, weights, constants, generation)
+        if sigma * D.max() < tolerance:
+            break
+    return best_pose, best, evaluated
+
+
+@_jit
 def poses_inside(transforms, low, high, min_cos_tilt, max_yaw):
     """(P,) bool: position within [low, high] (each of x, y, z), the model normal's cosine
     to the camera axis at least `min_cos_tilt`, |yaw| at most `max_yaw` (inf: any)."""
@@ -501,6 +555,7 @@ def poses_inside(transforms, low, high, min_cos_tilt, max_yaw):
 
 __all__ = [
     "breed",
+    "cma_run",
     "cma_sample",
     "cma_update",
     "evolve",

@@ -37,7 +37,13 @@ from robot_app.vision.camera import StereoRig
 from robot_app.vision.fitness import FitnessEvaluator, FitnessParams, KernelFitness
 from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBounds, encode, parameters_from_transforms
 from robot_app.vision.photo_model import ClothModel
-from robot_app.vision.refinement import RefinementSettings, cma_search, compass_search
+from robot_app.vision.refinement import (
+    PoseLimits,
+    RefinementSettings,
+    cma_search,
+    cma_search_compiled,
+    compass_search,
+)
 
 _Method = TypeVar("_Method", bound=Callable[..., "Recognition"])
 
@@ -554,17 +560,12 @@ class Recognizer:
     def _allowed(
         self, ga: GeneticAlgorithm, centres: FloatArray | None
     ) -> Callable[[FloatArray], npt.NDArray[np.bool_]]:
-        """Which poses the refinement may visit: position inside the GA's bounds, tilt within
-        `max_tilt_deg` (a cone: the GA's box reaches ~1.4x that on diagonals), yaw within
-        `max_yaw_deg`, away from `centres`."""
-        b = ga.bounds
-        low, high = np.array([b.x[0], b.y[0], b.z[0]]), np.array([b.x[1], b.y[1], b.z[1]])
-        min_cos_tilt = float(np.cos(np.deg2rad(b.max_tilt_deg)))
-        max_yaw = float(np.deg2rad(b.max_yaw_deg)) if b.max_yaw_deg < 180.0 else np.inf
+        """Which poses the refinement may visit: within `_limits(ga)`, away from `centres`."""
+        limits = _limits(ga)
         excluded = np.zeros((0, 3)) if centres is None else centres
 
         def allowed(candidates: FloatArray) -> npt.NDArray[np.bool_]:
-            inside = poses_inside(np.ascontiguousarray(candidates), low, high, min_cos_tilt, max_yaw)
+            inside = poses_inside(np.ascontiguousarray(candidates), *limits)
             if len(excluded):
                 inside &= ~self._excluded(candidates, excluded)
             return np.asarray(inside)
@@ -588,7 +589,10 @@ class Recognizer:
         if refine:
             r = self.settings.refinement
             allowed = self._allowed(ga, centres)
-            if rng is not None and r.method == "cma":
+            if rng is not None and r.method == "cma" and (centres is None or not len(centres)):
+                fitness = KernelFitness(self.evaluator, search=True)  # the loop compiled
+                pose, _ = cma_search_compiled(pose, fitness, r, rng, _limits(ga), r.subpixel)
+            elif rng is not None and r.method == "cma":
                 fine = self._score(subpixel=True) if r.subpixel else None
                 pose, _ = cma_search(pose, self._score(), r, rng, allowed, fine)
             else:
@@ -612,6 +616,19 @@ def _untilted(pose: FloatArray) -> FloatArray:
     out = pose.copy()
     out[:3, :3] = rotation_about_z(yaw_of(pose[:3, :3]))
     return out
+
+
+def _limits(ga: GeneticAlgorithm) -> PoseLimits:
+    """The refinement's allowed set: position inside the GA's bounds, tilt within
+    `max_tilt_deg` (a cone: the GA's box reaches ~1.4x that on diagonals), yaw within
+    `max_yaw_deg`."""
+    b = ga.bounds
+    return PoseLimits(
+        np.array([b.x[0], b.y[0], b.z[0]]),
+        np.array([b.x[1], b.y[1], b.z[1]]),
+        float(np.cos(np.deg2rad(b.max_tilt_deg))),
+        float(np.deg2rad(b.max_yaw_deg)) if b.max_yaw_deg < 180.0 else np.inf,
+    )
 
 
 def _same_peak(a: FloatArray, b: FloatArray, separation: float) -> bool:

@@ -23,14 +23,17 @@ batch of poses per iteration, so its Python overhead is one call per lambda pose
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Literal
+from typing import TYPE_CHECKING, Literal, NamedTuple
 
 import numpy as np
 from pydantic import Field
 
 from robot_app.config import StrictModel
 from robot_app.geometry import FloatArray
-from robot_app.vision._kernels import cma_sample, cma_update, moved_poses
+from robot_app.vision._kernels import cma_run, cma_sample, cma_update, moved_poses
+
+if TYPE_CHECKING:
+    from robot_app.vision.fitness import KernelFitness
 
 PoseScore = Callable[[FloatArray], FloatArray]  # (P, 4, 4) poses -> (P,) fitness
 PoseFilter = Callable[[FloatArray], "np.ndarray"]  # (P, 4, 4) poses -> (P,) bool allowed
@@ -180,21 +183,9 @@ def cma_search(
         (best pose seen, its score by the score of the last iteration); `pose` itself if
         nothing better was seen.
     """
-    n, lam = 6, settings.cma_population
-    mu = lam // 2
-    weights = np.log(mu + 0.5) - np.log(np.arange(1, mu + 1))
-    weights /= weights.sum()
-    mu_eff = 1.0 / float(np.sum(weights**2))
-    c_s, c_1 = (mu_eff + 2) / (n + mu_eff + 5), 2 / ((n + 1.3) ** 2 + mu_eff)
-    constants = (
-        (4 + mu_eff / n) / (n + 4 + 2 * mu_eff / n),  # c_c
-        c_s,
-        c_1,
-        min(1 - c_1, 2 * (mu_eff - 2 + 1 / mu_eff) / ((n + 2) ** 2 + mu_eff)),  # c_mu
-        1 + 2 * max(0.0, np.sqrt((mu_eff - 1) / (n + 1)) - 1) + c_s,  # damping
-        np.sqrt(n) * (1 - 1 / (4 * n) + 1 / (21 * n * n)),  # E|N(0, I)|
-        mu_eff,
-    )
+    n, lam = _CMA_DIMENSIONS, settings.cma_population
+    weights, constants = _cma_constants(lam)
+    draws = rng.standard_normal((settings.cma_iterations, lam, n))  # all at once, as `cma_run`
     scale = settings.steps()
     start = np.ascontiguousarray(pose, dtype=float)
     best_pose, best = start, float(score(start[None])[0])
@@ -206,7 +197,7 @@ def cma_search(
         if fine_score is not None and (generation >= fine_from or sigma * D.max() < settings.cma_fine_below):
             score, fine_score = fine_score, None
             best = float(score(best_pose[None])[0])
-        y, poses = cma_sample(rng.standard_normal((lam, n)), B, D, mean, sigma, scale, start)
+        y, poses = cma_sample(draws[generation - 1], B, D, mean, sigma, scale, start)
         scores = np.full(lam, -np.inf)
         inside = np.ones(lam, bool) if allowed is None else np.asarray(allowed(poses))
         if inside.any():
@@ -218,6 +209,67 @@ def cma_search(
         if sigma * D.max() < settings.cma_tolerance:
             break
     return best_pose, best
+
+
+def cma_search_compiled(
+    pose: FloatArray,
+    fitness: KernelFitness,
+    settings: RefinementSettings,
+    rng: np.random.Generator,
+    limits: PoseLimits,
+    fine: bool,
+) -> tuple[FloatArray, float]:
+    """`cma_search` in one compiled loop (`_kernels.cma_run`): the same result, bit for bit,
+    for `score` = `fitness` (nearest pixel), `fine_score` = its sub-pixel version if `fine`,
+    and `allowed` = the poses within `limits`. Saves the Python overhead of each iteration
+    (about 0.1 ms of the 0.2 ms an iteration of 12 poses cost).
+
+    Returns:
+        (best pose seen, its score by the fitness of the last iteration).
+    """
+    weights, constants = _cma_constants(settings.cma_population)
+    draws = rng.standard_normal((settings.cma_iterations, settings.cma_population, _CMA_DIMENSIONS))
+    arguments, normalisation = fitness.kernel_arguments()
+    best_pose, best, evaluated = cma_run(
+        np.ascontiguousarray(pose, dtype=float), draws, settings.steps(), settings.cma_sigma,
+        settings.cma_tolerance, settings.cma_iterations - settings.cma_fine_iterations + 1,
+        settings.cma_fine_below, weights, constants, arguments, normalisation, fine, *limits,
+    )  # fmt: skip
+    fitness.count(evaluated)
+    return np.asarray(best_pose), float(best)
+
+
+class PoseLimits(NamedTuple):
+    """The allowed set of `_kernels.poses_inside`: position within [low, high] (x, y, z [m]),
+    cosine of the tilt at least `min_cos_tilt`, |yaw| at most `max_yaw` [rad] (inf: any)."""
+
+    low: FloatArray
+    high: FloatArray
+    min_cos_tilt: float
+    max_yaw: float
+
+
+_CMA_DIMENSIONS = 6  # x, y, depth, rotation vector
+
+
+def _cma_constants(lam: int) -> tuple[FloatArray, tuple[float, ...]]:
+    """Recombination weights and (c_c, c_s, c_1, c_mu, damping, E|N(0, I)|, mu_eff) of Hansen's
+    defaults for population `lam` in 6 dimensions."""
+    n, mu = _CMA_DIMENSIONS, lam // 2
+    weights = np.log(mu + 0.5) - np.log(np.arange(1, mu + 1))
+    weights /= weights.sum()
+    mu_eff = 1.0 / float(np.sum(weights**2))
+    c_s, c_1 = (mu_eff + 2) / (n + mu_eff + 5), 2 / ((n + 1.3) ** 2 + mu_eff)
+    constants = (
+        (4 + mu_eff / n) / (n + 4 + 2 * mu_eff / n),  # c_c
+        c_s,
+        c_1,
+        min(1 - c_1, 2 * (mu_eff - 2 + 1 / mu_eff) / ((n + 2) ** 2 + mu_eff)),  # c_mu
+        1 + 2 * max(0.0, np.sqrt((mu_eff - 1) / (n + 1)) - 1) + c_s,  # damping
+        float(np.sqrt(n) * (1 - 1 / (4 * n) + 1 / (21 * n * n))),  # E|N(0, I)|
+        mu_eff,
+    )
+    return weights, constants
 
 
 def neighbours(pose: FloatArray, steps: FloatArray) -> FloatArray:
@@ -241,4 +293,12 @@ def moved(pose: FloatArray, delta: FloatArray) -> FloatArray:
     return np.asarray(moved_poses(np.ascontiguousarray(pose, dtype=float), deltas))[0]
 
 
-__all__ = ["RefinementSettings", "cma_search", "compass_search", "moved", "neighbours"]
+__all__ = [
+    "PoseLimits",
+    "RefinementSettings",
+    "cma_search",
+    "cma_search_compiled",
+    "compass_search",
+    "moved",
+    "neighbours",
+]
