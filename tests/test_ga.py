@@ -54,6 +54,11 @@ def test_parameters_and_transforms_are_inverse_and_repair_long_epsilon() -> None
     T = transforms_from_parameters(x)
     assert all(is_rotation(R, tol=1e-9) for R in T[:, :3, :3])
     np.testing.assert_allclose(parameters_from_transforms(T), x, atol=1e-9)
+    # Half turns about x, y and z (each of Shepperd's four branches) come back exactly.
+    diagonals = ((1, -1, -1), (-1, 1, -1), (-1, -1, 1))
+    half_turns = np.array([make_transform(np.diag(d), [0.01, 0.02, 0.6]) for d in diagonals])
+    back = transforms_from_parameters(parameters_from_transforms(half_turns))
+    np.testing.assert_allclose(back, half_turns, atol=1e-12)
     long = transforms_from_parameters([[0, 0, 0.6, 0.17, 0.17, 1.0]])[0]  # |ε| > 1: normalised
     assert is_rotation(long[:3, :3], tol=1e-9)
     # A yaw of the cloth is a rotation about the camera z axis with ε = (0, 0, sin(yaw / 2)).

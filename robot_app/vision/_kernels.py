@@ -537,6 +537,39 @@ def cma_run(start, draws, scale, sigma, tolerance, fine_from, fine_below, weight
 
 
 @_jit
+def pose_parameters(transforms):
+    """(P, 4, 4) ^CR T_M -> (P, 6) (t, ε1, ε2, ε3), the unit quaternion's vector part with
+    ε0 >= 0 (Shepperd: the largest of the four squared components gives a stable division)."""
+    out = np.empty((transforms.shape[0], 6))
+    q = np.empty(4)
+    for p in range(transforms.shape[0]):
+        R = transforms[p]
+        r00, r11, r22 = R[0, 0], R[1, 1], R[2, 2]
+        squares = (1 + r00 + r11 + r22, 1 + r00 - r11 - r22, 1 - r00 + r11 - r22, 1 - r00 - r11 + r22)
+        pick = 0
+        for k in range(1, 4):
+            if squares[k] > squares[pick]:
+                pick = k
+        s = np.sqrt(max(squares[pick], 1e-300)) * 2.0
+        d21, d02, d10 = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
+        a01, a02, a12 = R[0, 1] + R[1, 0], R[0, 2] + R[2, 0], R[1, 2] + R[2, 1]
+        if pick == 0:
+            q[0], q[1], q[2], q[3] = s / 4, d21 / s, d02 / s, d10 / s
+        elif pick == 1:
+            q[0], q[1], q[2], q[3] = d21 / s, s / 4, a01 / s, a02 / s
+        elif pick == 2:
+            q[0], q[1], q[2], q[3] = d02 / s, a01 / s, s / 4, a12 / s
+        else:
+            q[0], q[1], q[2], q[3] = d10 / s, a02 / s, a12 / s, s / 4
+        sign = -1.0 if q[0] < 0 else 1.0
+        norm = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        for k in range(3):
+            out[p, k] = R[k, 3]
+            out[p, 3 + k] = sign * q[1 + k] / norm
+    return out
+
+
+@_jit
 def poses_inside(transforms, low, high, min_cos_tilt, max_yaw):
     """(P,) bool: position within [low, high] (each of x, y, z), the model normal's cosine
     to the camera axis at least `min_cos_tilt`, |yaw| at most `max_yaw` (inf: any)."""
@@ -563,6 +596,7 @@ __all__ = [
     "moved_poses",
     "next_generation",
     "normalised",
+    "pose_parameters",
     "poses_inside",
     "score_poses",
     "transforms_from_genes",

@@ -34,7 +34,7 @@ from pydantic import Field, model_validator
 from robot_app.config import StrictModel
 from robot_app.errors import InputError
 from robot_app.geometry import FloatArray
-from robot_app.vision._kernels import evolve, next_generation, transforms_from_genes
+from robot_app.vision._kernels import evolve, next_generation, pose_parameters, transforms_from_genes
 from robot_app.vision.fitness import KernelFitness
 
 BITS = 12
@@ -165,36 +165,8 @@ def transforms_from_parameters(parameters: npt.ArrayLike) -> FloatArray:
 
 def parameters_from_transforms(transforms: npt.ArrayLike) -> FloatArray:
     """(P, 4, 4) ^CR T_M -> (P, 6) (t, ε) with ε0 ≥ 0 (the inverse of `transforms_from_parameters`)."""
-    T = np.asarray(transforms, dtype=float).reshape(-1, 4, 4)
-    R = T[:, :3, :3]
-    # Shepperd-style: the largest of the four squared components gives a stable division.
-    squares = np.stack(
-        [
-            1 + R[:, 0, 0] + R[:, 1, 1] + R[:, 2, 2],
-            1 + R[:, 0, 0] - R[:, 1, 1] - R[:, 2, 2],
-            1 - R[:, 0, 0] + R[:, 1, 1] - R[:, 2, 2],
-            1 - R[:, 0, 0] - R[:, 1, 1] + R[:, 2, 2],
-        ],
-        axis=1,
-    )
-    pick = np.argmax(squares, axis=1)
-    q = np.empty((len(T), 4))  # (ε0, ε1, ε2, ε3)
-    s = np.sqrt(np.maximum(squares[np.arange(len(T)), pick], 1e-300)) * 2.0
-    d21, d02, d10 = R[:, 2, 1] - R[:, 1, 2], R[:, 0, 2] - R[:, 2, 0], R[:, 1, 0] - R[:, 0, 1]
-    a01, a02, a12 = R[:, 0, 1] + R[:, 1, 0], R[:, 0, 2] + R[:, 2, 0], R[:, 1, 2] + R[:, 2, 1]
-    candidates = np.stack(
-        [
-            np.stack([s / 4, d21 / s, d02 / s, d10 / s], axis=1),
-            np.stack([d21 / s, s / 4, a01 / s, a02 / s], axis=1),
-            np.stack([d02 / s, a01 / s, s / 4, a12 / s], axis=1),
-            np.stack([d10 / s, a02 / s, a12 / s, s / 4], axis=1),
-        ],
-        axis=1,
-    )
-    q[:] = candidates[np.arange(len(T)), pick]
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    return np.concatenate([T[:, :3, 3], q[:, 1:]], axis=1)
+    T = np.ascontiguousarray(np.asarray(transforms, dtype=float).reshape(-1, 4, 4))
+    return np.asarray(pose_parameters(T))
 
 
 @dataclass(frozen=True)
