@@ -9,13 +9,14 @@ import pytest
 from robot_app.config import validate
 from robot_app.errors import ConfigError, InputError
 from robot_app.geometry import make_transform, rotation_about_z, rotation_from_rpy
-from robot_app.vision._kernels import hsv_codes
+from robot_app.vision._kernels import bgr_codes, hsv_codes
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.fitness import (
     OFF_IMAGE,
     OUTSIDE_ROW,
     FitnessEvaluator,
     FitnessParams,
+    colour_table,
     score_table,
     seen_table,
 )
@@ -190,6 +191,16 @@ def test_compiled_pixel_codes_agree_with_colour_codes() -> None:
     assert np.array_equal(flat[1:-2, 1:-2], expected)
     assert set(np.unique(expected[expected > 255])) == {DARK, LIGHT}
     assert (flat[0] == OFF_IMAGE).all() and (flat[-2:] == OFF_IMAGE).all()
+
+
+def test_pixel_codes_by_colour_table_agree_with_the_conversion() -> None:
+    rng = np.random.default_rng(4)
+    bgr = rng.integers(0, 256, (41, 59, 3)).astype(np.uint8)
+    bgr[::4] //= 6  # plenty of dark pixels
+    for thresholds in ((40, 40, 128), (0, 0, 128), (25, 60, 100)):
+        expected = hsv_codes(to_hsv(bgr), *thresholds, DARK, LIGHT, OFF_IMAGE)
+        assert np.array_equal(bgr_codes(bgr, colour_table(*thresholds), OFF_IMAGE), expected)
+    assert not colour_table(40, 40, 128).flags.writeable
 
 
 def test_low_saturation_pixels_have_no_hue() -> None:
