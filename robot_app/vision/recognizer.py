@@ -114,10 +114,11 @@ class RecognitionSettings(StrictModel):
             itself, so only yaws within `avoid_yaw_deg` of it are avoided (its half or
             quarter turn may be the true pose): a quarter turn of a check cloth 45 %
             under the sheet (0.90) drew 6 of 8 seeds from its true pose (0.95, 19 mm
-            away), 3 of 8 with this; avoided at every yaw, the true pose was too. (Restarting also when the
-            reported fitness is below `acceptance_threshold`, away from that peak, took
-            a model off another cloth it shared a hue with, but a cloth 45 % hidden
-            reports below it at its true pose: 4 of 100 such scenes ended wrong.)
+            away), 3 of 8 with this; avoided at every yaw, the true pose was too.
+            (Restarting also when the reported fitness is below `acceptance_threshold`,
+            away from that peak, took a model off another cloth it shared a hue with, but
+            a cloth 45 % hidden reports below it at its true pose: 4 of 100 such scenes
+            ended wrong.)
         restart_below: search fitness under which a restart is run.
         confirm_above: the search fitness from which a peak two runs ended on is taken
             (wrong peaks that two runs ended on scored 0.66-0.85; a cloth 45 % hidden
