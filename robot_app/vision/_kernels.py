@@ -149,11 +149,15 @@ def _bilinear_sum(M, points, table, codes, width, height, pixel, fraction):
 
 
 @_jit
-def _projection(K, pose, out):
-    """out (3, 4) float32 = K @ pose[:3, :], pose a float64 (4, 4) transform."""
+def _projection(P, pose, out):
+    """out (3, 4) float32 = P @ pose, P a (3, 4) camera projection, pose a float64 (4, 4)
+    rigid transform (its last row 0 0 0 1). Written out: `@` in a compiled loop is a BLAS
+    call and an allocation per pose, about 0.3 µs, a third of a GA generation's cost on
+    a one-point model."""
     for r in range(3):
-        for c in range(4):
-            out[r, c] = K[r, 0] * pose[0, c] + K[r, 1] * pose[1, c] + K[r, 2] * pose[2, c]
+        for c in range(3):
+            out[r, c] = P[r, 0] * pose[0, c] + P[r, 1] * pose[1, c] + P[r, 2] * pose[2, c]
+        out[r, 3] = P[r, 0] * pose[0, 3] + P[r, 1] * pose[1, 3] + P[r, 2] * pose[2, 3] + P[r, 3]
 
 
 @_jit
@@ -205,10 +209,13 @@ def score_poses(
     pixel = np.empty(px.shape[0], np.int32)  # scratch: each point's pixel index
     fraction = np.empty((2, px.shape[0]), np.float32)  # scratch: sub-pixel offsets
     points = (px, py, pz, weights, best, row_offsets)
+    P_right = np.zeros((3, 4))
+    P_right[:, :3] = K_right
+    P_left = K_left @ np.ascontiguousarray(left_from_right[:3, :])
     for p in range(n_poses):
         pose = transforms[p]
-        _projection(K_right, pose, M_right)
-        _projection(K_left, left_from_right @ pose, M_left)
+        _projection(P_right, pose, M_right)
+        _projection(P_left, pose, M_left)
         if bilinear:
             sum_l, view_l = _bilinear_sum(M_left, points, table, codes_left, width, height, pixel, fraction)
             sum_r, view_r = _bilinear_sum(M_right, points, table, codes_right, width, height, pixel, fraction)
