@@ -14,6 +14,7 @@ from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.fitness import (
     OFF_IMAGE,
     OUTSIDE_ROW,
+    AvoidedPoses,
     FitnessEvaluator,
     FitnessParams,
     colour_table,
@@ -288,3 +289,26 @@ def test_params_are_validated() -> None:
         validate(FitnessParams, {"score_in_match": -1.0})
     with pytest.raises(ConfigError, match="bogus"):
         validate(FitnessParams, {"bogus": 1})
+
+
+def test_avoided_poses_are_those_near_a_centre_at_its_yaw_or_at_any_yaw() -> None:
+    rng = np.random.default_rng(8)
+    yaws = rng.uniform(-np.pi, np.pi, 400)
+    poses = np.array(
+        [
+            make_transform(rotation_from_rpy(0.05, -0.04, yaw), [*rng.uniform(-0.1, 0.1, 2), 0.58])
+            for yaw in yaws
+        ]
+    )
+    centres = np.array([[0.02, -0.03, np.nan], [-0.04, 0.05, 3.0], [0.05, 0.05, -0.5]])
+    separation, window = 0.04, np.deg2rad(45.0)
+    # the rule, written plainly: near in x-y and (any yaw or a yaw within the window, on the circle)
+    near = np.linalg.norm(poses[:, None, :2, 3] - centres[None, :, :2], axis=2) < separation
+    turn = np.abs(
+        np.angle(np.exp(1j * (np.arctan2(poses[:, 1, 0], poses[:, 0, 0])[:, None] - centres[None, :, 2])))
+    )
+    expected = (near & (np.isnan(centres[None, :, 2]) | (turn < window))).any(axis=1)
+    mask = AvoidedPoses(centres, separation, window).mask(poses)
+    assert 20 < expected.sum() < 380  # both kinds occur
+    np.testing.assert_array_equal(mask, expected)
+    assert not AvoidedPoses.none().mask(poses).any()

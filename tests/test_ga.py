@@ -172,9 +172,10 @@ def test_two_point_crossover_swaps_the_bits_between_the_cuts() -> None:
     assert [int(g) for g in second] == [0b111111000000, 0b000111111111] + [4095] * 4
 
 
-def test_compiled_generations_equal_the_python_loop_bit_for_bit() -> None:
+@pytest.mark.parametrize("avoiding", [False, True])
+def test_compiled_generations_equal_the_python_loop_bit_for_bit(avoiding: bool) -> None:
     from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
-    from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
+    from robot_app.vision.fitness import AvoidedPoses, FitnessEvaluator, KernelFitness
     from robot_app.vision.photo_model import make_model
     from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
 
@@ -186,7 +187,9 @@ def test_compiled_generations_equal_the_python_loop_bit_for_bit() -> None:
     left, right = render_stereo_pair(rig, [(synthetic_cloth(5), pose)], rng=np.random.default_rng(2))
     evaluator = FitnessEvaluator(make_model(photo, model_camera, background), rig)
     evaluator.update(left, right)
-    compiled = KernelFitness(evaluator, stride=2)
+    # avoiding: the cloth's own pose (within 45° of its yaw) and a spot beside it (any yaw)
+    avoid = AvoidedPoses(np.array([[0.01, 0.02, 0.3], [-0.05, 0.0, np.nan]]), 0.03, np.deg2rad(45.0))
+    compiled = KernelFitness(evaluator, stride=2, avoid=avoid if avoiding else None)
     results = []
     for fitness in (compiled, lambda T: compiled(T)):  # the lambda takes the Python loop
         before = evaluator.evaluations
@@ -199,3 +202,8 @@ def test_compiled_generations_equal_the_python_loop_bit_for_bit() -> None:
     assert run_a.evaluations == run_b.evaluations == count_a == count_b
     assert run_a.generations == run_b.generations == 30
     assert run_a.fitness > 0.5  # it did search: the cloth is there
+    if avoiding:  # every pose in the avoided regions scored -1, and the best lies outside them
+        poses = GeneticAlgorithm(compiled, BOUNDS).transforms(genes_a)
+        inside = avoid.mask(poses)
+        assert inside.any() and np.all(scores_a[inside] == -1.0)
+        assert not avoid.mask(run_a.transform_model_to_camera[None])[0]

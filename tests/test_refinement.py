@@ -9,11 +9,18 @@ from scipy.spatial.transform import Rotation
 from robot_app.config import validate
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform, rotation_from_rpy
-from robot_app.vision._kernels import poses_inside
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
-from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
+from robot_app.vision.fitness import AvoidedPoses, FitnessEvaluator, KernelFitness
 from robot_app.vision.photo_model import make_model
-from robot_app.vision.refinement import PoseLimits, RefinementSettings, cma_search, cma_search_compiled, moved
+from robot_app.vision.refinement import (
+    PoseLimits,
+    RefinementSettings,
+    cma_search,
+    cma_search_compiled,
+    compass_search,
+    compass_search_compiled,
+    moved,
+)
 from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
 
 START = make_transform(rotation_from_rpy(0.05, -0.03, 0.7), [0.02, -0.01, 0.58])
@@ -74,21 +81,33 @@ def test_cma_takes_a_real_fitness_from_a_displaced_start_to_the_true_pose(evalua
         assert abs(pose[2, 3] - truth[2, 3]) < 0.003
 
 
-@pytest.mark.parametrize("tight", [False, True])
-def test_compiled_cma_is_the_python_cma_bit_for_bit(evaluator, tight: bool) -> None:
+# Two avoided regions beside the true pose: one at any yaw, one (holding the true pose)
+# within 45° of the cloth's own yaw.
+AVOID = AvoidedPoses(
+    np.array([[TRUTH[0, 3] + 0.006, TRUTH[1, 3] - 0.004, np.nan], [TRUTH[0, 3] - 0.002, TRUTH[1, 3], 1.3]]),
+    0.004,
+    float(np.deg2rad(45.0)),
+)
+
+
+def _limits(tight: bool) -> PoseLimits:
     # tight: bounds that reject part of the samples (and the z range the start is in).
     low, high = np.array([-0.25, -0.2, 0.5]), np.array([0.25, 0.2, 0.579 if tight else 0.65])
-    limits = PoseLimits(low, high, float(np.cos(np.deg2rad(8.0 if tight else 20.0))), np.inf)
+    return PoseLimits(low, high, float(np.cos(np.deg2rad(8.0 if tight else 20.0))), np.inf)
+
+
+@pytest.mark.parametrize(("tight", "avoid"), [(False, None), (True, None), (False, AVOID)])
+def test_compiled_cma_is_the_python_cma_bit_for_bit(evaluator, tight: bool, avoid) -> None:
+    limits = _limits(tight)
     settings = RefinementSettings()
     start = moved(TRUTH, [0.003, -0.002, 0.008, 0.03, 0.0, 0.02])
     before = evaluator.evaluations
-    compiled = cma_search_compiled(
-        start, KernelFitness(evaluator, search=True), settings, np.random.default_rng(5), limits, True
-    )
+    fitness = KernelFitness(evaluator, search=True, avoid=avoid)
+    compiled = cma_search_compiled(start, fitness, settings, np.random.default_rng(5), limits, True)
     counted = evaluator.evaluations - before
 
     def allowed(poses: np.ndarray) -> np.ndarray:
-        return poses_inside(np.ascontiguousarray(poses), *limits)
+        return limits.allows(poses, avoid)
 
     before = evaluator.evaluations
     python = cma_search(
@@ -97,11 +116,36 @@ def test_compiled_cma_is_the_python_cma_bit_for_bit(evaluator, tight: bool) -> N
         settings,
         np.random.default_rng(5),
         allowed,
-        lambda poses: evaluator.evaluate(poses, subpixel=True, search=True),
+        KernelFitness(evaluator, search=True, subpixel=True),
     )
     np.testing.assert_array_equal(compiled[0], python[0])
     assert compiled[1] == python[1] and counted == evaluator.evaluations - before
     assert allowed(compiled[0][None])[0] or np.array_equal(compiled[0], start)
+    if avoid is not None:  # the true pose is avoided: it ended elsewhere
+        assert np.linalg.norm(compiled[0][:2, 3] - TRUTH[:2, 3]) > 0.001
+
+
+@pytest.mark.parametrize(
+    ("tight", "avoid", "subpixel"), [(False, None, True), (True, None, False), (False, AVOID, True)]
+)
+def test_compiled_compass_is_the_python_compass(evaluator, tight: bool, avoid, subpixel: bool) -> None:
+    limits = _limits(tight)
+    settings = RefinementSettings()
+    start = moved(TRUTH, [0.003, -0.002, 0.008, 0.03, 0.0, 0.02])
+    fitness = KernelFitness(evaluator, search=True, subpixel=subpixel, avoid=avoid)
+    before = evaluator.evaluations
+    compiled = compass_search_compiled(start, fitness, settings, 30, limits)
+    counted = evaluator.evaluations - before
+    before = evaluator.evaluations
+    python = compass_search(start, fitness, settings, 30, lambda poses: limits.allows(poses, avoid))
+    np.testing.assert_array_equal(compiled[0], python[0])
+    assert compiled[1] == python[1] and counted == evaluator.evaluations - before
+    assert compiled[1] >= float(fitness(start[None])[0])
+    if tight:  # the start (tilted ~9°) is outside: the neighbours that are inside are worse
+        return
+    assert limits.allows(compiled[0][None], avoid)[0] and compiled[1] > float(fitness(start[None])[0])
+    if avoid is None:
+        assert np.all(np.abs(compiled[0][:2, 3] - TRUTH[:2, 3]) < 0.001)
 
 
 def test_cma_same_seed_same_result_and_never_leaves_the_allowed_set() -> None:

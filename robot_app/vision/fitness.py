@@ -53,7 +53,14 @@ from pydantic import Field, model_validator
 from robot_app.config import StrictModel
 from robot_app.errors import InputError
 from robot_app.geometry import FloatArray
-from robot_app.vision._kernels import bgr_codes, every_colour, hsv_codes, normalised, score_poses
+from robot_app.vision._kernels import (
+    bgr_codes,
+    every_colour,
+    hsv_codes,
+    normalised,
+    poses_avoided,
+    score_poses,
+)
 from robot_app.vision.camera import PinholeCamera, StereoRig
 from robot_app.vision.hue import COLOUR_CODES, DARK, HUE_RANGE, LIGHT, colours_match, to_hsv
 from robot_app.vision.photo_model import ClothModel
@@ -308,7 +315,7 @@ class FitnessEvaluator:
                 np.ascontiguousarray(points[:, 2]),
                 np.concatenate([w_in, w_out]).astype(np.float32),
                 best.astype(np.float32),
-                np.ascontiguousarray(rows * np.int32(2 * self._columns)),
+                np.ascontiguousarray(rows * np.int32(2 * self._columns), dtype=np.uint32),
                 p.score_in_match * float(w_in.sum()) + p.score_out_background * float(w_out.sum()),
             )
         return self._subsets[stride]
@@ -384,31 +391,83 @@ class FitnessEvaluator:
         return arguments, (2.0 * points.maximum, view, params.min_view_fraction, params.hidden_penalty)
 
 
+class AvoidedPoses(NamedTuple):
+    """Poses a search must not visit (peaks already reported, or poor peaks that drew it):
+    the model origin within `separation` (x-y) [m] of a centre (x, y [m], yaw [rad]) and,
+    unless the centre's yaw is NaN (any yaw), the yaw within `yaw_window` [rad] of it."""
+
+    centres: FloatArray  # (K, 3)
+    separation: float
+    yaw_window: float
+
+    @classmethod
+    def none(cls) -> AvoidedPoses:
+        """Nothing avoided."""
+        return cls(np.zeros((0, 3)), 0.0, 0.0)
+
+    def kernel_arguments(self) -> tuple[FloatArray, FloatArray, float]:
+        """(centres, windows, separation) as `_kernels.poses_avoided` takes them: a NaN yaw
+        becomes 0 with a window wider than a half turn (the kernels assume no NaN)."""
+        centres = np.array(self.centres, dtype=float).reshape(-1, 3)
+        any_yaw = np.isnan(centres[:, 2])
+        windows = np.where(any_yaw, 4.0, self.yaw_window)
+        centres[any_yaw, 2] = 0.0
+        return centres, windows, float(self.separation)
+
+    def mask(self, transforms: FloatArray) -> npt.NDArray[np.bool_]:
+        """(P,) True where a pose of (P, 4, 4) `transforms` is avoided."""
+        T = np.ascontiguousarray(_as_poses(transforms))
+        return np.asarray(poses_avoided(T, *self.kernel_arguments()))
+
+
 class KernelFitness:
-    """The fitness of one evaluator at one stride as a function of poses, which the GA can
-    also run inside its compiled generation loop (`_kernels.evolve`) instead of calling it
-    once per generation: same scores, bit for bit, without the Python overhead.
+    """The fitness of one evaluator at one stride as a function of poses, which the compiled
+    loops (the GA's `_kernels.evolve`, the refinement's `cma_run` and `compass_run`) also
+    run inside instead of calling it once per step: same scores, bit for bit, without the
+    Python overhead.
 
     Args:
         evaluator: the evaluator (its current stereo pair is read at each call).
         stride: score every `stride`-th model point.
         search: score with the evaluator's search parameters.
+        subpixel: the bilinear-score fitness (see `FitnessEvaluator.evaluate`).
+        avoid: poses that score -1 (and that the refinement does not visit); None: none.
     """
 
-    def __init__(self, evaluator: FitnessEvaluator, *, stride: int = 1, search: bool = False) -> None:
+    def __init__(
+        self,
+        evaluator: FitnessEvaluator,
+        *,
+        stride: int = 1,
+        search: bool = False,
+        subpixel: bool = False,
+        avoid: AvoidedPoses | None = None,
+    ) -> None:
         if stride < 1:
             raise InputError(f"stride must be a positive integer, got {stride}")
         self.evaluator = evaluator
         self.stride = stride
         self.search = search
+        self.subpixel = subpixel
+        self.avoid = avoid if avoid is not None else AvoidedPoses.none()
 
     def __call__(self, transforms_model_to_right: npt.ArrayLike) -> FloatArray:
-        """(P,) normalised nearest-pixel fitness of (P, 4, 4) poses (see `FitnessEvaluator.evaluate`)."""
-        return self.evaluator.evaluate(transforms_model_to_right, stride=self.stride, search=self.search)
+        """(P,) normalised fitness of (P, 4, 4) poses (see `FitnessEvaluator.evaluate`), -1
+        where avoided."""
+        scores = self.evaluator.evaluate(
+            transforms_model_to_right, stride=self.stride, subpixel=self.subpixel, search=self.search
+        )
+        if len(self.avoid.centres):
+            scores[self.avoid.mask(np.asarray(transforms_model_to_right, dtype=float))] = -1.0
+        return scores
 
     def kernel_arguments(self) -> tuple[tuple[object, ...], tuple[float, bool, float, float]]:
-        """See `FitnessEvaluator.kernel_arguments`."""
+        """See `FitnessEvaluator.kernel_arguments` (the kernels take `subpixel` and `avoid` apart)."""
         return self.evaluator.kernel_arguments(stride=self.stride, search=self.search)
+
+    def avoided_arguments(self) -> tuple[FloatArray, FloatArray, float]:
+        """`avoid` as the kernels take it (`AvoidedPoses.kernel_arguments`)."""
+        return self.avoid.kernel_arguments()
 
     def count(self, poses: int) -> None:
         """Adds poses scored inside a compiled loop to the evaluator's `evaluations`."""
@@ -440,7 +499,7 @@ class _PointSet(NamedTuple):
     z: npt.NDArray[np.float32]
     weights: npt.NDArray[np.float32]
     best: npt.NDArray[np.float32]  # weight x the highest score of the point's row
-    row_offsets: npt.NDArray[np.int32]
+    row_offsets: npt.NDArray[np.uint32]
     maximum: float  # score of a perfect match in one image
 
 
@@ -456,6 +515,7 @@ def _as_poses(transforms: npt.ArrayLike) -> FloatArray:
 __all__ = [
     "OFF_IMAGE",
     "OUTSIDE_ROW",
+    "AvoidedPoses",
     "FitnessEvaluator",
     "FitnessParams",
     "KernelFitness",

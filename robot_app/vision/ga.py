@@ -270,7 +270,7 @@ class GeneticAlgorithm:
         evaluations = len(genes)
         history = [float(scores.max())]
         in_python = generations
-        if isinstance(self.fitness, KernelFitness) and generations > 0:
+        if isinstance(self.fitness, KernelFitness) and not self.fitness.subpixel and generations > 0:
             compiled = self._compiled_generations(self.fitness, genes, scores, generations)
             genes, scores, evaluated, best_history = compiled
             evaluations += evaluated
@@ -299,7 +299,7 @@ class GeneticAlgorithm:
         arguments, normalisation = fitness.kernel_arguments()
         genes, scores, evaluated, best = evolve(
             genes, scores, self._starts, s.elite, self._cdfs, uniforms, s.crossover_rate, s.mutation_rate,
-            self._lows, self._spans, s.gray_code, arguments, normalisation,
+            self._lows, self._spans, s.gray_code, arguments, normalisation, fitness.avoided_arguments(),
         )  # fmt: skip
         fitness.count(evaluated)
         return genes, scores, int(evaluated), best

@@ -32,17 +32,15 @@ from pydantic import Field
 from robot_app.config import StrictModel
 from robot_app.errors import InputError
 from robot_app.geometry import FloatArray, quaternion_xyzw_from_matrix, rotation_about_z, wrap_angle, yaw_of
-from robot_app.vision._kernels import poses_inside
 from robot_app.vision.camera import StereoRig
-from robot_app.vision.fitness import FitnessEvaluator, FitnessParams, KernelFitness
+from robot_app.vision.fitness import AvoidedPoses, FitnessEvaluator, FitnessParams, KernelFitness
 from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBounds, encode, parameters_from_transforms
 from robot_app.vision.photo_model import ClothModel
 from robot_app.vision.refinement import (
     PoseLimits,
     RefinementSettings,
-    cma_search,
     cma_search_compiled,
-    compass_search,
+    compass_search_compiled,
 )
 
 _Method = TypeVar("_Method", bound=Callable[..., "Recognition"])
@@ -444,21 +442,20 @@ class Recognizer:
 
     def _score(
         self, stride: int = 1, subpixel: bool = False, centres: FloatArray | None = None
-    ) -> Callable[[FloatArray], FloatArray]:
-        """The search fitness of poses; poses near `centres` (peaks already reported) score -1.
+    ) -> KernelFitness:
+        """The search fitness of poses; poses `_avoided(centres)` score -1 (and the compiled
+        refinement does not visit them)."""
+        return KernelFitness(
+            self.evaluator, stride=stride, search=True, subpixel=subpixel, avoid=self._avoided(centres)
+        )
 
-        Without `subpixel` and `centres` it is a `KernelFitness`, which the GA runs compiled.
-        """
-        if not subpixel and (centres is None or not len(centres)):
-            return KernelFitness(self.evaluator, stride=stride, search=True)
-
-        def f(transforms: FloatArray) -> FloatArray:
-            scores = self.evaluator.evaluate(transforms, stride=stride, subpixel=subpixel, search=True)
-            if centres is not None and len(centres):
-                scores[self._excluded(transforms, centres)] = -1.0
-            return scores
-
-        return f
+    def _avoided(self, centres: FloatArray | None) -> AvoidedPoses:
+        """Poses within `peak_separation` (x-y) of a centre (x, y, yaw): of a peak already
+        reported (yaw NaN: at any yaw), or of a poor peak that drew the runs (at any yaw,
+        or within `avoid_yaw_deg` of its yaw: see `RecognitionSettings.restarts`)."""
+        s = self.settings
+        points = np.zeros((0, 3)) if centres is None else np.asarray(centres, dtype=float).reshape(-1, 3)
+        return AvoidedPoses(points, s.peak_separation, float(np.deg2rad(s.avoid_yaw_deg)))
 
     def _search(self, rng: np.random.Generator, centres: FloatArray) -> GeneticAlgorithm:
         """A GA run (coarse generations on a point subset, then all points), away from `centres`."""
@@ -476,21 +473,6 @@ class Recognizer:
             raise RuntimeError("the GA has no population")  # unreachable: it ran
         order = np.argsort(-ga.scores, kind="stable")[: self.settings.tracking_population]
         self._poses = ga.transforms(ga.population[order])
-
-    def _excluded(self, transforms: FloatArray, centres: FloatArray) -> npt.NDArray[np.bool_]:
-        """Poses within `peak_separation` (x-y) of a centre (x, y, yaw): of a peak already
-        reported (yaw NaN: at any yaw), or of a poor peak that drew the runs (at any yaw,
-        or within `avoid_yaw_deg` of its yaw: see `RecognitionSettings.restarts`)."""
-        if not len(centres):
-            return np.zeros(len(transforms), dtype=bool)
-        near = np.linalg.norm(transforms[:, None, :2, 3] - centres[None, :, :2], axis=2) < (
-            self.settings.peak_separation
-        )
-        yaw = np.arctan2(transforms[:, 1, 0], transforms[:, 0, 0])
-        turn = np.abs(wrap_angle(yaw[:, None] - centres[None, :, 2]))
-        any_yaw = np.isnan(centres[None, :, 2])
-        near &= any_yaw | (np.nan_to_num(turn, nan=0.0) < np.deg2rad(self.settings.avoid_yaw_deg))
-        return np.asarray(near.any(axis=1))
 
     @staticmethod
     def _best_pose(ga: GeneticAlgorithm) -> FloatArray:
@@ -544,34 +526,19 @@ class Recognizer:
         stays inside the bounds and away from `centres`.
         """
         s, r = self.settings, self.settings.refinement
-        allowed = self._allowed(ga, centres)
+        limits = _limits(ga)
         candidates = self._candidates(ga)
-        candidates = candidates[allowed(candidates)]
+        candidates = candidates[limits.allows(candidates, self._avoided(centres))]
         if not len(candidates) or not refine:
             return self._polish(ga, self._best_pose(ga), r.max_iterations, refine, centres, rng)
         scores = self._score(centres=centres)(candidates)
         order = np.argsort(-scores, kind="stable")[: s.refine_candidates]
+        quick = self._score(subpixel=r.candidate_subpixel, centres=centres)
         polished = [
-            compass_search(T, self._score(subpixel=r.candidate_subpixel), r, r.candidate_iterations, allowed)
-            for T in candidates[order]
+            compass_search_compiled(T, quick, r, r.candidate_iterations, limits) for T in candidates[order]
         ]
         pose = max(polished, key=lambda item: item[1])[0]
         return self._polish(ga, pose, max(r.max_iterations - r.candidate_iterations, 1), True, centres, rng)
-
-    def _allowed(
-        self, ga: GeneticAlgorithm, centres: FloatArray | None
-    ) -> Callable[[FloatArray], npt.NDArray[np.bool_]]:
-        """Which poses the refinement may visit: within `_limits(ga)`, away from `centres`."""
-        limits = _limits(ga)
-        excluded = np.zeros((0, 3)) if centres is None else centres
-
-        def allowed(candidates: FloatArray) -> npt.NDArray[np.bool_]:
-            inside = poses_inside(np.ascontiguousarray(candidates), *limits)
-            if len(excluded):
-                inside &= ~self._excluded(candidates, excluded)
-            return np.asarray(inside)
-
-        return allowed
 
     def _polish(
         self,
@@ -589,15 +556,13 @@ class Recognizer:
         """
         if refine:
             r = self.settings.refinement
-            allowed = self._allowed(ga, centres)
-            if rng is not None and r.method == "cma" and (centres is None or not len(centres)):
-                fitness = KernelFitness(self.evaluator, search=True)  # the loop compiled
-                pose, _ = cma_search_compiled(pose, fitness, r, rng, _limits(ga), r.subpixel)
-            elif rng is not None and r.method == "cma":
-                fine = self._score(subpixel=True) if r.subpixel else None
-                pose, _ = cma_search(pose, self._score(), r, rng, allowed, fine)
+            if rng is not None and r.method == "cma":
+                pose, _ = cma_search_compiled(
+                    pose, self._score(centres=centres), r, rng, _limits(ga), r.subpixel
+                )
             else:
-                pose, _ = compass_search(pose, self._score(subpixel=r.subpixel), r, iterations, allowed)
+                fitness = self._score(subpixel=r.subpixel, centres=centres)
+                pose, _ = compass_search_compiled(pose, fitness, r, iterations, _limits(ga))
         search_fitness = float(self.evaluator.evaluate(pose, search=True)[0])
         if (
             refine
