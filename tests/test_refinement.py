@@ -96,14 +96,18 @@ def _limits(tight: bool) -> PoseLimits:
     return PoseLimits(low, high, float(np.cos(np.deg2rad(8.0 if tight else 20.0))), np.inf)
 
 
-@pytest.mark.parametrize(("tight", "avoid"), [(False, None), (True, None), (False, AVOID)])
-def test_compiled_cma_is_the_python_cma_bit_for_bit(evaluator, tight: bool, avoid) -> None:
+@pytest.mark.parametrize(
+    ("tight", "avoid", "stride"), [(False, None, 1), (True, None, 1), (False, AVOID, 1), (False, None, 2)]
+)
+def test_compiled_cma_is_the_python_cma_bit_for_bit(evaluator, tight: bool, avoid, stride: int) -> None:
+    # stride: the nearest-pixel iterations score every 2nd point, the sub-pixel ones all
     limits = _limits(tight)
     settings = RefinementSettings()
     start = moved(TRUTH, [0.003, -0.002, 0.008, 0.03, 0.0, 0.02])
     before = evaluator.evaluations
-    fitness = KernelFitness(evaluator, search=True, avoid=avoid)
-    compiled = cma_search_compiled(start, fitness, settings, np.random.default_rng(5), limits, True)
+    fitness = KernelFitness(evaluator, stride=stride, search=True, avoid=avoid)
+    fine = KernelFitness(evaluator, search=True, subpixel=True)
+    compiled = cma_search_compiled(start, fitness, settings, np.random.default_rng(5), limits, fine)
     counted = evaluator.evaluations - before
 
     def allowed(poses: np.ndarray) -> np.ndarray:
@@ -112,11 +116,11 @@ def test_compiled_cma_is_the_python_cma_bit_for_bit(evaluator, tight: bool, avoi
     before = evaluator.evaluations
     python = cma_search(
         start,
-        KernelFitness(evaluator, search=True),
+        KernelFitness(evaluator, stride=stride, search=True),
         settings,
         np.random.default_rng(5),
         allowed,
-        KernelFitness(evaluator, search=True, subpixel=True),
+        fine,
     )
     np.testing.assert_array_equal(compiled[0], python[0])
     assert compiled[1] == python[1] and counted == evaluator.evaluations - before

@@ -542,12 +542,14 @@ def _fitness(poses, fitness_arguments, normalisation, bilinear):
 
 @_jit
 def cma_run(start, draws, scale, sigma, tolerance, fine_from, fine_below, weights, constants,
-            fitness_arguments, normalisation, fine, limits, avoided):  # fmt: skip
+            fitness_arguments, normalisation, fine, fine_arguments, fine_normalisation, limits,
+            avoided):  # fmt: skip
     """`refinement.cma_search` in one compiled loop, for a fitness that is `score_poses` +
-    `normalised` (nearest pixel, then with `fine` bilinear from iteration `fine_from` or
-    once the step is below `fine_below`) and an allowed set that is `poses_allowed`
-    (`limits` = (low, high, min_cos_tilt, max_yaw), `avoided` = (centres, windows,
-    separation)).
+    `normalised` at the nearest pixel (`fitness_arguments`, `normalisation`), then with
+    `fine` bilinear (`fine_arguments`, `fine_normalisation`: e.g. more points) from
+    iteration `fine_from` or once the step is below `fine_below`, and an allowed set that
+    is `poses_allowed` (`limits` = (low, high, min_cos_tilt, max_yaw), `avoided` =
+    (centres, windows, separation)).
 
     `draws` are the (iterations, lambda, 6) standard normal draws; the rest as in
     `cma_search`. Returns (best pose, its score by the last iteration's fitness, poses
@@ -564,6 +566,7 @@ def cma_run(start, draws, scale, sigma, tolerance, fine_from, fine_below, weight
     for generation in range(1, draws.shape[0] + 1):
         if fine and not bilinear and (generation >= fine_from or sigma * D.max() < fine_below):
             bilinear = True
+            fitness_arguments, normalisation = fine_arguments, fine_normalisation
             best = _fitness(best_pose.reshape(1, 4, 4), fitness_arguments, normalisation, True)[0]
             evaluated += 1
         y, poses = cma_sample(draws[generation - 1], B, D, mean, sigma, scale, start)

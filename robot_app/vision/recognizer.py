@@ -64,8 +64,8 @@ class RecognitionSettings(StrictModel):
             with occluders lower it (configs/pick_place.yaml: 0.45).
         coarse_generations: first generations scored on a point subset.
         coarse_stride: every n-th model point scored in the coarse generations.
-        fine_stride: every n-th model point scored in the other generations (the
-            refinement and the reported fitness always use every point).
+        fine_stride: every n-th model point scored in the other generations and while
+            tracking (the refinement and the reported fitness always use every point).
         refinement: the local search after the GA.
         max_peaks: peaks reported with `report_peaks`.
         peak_separation: x-y distance between distinct peaks [m].
@@ -557,9 +557,8 @@ class Recognizer:
         if refine:
             r = self.settings.refinement
             if rng is not None and r.method == "cma":
-                pose, _ = cma_search_compiled(
-                    pose, self._score(centres=centres), r, rng, _limits(ga), r.subpixel
-                )
+                fine = self._score(subpixel=True, centres=centres) if r.subpixel else None
+                pose, _ = cma_search_compiled(pose, self._score(centres=centres), r, rng, _limits(ga), fine)
             else:
                 fitness = self._score(subpixel=r.subpixel, centres=centres)
                 pose, _ = compass_search_compiled(pose, fitness, r, iterations, _limits(ga))

@@ -220,12 +220,13 @@ def cma_search_compiled(
     settings: RefinementSettings,
     rng: np.random.Generator,
     limits: PoseLimits,
-    fine: bool,
+    fine: KernelFitness | None = None,
 ) -> tuple[FloatArray, float]:
     """`cma_search` in one compiled loop (`_kernels.cma_run`): the same result, bit for bit,
-    for `score` = `fitness` (nearest pixel), `fine_score` = its sub-pixel version if `fine`,
-    and `allowed` = `limits.allows` with `fitness.avoid`. Saves the Python overhead of each
-    iteration (about 0.1 ms of the 0.2 ms an iteration of 12 poses cost).
+    for `score` = `fitness` (nearest pixel), `fine_score` = the sub-pixel fitness of
+    `fine`'s points and parameters (None: no fine ranking) and `allowed` = `limits.allows`
+    with `fitness.avoid`. Saves the Python overhead of each iteration (about 0.1 ms of the
+    0.2 ms an iteration of 12 poses cost).
 
     Returns:
         (best pose seen, its score by the fitness of the last iteration).
@@ -233,11 +234,12 @@ def cma_search_compiled(
     weights, constants = _cma_constants(settings.cma_population)
     draws = rng.standard_normal((settings.cma_iterations, settings.cma_population, _CMA_DIMENSIONS))
     arguments, normalisation = fitness.kernel_arguments()
+    fine_arguments, fine_normalisation = (fitness if fine is None else fine).kernel_arguments()
     best_pose, best, evaluated = cma_run(
         np.ascontiguousarray(pose, dtype=float), draws, settings.steps(), settings.cma_sigma,
         settings.cma_tolerance, settings.cma_iterations - settings.cma_fine_iterations + 1,
-        settings.cma_fine_below, weights, constants, arguments, normalisation, fine, tuple(limits),
-        fitness.avoided_arguments(),
+        settings.cma_fine_below, weights, constants, arguments, normalisation, fine is not None,
+        fine_arguments, fine_normalisation, tuple(limits), fitness.avoided_arguments(),
     )  # fmt: skip
     fitness.count(evaluated)
     return np.asarray(best_pose), float(best)
