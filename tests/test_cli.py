@@ -23,3 +23,15 @@ def test_console_script_runs() -> None:
         check=False,
     )
     assert out.returncode == 0 and __version__ in out.stdout
+
+
+def test_the_cli_imports_no_simulator_or_controller_until_a_command_needs_them() -> None:
+    # Every command imports the CLI; `recognize` on image files should not pay for
+    # pybullet, Pinocchio's IK stack, filterpy and scipy.stats (~2.5 s of imports).
+    code = (
+        "import sys, robot_app.cli; "
+        "print(sorted(m for m in ('pybullet', 'robot_app.control', 'robot_app.sim', 'filterpy', "
+        "'robot_app.experiments.pick_place_episode') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"

@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from robot_app.config import load_config
-from robot_app.control.episode import PhaseRecord
 from robot_app.errors import InputError
-from robot_app.experiments.pick_place_episode import PickPlaceConfig, run_episode, write_episode
+
+if TYPE_CHECKING:
+    from robot_app.control.episode import PhaseRecord
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "configs" / "pick_place.yaml"
 
@@ -33,6 +34,9 @@ def pick_place(
     gui: Annotated[bool, typer.Option("--gui", help="Show pybullet's GUI (needs a display).")] = False,
 ) -> None:
     """Run one pick-and-place episode in simulation: find the cloth, grasp it, put it in the box."""
+    # here, not at the top: every `robot-app` command imports this module (pybullet, Pinocchio)
+    from robot_app.experiments.pick_place_episode import PickPlaceConfig, run_episode, write_episode
+
     path = config if config is not None else (DEFAULT_CONFIG if DEFAULT_CONFIG.is_file() else None)
     settings = load_config(
         PickPlaceConfig, path, [*(overrides or []), *([f"seed={seed}"] if seed is not None else [])]

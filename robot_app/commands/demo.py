@@ -13,17 +13,17 @@ import math
 import os
 import sys
 import time
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 import numpy.typing as npt
-import pybullet as p
 import typer
 
-from robot_app.control.kinematics import IKResult, Kinematics
-from robot_app.control.robot_models import pa10_spec
 from robot_app.errors import InputError, SimulationError
 from robot_app.geometry import make_transform, matrix_from_quaternion_xyzw, rotation_angle_between
+
+if TYPE_CHECKING:
+    from robot_app.control.kinematics import IKResult, Kinematics
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -51,6 +51,10 @@ def _describe(result: IKResult) -> str:
 
 def _drive(kin: Kinematics, q_goal: FloatArray, gui: bool, seconds: float) -> tuple[FloatArray, FloatArray]:
     """Position control from READY_POSTURE to q_goal; returns (tcp pose 4x4, final q)."""
+    import pybullet as p  # here, not at the top: every `robot-app` command imports this module
+
+    from robot_app.control.robot_models import pa10_spec
+
     if gui and sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
         # pybullet's GUI would print "cannot connect to X server" and exit the process.
         raise SimulationError("--gui needs a display (DISPLAY is not set); run without --gui")
@@ -114,6 +118,8 @@ def demo(
     """Solve IK for a tcp pose looking down, drive the PA10 there in pybullet, compare."""
     if not 0.0 < seconds <= 60.0:
         raise InputError(f"--seconds must be in (0, 60], got {seconds}")
+    from robot_app.control.robot_models import pa10_spec
+
     kin = pa10_spec("tcp").load()
     target = looking_down((x, y, z), math.radians(yaw_deg))
     typer.echo(

@@ -5,17 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-import cv2
 import typer
-
-from robot_app.sim import SceneConfig, cloth_spec, load_world_config
-from robot_app.sim.pictures import write_pictures
-from robot_app.sim.station import ModelStation
-from robot_app.vision.camera import save_model_camera
 
 ConfigOption = Annotated[Path | None, typer.Option(help="World config YAML (default configs/world.yaml).")]
 SetOption = Annotated[list[str] | None, typer.Option("--set", help="Override a config key: key.path=value.")]
 
+# The commands import pybullet and the simulator in their bodies: every `robot-app`
+# command imports this module to register them.
 sim_app = typer.Typer(help="The pybullet simulation: pictures, model photos, rig file.", no_args_is_help=True)
 
 
@@ -30,6 +26,9 @@ def show(
     set_: SetOption = None,
 ) -> None:
     """Writes overview.png, stereo.png and catalogue.png of the cell."""
+    from robot_app.sim import SceneConfig, load_world_config
+    from robot_app.sim.pictures import write_pictures
+
     world = load_world_config(config, tuple(set_ or ()))
     scene = SceneConfig(target=target, occluder=occluder, distractor=distractor)
     for path in write_pictures(out, world, scene, seed):
@@ -46,6 +45,12 @@ def model_photo(
     set_: SetOption = None,
 ) -> None:
     """Photographs a cloth at the Fig. 7 station, for `robot-app model make`."""
+    import cv2
+
+    from robot_app.sim import cloth_spec, load_world_config
+    from robot_app.sim.station import ModelStation
+    from robot_app.vision.camera import save_model_camera
+
     world = load_world_config(config, tuple(set_ or ()))
     spec = cloth_spec(cloth)
     out.mkdir(parents=True, exist_ok=True)
@@ -64,7 +69,7 @@ def rig(
     set_: SetOption = None,
 ) -> None:
     """Writes the hand stereo rig file that matches the simulated cameras."""
-    from robot_app.sim import World
+    from robot_app.sim import World, load_world_config
 
     out.parent.mkdir(parents=True, exist_ok=True)
     with World(load_world_config(config, tuple(set_ or ()))) as world:
