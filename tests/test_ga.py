@@ -7,7 +7,7 @@ import pytest
 
 from robot_app.config import validate
 from robot_app.errors import ConfigError
-from robot_app.geometry import is_rotation, make_transform, rotation_about_z, rotation_from_rpy
+from robot_app.geometry import is_rotation, make_transform, rotation_about_z, rotation_from_rpy, yaw_of
 from robot_app.vision.ga import (
     GASettings,
     GeneticAlgorithm,
@@ -95,6 +95,20 @@ def test_run_converges_and_same_seed_gives_same_result(islands: int) -> None:
     assert not np.array_equal(first.transform_model_to_camera, other.transform_model_to_camera)
     assert first.evaluations == 60 + 80 * (60 - islands * settings.elite)  # each island keeps its elite
     assert np.all(np.diff(first.best_per_generation) >= 0)  # elitism: the best never gets worse
+
+
+@pytest.mark.parametrize("uniform_yaw", [True, False])
+def test_the_random_population_covers_every_yaw_evenly(uniform_yaw: bool) -> None:
+    settings = GASettings(population=4000, islands=1, uniform_yaw=uniform_yaw)
+    ga = GeneticAlgorithm(lambda T: np.zeros(len(T)), BOUNDS, settings)
+    ga.run(0)
+    yaws = np.array([yaw_of(T[:3, :3]) for T in ga.transforms(ga.population)])
+    near_half_turn = np.mean(np.abs(yaws) > np.deg2rad(160.0))  # 40° of the 360°: 11 %
+    near_zero = np.mean(np.abs(yaws) < np.deg2rad(20.0))
+    if uniform_yaw:  # (|ε| > 1 is normalised onto ε0 = 0, a half turn: a little more there)
+        assert 0.09 < near_zero < 0.13 and 0.8 < near_half_turn / near_zero < 1.5
+    else:  # uniform in ε3 = sin(yaw / 2): a half turn is drawn several times less often than 0°
+        assert near_half_turn / near_zero < 0.25
 
 
 def test_track_moves_the_population_by_the_camera_motion() -> None:
