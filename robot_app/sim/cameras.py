@@ -140,7 +140,8 @@ class StereoCamera:
         self._robot = robot
         self._config = config
         self._clock = clock
-        camera = PinholeCamera.from_fov(tuple(config.image_size), np.deg2rad(config.hfov_deg))
+        width, height = config.image_size
+        camera = PinholeCamera.from_fov((width, height), np.deg2rad(config.hfov_deg))
         left = robot.frame_pose(LEFT_FRAME)
         right = robot.frame_pose(RIGHT_FRAME)
         hand = robot.frame_pose(HAND_FRAME)

@@ -152,7 +152,7 @@ def _triangular_lattice(width: float, height: float, spacing: float) -> FloatArr
 
 
 def _resample_closed(polygon: FloatArray, step: float) -> FloatArray:
-    points = []
+    points: list[FloatArray] = []
     for a, b in zip(polygon, np.roll(polygon, -1, axis=0), strict=True):
         n = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
         points.extend(a + (b - a) * t for t in np.arange(n) / n)

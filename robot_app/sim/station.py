@@ -71,7 +71,8 @@ class ModelStation:
             pb.GEOM_BOX, halfExtents=half, rgbaColor=[*sheet_rgb, 1.0], physicsClientId=self._client
         )
         pb.createMultiBody(0, -1, sheet, [0, 0, -0.0015], physicsClientId=self._client)
-        camera = PinholeCamera.from_fov(tuple(self.config.image_size), np.deg2rad(self.config.hfov_deg))
+        width, height = self.config.image_size
+        camera = PinholeCamera.from_fov((width, height), np.deg2rad(self.config.hfov_deg))
         self.model_camera = ModelCamera(camera, self.config.distance)
         self.transform_camera_to_world = make_transform(FACE_UP, [0.0, 0.0, self.config.distance])
         self._cache = cache_dir()
@@ -85,7 +86,7 @@ class ModelStation:
         try:
             pb.stepSimulation(physicsClientId=self._client)  # soft-body visuals update on a step
             photo = self._render()
-            truth = np.linalg.solve(self.transform_camera_to_world, cloth.pose())
+            truth = np.asarray(np.linalg.solve(self.transform_camera_to_world, cloth.pose()), dtype=float)
         finally:
             cloth.remove()
         return StationPhoto(photo, background, self.model_camera, truth)

@@ -81,7 +81,9 @@ class EpisodeVideo:
 def _inset(image: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
     h, w = image.shape[:2]
     small = cv2.resize(image, (INSET_WIDTH, round(h * INSET_WIDTH / w)), interpolation=cv2.INTER_AREA)
-    return cv2.copyMakeBorder(small, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=(255, 255, 255))
+    return np.asarray(
+        cv2.copyMakeBorder(small, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=(255, 255, 255)), dtype=np.uint8
+    )
 
 
 __all__ = ["EpisodeVideo"]

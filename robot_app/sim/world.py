@@ -224,7 +224,7 @@ class World:
     def transform_model_to_camera(self, cloth: ClothBody, frame: str = RIGHT_FRAME) -> FloatArray:
         """Ground truth ^C T_M of a cloth in a camera frame (default: the right camera)."""
         camera = self.robot.frame_pose(frame)
-        return np.linalg.solve(camera, cloth.pose())
+        return np.asarray(np.linalg.solve(camera, cloth.pose()), dtype=float)
 
     def save_rig(self, path: str | Path) -> Path:
         """Writes the hand stereo rig file the recogniser reads."""

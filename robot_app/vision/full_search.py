@@ -170,7 +170,7 @@ def _axis(bounds: tuple[float, float], step: float, name: str) -> FloatArray:
     lo, hi = (float(v) for v in bounds)
     if not hi >= lo:
         raise InputError(f"{name} must be (low, high) with low <= high [m], got {bounds}")
-    return lo + step * np.arange(int(np.floor((hi - lo) / step + 1e-9)) + 1)
+    return np.asarray(lo + step * np.arange(int(np.floor((hi - lo) / step + 1e-9)) + 1), dtype=float)
 
 
 __all__ = ["FitnessPeak", "FullSearchResult", "PoseEvaluator", "find_peaks", "full_search"]

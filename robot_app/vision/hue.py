@@ -28,7 +28,7 @@ def to_hsv(image_bgr: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
     image = np.asarray(image_bgr)
     if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
         raise InputError(f"expected an (H, W, 3) uint8 BGR image, got {image.shape} {image.dtype}")
-    return cv2.cvtColor(image, cv2.COLOR_BGR2HSV_FULL)
+    return np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2HSV_FULL), dtype=np.uint8)
 
 
 def to_hue(image_bgr: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:

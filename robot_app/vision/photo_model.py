@@ -289,7 +289,7 @@ def load_photo(path: str | Path) -> Image:
     image = cv2.imread(str(file), cv2.IMREAD_COLOR)
     if image is None:
         raise InputError(f"{file} is not a readable image (PNG, JPEG, BMP, TIFF ...)")
-    return image
+    return np.asarray(image, dtype=np.uint8)
 
 
 def make_model(
@@ -331,7 +331,9 @@ def make_model(
     xy = metric[mask] - origin
     extent = (float(np.ptp(xy[:, 0]) + metres_per_pixel), float(np.ptp(xy[:, 1]) + metres_per_pixel))
 
-    smooth = to_hsv(cv2.GaussianBlur(np.ascontiguousarray(photo_bgr), (0, 0), 1.0))
+    smooth = to_hsv(
+        np.asarray(cv2.GaussianBlur(np.ascontiguousarray(photo_bgr), (0, 0), 1.0), dtype=np.uint8)
+    )
     samples = sample_model(mask, smooth, camera, model_camera.distance, origin, settings, H_B)
     if len(samples.points_in) < 3:
         raise ModelError(
@@ -434,7 +436,8 @@ def _cloth_mask(
     speck = round(settings.speckle_size / metres_per_pixel)
     if speck >= 2:
         kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (speck, speck))
-        mask = cv2.morphologyEx(cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel), cv2.MORPH_CLOSE, kernel)
+        opened = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
+        mask = np.asarray(cv2.morphologyEx(opened, cv2.MORPH_CLOSE, kernel), dtype=np.uint8)
     _, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     areas = stats[1:, cv2.CC_STAT_AREA] * metres_per_pixel**2
     keep = np.flatnonzero(areas >= settings.min_object_area) + 1
@@ -450,7 +453,9 @@ def _cloth_mask(
     mask = np.isin(labels, keep).astype(np.uint8)
     if settings.fill_holes:
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
-        mask = cv2.drawContours(np.zeros_like(mask), contours, -1, 1, thickness=cv2.FILLED)
+        mask = np.asarray(
+            cv2.drawContours(np.zeros_like(mask), contours, -1, 1, thickness=cv2.FILLED), dtype=np.uint8
+        )
     edge = np.concatenate([mask[0], mask[-1], mask[:, 0], mask[:, -1]])
     if edge.any():
         raise ModelError("the cloth touches the photo's border, so its outline is cut: centre it in the view")
@@ -465,7 +470,7 @@ def _metric_grid(camera: PinholeCamera, distance: float) -> FloatArray:
         pixels = np.stack([u, v], axis=-1).reshape(-1, 1, 2)
         criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10)
         normal = cv2.undistortPoints(pixels, K, camera.dist_coeffs, criteria=criteria)
-        return normal.reshape(camera.height, camera.width, 2) * distance
+        return np.asarray(normal.reshape(camera.height, camera.width, 2) * distance, dtype=float)
     return np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1]], axis=-1) * distance
 
 

@@ -174,11 +174,11 @@ def _dots(x: Array, y: Array, rng: np.random.Generator) -> Array:
 def _patchwork(x: Array, y: Array, rng: np.random.Generator) -> Array:
     palette = [RED, YELLOW, CYAN, VIOLET]
     edges_x, edges_y = np.sort(rng.uniform(0.15, 0.85, 2)), np.sort(rng.uniform(0.15, 0.85, 2))
-    cells = [
-        (palette[int(rng.integers(len(palette)))], lambda x, y, k=k: (
-            np.searchsorted(edges_x, x) * 3 + np.searchsorted(edges_y, y) == k))
-        for k in range(9)
-    ]  # fmt: skip
+
+    def cell(k: int) -> Callable[[Array, Array], Mask]:
+        return lambda x, y: np.asarray(np.searchsorted(edges_x, x) * 3 + np.searchsorted(edges_y, y) == k)
+
+    cells: Layers = [(palette[int(rng.integers(len(palette)))], cell(k)) for k in range(9)]
     return _paint(x, y, cells)
 
 
@@ -340,8 +340,12 @@ def occluder_covering(
 def green_table(image_size: tuple[int, int], rng: np.random.Generator) -> Image:
     """A green sheet filling an image: smooth brightness and hue variation, no noise."""
     width, height = image_size
-    shade = cv2.resize(rng.uniform(0.88, 1.08, (4, 5)).astype(np.float32), (width, height), cv2.INTER_CUBIC)
-    tint = cv2.resize(rng.uniform(-6, 6, (3, 4)).astype(np.float32), (width, height), cv2.INTER_CUBIC)
+    shade = cv2.resize(
+        rng.uniform(0.88, 1.08, (4, 5)).astype(np.float32), (width, height), cv2.INTER_CUBIC
+    )
+    tint = cv2.resize(
+        rng.uniform(-6, 6, (3, 4)).astype(np.float32), (width, height), cv2.INTER_CUBIC
+    )
     b, g, r = TABLE_GREEN_BGR
     image = np.stack([(b + tint) * shade, g * shade, (r - tint) * shade], axis=-1)
     return np.clip(image, 0, 255).astype(np.uint8)
@@ -371,8 +375,8 @@ def _draw_cloth(
     footprint = depth / camera.camera_matrix[0, 0] / min(sx, sy)
     if footprint > 1.5:
         sigma = 0.5 * footprint
-        texture = cv2.GaussianBlur(texture, (0, 0), sigma)
-        alpha = cv2.GaussianBlur(alpha, (0, 0), sigma)
+        texture = np.asarray(cv2.GaussianBlur(texture, (0, 0), sigma), dtype=np.float32)
+        alpha = np.asarray(cv2.GaussianBlur(alpha, (0, 0), sigma), dtype=np.float32)
     border = cv2.BORDER_CONSTANT
     colour = cv2.remap(texture, map_u, map_v, cv2.INTER_LINEAR, borderMode=border, borderValue=0)
     cover = cv2.remap(alpha, map_u, map_v, cv2.INTER_LINEAR, borderMode=border, borderValue=0)[..., None]
