@@ -341,10 +341,10 @@ def green_table(image_size: tuple[int, int], rng: np.random.Generator) -> Image:
     """A green sheet filling an image: smooth brightness and hue variation, no noise."""
     width, height = image_size
     shade = cv2.resize(
-        rng.uniform(0.88, 1.08, (4, 5)).astype(np.float32), (width, height), cv2.INTER_CUBIC
+        rng.uniform(0.88, 1.08, (4, 5)).astype(np.float32), (width, height), interpolation=cv2.INTER_CUBIC
     )
     tint = cv2.resize(
-        rng.uniform(-6, 6, (3, 4)).astype(np.float32), (width, height), cv2.INTER_CUBIC
+        rng.uniform(-6, 6, (3, 4)).astype(np.float32), (width, height), interpolation=cv2.INTER_CUBIC
     )
     b, g, r = TABLE_GREEN_BGR
     image = np.stack([(b + tint) * shade, g * shade, (r - tint) * shade], axis=-1)
