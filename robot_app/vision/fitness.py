@@ -414,7 +414,7 @@ class AvoidedPoses(NamedTuple):
         centres[any_yaw, 2] = 0.0
         return centres, windows, float(self.separation)
 
-    def mask(self, transforms: FloatArray) -> npt.NDArray[np.bool_]:
+    def mask(self, transforms: npt.ArrayLike) -> npt.NDArray[np.bool_]:
         """(P,) True where a pose of (P, 4, 4) `transforms` is avoided."""
         T = np.ascontiguousarray(_as_poses(transforms))
         return np.asarray(poses_avoided(T, *self.kernel_arguments()))
@@ -458,16 +458,12 @@ class KernelFitness:
             transforms_model_to_right, stride=self.stride, subpixel=self.subpixel, search=self.search
         )
         if len(self.avoid.centres):
-            scores[self.avoid.mask(np.asarray(transforms_model_to_right, dtype=float))] = -1.0
+            scores[self.avoid.mask(transforms_model_to_right)] = -1.0
         return scores
 
     def kernel_arguments(self) -> tuple[tuple[object, ...], tuple[float, bool, float, float]]:
         """See `FitnessEvaluator.kernel_arguments` (the kernels take `subpixel` and `avoid` apart)."""
         return self.evaluator.kernel_arguments(stride=self.stride, search=self.search)
-
-    def avoided_arguments(self) -> tuple[FloatArray, FloatArray, float]:
-        """`avoid` as the kernels take it (`AvoidedPoses.kernel_arguments`)."""
-        return self.avoid.kernel_arguments()
 
     def count(self, poses: int) -> None:
         """Adds poses scored inside a compiled loop to the evaluator's `evaluations`."""

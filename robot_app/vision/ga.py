@@ -314,7 +314,7 @@ class GeneticAlgorithm:
         arguments, normalisation = fitness.kernel_arguments()
         genes, scores, evaluated, best = evolve(
             genes, scores, self._starts, s.elite, self._cdfs, uniforms, s.crossover_rate, s.mutation_rate,
-            self._lows, self._spans, s.gray_code, arguments, normalisation, fitness.avoided_arguments(),
+            self._lows, self._spans, s.gray_code, arguments, normalisation, fitness.avoid.kernel_arguments(),
         )  # fmt: skip
         fitness.count(evaluated)
         return genes, scores, int(evaluated), best

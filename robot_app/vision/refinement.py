@@ -239,7 +239,7 @@ def cma_search_compiled(
         np.ascontiguousarray(pose, dtype=float), draws, settings.steps(), settings.cma_sigma,
         settings.cma_tolerance, settings.cma_iterations - settings.cma_fine_iterations + 1,
         settings.cma_fine_below, weights, constants, arguments, normalisation, fine is not None,
-        fine_arguments, fine_normalisation, tuple(limits), fitness.avoided_arguments(),
+        fine_arguments, fine_normalisation, tuple(limits), fitness.avoid.kernel_arguments(),
     )  # fmt: skip
     fitness.count(evaluated)
     return np.asarray(best_pose), float(best)
@@ -262,7 +262,7 @@ def compass_search_compiled(
     arguments, normalisation = fitness.kernel_arguments()
     best_pose, best, evaluated = compass_run(
         np.ascontiguousarray(pose, dtype=float), settings.steps(), iterations, settings.min_step_position,
-        arguments, normalisation, fitness.subpixel, tuple(limits), fitness.avoided_arguments(),
+        arguments, normalisation, fitness.subpixel, tuple(limits), fitness.avoid.kernel_arguments(),
     )  # fmt: skip
     fitness.count(evaluated)
     return np.asarray(best_pose), float(best)
