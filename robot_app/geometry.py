@@ -8,13 +8,13 @@ so conversions go through this module only.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-from robot_app.errors import InputError
-
-FloatArray = npt.NDArray[np.float64]
+from robot_app.arrays import FloatArray
 
 
 def make_transform(rotation: npt.ArrayLike, translation: npt.ArrayLike) -> FloatArray:
@@ -22,7 +22,7 @@ def make_transform(rotation: npt.ArrayLike, translation: npt.ArrayLike) -> Float
     R = np.asarray(rotation, dtype=float)
     t = np.asarray(translation, dtype=float).reshape(-1)
     if R.shape != (3, 3) or t.shape != (3,):
-        raise InputError(f"make_transform needs a 3x3 rotation and a 3-vector, got {R.shape}, {t.shape}")
+        raise ValueError(f"make_transform needs a 3x3 rotation and a 3-vector, got {R.shape}, {t.shape}")
     T = np.eye(4)
     T[:3, :3] = R
     T[:3, 3] = t
@@ -59,7 +59,7 @@ def matrix_from_quaternion_xyzw(quaternion_xyzw: npt.ArrayLike) -> FloatArray:
     x, y, z, w = np.asarray(quaternion_xyzw, dtype=float)
     norm = np.sqrt(x * x + y * y + z * z + w * w)
     if not np.isfinite(norm) or norm < 1e-12:
-        raise InputError(f"quaternion {quaternion_xyzw!r} has no direction")
+        raise ValueError(f"quaternion {quaternion_xyzw!r} has no direction")
     q = pin.Quaternion(w / norm, x / norm, y / norm, z / norm)  # constructor takes (w, x, y, z)
     return np.array(q.toRotationMatrix(), dtype=float)
 
@@ -81,12 +81,6 @@ def yaw_of(rotation: npt.ArrayLike) -> float:
     return float(np.arctan2(R[1, 0], R[0, 0]))
 
 
-def tilt_of(rotation: npt.ArrayLike) -> float:
-    """Angle [rad] between the rotated z axis and the original z axis."""
-    R = np.asarray(rotation, dtype=float)
-    return float(np.arccos(np.clip(R[2, 2], -1.0, 1.0)))
-
-
 def wrap_angle(angle: npt.ArrayLike) -> npt.NDArray[np.float64] | float:
     """Wraps angles [rad] into [-pi, pi)."""
     wrapped = (np.asarray(angle, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
@@ -101,6 +95,55 @@ def yaw_error(yaw_difference: float, symmetry_angles: tuple[float, ...] = ()) ->
     """
     candidates = [float(wrap_angle(yaw_difference - s)) for s in (0.0, *symmetry_angles)]
     return min(candidates, key=abs)
+
+
+@dataclass(frozen=True)
+class PoseError:
+    """A recognised (or estimated) pose of Σ_M minus the true one, in their common frame.
+
+    Attributes:
+        x_mm, y_mm, z_mm: position error [mm].
+        yaw_deg: yaw error [deg] about the frame's z axis, the smallest over the cloth's
+            symmetric yaws.
+        tilt_deg: angle between the recognised and the true z axes (cloth normals) [deg].
+    """
+
+    x_mm: float
+    y_mm: float
+    z_mm: float
+    yaw_deg: float
+    tilt_deg: float
+
+    @property
+    def xy_mm(self) -> float:
+        """Position error in the frame's x-y plane [mm]."""
+        return float(np.hypot(self.x_mm, self.y_mm))
+
+
+def pose_error(
+    transform_estimate: npt.ArrayLike,
+    transform_true: npt.ArrayLike,
+    symmetry_angles: tuple[float, ...] = (),
+) -> PoseError:
+    """Error of an estimated 4x4 pose of Σ_M against the truth, both in one frame.
+
+    The one definition used by the recognition trials, the simulator's checks and the
+    pick-and-place loop's log.
+
+    Args:
+        transform_estimate: (4, 4) estimated pose (e.g. ^CR T_M or ^W T_M).
+        transform_true: (4, 4) true pose in the same frame.
+        symmetry_angles: yaws [rad] under which the cloth looks the same; the yaw error
+            is the smallest |wrap(d - s)| over s in {0, *symmetry_angles}.
+    """
+    estimate = np.asarray(transform_estimate, dtype=float)
+    truth = np.asarray(transform_true, dtype=float)
+    d = 1000.0 * (estimate[:3, 3] - truth[:3, 3])
+    yaw = yaw_error(yaw_of(estimate[:3, :3]) - yaw_of(truth[:3, :3]), symmetry_angles)
+    cos_tilt = float(np.clip(estimate[:3, 2] @ truth[:3, 2], -1.0, 1.0))
+    return PoseError(
+        float(d[0]), float(d[1]), float(d[2]), float(np.rad2deg(yaw)), float(np.rad2deg(np.arccos(cos_tilt)))
+    )
 
 
 def rotation_angle_between(rotation_a: npt.ArrayLike, rotation_b: npt.ArrayLike) -> float:
@@ -126,7 +169,7 @@ def kabsch(source: npt.ArrayLike, target: npt.ArrayLike) -> FloatArray:
     S = np.asarray(source, dtype=float).reshape(-1, 3)
     D = np.asarray(target, dtype=float).reshape(-1, 3)
     if S.shape != D.shape or len(S) < 3:
-        raise InputError(f"kabsch needs two (N>=3, 3) arrays of equal shape, got {S.shape}, {D.shape}")
+        raise ValueError(f"kabsch needs two (N>=3, 3) arrays of equal shape, got {S.shape}, {D.shape}")
     cs, cd = S.mean(axis=0), D.mean(axis=0)
     H = (S - cs).T @ (D - cd)
     U, _, Vt = np.linalg.svd(H)
@@ -136,17 +179,17 @@ def kabsch(source: npt.ArrayLike, target: npt.ArrayLike) -> FloatArray:
 
 
 __all__ = [
-    "FloatArray",
+    "PoseError",
     "invert_transform",
     "is_rotation",
     "kabsch",
     "make_transform",
     "matrix_from_quaternion_xyzw",
+    "pose_error",
     "quaternion_xyzw_from_matrix",
     "rotation_about_z",
     "rotation_angle_between",
     "rotation_from_rpy",
-    "tilt_of",
     "transform_points",
     "wrap_angle",
     "yaw_error",

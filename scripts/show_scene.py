@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import argparse
 
-from robot_app.sim import SceneConfig, load_world_config
+from robot_app.sim import SceneSettings, load_world_config
 from robot_app.sim.pictures import write_pictures
 
 
@@ -20,7 +20,7 @@ def main() -> None:
     parser.add_argument("--distractor", type=int, default=None)
     parser.add_argument("--drop-height", type=float, default=0.0)
     args = parser.parse_args()
-    scene = SceneConfig(
+    scene = SceneSettings(
         target=args.target, occluder=args.occluder, distractor=args.distractor, drop_height=args.drop_height
     )
     for path in write_pictures(args.out, load_world_config(), scene, args.seed):

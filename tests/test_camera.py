@@ -123,5 +123,5 @@ def test_camera_and_rig_validation():
         PinholeCamera(K, (640, 480), np.zeros(6))
     with pytest.raises(CalibrationError, match="distance"):
         ModelCamera(PinholeCamera(K, (640, 480)), -0.4)
-    with pytest.raises(InputError, match=r"\(\.\.\., 3\)"):
+    with pytest.raises(ValueError, match=r"\(\.\.\., 3\)"):
         PinholeCamera(K, (640, 480)).project(np.zeros((4, 2)))

@@ -16,7 +16,7 @@ from robot_app.vision.fitness import (
     OUTSIDE_ROW,
     AvoidedPoses,
     FitnessEvaluator,
-    FitnessParams,
+    FitnessSettings,
     colour_table,
     score_table,
     seen_table,
@@ -69,7 +69,7 @@ def hand_model(
     )
 
 
-def reference_fitness(model: ClothModel, rig: StereoRig, left, right, T, p: FitnessParams) -> float:
+def reference_fitness(model: ClothModel, rig: StereoRig, left, right, T, p: FitnessSettings) -> float:
     """Eqs. 9-11 read literally, one point at a time, with the rig's own projection."""
     total, in_view = 0.0, 0.0
     pix_left, pix_right = rig.project_model(T, np.vstack([model.points_in, model.points_out]))
@@ -133,7 +133,7 @@ def test_kernel_matches_reference_including_points_off_the_image(scene) -> None:
     edge[0, 3] = 0.23
     poses.append(edge)
     for normalisation in ("view", "model"):
-        p = FitnessParams(normalisation=normalisation)
+        p = FitnessSettings(normalisation=normalisation)
         evaluator = FitnessEvaluator(model, rig, p)
         evaluator.update(left, right)
         got = evaluator.evaluate(np.stack(poses))
@@ -148,7 +148,7 @@ def test_a_cloth_reaching_past_the_image_edge_matches_fully_at_its_true_pose() -
     left, right = render_stereo_pair(rig, [(synthetic_cloth(4), pose)], rng=np.random.default_rng(2))
     fitness = {}
     for normalisation in ("view", "model"):
-        evaluator = FitnessEvaluator(model, rig, FitnessParams(normalisation=normalisation))
+        evaluator = FitnessEvaluator(model, rig, FitnessSettings(normalisation=normalisation))
         evaluator.update(left, right)
         fitness[normalisation] = evaluator.evaluate(pose)[0]
         farther = pose.copy()
@@ -160,7 +160,7 @@ def test_a_cloth_reaching_past_the_image_edge_matches_fully_at_its_true_pose() -
 
 
 def test_hue_is_compared_on_the_circle() -> None:
-    table = score_table(86.0, FitnessParams())
+    table = score_table(86.0, FitnessSettings())
     assert table[250, 5] == 2.0  # 250 and 5 are 11 steps apart across 0
     assert table[250, 200] == 0.0  # 50 steps: no match, not background
     assert table[10, 100] == pytest.approx(-0.005)  # background-hued pixel under S_in
@@ -168,7 +168,7 @@ def test_hue_is_compared_on_the_circle() -> None:
 
 
 def test_tones_match_only_their_own_tone() -> None:
-    p = FitnessParams()
+    p = FitnessSettings()
     table = score_table(86.0, p)
     assert table[DARK, DARK] == 2.0 and table[LIGHT, LIGHT] == 2.0
     assert table[DARK, LIGHT] == p.score_in_other and table[LIGHT, DARK] == p.score_in_other
@@ -177,7 +177,7 @@ def test_tones_match_only_their_own_tone() -> None:
     assert table[OUTSIDE_ROW, DARK] == p.score_out_other and table[OUTSIDE_ROW, LIGHT] == p.score_out_other
     assert not table[:, OFF_IMAGE].any()
     # A tone the model lacks is foreign (hidden) in the search; one it has is not.
-    hidden = FitnessParams(hidden_foreign=True)
+    hidden = FitnessSettings(hidden_foreign=True)
     seen = seen_table(86.0, hidden, np.r_[np.full(50, 10), np.full(50, DARK)])
     assert seen[10, DARK] and seen[OUTSIDE_ROW, DARK]
     assert not seen[10, LIGHT] and not seen[OUTSIDE_ROW, LIGHT] and not seen[DARK, LIGHT]
@@ -212,13 +212,13 @@ def test_low_saturation_pixels_have_no_hue() -> None:
     paper = FitnessEvaluator(model, rig)
     paper.update(grey, grey)
     assert paper.evaluate(pose)[0] == pytest.approx(1.0)  # the paper's reading: grey has hue 0
-    strict = FitnessEvaluator(model, rig, FitnessParams(min_saturation=40))
+    strict = FitnessEvaluator(model, rig, FitnessSettings(min_saturation=40))
     strict.update(grey, grey)
     assert strict.evaluate(pose)[0] == 0.0
     # A point of tone LIGHT matches grey at or above the value split, DARK one below it.
     for code, image, expected in ((LIGHT, grey, 1.0), (DARK, grey, 0.0), (DARK, grey // 4, 1.0)):
         toned = ClothModel("t", np.zeros((1, 3)), [code], np.empty((0, 3)), 86.0, np.zeros(3), (0, 0))
-        evaluator = FitnessEvaluator(toned, rig, FitnessParams(min_saturation=40))
+        evaluator = FitnessEvaluator(toned, rig, FitnessSettings(min_saturation=40))
         evaluator.update(image, image)
         assert evaluator.evaluate(pose)[0] == pytest.approx(expected)
 
@@ -242,7 +242,7 @@ def test_white_parts_break_a_half_turn_symmetry_with_tones() -> None:
     half_turn = pose @ make_transform(rotation_about_z(np.pi), [0.0, 0.0, 0.0])
     left, right = render_stereo_pair(rig, [(cloth, pose)], rng=np.random.default_rng(1))
     scores = {}
-    for tones, params in ((True, RecognitionSettings().fitness), (False, FitnessParams())):
+    for tones, params in ((True, RecognitionSettings().fitness), (False, FitnessSettings())):
         model = make_model(photo, camera, background, ModelSettings(tones=tones))
         evaluator = FitnessEvaluator(model, rig, params)
         evaluator.update(left, right)
@@ -268,14 +268,14 @@ def test_subpixel_scoring_agrees_at_the_optimum_and_is_smooth(scene) -> None:
 def test_counts_evaluations_and_validates_input(scene) -> None:
     rig, model, pose, left, right, _ = scene
     evaluator = FitnessEvaluator(model, rig)
-    with pytest.raises(InputError, match="update"):
+    with pytest.raises(RuntimeError, match="update"):
         evaluator.evaluate(pose)
     with pytest.raises(InputError, match="320x240"):
         evaluator.update(left[:, :200], right)
     with pytest.raises(InputError, match="uint8"):
         evaluator.update(left.astype(float), right)
     evaluator.update(left, right)
-    with pytest.raises(InputError, match="shape"):
+    with pytest.raises(ValueError, match="shape"):
         evaluator.evaluate(np.eye(3))
     evaluator.evaluate(np.stack([pose] * 5))
     assert evaluator.evaluations == 5
@@ -284,11 +284,11 @@ def test_counts_evaluations_and_validates_input(scene) -> None:
 
 def test_params_are_validated() -> None:
     with pytest.raises(ConfigError, match="hue_threshold_in"):
-        validate(FitnessParams, {"hue_threshold_in": 200})
+        validate(FitnessSettings, {"hue_threshold_in": 200})
     with pytest.raises(ConfigError, match="score_in_match"):
-        validate(FitnessParams, {"score_in_match": -1.0})
+        validate(FitnessSettings, {"score_in_match": -1.0})
     with pytest.raises(ConfigError, match="bogus"):
-        validate(FitnessParams, {"bogus": 1})
+        validate(FitnessSettings, {"bogus": 1})
 
 
 def test_avoided_poses_are_those_near_a_centre_at_its_yaw_or_at_any_yaw() -> None:

@@ -122,7 +122,7 @@ def test_track_moves_the_population_by_the_camera_motion() -> None:
     np.testing.assert_allclose(after[:, :3, 3], moved[:, :3, 3], atol=2e-4)
     np.testing.assert_allclose(after[:, :3, :3], moved[:, :3, :3], atol=2e-3)
     # The target moved with the camera: a few generations from the moved population find it.
-    ga.fitness = target_fitness(motion @ TARGET)
+    ga.objective = target_fitness(motion @ TARGET)
     result = ga.track(None, generations=5)
     assert np.linalg.norm(result.transform_model_to_camera[:3, 3] - (motion @ TARGET)[:3, 3]) < 0.01
     assert result.evaluations == 60 + 5 * (60 - 4 * 2)  # 4 islands keep 2 elites each

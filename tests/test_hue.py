@@ -32,7 +32,7 @@ def test_hue_distance_wraps_and_broadcasts():
 def test_circular_mean_across_zero():
     assert circular_mean_hue([250, 6]) == pytest.approx(0.0, abs=1e-9)
     assert circular_mean_hue([10, 20, 30]) == pytest.approx(20.0)
-    with pytest.raises(InputError):
+    with pytest.raises(ValueError):
         circular_mean_hue([])
 
 

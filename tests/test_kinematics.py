@@ -9,10 +9,10 @@ import pinocchio as pin
 import pybullet as p
 import pytest
 
-from robot_app.control._paths import urdf_path
 from robot_app.control.kinematics import IKResult, Kinematics
 from robot_app.control.robot_models import load_arm
 from robot_app.errors import IKError, InputError
+from robot_app.robot_description import urdf_path
 
 URDF = urdf_path("pa10.urdf")
 
@@ -219,8 +219,8 @@ def test_locked_joints_take_the_given_positions() -> None:
         (lambda k: k.frame_jacobian(np.zeros(7), "tcp", "body"), "reference must be"),
     ],
 )
-def test_bad_input_raises_input_error(pa10: Kinematics, call, message: str) -> None:
-    with pytest.raises(InputError, match=message):
+def test_bad_arguments_raise_value_error(pa10: Kinematics, call, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
         call(pa10)
 
 

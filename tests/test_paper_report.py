@@ -12,10 +12,9 @@ import pytest
 
 from robot_app.cli import main
 from robot_app.experiments.paper_report import ClothRow, Fig13Case, PaperFigures, write_paper_report
-from robot_app.experiments.recognition_trial import pose_error
 from robot_app.experiments.report import plot_error_histograms, plot_matrix, plot_sweep
 from robot_app.experiments.summary import error_stats
-from robot_app.geometry import make_transform, rotation_about_z, rotation_from_rpy
+from robot_app.geometry import make_transform, pose_error, rotation_about_z, rotation_from_rpy
 
 
 def _png_ok(path: Path) -> bool:

@@ -15,7 +15,7 @@ from robot_app.control.pose_filter import (
     PoseXYZYaw,
     UpdateReason,
 )
-from robot_app.errors import ConfigError, InputError
+from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform, rotation_about_z, rotation_from_rpy, wrap_angle, yaw_of
 
 SETTINGS = PoseFilterSettings()
@@ -211,16 +211,16 @@ def test_bad_settings_are_config_errors() -> None:
 
 def test_bad_inputs_are_input_errors() -> None:
     pose_filter = PoseFilter()
-    with pytest.raises(InputError, match="not initialised"):
+    with pytest.raises(RuntimeError, match="not initialised"):
         pose_filter.predict(1.0)
-    with pytest.raises(InputError, match=r"\(x, y, z, yaw\) or a 4x4"):
+    with pytest.raises(ValueError, match=r"\(x, y, z, yaw\) or a 4x4"):
         pose_filter.update(np.zeros(3), 0.9, t=0.0)
-    with pytest.raises(InputError, match="rotation"):
+    with pytest.raises(ValueError, match="rotation"):
         pose_filter.update(np.full((4, 4), 2.0), 0.9, t=0.0)
-    with pytest.raises(InputError, match="finite"):
+    with pytest.raises(ValueError, match="finite"):
         pose_filter.update(np.zeros(4), float("nan"), t=0.0)
     pose_filter.update(np.zeros(4), 0.9, t=1.0)
-    with pytest.raises(InputError, match="went back"):
+    with pytest.raises(ValueError, match="went back"):
         pose_filter.update(np.zeros(4), 0.9, t=0.5)
-    with pytest.raises(InputError, match="went back"):
+    with pytest.raises(ValueError, match="went back"):
         pose_filter.predict(0.9)

@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from robot_app.control import _paths
+from robot_app import robot_description as _paths
 from robot_app.control.robot_models import (
     ARM_NAMES,
     arm_spec,

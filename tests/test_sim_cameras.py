@@ -8,14 +8,14 @@ import pytest
 
 from robot_app.geometry import invert_transform, make_transform, transform_points
 from robot_app.sim.cameras import gl_projection_matrix, render_bgr
-from robot_app.sim.config import CameraConfig, WorldConfig
+from robot_app.sim.config import CameraSettings, WorldConfig
 from robot_app.sim.world import World
 from robot_app.vision.camera import PinholeCamera, load_rig
 
 
 @pytest.fixture(scope="module")
 def world() -> World:
-    with World(WorldConfig(cameras=CameraConfig(image_size=(320, 240)))) as w:
+    with World(WorldConfig(cameras=CameraSettings(image_size=(320, 240)))) as w:
         yield w
 
 

@@ -6,10 +6,10 @@ import pytest
 
 from robot_app.sim.checks import lift_check, recognition_check
 from robot_app.sim.cloths import CATALOGUE, ClothSpec
-from robot_app.sim.config import CameraConfig, WorldConfig
+from robot_app.sim.config import CameraSettings, WorldConfig
 from robot_app.sim.world import World
 
-CONFIG = WorldConfig(cameras=CameraConfig(image_size=(320, 240)))
+CONFIG = WorldConfig(cameras=CameraSettings(image_size=(320, 240)))
 
 
 @pytest.mark.slow

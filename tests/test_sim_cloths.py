@@ -50,9 +50,9 @@ def test_multicolour_cloth_no3_is_small_light_and_colourful() -> None:
 
 
 def test_bad_catalogue_entries_are_rejected() -> None:
-    with pytest.raises(InputError, match="size"):
+    with pytest.raises(ValueError, match="size"):
         ClothSpec(99, "huge", (0.4, 0.2), "rectangle", "plain", ((0, 0, 255),), 0.1)
-    with pytest.raises(InputError, match="outline"):
+    with pytest.raises(ValueError, match="outline"):
         ClothSpec(99, "odd", (0.2, 0.2), "star", "plain", ((0, 0, 255),), 0.1)
     with pytest.raises(InputError, match=r"1\.\.12"):
         cloth_spec(13)

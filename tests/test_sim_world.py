@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robot_app.errors import GraspError, InputError
+from robot_app.errors import GraspError
 from robot_app.geometry import make_transform, rotation_about_z, rotation_angle_between, wrap_angle, yaw_of
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloths import cloth_spec
-from robot_app.sim.config import CameraConfig, ClothPhysicsConfig, SceneConfig, WorldConfig
+from robot_app.sim.config import CameraSettings, ClothPhysicsSettings, SceneSettings, WorldConfig
 from robot_app.sim.scene import make_scene
 from robot_app.sim.world import World
 
-SMALL = WorldConfig(cameras=CameraConfig(image_size=(160, 120)))
+SMALL = WorldConfig(cameras=CameraSettings(image_size=(160, 120)))
 
 
 def _lift_and_measure(world: World, cloth: ClothBody, height: float = 0.3) -> tuple[float, float]:
@@ -81,7 +81,7 @@ def test_fingers_do_not_push_the_nodes_next_to_the_anchored_ones() -> None:
     # with these stiff springs on a 35 mm mesh a node beside the anchored ones sits under
     # the closed fingers; with finger contacts it was pushed against its anchored
     # neighbours and the cloth exploded (stretch 1e5)
-    stiff = ClothPhysicsConfig(
+    stiff = ClothPhysicsSettings(
         node_spacing=0.035,
         boundary_spacing=0.03,
         elastic_stiffness=100.0,
@@ -138,11 +138,11 @@ def test_cloth_in_box_and_arm_collisions() -> None:
 
 def test_robot_rejects_bad_commands() -> None:
     with World(SMALL) as world:
-        with pytest.raises(InputError, match="7 finite"):
+        with pytest.raises(ValueError, match="7 finite"):
             world.robot.command_joints(np.zeros(6))
-        with pytest.raises(InputError, match="opening"):
+        with pytest.raises(ValueError, match="opening"):
             world.robot.set_gripper(0.2)
-        with pytest.raises(InputError, match="unknown robot link"):
+        with pytest.raises(ValueError, match="unknown robot link"):
             world.robot.frame_pose("nose")
 
 
@@ -156,7 +156,7 @@ def test_joint_position_control_tracks_a_target() -> None:
 
 
 def test_same_seed_same_scene_and_occluder_fraction() -> None:
-    config = SceneConfig(target=3, occluder=True, occluded_fraction=0.45, distractor=4)
+    config = SceneSettings(target=3, occluder=True, occluded_fraction=0.45, distractor=4)
     nodes = []
     for seed in (5, 5, 6):
         with World(SMALL) as world:
@@ -178,4 +178,4 @@ def test_config_validation_names_the_key() -> None:
         load_world_config(overrides=("physics_hz=10",))
     with pytest.raises(ConfigError, match=r"cloth\.node_spacing"):
         load_world_config(overrides=("cloth.node_spacing=-1",))
-    assert ClothPhysicsConfig().settle_time == 1.0
+    assert ClothPhysicsSettings().settle_time == 1.0

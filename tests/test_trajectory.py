@@ -13,7 +13,6 @@ from hypothesis import strategies as st
 
 from robot_app.config import load_config
 from robot_app.control.limits import (
-    PA10_JOINT_NAMES,
     JointLimits,
     LimitReport,
     TrajectorySettings,
@@ -32,12 +31,13 @@ URDF = Path(__file__).resolve().parents[1] / "urdf" / "pa10.urdf"
 # Mitsubishi PA10-7C published position [deg] and velocity [deg/s] limits, S1..W2.
 PUBLISHED_POSITION_DEG = np.array([177.0, 94.0, 174.0, 137.0, 255.0, 165.0, 255.0])
 PUBLISHED_VELOCITY_DEG = np.array([57.0, 57.0, 114.0, 114.0, 360.0, 360.0, 360.0])
+PA10_JOINTS = ("S1", "S2", "S3", "E1", "E2", "W1", "W2")  # the published names, to check the URDF's
 
 
 def pa10_limits(settings_: TrajectorySettings | None = None) -> JointLimits:
     bound = np.deg2rad(PUBLISHED_POSITION_DEG)
     return JointLimits.from_velocity_limits(
-        -bound, bound, np.deg2rad(PUBLISHED_VELOCITY_DEG), settings_, PA10_JOINT_NAMES
+        -bound, bound, np.deg2rad(PUBLISHED_VELOCITY_DEG), settings_, PA10_JOINTS
     )
 
 
@@ -59,7 +59,7 @@ def inside(fraction: np.ndarray, shrink: float = 0.0) -> np.ndarray:
 
 def test_urdf_limits_are_the_published_pa10_limits() -> None:
     hardware = JointLimits.from_urdf(URDF, settings=TrajectorySettings(safety_scale=1.0, position_margin=0.0))
-    assert hardware.names == PA10_JOINT_NAMES
+    assert hardware.names == PA10_JOINTS
     np.testing.assert_allclose(hardware.upper, np.deg2rad(PUBLISHED_POSITION_DEG), rtol=1e-6)
     np.testing.assert_allclose(hardware.lower, -np.deg2rad(PUBLISHED_POSITION_DEG), rtol=1e-6)
     np.testing.assert_allclose(hardware.velocity, np.deg2rad(PUBLISHED_VELOCITY_DEG), rtol=1e-6)
@@ -98,18 +98,19 @@ def test_bad_limits_and_settings_are_config_errors(tmp_path: Path) -> None:
 
 
 def test_urdf_problems_are_input_errors(tmp_path: Path) -> None:
-    with pytest.raises(InputError, match="not found"):
+    with pytest.raises(InputError) as missing:
         JointLimits.from_urdf(tmp_path / "missing.urdf")
+    assert missing.value.path == (tmp_path / "missing.urdf").resolve()
     broken = tmp_path / "broken.urdf"
     broken.write_text("<robot><joint name='S1'")
-    with pytest.raises(InputError, match="not valid XML"):
+    with pytest.raises(InputError) as unreadable:
         JointLimits.from_urdf(broken)
-    no_limit = tmp_path / "no_limit.urdf"
-    no_limit.write_text("<robot name='r'><joint name='a' type='revolute'><limit lower='-1'/></joint></robot>")
-    with pytest.raises(InputError, match="needs <limit"):
-        JointLimits.from_urdf(no_limit, ["a"])
-    with pytest.raises(InputError, match="no joint named 'S1'"):
-        JointLimits.from_urdf(no_limit)
+    assert unreadable.value.path == broken.resolve()
+    no_chain = tmp_path / "no_chain.urdf"
+    no_chain.write_text("<robot name='r'><link name='base_link'/></robot>")
+    with pytest.raises(InputError) as no_link:
+        JointLimits.from_urdf(no_chain)
+    assert no_link.value.key == "flange"
 
 
 def test_check_limits_counts_each_kind_of_violation() -> None:
@@ -124,9 +125,9 @@ def test_check_limits_counts_each_kind_of_violation() -> None:
     assert report.violations == 4 and not report.ok
     assert report.worst_jerk == pytest.approx(3.5)
     assert report.worst_position_excess == pytest.approx(0.25)
-    with pytest.raises(InputError, match="shape"):
+    with pytest.raises(ValueError, match="shape"):
         check_limits(times, Q[:2], V, A, limits)
-    with pytest.raises(InputError, match="increasing"):
+    with pytest.raises(ValueError, match="increasing"):
         check_limits(times[::-1], Q, V, A, limits)
 
 
@@ -165,9 +166,9 @@ def test_trajectory_sampling_clamps_to_its_duration() -> None:
     np.testing.assert_allclose(after.q, q_goal, atol=1e-12)
     assert after.time == trajectory.duration
     np.testing.assert_allclose(trajectory.sample(-1.0).q, 0.0)
-    with pytest.raises(InputError):
+    with pytest.raises(ValueError):
         trajectory.sample(float("nan"))
-    with pytest.raises(InputError):
+    with pytest.raises(ValueError):
         trajectory.samples(0.0)
 
 
@@ -341,9 +342,9 @@ def test_ruckig_calculation_failures_keep_their_code() -> None:
 
 
 def test_bad_shapes_and_periods_are_input_errors() -> None:
-    with pytest.raises(InputError, match="7 values"):
+    with pytest.raises(ValueError, match="7 values"):
         plan_point_to_point(np.zeros(6), np.zeros(7), LIMITS, dt=DT)
-    with pytest.raises(InputError, match="dt"):
+    with pytest.raises(ValueError, match="dt"):
         plan_point_to_point(np.zeros(7), np.zeros(7), LIMITS, dt=0.0)
-    with pytest.raises(InputError, match="dt"):
+    with pytest.raises(ValueError, match="dt"):
         OnlineTrajectory(LIMITS, -1.0, np.zeros(7))

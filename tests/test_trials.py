@@ -71,7 +71,7 @@ def test_seeds_depend_on_base_and_scene_only() -> None:
     seeds = {trial_seed(7, i) for i in range(1000)}
     assert len(seeds) == 1000
     assert trial_seed(8, 3) != trial_seed(7, 3)
-    with pytest.raises(InputError):
+    with pytest.raises(ValueError):
         trial_seed(7, -1)
 
 

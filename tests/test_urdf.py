@@ -10,7 +10,7 @@ import pinocchio as pin
 import pybullet as p
 import pytest
 
-from robot_app.control._paths import urdf_path
+from robot_app.robot_description import urdf_path
 from robot_app.vision.camera import PinholeCamera
 
 URDF = urdf_path("pa10.urdf")

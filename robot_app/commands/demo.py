@@ -1,7 +1,7 @@
 """`robot-app demo`: the PA10 model, our IK and pybullet agreeing on one motion.
 
-Builds a pybullet scene (floor + PA10 with its tool), solves IK with `Kinematics` for a
-tcp pose looking straight down at the table, drives the arm there with pybullet's
+Builds the simulated cell (`robot_app.sim.World`), solves IK with `Kinematics` for a
+tcp pose looking straight down at the table, drives the arm there with the cell's
 position control, and prints the target, the IK residuals, iterations and time, the
 tcp pose pybullet reports afterwards and its error; then shows that an unreachable
 target fails quickly with its residual instead of raising.
@@ -16,22 +16,20 @@ import time
 from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
-import numpy.typing as npt
 import typer
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import InputError, SimulationError
-from robot_app.geometry import make_transform, matrix_from_quaternion_xyzw, rotation_angle_between
+from robot_app.geometry import make_transform, rotation_angle_between
 
 if TYPE_CHECKING:
-    from robot_app.control.kinematics import IKResult, Kinematics
+    from robot_app.control.kinematics import IKResult
 
-FloatArray = npt.NDArray[np.float64]
 
 READY_POSTURE = np.array([0.0, 0.5, 0.0, 1.3, 0.0, 1.35, 0.0])
 """Elbow-up posture [rad] with the tool pointing down in front of the robot."""
 UNREACHABLE_POSITION = (1.6, 0.0, 0.3)
 """1.6 m from the base: beyond the PA10's reach of about 1.3 m from the shoulder [m]."""
-TIME_STEP = 1.0 / 240.0
 
 
 def looking_down(position: tuple[float, float, float], yaw: float) -> FloatArray:
@@ -49,62 +47,23 @@ def _describe(result: IKResult) -> str:
     )
 
 
-def _drive(kin: Kinematics, q_goal: FloatArray, gui: bool, seconds: float) -> tuple[FloatArray, FloatArray]:
-    """Position control from READY_POSTURE to q_goal; returns (tcp pose 4x4, final q)."""
-    import pybullet as p  # here, not at the top: every `robot-app` command imports this module
-
-    from robot_app.control.robot_models import pa10_spec
+def _drive(q_goal: FloatArray, gui: bool, seconds: float) -> tuple[FloatArray, FloatArray]:
+    """Position control in the simulated cell from READY_POSTURE to q_goal; returns
+    (tcp pose 4x4, final q)."""
+    from robot_app.sim import World  # here, not at the top: every `robot-app` command imports this module
 
     if gui and sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
         # pybullet's GUI would print "cannot connect to X server" and exit the process.
         raise SimulationError("--gui needs a display (DISPLAY is not set); run without --gui")
-    try:
-        client = p.connect(p.GUI if gui else p.DIRECT)
-    except p.error as err:
-        raise SimulationError(
-            f"pybullet could not open a {'GUI' if gui else 'DIRECT'} client: {err}"
-        ) from err
-    if client < 0:
-        raise SimulationError("pybullet could not connect (no display for --gui?)")
-    try:
-        p.setGravity(0.0, 0.0, -9.81, physicsClientId=client)
-        p.setTimeStep(TIME_STEP, physicsClientId=client)
-        floor = p.createCollisionShape(p.GEOM_PLANE, physicsClientId=client)
-        p.createMultiBody(0.0, floor, physicsClientId=client)
-        robot = p.loadURDF(
-            str(pa10_spec().urdf_path),
-            useFixedBase=True,
-            flags=p.URDF_USE_INERTIA_FROM_FILE,
-            physicsClientId=client,
-        )
-        index = {}
-        for i in range(p.getNumJoints(robot, physicsClientId=client)):
-            info = p.getJointInfo(robot, i, physicsClientId=client)
-            index[info[1].decode()] = i
-            index[info[12].decode()] = i
-        joints = [index[name] for name in kin.joint_names]
-        for j, value in zip(joints, READY_POSTURE, strict=True):
-            p.resetJointState(robot, j, float(value), physicsClientId=client)
-        efforts = [p.getJointInfo(robot, j, physicsClientId=client)[10] for j in joints]
-        for j, target, effort, speed in zip(joints, q_goal, efforts, kin.velocity_limits, strict=True):
-            p.setJointMotorControl2(
-                robot,
-                j,
-                p.POSITION_CONTROL,
-                targetPosition=float(target),
-                force=effort,
-                maxVelocity=float(speed),
-                physicsClientId=client,
-            )
-        for _ in range(round(seconds / TIME_STEP)):
-            p.stepSimulation(physicsClientId=client)
+    with World(gui=gui) as world:
+        robot = world.robot
+        robot.reset_joints(READY_POSTURE)
+        robot.command_joints(q_goal)
+        for _ in range(round(seconds / world.dt)):
+            world.step()
             if gui:
-                time.sleep(TIME_STEP)
-        state = p.getLinkState(robot, index["tcp"], computeForwardKinematics=True, physicsClientId=client)
-        q_final = np.array([s[0] for s in p.getJointStates(robot, joints, physicsClientId=client)])
-        return make_transform(matrix_from_quaternion_xyzw(state[5]), state[4]), q_final
-    finally:
-        p.disconnect(client)
+                time.sleep(world.dt)
+        return robot.frame_pose("tcp"), robot.q()
 
 
 def demo(
@@ -134,7 +93,7 @@ def demo(
         "q [deg]: "
         + ", ".join(f"{n} {v:.2f}" for n, v in zip(kin.joint_names, np.rad2deg(result.q), strict=True))
     )
-    reached, q_final = _drive(kin, result.q, gui, seconds)
+    reached, q_final = _drive(result.q, gui, seconds)
     position_error = float(np.linalg.norm(reached[:3, 3] - target[:3, 3]))
     angle_error = rotation_angle_between(reached[:3, :3], target[:3, :3])
     tracking = float(np.max(np.abs(q_final - result.q)))

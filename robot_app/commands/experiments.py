@@ -86,9 +86,9 @@ def register(app: typer.Typer) -> None:
         progress: ProgressOpt = True,
     ) -> None:
         """Reproduce the paper's experiments (Fig. 11-13, identification) into a report folder."""
-        from robot_app.experiments import load_paper_settings, run_paper
+        from robot_app.experiments import load_paper_config, run_paper
 
-        settings = load_paper_settings(quick=quick, source=source, overrides=list(overrides or []))
+        settings = load_paper_config(quick=quick, source=source, overrides=list(overrides or []))
         report = run_paper(settings, out or Path("results/paper"), workers=workers, progress=progress)
         typer.echo(report.table_markdown)
         typer.echo(f"report: {report.report_path} ({report.wall_time_s:.0f} s)")

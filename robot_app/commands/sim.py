@@ -26,11 +26,11 @@ def show(
     set_: SetOption = None,
 ) -> None:
     """Writes overview.png, stereo.png and catalogue.png of the cell."""
-    from robot_app.sim import SceneConfig, load_world_config
+    from robot_app.sim import SceneSettings, load_world_config
     from robot_app.sim.pictures import write_pictures
 
     world = load_world_config(config, tuple(set_ or ()))
-    scene = SceneConfig(target=target, occluder=occluder, distractor=distractor)
+    scene = SceneSettings(target=target, occluder=occluder, distractor=distractor)
     for path in write_pictures(out, world, scene, seed):
         typer.echo(str(path))
 

@@ -2,7 +2,6 @@
 
 from robot_app.control.kinematics import IKResult, Kinematics
 from robot_app.control.limits import (
-    PA10_JOINT_NAMES,
     JointLimits,
     LimitReport,
     TrajectorySettings,
@@ -37,7 +36,6 @@ from robot_app.control.trajectory import (
 
 __all__ = [
     "ARM_NAMES",
-    "PA10_JOINT_NAMES",
     "ArmSpec",
     "FilterUpdate",
     "IKResult",

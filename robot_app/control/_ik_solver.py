@@ -28,7 +28,7 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
-FloatArray = npt.NDArray[np.float64]
+from robot_app.arrays import FloatArray
 
 _TWO_PI = 2.0 * math.pi
 

@@ -12,7 +12,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-FloatArray = npt.NDArray[np.float64]
+from robot_app.arrays import FloatArray
 
 
 class StereoCapture(Protocol):
@@ -72,4 +72,4 @@ class Cell(Protocol):
         """Number of contacts of the arm with the table or the box right now."""
 
 
-__all__ = ["Cell", "FloatArray", "StereoCapture"]
+__all__ = ["Cell", "StereoCapture"]

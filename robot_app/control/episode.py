@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from robot_app.control.limits import LimitReport
+from robot_app.errors import RobotAppError
 
 
 class Phase(StrEnum):
@@ -35,6 +36,22 @@ class Outcome(StrEnum):
     GRASP_FAILED = "grasp_failed"
     TRAJECTORY_ERROR = "trajectory_error"
     TIMEOUT = "timeout"
+
+
+class EpisodeAbortError(RobotAppError):
+    """The loop stopped an episode before the cloth was placed (not found, lost, timeout ...).
+
+    Raised inside the loop and turned into its `EpisodeResult`; never leaves `run()`.
+
+    Attributes:
+        outcome: how the episode ended.
+        reason: one line saying why.
+    """
+
+    def __init__(self, outcome: Outcome, reason: str) -> None:
+        super().__init__(reason)
+        self.outcome = outcome
+        self.reason = reason
 
 
 @dataclass(frozen=True)
@@ -146,4 +163,4 @@ def _limit_dict(report: LimitReport) -> dict[str, Any]:
     }
 
 
-__all__ = ["EpisodeResult", "Outcome", "Phase", "PhaseRecord", "RecognitionRecord"]
+__all__ = ["EpisodeAbortError", "EpisodeResult", "Outcome", "Phase", "PhaseRecord", "RecognitionRecord"]

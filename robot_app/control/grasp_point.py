@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from robot_app.arrays import FloatArray
 from robot_app.control.cell import StereoCapture
-from robot_app.geometry import FloatArray
-from robot_app.vision import ClothModel, FitnessParams, StereoRig, colour_codes, colours_match, to_hsv
+from robot_app.vision import ClothModel, FitnessSettings, StereoRig, colour_codes, colours_match, to_hsv
 
 MIN_VISIBLE_FRACTION = 0.1  # below this the visibility test is not trusted
 
@@ -25,7 +25,7 @@ def visible_grasp_point(
     rig: StereoRig,
     transform_model_to_camera: npt.ArrayLike,
     capture: StereoCapture,
-    params: FitnessParams | None = None,
+    params: FitnessSettings | None = None,
 ) -> FloatArray:
     """Grasp point (3,) [m] in Σ_M, inside the part of the cloth the right camera sees.
 
@@ -33,7 +33,7 @@ def visible_grasp_point(
     (`hue_threshold_in`, and which pixels have a tone instead of a hue). Falls back to the
     model's grasp point when too few points are visible.
     """
-    params = FitnessParams() if params is None else params
+    params = FitnessSettings() if params is None else params
     T = np.asarray(transform_model_to_camera, dtype=float)
     _, pixels = rig.project_model(T, model.points_in)
     p = params

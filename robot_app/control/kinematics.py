@@ -25,10 +25,9 @@ import numpy as np
 import numpy.typing as npt
 import pinocchio as pin
 
+from robot_app.arrays import FloatArray
 from robot_app.control._ik_solver import IKSearch, warm_up
 from robot_app.errors import IKError, InputError
-
-FloatArray = npt.NDArray[np.float64]
 
 _EYE3 = np.eye(3)
 _REFERENCES = {
@@ -280,7 +279,7 @@ class Kinematics:
     def _check_q(self, q: npt.ArrayLike, what: str = "q") -> FloatArray:
         arr = np.asarray(q, dtype=float)
         if arr.shape != (self.nq,) or not np.all(np.isfinite(arr)):
-            raise InputError(
+            raise ValueError(
                 f"{what} must be {self.nq} finite joint values ({', '.join(self.joint_names)}), "
                 f"got shape {arr.shape}"
             )
@@ -290,7 +289,7 @@ class Kinematics:
         if frame is None:
             return self._tip_id
         if not self._model.existFrame(frame):
-            raise InputError(f"unknown frame '{frame}'; valid frames: {', '.join(self.frame_names)}")
+            raise ValueError(f"unknown frame '{frame}'; valid frames: {', '.join(self.frame_names)}")
         return self._model.getFrameId(frame)
 
     def clip(self, q: npt.ArrayLike) -> FloatArray:
@@ -336,7 +335,7 @@ class Kinematics:
                 axes) or 'world' (base origin and axes).
         """
         if reference not in _REFERENCES:
-            raise InputError(f"reference must be one of {sorted(_REFERENCES)}, got '{reference}'")
+            raise ValueError(f"reference must be one of {sorted(_REFERENCES)}, got '{reference}'")
         fid = self._frame_id(frame)
         J = pin.computeFrameJacobian(
             self._model, self._data, self._to_pin(self._check_q(q)), fid, _REFERENCES[reference]
@@ -390,13 +389,13 @@ class Kinematics:
         target_se3 = self._check_target(target)
         fid = self._frame_id(frame)
         if not (0.0 < time_budget < math.inf):
-            raise InputError(f"time_budget must be a positive number of seconds, got {time_budget}")
+            raise ValueError(f"time_budget must be a positive number of seconds, got {time_budget}")
         if position_tolerance <= 0.0 or orientation_tolerance <= 0.0:
-            raise InputError("position_tolerance and orientation_tolerance must be > 0")
+            raise ValueError("position_tolerance and orientation_tolerance must be > 0")
         if not (0.0 <= null_space_gain < 1.0):
-            raise InputError(f"null_space_gain must be in [0, 1), got {null_space_gain}")
+            raise ValueError(f"null_space_gain must be in [0, 1), got {null_space_gain}")
         if max_restarts is not None and max_restarts < 0:
-            raise InputError(f"max_restarts must be >= 0 or None, got {max_restarts}")
+            raise ValueError(f"max_restarts must be >= 0 or None, got {max_restarts}")
         q = self.clip(self._mid if q_init is None else self._check_q(q_init, "q_init"))
         if preferred_posture is None:
             posture, null_space_gain = self._mid, 0.0
@@ -431,14 +430,14 @@ class Kinematics:
     def _check_target(target: npt.ArrayLike) -> pin.SE3:
         T = np.asarray(target, dtype=float)
         if T.shape != (4, 4) or not np.isfinite(T).all():
-            raise InputError(f"IK target must be a finite 4x4 transform, got shape {T.shape}")
+            raise ValueError(f"IK target must be a finite 4x4 transform, got shape {T.shape}")
         R = T[:3, :3]
         # Cheaper than geometry.is_rotation (same test, tol 1e-6): this runs on every solve.
         (a, b, c), (d, e, f), (g, h, i) = R.tolist()
         det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
         orthonormal = float(np.abs(R.T @ R - _EYE3).max()) <= 1e-6 and abs(det - 1.0) <= 1e-6
         if not orthonormal or T[3].tolist() != [0.0, 0.0, 0.0, 1.0]:
-            raise InputError("IK target is not rigid: its 3x3 block must be a rotation, last row 0 0 0 1")
+            raise ValueError("IK target is not rigid: its 3x3 block must be a rotation, last row 0 0 0 1")
         return pin.SE3(R.copy(), T[:3, 3].copy())
 
 

@@ -10,7 +10,6 @@ clear of the hardware limits.
 
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,13 +19,10 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import Field
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
-from robot_app.errors import ConfigError, InputError
-
-FloatArray = npt.NDArray[np.float64]
-
-PA10_JOINT_NAMES: tuple[str, ...] = ("S1", "S2", "S3", "E1", "E2", "W1", "W2")
-"""The PA10's revolute joints from base to wrist, in the URDF's order."""
+from robot_app.errors import ConfigError
+from robot_app.robot_description import PA10_BASE_LINK, PA10_FLANGE, read_joint_chain
 
 
 class TrajectorySettings(StrictModel):
@@ -128,44 +124,24 @@ class JointLimits:
     def from_urdf(
         cls,
         path: str | Path,
-        joint_names: Sequence[str] = PA10_JOINT_NAMES,
         settings: TrajectorySettings | None = None,
+        base_link: str = PA10_BASE_LINK,
+        tip_link: str = PA10_FLANGE,
     ) -> JointLimits:
-        """Reads `<limit lower upper velocity>` of `joint_names` from a URDF file.
+        """Limits of the joints from `base_link` to `tip_link` of a URDF (read through
+        Pinocchio by `robot_app.urdf.read_joint_chain`, the one source of joint names and
+        hardware limits).
 
         Args:
             path: URDF file.
-            joint_names: joints to read, in the order the arrays will have.
             settings: derivation of acceleration/jerk and safety scaling; defaults if None.
+            base_link, tip_link: the chain's ends (default: the PA10's base and flange).
 
         Raises:
-            InputError: the file is missing or not XML, a joint is missing, or its
-                `<limit>` lacks lower/upper/velocity.
+            InputError: the file is missing or not a URDF, or the chain is empty.
         """
-        file = Path(path)
-        if not file.is_file():
-            raise InputError(f"URDF not found: {file}")
-        try:
-            root = ET.parse(file).getroot()
-        except ET.ParseError as err:
-            raise InputError(f"{file} is not valid XML: {err}") from err
-        joints = {joint.get("name"): joint for joint in root.iter("joint")}
-        rows = []
-        for name in joint_names:
-            joint = joints.get(name)
-            if joint is None:
-                raise InputError(f"{file}: no joint named {name!r}; joints are {sorted(map(str, joints))}")
-            limit = joint.find("limit")
-            try:
-                if limit is None:
-                    raise KeyError("limit")
-                rows.append([float(limit.attrib[key]) for key in ("lower", "upper", "velocity")])
-            except (KeyError, ValueError) as err:
-                raise InputError(
-                    f"{file}: joint {name!r} needs <limit lower=.. upper=.. velocity=..> with numbers"
-                ) from err
-        table = np.array(rows, dtype=float).reshape(-1, 3)
-        return cls.from_velocity_limits(table[:, 0], table[:, 1], table[:, 2], settings, joint_names)
+        chain = read_joint_chain(path, base_link, tip_link)
+        return cls.from_velocity_limits(chain.lower, chain.upper, chain.velocity, settings, chain.names)
 
     def scaled(self, factor: float, position_margin: float = 0.0) -> JointLimits:
         """Limits with velocity, acceleration and jerk times `factor` (0, 1] and the
@@ -266,15 +242,15 @@ def check_limits(
     Q, V, A = (np.asarray(x, dtype=float) for x in (Q, V, A))
     shape = (t.size, limits.dof)
     if Q.shape != shape or V.shape != shape or A.shape != shape:
-        raise InputError(
+        raise ValueError(
             f"check_limits needs Q, V, A of shape {shape} for {t.size} times, "
             f"got {Q.shape}, {V.shape}, {A.shape}"
         )
     if not (tol >= 0.0):
-        raise InputError(f"tolerance must be >= 0, got {tol}")
+        raise ValueError(f"tolerance must be >= 0, got {tol}")
     intervals = np.diff(t)
     if np.any(intervals <= 0.0):
-        raise InputError("check_limits needs strictly increasing sample times")
+        raise ValueError("check_limits needs strictly increasing sample times")
     width = limits.upper - limits.lower
     excess = np.maximum(limits.lower - Q, Q - limits.upper) / width
     jerk = np.diff(A, axis=0) / intervals[:, None]
@@ -297,4 +273,4 @@ def _max(values: FloatArray) -> float:
     return float(values.max()) if values.size else 0.0
 
 
-__all__ = ["PA10_JOINT_NAMES", "JointLimits", "LimitReport", "TrajectorySettings", "check_limits"]
+__all__ = ["JointLimits", "LimitReport", "TrajectorySettings", "check_limits"]

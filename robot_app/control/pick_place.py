@@ -22,9 +22,17 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import Field
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.control.cell import Cell, StereoCapture
-from robot_app.control.episode import EpisodeResult, Outcome, Phase, PhaseRecord, RecognitionRecord
+from robot_app.control.episode import (
+    EpisodeAbortError,
+    EpisodeResult,
+    Outcome,
+    Phase,
+    PhaseRecord,
+    RecognitionRecord,
+)
 from robot_app.control.grasp_point import visible_grasp_point
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits, check_limits
@@ -32,17 +40,16 @@ from robot_app.control.pose_filter import PoseFilter, PoseFilterSettings
 from robot_app.control.trajectory import OnlineTrajectory, plan_point_to_point
 from robot_app.errors import TrajectoryError
 from robot_app.geometry import (
-    FloatArray,
     invert_transform,
     make_transform,
+    pose_error,
     transform_points,
-    wrap_angle,
     yaw_of,
 )
 from robot_app.vision import ClothModel, Recognition, Recognizer
 
 
-class PickPlaceSettings(StrictModel):
+class LoopSettings(StrictModel):
     """Settings of the loop. Heights are of the TCP [m]; times are cell time [s]."""
 
     vision_rate_hz: float = Field(15.0, ge=10.0, le=30.0, description="vision cycles per second")
@@ -88,13 +95,6 @@ class _Command:
     a: FloatArray
 
 
-class _AbortError(Exception):
-    def __init__(self, outcome: Outcome, reason: str) -> None:
-        super().__init__(reason)
-        self.outcome = outcome
-        self.reason = reason
-
-
 PhaseCallback = Callable[[PhaseRecord], None]
 StepCallback = Callable[[Cell, StereoCapture | None], None]
 
@@ -126,7 +126,7 @@ class PickPlaceLoop:
         observation_joints: npt.ArrayLike,
         place_position: npt.ArrayLike,
         table_z: float,
-        settings: PickPlaceSettings | None = None,
+        settings: LoopSettings | None = None,
         filter_settings: PoseFilterSettings | None = None,
         *,
         on_phase: PhaseCallback | None = None,
@@ -143,7 +143,7 @@ class PickPlaceLoop:
             raise TrajectoryError("the observation joints are outside the trajectory's joint limits")
         self.place_position = np.asarray(place_position, dtype=float).reshape(3)
         self.table_z = float(table_z)
-        self.settings = settings or PickPlaceSettings()
+        self.settings = settings or LoopSettings()
         self.filter = PoseFilter(filter_settings)
         self.on_phase = on_phase
         self.on_step = on_step
@@ -170,7 +170,7 @@ class PickPlaceLoop:
         outcome, reason = Outcome.PLACED, "cloth released over the box"
         try:
             self._episode()
-        except _AbortError as stop:
+        except EpisodeAbortError as stop:
             outcome, reason = stop.outcome, stop.reason
         except TrajectoryError as err:
             outcome, reason = Outcome.TRAJECTORY_ERROR, str(err)
@@ -184,13 +184,13 @@ class PickPlaceLoop:
             self._phase(Phase.OBSERVE, self._observe)
             found = self._phase(Phase.SEARCH, self._search)
             if not found:
-                raise _AbortError(
+                raise EpisodeAbortError(
                     Outcome.NOT_PRESENT, f"the target was not found in {s.search_attempts} searches"
                 )
             if not self._phase(Phase.APPROACH, self._approach):
                 self.observe_returns += 1
                 if self.observe_returns > s.max_observe_returns:
-                    raise _AbortError(
+                    raise EpisodeAbortError(
                         Outcome.LOST, f"target lost {self.observe_returns} times during APPROACH"
                     )
                 continue
@@ -202,7 +202,7 @@ class PickPlaceLoop:
             self.cell.release()
             self.cell.set_gripper(s.gripper_open)
             if self.grasp_attempts > s.grasp_retries:
-                raise _AbortError(
+                raise EpisodeAbortError(
                     Outcome.GRASP_FAILED, f"cloth not lifted after {self.grasp_attempts} grasps"
                 )
         self._phase(Phase.TRANSFER, self._transfer)
@@ -281,7 +281,7 @@ class PickPlaceLoop:
         target_xyz: FloatArray | None = None
         previous = self._last_capture
         if previous is None:
-            raise _AbortError(Outcome.LOST, "APPROACH needs the capture the cloth was found in")
+            raise EpisodeAbortError(Outcome.LOST, "APPROACH needs the capture the cloth was found in")
         while True:
             if self.cell.time >= next_vision:
                 next_vision += period
@@ -372,7 +372,7 @@ class PickPlaceLoop:
         """TCP position for grasping: the model's grasp point under the filtered pose."""
         estimate = self.filter.estimate
         if estimate is None:
-            raise _AbortError(Outcome.LOST, "no filtered cloth pose to grasp")
+            raise EpisodeAbortError(Outcome.LOST, "no filtered cloth pose to grasp")
         pose = estimate.as_transform()
         point = transform_points(pose, self._grasp_point_model[None])[0]
         z = max(point[2] + self.settings.grasp_height, self.table_z + self.settings.min_table_clearance)
@@ -395,7 +395,7 @@ class PickPlaceLoop:
                 break
         if not result.success or not self.limits.contains(result.q):
             where = ", ".join(f"{v:.3f}" for v in position)
-            raise _AbortError(
+            raise EpisodeAbortError(
                 Outcome.IK_UNREACHABLE,
                 f"no IK solution within the joint limits for the TCP at ({where}) m: "
                 f"residual {result.position_error * 1e3:.1f} mm, "
@@ -439,7 +439,9 @@ class PickPlaceLoop:
 
     def _send(self, q: FloatArray, v: FloatArray, a: FloatArray) -> None:
         if self.cell.time - self._episode_start > self.settings.max_episode_time:
-            raise _AbortError(Outcome.TIMEOUT, f"episode longer than {self.settings.max_episode_time:.0f} s")
+            raise EpisodeAbortError(
+                Outcome.TIMEOUT, f"episode longer than {self.settings.max_episode_time:.0f} s"
+            )
         self._command = _Command(np.array(q, dtype=float), np.array(v, dtype=float), np.array(a, dtype=float))
         self.cell.command_joints(self._command.q, self._command.v)
         self.cell.step()
@@ -459,7 +461,7 @@ class PickPlaceLoop:
             self.cell.release()
             self.cell.set_gripper(self.settings.gripper_open)
             self._move_to_joints(self.observation_joints)
-        except (_AbortError, TrajectoryError):
+        except (EpisodeAbortError, TrajectoryError):
             pass
 
     # ------------------------------------------------------------------ logs
@@ -502,12 +504,12 @@ class PickPlaceLoop:
             )
         errors: dict[str, float] = {}
         if self.ground_truth is not None:
-            truth = self.ground_truth()
+            error = pose_error(pose, self.ground_truth(), tuple(self.model.symmetry_angles))
             errors = {
-                "error_x_mm": (pose[0, 3] - truth[0, 3]) * 1e3,
-                "error_y_mm": (pose[1, 3] - truth[1, 3]) * 1e3,
-                "error_z_mm": (pose[2, 3] - truth[2, 3]) * 1e3,
-                "error_yaw_deg": float(np.rad2deg(wrap_angle(yaw_of(pose[:3, :3]) - yaw_of(truth[:3, :3])))),
+                "error_x_mm": error.x_mm,
+                "error_y_mm": error.y_mm,
+                "error_z_mm": error.z_mm,
+                "error_yaw_deg": error.yaw_deg,
             }
         self.recognitions.append(
             RecognitionRecord(
@@ -557,4 +559,4 @@ class PickPlaceLoop:
         )
 
 
-__all__ = ["PickPlaceLoop", "PickPlaceSettings"]
+__all__ = ["LoopSettings", "PickPlaceLoop"]

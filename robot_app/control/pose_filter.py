@@ -27,14 +27,12 @@ from filterpy.common import Q_continuous_white_noise
 from filterpy.kalman import KalmanFilter
 from pydantic import Field
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
-from robot_app.errors import InputError
 from robot_app.geometry import is_rotation, make_transform, rotation_about_z, wrap_angle, yaw_of
 
-FloatArray = npt.NDArray[np.float64]
-
 _YAW = 3  # index of yaw in the state and the measurement
-_Z_DOWN = np.diag([1.0, -1.0, -1.0])  # Σ_M's z points into the table (DESIGN.md)
+_Z_DOWN = np.diag([1.0, -1.0, -1.0])  # Σ_M's z points into the table (docs/architecture.md)
 
 
 class PoseFilterSettings(StrictModel):
@@ -114,7 +112,7 @@ class PoseEstimate:
         """4x4 pose of the cloth in Σ_W, its tilt ignored (the cloth lies flat).
 
         Args:
-            z_down: Σ_M's z axis points into the table (DESIGN.md: away from the camera
+            z_down: Σ_M's z axis points into the table (docs/architecture.md: away from the camera
                 that looks down on it), so the rotation is Rz(yaw) Rx(pi); False gives
                 Rz(yaw) with z up.
         """
@@ -150,11 +148,6 @@ class FilterUpdate:
     reason: UpdateReason
     nis: float
     estimate: PoseEstimate | None
-
-    @property
-    def mahalanobis(self) -> float:
-        """Mahalanobis distance of the innovation, sqrt(nis) [-]."""
-        return math.sqrt(self.nis)
 
 
 class PoseFilter:
@@ -259,7 +252,7 @@ class PoseFilter:
         """
         z = _measurement_vector(measurement)
         if not math.isfinite(fitness):
-            raise InputError(f"recognition fitness must be finite, got {fitness}")
+            raise ValueError(f"recognition fitness must be finite, got {fitness}")
         if fitness < self.settings.min_fitness:
             if self.initialised:
                 self.predict(t)
@@ -298,10 +291,10 @@ class PoseFilter:
 
     def _elapsed(self, t: float) -> float:
         if not self.initialised:
-            raise InputError("the pose filter is not initialised: reset() it or update() it first")
+            raise RuntimeError("the pose filter is not initialised: reset() it or update() it first")
         dt = _finite_time(t) - self._time
         if dt < 0.0:
-            raise InputError(
+            raise ValueError(
                 f"pose filter time went back from {self._time:.6f} s to {t:.6f} s; "
                 "give measurements and predictions in time order"
             )
@@ -342,21 +335,21 @@ def _measurement_vector(pose: PoseXYZYaw | npt.ArrayLike) -> FloatArray:
     array = np.asarray(pose, dtype=float)
     if array.shape == (4, 4):
         if not (is_rotation(array[:3, :3], tol=1e-4) and np.allclose(array[3], [0, 0, 0, 1])):
-            raise InputError("a 4x4 cloth pose needs a rotation block and a last row (0, 0, 0, 1)")
+            raise ValueError("a 4x4 cloth pose needs a rotation block and a last row (0, 0, 0, 1)")
         vector = np.array([*array[:3, 3], yaw_of(array[:3, :3])])
     elif array.shape == (4,):
         vector = array.copy()
     else:
-        raise InputError(f"a cloth pose is (x, y, z, yaw) or a 4x4 transform, got shape {array.shape}")
+        raise ValueError(f"a cloth pose is (x, y, z, yaw) or a 4x4 transform, got shape {array.shape}")
     if not np.all(np.isfinite(vector)):
-        raise InputError(f"a cloth pose must be finite, got {vector.tolist()}")
+        raise ValueError(f"a cloth pose must be finite, got {vector.tolist()}")
     vector[_YAW] = wrap_angle(vector[_YAW])
     return vector
 
 
 def _finite_time(t: float) -> float:
     if not math.isfinite(t):
-        raise InputError(f"time must be finite [s], got {t}")
+        raise ValueError(f"time must be finite [s], got {t}")
     return float(t)
 
 

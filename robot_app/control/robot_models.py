@@ -14,9 +14,9 @@ import importlib.metadata
 from dataclasses import dataclass
 from pathlib import Path
 
-from robot_app.control._paths import urdf_path
 from robot_app.control.kinematics import Kinematics
 from robot_app.errors import InputError
+from robot_app.robot_description import PA10_BASE_LINK, PA10_FLANGE, PA10_URDF, urdf_path
 
 EXAMPLE_ROBOT_DATA = "example-robot-data"
 _ROBOTS_MARKER = ("share", "example-robot-data", "robots")
@@ -82,14 +82,14 @@ def _example_arm(name: str, relative_urdf: str, base: str, tip: str, description
     return ArmSpec(name, path, base, tip, (robots.parent.parent,), description)
 
 
-def pa10_spec(tip_frame: str = "flange") -> ArmSpec:
+def pa10_spec(tip_frame: str = PA10_FLANGE) -> ArmSpec:
     """The Mitsubishi PA10-7C of `urdf/pa10.urdf`, base_link -> tip_frame.
 
     Args:
         tip_frame: 'flange' (the bare arm) or a tool frame: 'tcp', 'camera_right_optical'.
     """
-    path = urdf_path("pa10.urdf")
-    return ArmSpec("pa10", path, "base_link", tip_frame, (path.parent,), "Mitsubishi PA10-7C, 7 DoF")
+    path = urdf_path(PA10_URDF)
+    return ArmSpec("pa10", path, PA10_BASE_LINK, tip_frame, (path.parent,), "Mitsubishi PA10-7C, 7 DoF")
 
 
 def baxter_right_arm_spec() -> ArmSpec:

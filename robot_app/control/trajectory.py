@@ -20,10 +20,9 @@ import numpy as np
 import numpy.typing as npt
 import ruckig
 
+from robot_app.arrays import FloatArray
 from robot_app.control.limits import JointLimits
-from robot_app.errors import InputError, TrajectoryError
-
-FloatArray = npt.NDArray[np.float64]
+from robot_app.errors import TrajectoryError
 
 RESULT_INVALID_INPUT = int(ruckig.Result.ErrorInvalidInput)
 RESULT_POSITIONAL_LIMITS = int(ruckig.Result.ErrorPositionalLimits)
@@ -79,7 +78,7 @@ class JointTrajectory:
     def sample(self, t: float) -> TrajectorySample:
         """State at time `t` [s], clamped into [0, duration] (the goal is held after)."""
         if not np.isfinite(t):
-            raise InputError(f"sample time must be finite, got {t}")
+            raise ValueError(f"sample time must be finite, got {t}")
         t = float(min(max(t, 0.0), self.duration))
         q, v, a = self._trajectory.at_time(t)
         return TrajectorySample(_frozen(q), _frozen(v), _frozen(a), t)
@@ -87,7 +86,7 @@ class JointTrajectory:
     def samples(self, dt: float) -> TrajectorySamples:
         """Samples every `dt` [s] from 0 to the duration, the goal included."""
         if not (np.isfinite(dt) and dt > 0.0):
-            raise InputError(f"sampling period must be > 0 [s], got {dt}")
+            raise ValueError(f"sampling period must be > 0 [s], got {dt}")
         count = int(np.floor(self.duration / dt + 1e-9))
         times = np.arange(count + 1, dtype=float) * dt
         if self.duration - times[-1] > 1e-9:
@@ -310,7 +309,7 @@ def _set_target(
 def _vector(value: npt.ArrayLike, dof: int, what: str) -> FloatArray:
     array = np.asarray(value, dtype=float).reshape(-1)
     if array.shape != (dof,):
-        raise InputError(f"{what} must have {dof} values, got shape {np.shape(value)}")
+        raise ValueError(f"{what} must have {dof} values, got shape {np.shape(value)}")
     if not np.all(np.isfinite(array)):
         raise TrajectoryPlanningError(f"{what} must be finite, got {array.tolist()}", RESULT_INVALID_INPUT)
     return array
@@ -365,7 +364,7 @@ def _call_ruckig(method: Callable[..., ruckig.Result], *args: object) -> ruckig.
 
 def _check_period(dt: float) -> None:
     if not (np.isfinite(dt) and dt > 0.0):
-        raise InputError(f"control period dt must be > 0 [s], got {dt}")
+        raise ValueError(f"control period dt must be > 0 [s], got {dt}")
 
 
 def _joint_name(limits: JointLimits, index: int) -> str:

@@ -4,16 +4,16 @@ from robot_app.experiments.experiment_config import (
     AnyTrialConfig,
     PickPlaceTrialConfig,
     RecognitionTrialConfig,
-    SceneSettings,
     Sweep,
     TrialConfig,
+    TrialSceneSettings,
     load_trial_config,
     parse_trial_config,
 )
 from robot_app.experiments.kinds import run_trials, trial_kind
-from robot_app.experiments.paper import PaperReport, PaperSettings, load_paper_settings, run_paper
+from robot_app.experiments.paper import PaperConfig, PaperReport, load_paper_config, run_paper
 from robot_app.experiments.paper_report import PaperFigures, paper_table_markdown, write_paper_report
-from robot_app.experiments.recognition_trial import RecognitionOutcome, pose_error, run_recognition_trial
+from robot_app.experiments.recognition_trial import RecognitionOutcome, run_recognition_trial
 from robot_app.experiments.results_table import ResultsTable, read_table
 from robot_app.experiments.summary import ErrorStats, error_stats
 from robot_app.experiments.trial_result import TrialResult, execute_trial, trial_seed
@@ -22,26 +22,25 @@ from robot_app.experiments.trials import SweepInterruptedError, SweepResult, run
 __all__ = [
     "AnyTrialConfig",
     "ErrorStats",
+    "PaperConfig",
     "PaperFigures",
     "PaperReport",
-    "PaperSettings",
     "PickPlaceTrialConfig",
     "RecognitionOutcome",
     "RecognitionTrialConfig",
     "ResultsTable",
-    "SceneSettings",
     "Sweep",
     "SweepInterruptedError",
     "SweepResult",
     "TrialConfig",
     "TrialResult",
+    "TrialSceneSettings",
     "error_stats",
     "execute_trial",
-    "load_paper_settings",
+    "load_paper_config",
     "load_trial_config",
     "paper_table_markdown",
     "parse_trial_config",
-    "pose_error",
     "read_table",
     "run_paper",
     "run_recognition_trial",

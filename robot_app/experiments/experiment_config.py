@@ -27,7 +27,7 @@ CLOTH_COUNT = 12
 ClothId = Annotated[int, Field(ge=1, le=CLOTH_COUNT)]
 
 
-class SceneSettings(StrictModel):
+class TrialSceneSettings(StrictModel):
     """The static scene of one trial, drawn from the trial's seed.
 
     Attributes:
@@ -67,7 +67,7 @@ class SceneSettings(StrictModel):
         raise ValueError(f"must be null, 'random' or a cloth No. 1-{CLOTH_COUNT}")
 
     @model_validator(mode="after")
-    def _distractor_not_a_target(self) -> SceneSettings:
+    def _distractor_not_a_target(self) -> TrialSceneSettings:
         if isinstance(self.distractor, int) and self.distractor in self.cloth_ids:
             raise ValueError(
                 f"distractor No.{self.distractor} is also in cloth_ids; it must differ from every target"
@@ -118,7 +118,7 @@ class _TrialConfigBase(StrictModel):
     trials: int = Field(default=100, ge=1, le=1_000_000)
     seed: int = Field(default=0, ge=0, le=2**63 - 1)
     source: Literal["synthetic", "sim"] = "synthetic"
-    scene: SceneSettings = Field(default_factory=SceneSettings)
+    scene: TrialSceneSettings = Field(default_factory=TrialSceneSettings)
     sweep: Sweep | None = None
 
     @model_validator(mode="after")
@@ -238,9 +238,9 @@ __all__ = [
     "AnyTrialConfig",
     "PickPlaceTrialConfig",
     "RecognitionTrialConfig",
-    "SceneSettings",
     "Sweep",
     "TrialConfig",
+    "TrialSceneSettings",
     "load_trial_config",
     "parse_trial_config",
 ]

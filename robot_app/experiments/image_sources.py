@@ -20,9 +20,10 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import ConfigError
 from robot_app.experiments.scenes import OBSERVATION_DEPTH, SceneSample
-from robot_app.geometry import FloatArray, make_transform
+from robot_app.geometry import make_transform
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.photo_model import ClothModel, make_model
 

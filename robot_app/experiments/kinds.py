@@ -2,25 +2,20 @@
 
 from __future__ import annotations
 
-import importlib
 from pathlib import Path
 from typing import Literal
 
-from robot_app.errors import RobotAppError
 from robot_app.experiments.experiment_config import AnyTrialConfig, RecognitionTrialConfig
 from robot_app.experiments.trial_result import TrialFunction
 from robot_app.experiments.trials import SweepResult, run_sweep
-
-PICK_PLACE_MODULE = "robot_app.experiments.pick_place_episode"
-"""Where `run_episode` (the closed loop of robot_app.control.pick_place, in a cell) lives."""
 
 
 def trial_kind(config: AnyTrialConfig) -> tuple[TrialFunction, type]:
     """The trial function and outcome dataclass of `config.kind`, checked up front.
 
     Raises:
-        ConfigError: `recognition` overrides the recogniser does not accept.
-        RobotAppError: a pick_place config while the closed loop is not available.
+        ConfigError: `recognition` overrides the recogniser does not accept, or a
+            pick_place config the episode runner rejects.
     """
     if isinstance(config, RecognitionTrialConfig):
         from robot_app.experiments.recognition_trial import (
@@ -32,10 +27,6 @@ def trial_kind(config: AnyTrialConfig) -> tuple[TrialFunction, type]:
         for point in range(config.point_count):
             check_recognition_config(config.at_point(point))  # type: ignore[arg-type]
         return run_recognition_trial, RecognitionOutcome
-    try:
-        importlib.import_module(PICK_PLACE_MODULE)
-    except ImportError as err:
-        raise RobotAppError(f"pick_place trials need the closed loop ({PICK_PLACE_MODULE}): {err}") from err
     from robot_app.experiments.pick_place_trial import (
         PickPlaceOutcome,
         check_pick_place_config,

@@ -60,7 +60,7 @@ class Fig13Settings(StrictModel):
     generations: int = Field(default=100, ge=1, le=2000)
 
 
-class PaperSettings(StrictModel):
+class PaperConfig(StrictModel):
     """What `robot-app paper` runs.
 
     Attributes:
@@ -95,16 +95,16 @@ QUICK = {
 """The `--quick` version: a small run for tests (about a minute)."""
 
 
-def load_paper_settings(
+def load_paper_config(
     quick: bool = False, source: str = "synthetic", overrides: list[str] | None = None
-) -> PaperSettings:
+) -> PaperConfig:
     """The paper settings, quick or full, with `--set key=value` overrides.
 
     Raises:
         ConfigError: an unknown key or a bad value, named.
     """
     data: dict[str, Any] = {"source": source, **(QUICK if quick else {})}
-    return validate(PaperSettings, apply_overrides(data, overrides or []), "paper settings")
+    return validate(PaperConfig, apply_overrides(data, overrides or []), "paper settings")
 
 
 # --- Fig. 11/13 -------------------------------------------------------------------------------
@@ -143,7 +143,7 @@ def fig13_cases() -> list[_Case]:
     ]
 
 
-def run_fig13_case(case: _Case, settings: PaperSettings, out: Path) -> Fig13Case:
+def run_fig13_case(case: _Case, settings: PaperConfig, out: Path) -> Fig13Case:
     """Full search and GA on one Fig. 11 scene; writes its 2D map and 3D surface."""
     from robot_app.vision.fitness import FitnessEvaluator
     from robot_app.vision.full_search import find_peaks, full_search
@@ -257,12 +257,12 @@ class PaperReport:
 
 
 def run_paper(
-    settings: PaperSettings, out_dir: str | Path, *, workers: int = 2, progress: bool = True
+    settings: PaperConfig, out_dir: str | Path, *, workers: int = 2, progress: bool = True
 ) -> PaperReport:
     """Runs every experiment and writes the report folder.
 
     Args:
-        settings: what to run (see `load_paper_settings`).
+        settings: what to run (see `load_paper_config`).
         out_dir: the report folder (the sweeps inside it resume if rerun).
         workers: worker processes for the sweeps.
         progress: show progress bars.
@@ -350,10 +350,10 @@ def _matrix(rows: list[dict[str, Any]], ids: list[int]) -> tuple[np.ndarray, np.
 __all__ = [
     "Fig13Settings",
     "IdentificationOutcome",
+    "PaperConfig",
     "PaperReport",
-    "PaperSettings",
     "fig13_cases",
-    "load_paper_settings",
+    "load_paper_config",
     "run_fig13_case",
     "run_identification_trial",
     "run_paper",

@@ -20,15 +20,15 @@ from pydantic import Field
 from robot_app.config import StrictModel, dump_config
 from robot_app.control.episode import EpisodeResult, Outcome, Phase, PhaseRecord
 from robot_app.control.kinematics import Kinematics
-from robot_app.control.limits import PA10_JOINT_NAMES, JointLimits, TrajectorySettings
-from robot_app.control.pick_place import PickPlaceLoop, PickPlaceSettings
+from robot_app.control.limits import JointLimits, TrajectorySettings
+from robot_app.control.pick_place import LoopSettings, PickPlaceLoop
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.errors import ConfigError
 from robot_app.geometry import yaw_of
 from robot_app.sim import (
     EpisodeVideo,
     ModelStation,
-    SceneConfig,
+    SceneSettings,
     SimCell,
     World,
     WorldConfig,
@@ -37,10 +37,10 @@ from robot_app.sim import (
 )
 from robot_app.vision import ModelSettings, RecognitionSettings, Recognizer, make_model
 
-SUCCESS_FRACTION = 0.9  # of the cloth's nodes inside the box walls (issue's definition)
+SUCCESS_FRACTION = 0.9  # of the cloth's nodes inside the box walls: the cloth counts as placed
 
 
-class NudgeConfig(StrictModel):
+class NudgeSettings(StrictModel):
     """Pushes the target cloth during APPROACH (regression test of the filter and replanning).
 
     Attributes:
@@ -58,14 +58,14 @@ class PickPlaceConfig(StrictModel):
 
     seed: int = Field(0, ge=0)
     world: WorldConfig = WorldConfig()
-    scene: SceneConfig = SceneConfig()
+    scene: SceneSettings = SceneSettings()
     model: ModelSettings = ModelSettings()
     # 0.45: a cloth 45% under the paper scores ~0.55 (S_out on the paper counts against it),
     # absent cloths stay below (checked by the absent-target tests and benchmark).
     recognition: RecognitionSettings = RecognitionSettings(acceptance_threshold=0.45)
     filter: PoseFilterSettings = PoseFilterSettings()
     trajectory: TrajectorySettings = TrajectorySettings()
-    loop: PickPlaceSettings = PickPlaceSettings()
+    loop: LoopSettings = LoopSettings()
     model_cloth: int | None = Field(
         None, ge=1, le=12, description="cloth the robot looks for (default: scene.target); another = absent"
     )
@@ -77,7 +77,7 @@ class PickPlaceConfig(StrictModel):
     )
     table_tilt_deg: float = Field(5.0, gt=0.0, le=90.0)
     grasp_radius: float = Field(0.035, gt=0.0, le=0.1, description="nodes anchored around the TCP [m]")
-    nudge: NudgeConfig | None = None
+    nudge: NudgeSettings | None = None
 
     @property
     def wanted(self) -> int:
@@ -127,7 +127,7 @@ def run_episode(
         wanted_body = scene.target if config.wanted == config.scene.target else scene.distractor
         cell = SimCell(world, grasp_radius=config.grasp_radius)
         kinematics = Kinematics.from_urdf(w.robot.urdf, "base_link", "tcp")
-        limits = JointLimits.from_urdf(w.robot.urdf, PA10_JOINT_NAMES, config.trajectory)
+        limits = JointLimits.from_urdf(w.robot.urdf, config.trajectory)
         recognizer = Recognizer(model, world.stereo.rig, _recognition_settings(config))
         video = EpisodeVideo(world, cell, video_path) if video_path is not None else None
         nudge = _Nudger(world, scene.target, config.nudge) if config.nudge is not None else None
@@ -193,7 +193,7 @@ def _make_target_model(config: PickPlaceConfig):
 class _Nudger:
     """Moves the target cloth once, `after` seconds into APPROACH."""
 
-    def __init__(self, world: World, cloth, config: NudgeConfig) -> None:
+    def __init__(self, world: World, cloth, config: NudgeSettings) -> None:
         self.world, self.cloth, self.config = world, cloth, config
         self.start: float | None = None
         self.done = False
@@ -243,4 +243,4 @@ def _json_default(value: object) -> object:
     return str(value)
 
 
-__all__ = ["Episode", "NudgeConfig", "PickPlaceConfig", "run_episode", "write_episode"]
+__all__ = ["Episode", "NudgeSettings", "PickPlaceConfig", "run_episode", "write_episode"]

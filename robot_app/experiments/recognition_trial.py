@@ -20,46 +20,10 @@ import numpy as np
 from robot_app.experiments.experiment_config import RecognitionTrialConfig
 from robot_app.experiments.image_sources import image_source
 from robot_app.experiments.scenes import sample_scene
-from robot_app.geometry import FloatArray, wrap_angle, yaw_error, yaw_of
+from robot_app.geometry import PoseError, pose_error, yaw_of
 from robot_app.vision.photo_model import ClothModel
 
 NAN = float("nan")
-
-
-@dataclass(frozen=True)
-class PoseError:
-    """Recognised minus true pose of Σ_M, in the right camera frame.
-
-    Attributes:
-        x_mm, y_mm, z_mm: position error [mm].
-        yaw_deg: yaw error [deg], the smallest over the model's symmetric yaws.
-        tilt_deg: angle between the recognised and the true z axes [deg] (>= 0).
-    """
-
-    x_mm: float
-    y_mm: float
-    z_mm: float
-    yaw_deg: float
-    tilt_deg: float
-
-
-def pose_error(
-    transform_recognised: FloatArray, transform_true: FloatArray, symmetry_angles: tuple[float, ...] = ()
-) -> PoseError:
-    """Error of a recognised pose ^CR T_M against the truth.
-
-    Args:
-        transform_recognised: (4, 4) recognised ^CR T_M.
-        transform_true: (4, 4) true ^CR T_M.
-        symmetry_angles: yaws [rad] under which the model looks the same; the yaw
-            error is the smallest |wrap(d - s)| over s in {0, *symmetry_angles}.
-    """
-    d = 1000.0 * (transform_recognised[:3, 3] - transform_true[:3, 3])
-    yaw = float(wrap_angle(yaw_of(transform_recognised[:3, :3]) - yaw_of(transform_true[:3, :3])))
-    yaw = yaw_error(yaw, symmetry_angles)
-    cos_tilt = float(np.clip(transform_recognised[:3, 2] @ transform_true[:3, 2], -1.0, 1.0))
-    tilt = float(np.rad2deg(np.arccos(cos_tilt)))
-    return PoseError(float(d[0]), float(d[1]), float(d[2]), float(np.rad2deg(yaw)), tilt)
 
 
 @dataclass(frozen=True)
@@ -198,10 +162,8 @@ def check_recognition_config(config: RecognitionTrialConfig) -> None:
 
 
 __all__ = [
-    "PoseError",
     "RecognitionOutcome",
     "check_recognition_config",
-    "pose_error",
     "recognizer_for",
     "recognizer_settings",
     "run_recognition_trial",

@@ -58,11 +58,11 @@ def table_columns(outcome_type: type) -> tuple[str, ...]:
         InputError: not a dataclass, or a field named like a base column.
     """
     if not dataclasses.is_dataclass(outcome_type):
-        raise InputError(f"outcome_type must be a dataclass, got {outcome_type!r}")
+        raise TypeError(f"outcome_type must be a dataclass, got {outcome_type!r}")
     fields = tuple(f.name for f in dataclasses.fields(outcome_type))
     clash = set(fields) & set(BASE_COLUMNS)
     if clash:
-        raise InputError(f"outcome fields {sorted(clash)} clash with the table's base columns {BASE_COLUMNS}")
+        raise ValueError(f"outcome fields {sorted(clash)} clash with the table's base columns {BASE_COLUMNS}")
     return BASE_COLUMNS + fields
 
 

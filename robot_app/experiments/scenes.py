@@ -1,6 +1,6 @@
 """Trial scenes: where the target, a distractor and the occluder go, drawn from a seed.
 
-Positions are in the right camera frame at the observation pose (DESIGN.md: Σ_CR,
+Positions are in the right camera frame at the observation pose (docs/architecture.md: Σ_CR,
 x right, y down, z down to the table), so a scene means the same thing to the synthetic
 renderer and to the simulator. The camera looks straight down from `depth` above the
 table, and a cloth lying flat in the model photo's orientation has identity rotation
@@ -13,9 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import ConfigError
-from robot_app.experiments.experiment_config import CLOTH_COUNT, SceneSettings
-from robot_app.geometry import FloatArray, make_transform, rotation_about_z
+from robot_app.experiments.experiment_config import CLOTH_COUNT, TrialSceneSettings
+from robot_app.geometry import (
+    make_transform,
+    rotation_about_z,
+)
 
 OBSERVATION_DEPTH = 0.58
 """Right camera to table at the observation pose [m] (paper Sec. III: z = 580 mm)."""
@@ -71,7 +75,7 @@ def _cloth_radius(cloth_id: int, radii: dict[int, float] | None) -> float:
 
 
 def sample_scene(
-    settings: SceneSettings,
+    settings: TrialSceneSettings,
     scene_index: int,
     rng: np.random.Generator,
     radii: dict[int, float] | None = None,

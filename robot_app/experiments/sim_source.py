@@ -19,7 +19,7 @@ from robot_app.sim.cloth_body import ClothBody
 from robot_app.vision.photo_model import ClothModel, make_model
 
 FACE_UP = np.diag([1.0, -1.0, -1.0])
-"""Σ_M of a face-up cloth in the world: z into the table (DESIGN.md)."""
+"""Σ_M of a face-up cloth in the world: z into the table (docs/architecture.md)."""
 
 OCCLUDER_SIZE = (0.30, 0.30)
 """The blue paper [m]."""

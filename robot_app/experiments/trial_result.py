@@ -12,8 +12,6 @@ from typing import Any, Literal
 
 import numpy as np
 
-from robot_app.errors import InputError
-
 TrialFunction = Callable[[Any, int, int], Any]
 """`trial_fn(config_at_point, scene_index, seed) -> outcome dataclass`; module-level."""
 
@@ -52,7 +50,7 @@ def trial_seed(base_seed: int, scene_index: int) -> int:
         A 63-bit non-negative integer.
     """
     if scene_index < 0 or base_seed < 0:
-        raise InputError(f"seed and scene index must be >= 0, got {base_seed}, {scene_index}")
+        raise ValueError(f"seed and scene index must be >= 0, got {base_seed}, {scene_index}")
     state = np.random.SeedSequence(entropy=base_seed, spawn_key=(scene_index,)).generate_state(2, np.uint32)
     return (int(state[0]) << 31) | (int(state[1]) >> 1)
 

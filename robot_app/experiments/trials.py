@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from robot_app.config import dump_config, read_yaml
-from robot_app.errors import ConfigError, InputError, RobotAppError
+from robot_app.errors import ConfigError, InputError, InterruptError
 from robot_app.experiments.experiment_config import AnyTrialConfig, parse_trial_config
 from robot_app.experiments.results_table import ResultsTable, table_columns
 from robot_app.experiments.runners import run_local, run_ray
@@ -32,10 +32,8 @@ TABLE_FILE = "trials.csv"
 SUMMARY_FILE = "summary.json"
 
 
-class SweepInterruptedError(RobotAppError):
+class SweepInterruptedError(InterruptError):
     """The user interrupted a sweep (Ctrl-C); its finished rows are kept for resuming."""
-
-    exit_code = 130
 
 
 @dataclass(frozen=True)

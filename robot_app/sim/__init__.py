@@ -17,13 +17,13 @@ from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloth_mesh import ClothMesh, build_cloth_mesh, cache_dir
 from robot_app.sim.cloths import CATALOGUE, ClothSpec, cloth_spec, outline_polygon, texture_image
 from robot_app.sim.config import (
-    ClothPhysicsConfig,
-    SceneConfig,
-    StationConfig,
+    ClothPhysicsSettings,
+    SceneSettings,
+    StationSettings,
     WorldConfig,
     load_world_config,
 )
-from robot_app.sim.robot import JOINT_NAMES, Contact, SimRobot
+from robot_app.sim.robot import Contact, SimRobot
 from robot_app.sim.scene import Scene, make_scene
 from robot_app.sim.station import ModelStation, StationPhoto
 from robot_app.sim.video import EpisodeVideo
@@ -31,22 +31,21 @@ from robot_app.sim.world import BoxGeometry, World
 
 __all__ = [
     "CATALOGUE",
-    "JOINT_NAMES",
     "BoxGeometry",
     "ClothBody",
     "ClothMesh",
-    "ClothPhysicsConfig",
+    "ClothPhysicsSettings",
     "ClothSpec",
     "Contact",
     "EpisodeVideo",
     "Lighting",
     "ModelStation",
     "Scene",
-    "SceneConfig",
+    "SceneSettings",
     "SimCell",
     "SimRobot",
-    "StationConfig",
     "StationPhoto",
+    "StationSettings",
     "StereoCamera",
     "StereoFrame",
     "World",

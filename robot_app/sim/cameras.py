@@ -16,9 +16,10 @@ import numpy as np
 import numpy.typing as npt
 import pybullet as pb
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import CalibrationError
-from robot_app.geometry import FloatArray, invert_transform
-from robot_app.sim.config import CameraConfig
+from robot_app.geometry import invert_transform
+from robot_app.sim.config import CameraSettings
 from robot_app.vision.camera import PinholeCamera, StereoRig, save_rig
 
 if TYPE_CHECKING:
@@ -135,7 +136,7 @@ class StereoCamera:
     would give; `save_rig` writes the file the recogniser reads.
     """
 
-    def __init__(self, client: int, robot: SimRobot, config: CameraConfig, clock: _Clock) -> None:
+    def __init__(self, client: int, robot: SimRobot, config: CameraSettings, clock: _Clock) -> None:
         self._client = client
         self._robot = robot
         self._config = config
@@ -163,7 +164,7 @@ class StereoCamera:
         return StereoFrame(left, right, self._clock.time, right_pose)
 
     def save_rig(self, path: str | Path) -> Path:
-        """Writes the rig YAML (DESIGN.md format) and returns its path."""
+        """Writes the rig YAML (docs/architecture.md format) and returns its path."""
         save_rig(self.rig, path)
         return Path(path)
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import GraspError
-from robot_app.geometry import FloatArray
 from robot_app.sim.cameras import StereoFrame
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.world import World

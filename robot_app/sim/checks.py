@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_app.geometry import make_transform, yaw_error, yaw_of
+from robot_app.geometry import make_transform, pose_error
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloths import ClothSpec
 from robot_app.sim.config import WorldConfig
@@ -116,19 +116,16 @@ def recognition_check(
         start = time.perf_counter()
         result = recognizer.recognize(frame.left_bgr, frame.right_bgr, seed=seed)
         elapsed = time.perf_counter() - start
-    T = result.transform_model_to_camera
-    d = (T[:3, 3] - truth[:3, 3]) * 1000.0
-    d_yaw = yaw_error(yaw_of(T[:3, :3]) - yaw_of(truth[:3, :3]), model.symmetry_angles)
-    tilt = np.arccos(np.clip(T[:3, 2] @ truth[:3, 2], -1.0, 1.0))  # angle between the normals
+    error = pose_error(result.transform_model_to_camera, truth, tuple(model.symmetry_angles))
     return RecognitionCheck(
         spec.number,
         bool(result.found),
         float(result.fitness),
-        float(d[0]),
-        float(d[1]),
-        float(d[2]),
-        float(np.degrees(d_yaw)),
-        float(np.degrees(tilt)),
+        error.x_mm,
+        error.y_mm,
+        error.z_mm,
+        error.yaw_deg,
+        error.tilt_deg,
         elapsed,
     )
 

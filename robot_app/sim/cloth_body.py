@@ -23,11 +23,16 @@ import numpy.typing as npt
 import pybullet as pb
 from scipy.spatial import cKDTree
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import GraspError, SimulationError
-from robot_app.geometry import FloatArray, kabsch, quaternion_xyzw_from_matrix, transform_points
+from robot_app.geometry import (
+    kabsch,
+    quaternion_xyzw_from_matrix,
+    transform_points,
+)
 from robot_app.sim.cloth_mesh import ClothMesh, mesh_obj_path
 from robot_app.sim.cloths import ClothSpec, texture_path
-from robot_app.sim.config import ClothPhysicsConfig
+from robot_app.sim.config import ClothPhysicsSettings
 
 if TYPE_CHECKING:
     from robot_app.sim.robot import SimRobot
@@ -53,7 +58,7 @@ class ClothBody:
         client: int,
         mesh: ClothMesh,
         transform_model_to_world: npt.ArrayLike,
-        physics: ClothPhysicsConfig,
+        physics: ClothPhysicsSettings,
         cache: str | Path,
     ) -> None:
         T = np.asarray(transform_model_to_world, dtype=float)

@@ -20,8 +20,8 @@ import numpy.typing as npt
 from matplotlib.path import Path as PolygonPath
 from scipy.spatial import Delaunay
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import InputError
-from robot_app.geometry import FloatArray
 from robot_app.sim.cloths import ClothSpec, outline_polygon, polygon_centroid
 
 IntArray = npt.NDArray[np.int64]

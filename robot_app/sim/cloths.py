@@ -16,8 +16,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import InputError
-from robot_app.geometry import FloatArray
 
 TEXTURE_PX_PER_M = 2000.0  # 2 px/mm: finer than both cameras' footprint (< 1.8 px/mm)
 MAX_SIZE = (0.25, 0.20)  # largest cloth [m], paper Sec. III
@@ -55,13 +55,13 @@ class ClothSpec:
     def __post_init__(self) -> None:
         width, height = self.size
         if not (0.03 <= width <= MAX_SIZE[0] + 1e-9 and 0.03 <= height <= MAX_SIZE[1] + 1e-9):
-            raise InputError(f"cloth size {self.size} m must lie within 0.03 .. {MAX_SIZE} m")
+            raise ValueError(f"cloth size {self.size} m must lie within 0.03 .. {MAX_SIZE} m")
         if self.outline not in OUTLINES:
-            raise InputError(f"outline {self.outline!r} is not one of {OUTLINES}")
+            raise ValueError(f"outline {self.outline!r} is not one of {OUTLINES}")
         if self.pattern not in PATTERNS:
-            raise InputError(f"pattern {self.pattern!r} is not one of {PATTERNS}")
+            raise ValueError(f"pattern {self.pattern!r} is not one of {PATTERNS}")
         if self.mass <= 0 or not self.colours:
-            raise InputError("a cloth needs a positive mass [kg] and at least one colour")
+            raise ValueError("a cloth needs a positive mass [kg] and at least one colour")
 
 
 # BGR. No cloth colour is within the fitness' hue threshold (30 of 256) of the green sheet

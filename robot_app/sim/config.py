@@ -20,7 +20,7 @@ DEFAULT_URDF = REPO_ROOT / "urdf" / "pa10.urdf"
 DEFAULT_WORLD_CONFIG = REPO_ROOT / "configs" / "world.yaml"
 
 
-class TableConfig(StrictModel):
+class TableSettings(StrictModel):
     """The table the cloths lie on; its top face is the plane z = `top_z`."""
 
     centre_xy: Vec2 = (0.35, 0.0)
@@ -29,7 +29,7 @@ class TableConfig(StrictModel):
     height: float = Field(0.72, gt=0.0, description="floor to table top [m]")
 
 
-class RangeConfig(StrictModel):
+class RangeSettings(StrictModel):
     """The recognition range of paper Sec. III and the green sheet that covers it."""
 
     centre_xy: Vec2 = (0.55, 0.0)
@@ -38,7 +38,7 @@ class RangeConfig(StrictModel):
     sheet_rgb: Vec3 = (0.10, 0.62, 0.16)
 
 
-class BoxConfig(StrictModel):
+class BoxSettings(StrictModel):
     """The collection box: open top, four walls standing on the table."""
 
     centre_xy: Vec2 = (0.30, -0.56)
@@ -47,7 +47,7 @@ class BoxConfig(StrictModel):
     wall_thickness: float = Field(0.01, gt=0.0)
 
 
-class RobotConfig(StrictModel):
+class RobotSettings(StrictModel):
     """Where the PA10 stands and how its joints are driven."""
 
     urdf: Path = DEFAULT_URDF
@@ -72,7 +72,7 @@ class RobotConfig(StrictModel):
         return value
 
 
-class ObservationConfig(StrictModel):
+class ObservationSettings(StrictModel):
     """Observation pose: the right camera `height` above the range centre, looking down.
 
     `camera_yaw` turns the camera about the world z axis: 0 puts the image x axis along
@@ -84,7 +84,7 @@ class ObservationConfig(StrictModel):
     camera_yaw: float = 0.0
 
 
-class CameraConfig(StrictModel):
+class CameraSettings(StrictModel):
     """Hand cameras: ideal pinholes from a resolution and a horizontal field of view."""
 
     image_size: tuple[int, int] = (640, 480)
@@ -102,7 +102,7 @@ class CameraConfig(StrictModel):
         return value
 
 
-class ClothPhysicsConfig(StrictModel):
+class ClothPhysicsSettings(StrictModel):
     """pybullet mass-spring cloth parameters (shared by all catalogue cloths)."""
 
     # Physics time grows with the node count (pybullet's solver sweeps every node and spring
@@ -126,7 +126,7 @@ class ClothPhysicsConfig(StrictModel):
     settle_time: float = Field(1.0, gt=0.0, description="simulated time to let a cloth settle [s]")
 
 
-class StationConfig(StrictModel):
+class StationSettings(StrictModel):
     """The Fig. 7 model-generation station: one camera `distance` above a green sheet."""
 
     distance: float = Field(0.40, gt=0.05)
@@ -138,19 +138,19 @@ class StationConfig(StrictModel):
 class WorldConfig(StrictModel):
     """Everything that places and drives the simulated cell."""
 
-    table: TableConfig = TableConfig()
-    range: RangeConfig = RangeConfig()
-    box: BoxConfig = BoxConfig()
-    robot: RobotConfig = RobotConfig()
-    observation: ObservationConfig = ObservationConfig()
-    cameras: CameraConfig = CameraConfig()
-    cloth: ClothPhysicsConfig = ClothPhysicsConfig()
-    station: StationConfig = StationConfig()
+    table: TableSettings = TableSettings()
+    range: RangeSettings = RangeSettings()
+    box: BoxSettings = BoxSettings()
+    robot: RobotSettings = RobotSettings()
+    observation: ObservationSettings = ObservationSettings()
+    cameras: CameraSettings = CameraSettings()
+    cloth: ClothPhysicsSettings = ClothPhysicsSettings()
+    station: StationSettings = StationSettings()
     physics_hz: float = Field(240.0, ge=60.0, le=2000.0)
     gravity: float = Field(9.81, ge=0.0)
 
 
-class SceneConfig(StrictModel):
+class SceneSettings(StrictModel):
     """What `make_scene` puts on the table."""
 
     target: int = Field(3, ge=1, le=12, description="catalogue number No.1-No.12")
@@ -174,15 +174,15 @@ def load_world_config(path: str | Path | None = None, overrides: tuple[str, ...]
 __all__ = [
     "DEFAULT_URDF",
     "DEFAULT_WORLD_CONFIG",
-    "BoxConfig",
-    "CameraConfig",
-    "ClothPhysicsConfig",
-    "ObservationConfig",
-    "RangeConfig",
-    "RobotConfig",
-    "SceneConfig",
-    "StationConfig",
-    "TableConfig",
+    "BoxSettings",
+    "CameraSettings",
+    "ClothPhysicsSettings",
+    "ObservationSettings",
+    "RangeSettings",
+    "RobotSettings",
+    "SceneSettings",
+    "StationSettings",
+    "TableSettings",
     "WorldConfig",
     "load_world_config",
 ]

@@ -12,7 +12,7 @@ import numpy.typing as npt
 from robot_app.geometry import make_transform
 from robot_app.sim.cameras import render_bgr
 from robot_app.sim.cloths import CATALOGUE
-from robot_app.sim.config import SceneConfig, WorldConfig
+from robot_app.sim.config import SceneSettings, WorldConfig
 from robot_app.sim.scene import make_scene
 from robot_app.sim.station import ModelStation
 from robot_app.sim.world import World
@@ -31,7 +31,7 @@ def look_at(
     return make_transform(np.column_stack([x, np.cross(z, x), z]), eye)
 
 
-def write_pictures(out: str | Path, config: WorldConfig, scene: SceneConfig, seed: int = 0) -> list[Path]:
+def write_pictures(out: str | Path, config: WorldConfig, scene: SceneSettings, seed: int = 0) -> list[Path]:
     """Writes overview.png, stereo.png and catalogue.png into `out`; returns their paths."""
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)

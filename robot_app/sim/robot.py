@@ -8,18 +8,19 @@ import numpy as np
 import numpy.typing as npt
 import pybullet as pb
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import IKError, InputError, SimulationError
 from robot_app.geometry import (
-    FloatArray,
     make_transform,
     matrix_from_quaternion_xyzw,
     quaternion_xyzw_from_matrix,
     rotation_about_z,
     rotation_angle_between,
 )
-from robot_app.sim.config import RobotConfig
+from robot_app.robot_description import PA10_BASE_LINK, PA10_FLANGE, read_joint_chain
+from robot_app.sim.config import RobotSettings
 
-JOINT_NAMES = ("S1", "S2", "S3", "E1", "E2", "W1", "W2")
+ARM_DOF = 7
 FINGER_JOINTS = ("finger_left_joint", "finger_right_joint")
 GRIPPER_LINKS = ("gripper_palm", "finger_left", "finger_right")
 MAX_OPENING = 0.08  # both fingers fully open [m] (0.04 m each side)
@@ -48,7 +49,7 @@ class SimRobot:
         config: URDF path, base placement, motor gain.
     """
 
-    def __init__(self, client: int, config: RobotConfig) -> None:
+    def __init__(self, client: int, config: RobotSettings) -> None:
         if not config.urdf.is_file():
             raise InputError(f"robot URDF not found: {config.urdf}")
         self._client = client
@@ -63,28 +64,26 @@ class SimRobot:
             physicsClientId=client,
         )
         self._links: dict[str, int] = {pb.getBodyInfo(self.body_id, physicsClientId=client)[0].decode(): -1}
+        chain = read_joint_chain(config.urdf, PA10_BASE_LINK, PA10_FLANGE)
         joints: dict[str, int] = {}
-        lower, upper, effort, velocity = [], [], [], []
         for index in range(pb.getNumJoints(self.body_id, physicsClientId=client)):
             info = pb.getJointInfo(self.body_id, index, physicsClientId=client)
             joints[info[1].decode()] = index
             self._links[info[12].decode()] = index
-        missing = [name for name in (*JOINT_NAMES, *FINGER_JOINTS) if name not in joints]
-        if missing:
-            raise SimulationError(f"{config.urdf} lacks the joints {missing}")
-        self.joint_indices = tuple(joints[name] for name in JOINT_NAMES)
+        missing = [name for name in (*chain.names, *FINGER_JOINTS) if name not in joints]
+        if missing or chain.dof != ARM_DOF:
+            raise SimulationError(
+                f"{config.urdf} must have {ARM_DOF} arm joints and the fingers {FINGER_JOINTS}; "
+                f"arm joints {chain.names}, missing {missing}",
+                path=config.urdf,
+            )
+        self.joint_names = chain.names
+        self.joint_indices = tuple(joints[name] for name in chain.names)
         self.finger_indices = tuple(joints[name] for name in FINGER_JOINTS)
-        for index in self.joint_indices:
-            info = pb.getJointInfo(self.body_id, index, physicsClientId=client)
-            lower.append(info[8])
-            upper.append(info[9])
-            effort.append(info[10])
-            velocity.append(info[11])
-        self.lower_limits = np.array(lower)
-        self.upper_limits = np.array(upper)
-        self.velocity_limits = np.array(velocity)
-        self._effort = np.array(effort)
-        self.joint_names = JOINT_NAMES
+        self.lower_limits = chain.lower
+        self.upper_limits = chain.upper
+        self.velocity_limits = chain.velocity
+        self._effort = chain.effort
         self.reset_joints(np.asarray(config.home_joints, dtype=float))
         self.set_gripper(MAX_OPENING)
 
@@ -100,7 +99,7 @@ class SimRobot:
     def link_index(self, name: str) -> int:
         """pybullet link index of a URDF link (-1 for the base)."""
         if name not in self._links:
-            raise InputError(f"unknown robot link {name!r}; links are {sorted(self._links)}")
+            raise ValueError(f"unknown robot link {name!r}; links are {sorted(self._links)}")
         return self._links[name]
 
     def q(self) -> FloatArray:
@@ -125,7 +124,7 @@ class SimRobot:
         q = self._check_q(q_target)
         dq = np.zeros(7) if dq_target is None else np.asarray(dq_target, dtype=float).reshape(-1)
         if dq.shape != (7,) or not np.all(np.isfinite(dq)):
-            raise InputError(f"dq_target must be 7 finite velocities [rad/s], got {dq.tolist()}")
+            raise ValueError(f"dq_target must be 7 finite velocities [rad/s], got {dq.tolist()}")
         pb.setJointMotorControlArray(
             self.body_id,
             self.joint_indices,
@@ -140,7 +139,7 @@ class SimRobot:
     def set_gripper(self, opening: float) -> None:
         """Commands the gap the fingers open beyond closed [m], 0 (closed) .. 0.08."""
         if not 0.0 <= opening <= MAX_OPENING:
-            raise InputError(f"gripper opening must be within 0 .. {MAX_OPENING} m, got {opening}")
+            raise ValueError(f"gripper opening must be within 0 .. {MAX_OPENING} m, got {opening}")
         pb.setJointMotorControlArray(
             self.body_id,
             self.finger_indices,
@@ -253,7 +252,7 @@ class SimRobot:
     def _check_q(self, q: npt.ArrayLike) -> FloatArray:
         values = np.asarray(q, dtype=float).reshape(-1)
         if values.shape != (7,) or not np.all(np.isfinite(values)):
-            raise InputError(f"expected 7 finite joint angles [rad] for {JOINT_NAMES}, got {values.tolist()}")
+            raise ValueError(f"expected 7 finite joint angles [rad] for {self.joint_names}, got {values}")
         return values
 
 
@@ -265,4 +264,4 @@ def _log_so3(R: FloatArray) -> FloatArray:
     return angle / (2 * np.sin(angle)) * axis
 
 
-__all__ = ["FINGER_JOINTS", "GRIPPER_LINKS", "JOINT_NAMES", "MAX_OPENING", "Contact", "SimRobot"]
+__all__ = ["ARM_DOF", "FINGER_JOINTS", "GRIPPER_LINKS", "MAX_OPENING", "Contact", "SimRobot"]

@@ -1,7 +1,7 @@
 """Scenes from a seed: the target cloth at a random pose in the recognition range, and
 optionally the blue paper occluding a given fraction of it and a distractor cloth.
 
-Same world config, same `SceneConfig`, same seed: same scene.
+Same world config, same `SceneSettings`, same seed: same scene.
 """
 
 from __future__ import annotations
@@ -11,11 +11,16 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import SimulationError
-from robot_app.geometry import FloatArray, make_transform, rotation_about_z, rotation_from_rpy
+from robot_app.geometry import (
+    make_transform,
+    rotation_about_z,
+    rotation_from_rpy,
+)
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloths import ClothSpec, cloth_spec, outline_polygon, polygon_area
-from robot_app.sim.config import SceneConfig
+from robot_app.sim.config import SceneSettings
 from robot_app.sim.world import FLIP_FACE_UP, World
 
 MAX_TRIES = 500
@@ -46,9 +51,9 @@ class Scene:
         return self.target.spec
 
 
-def make_scene(world: World, config: SceneConfig | None = None, seed: int = 0) -> Scene:
+def make_scene(world: World, config: SceneSettings | None = None, seed: int = 0) -> Scene:
     """Places the scene's cloths (and paper) in `world` and lets them settle."""
-    config = config or SceneConfig()
+    config = config or SceneSettings()
     rng = np.random.default_rng(seed)
     range_cfg = world.config.range
     centre = np.asarray(range_cfg.centre_xy)

@@ -15,13 +15,14 @@ import numpy as np
 import numpy.typing as npt
 import pybullet as pb
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import SimulationError
-from robot_app.geometry import FloatArray, make_transform
+from robot_app.geometry import make_transform
 from robot_app.sim.cameras import Lighting, render_bgr
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloth_mesh import build_cloth_mesh, cache_dir
 from robot_app.sim.cloths import ClothSpec
-from robot_app.sim.config import ClothPhysicsConfig, RangeConfig, StationConfig
+from robot_app.sim.config import ClothPhysicsSettings, RangeSettings, StationSettings
 from robot_app.vision.camera import ModelCamera, PinholeCamera
 
 FACE_UP = np.diag([1.0, -1.0, -1.0])  # camera looking down; also Σ_M of a face-up cloth
@@ -55,12 +56,12 @@ class ModelStation:
 
     def __init__(
         self,
-        config: StationConfig | None = None,
-        physics: ClothPhysicsConfig | None = None,
-        sheet_rgb: tuple[float, float, float] = RangeConfig().sheet_rgb,
+        config: StationSettings | None = None,
+        physics: ClothPhysicsSettings | None = None,
+        sheet_rgb: tuple[float, float, float] = RangeSettings().sheet_rgb,
     ) -> None:
-        self.config = config or StationConfig()
-        self._physics = physics or ClothPhysicsConfig()
+        self.config = config or StationSettings()
+        self._physics = physics or ClothPhysicsSettings()
         self._client = pb.connect(pb.DIRECT)
         if self._client < 0:
             raise SimulationError("could not connect to pybullet")

@@ -16,8 +16,13 @@ import numpy as np
 import numpy.typing as npt
 import pybullet as pb
 
-from robot_app.errors import InputError, SimulationError
-from robot_app.geometry import FloatArray, make_transform, quaternion_xyzw_from_matrix, rotation_about_z
+from robot_app.arrays import FloatArray
+from robot_app.errors import SimulationError
+from robot_app.geometry import (
+    make_transform,
+    quaternion_xyzw_from_matrix,
+    rotation_about_z,
+)
 from robot_app.sim.cameras import RIGHT_FRAME, StereoCamera
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloth_mesh import build_cloth_mesh, cache_dir
@@ -138,7 +143,7 @@ class World:
     def step(self, n: int = 1) -> None:
         """Advances the simulation by `n` steps of `dt` [s]."""
         if n < 0:
-            raise InputError(f"step count must be >= 0, got {n}")
+            raise ValueError(f"step count must be >= 0, got {n}")
         for _ in range(n):
             pb.stepSimulation(physicsClientId=self._client)
         self.time += n * self.dt
@@ -205,7 +210,7 @@ class World:
     ) -> int:
         """A sheet of blue paper (visual only) lying `height` [m] above the table; returns its id."""
         if size[0] <= 0 or size[1] <= 0 or height <= 0:
-            raise InputError(f"occluder size and height must be positive [m], got {size}, {height}")
+            raise ValueError(f"occluder size and height must be positive [m], got {size}, {height}")
         z = self.config.table.top_z + height
         return self._box((*centre_xy, z), (*size, 0.0005), OCCLUDER_RGBA[:3], collision=False, yaw=yaw)
 

@@ -9,7 +9,7 @@ from robot_app.vision.camera import (
     save_model_camera,
     save_rig,
 )
-from robot_app.vision.fitness import FitnessEvaluator, FitnessParams, KernelFitness
+from robot_app.vision.fitness import FitnessEvaluator, FitnessSettings, KernelFitness
 from robot_app.vision.full_search import FitnessPeak, FullSearchResult, find_peaks, full_search
 from robot_app.vision.ga import GAResult, GASettings, GeneticAlgorithm, SearchBounds
 from robot_app.vision.hue import (
@@ -43,8 +43,8 @@ __all__ = [
     "LIGHT",
     "ClothModel",
     "FitnessEvaluator",
-    "FitnessParams",
     "FitnessPeak",
+    "FitnessSettings",
     "FullSearchResult",
     "GAResult",
     "GASettings",

@@ -1,6 +1,6 @@
 """Pinhole cameras and the stereo rig (paper eqs. 1-8), and their YAML files.
 
-Conventions (DESIGN.md): OpenCV camera frames (x right, y down, z along the optical
+Conventions (docs/architecture.md): OpenCV camera frames (x right, y down, z along the optical
 axis); a stereo rig follows `cv2.stereoCalibrate`: X_right = R @ X_left + T. A pose
 recognised by the rig is ^CR T_M, the model in the right camera.
 """
@@ -15,8 +15,13 @@ import numpy as np
 import numpy.typing as npt
 import yaml
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import CalibrationError, InputError
-from robot_app.geometry import FloatArray, invert_transform, is_rotation, make_transform
+from robot_app.geometry import (
+    invert_transform,
+    is_rotation,
+    make_transform,
+)
 
 
 def _readonly(array: npt.ArrayLike, shape: tuple[int, ...], name: str) -> FloatArray:
@@ -98,7 +103,7 @@ class PinholeCamera:
         """
         P = np.asarray(points_camera, dtype=float)
         if P.shape[-1] != 3:
-            raise InputError(f"points must have shape (..., 3), got {P.shape}")
+            raise ValueError(f"points must have shape (..., 3), got {P.shape}")
         z = P[..., 2]
         with np.errstate(divide="ignore", invalid="ignore"):
             x = np.where(z > 0, P[..., 0] / z, np.nan)
@@ -255,7 +260,7 @@ def _image_size(data: dict[str, Any], file: str | Path) -> tuple[int, int]:
 
 
 def load_rig(path: str | Path) -> StereoRig:
-    """Reads a stereo rig YAML file (DESIGN.md format)."""
+    """Reads a stereo rig YAML file (docs/architecture.md format)."""
     data = _read_mapping(path, "stereo rig")
     size = _image_size(data, path)
     try:
@@ -283,7 +288,7 @@ def save_rig(rig: StereoRig, path: str | Path) -> None:
 
 
 def load_model_camera(path: str | Path) -> ModelCamera:
-    """Reads a model-generation camera YAML file (DESIGN.md format)."""
+    """Reads a model-generation camera YAML file (docs/architecture.md format)."""
     data = _read_mapping(path, "camera")
     size = _image_size(data, path)
     try:

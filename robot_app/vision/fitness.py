@@ -19,7 +19,7 @@ its hue, as in the paper. F = (F_R + F_L) / 2
 (eq. 11) is reported divided by its maximum, so that a perfect match is 1.0. Points that
 fall outside an image (or behind a camera) contribute nothing to that image's sum.
 
-Which maximum (`FitnessParams.normalisation`):
+Which maximum (`FitnessSettings.normalisation`):
 - "model" (the paper): 2·N_in + 0.1·N_out with the default scores, over all points in
   both images. A pose that shows only part of the model can then at most reach the
   fraction of the maximum in view, so a cloth that reaches past the edge of one image
@@ -50,9 +50,9 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import Field, model_validator
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.errors import InputError
-from robot_app.geometry import FloatArray
 from robot_app.vision._kernels import (
     bgr_codes,
     every_colour,
@@ -70,7 +70,7 @@ OUTSIDE_ROW = COLOUR_CODES  # table row of S_out points; rows 0-257 are S_in poi
 _COLUMNS = COLOUR_CODES + 1  # pixel codes: hues 0-255, DARK, LIGHT, OFF_IMAGE
 
 
-class FitnessParams(StrictModel):
+class FitnessSettings(StrictModel):
     """Constants of eqs. 9-10; the defaults are the paper's.
 
     Attributes:
@@ -126,7 +126,7 @@ class FitnessParams(StrictModel):
     hidden_penalty: float = Field(default=0.0, ge=0.0, le=1.0)
 
     @model_validator(mode="after")
-    def _scores_ordered(self) -> FitnessParams:
+    def _scores_ordered(self) -> FitnessSettings:
         if self.score_in_match < max(self.score_in_background, self.score_in_other):
             raise ValueError("score_in_match must be the largest S_in score")
         if self.score_out_background < self.score_out_other:
@@ -137,7 +137,7 @@ class FitnessParams(StrictModel):
 
 
 def score_table(
-    background_hue: float, params: FitnessParams, model_hues: npt.ArrayLike | None = None
+    background_hue: float, params: FitnessSettings, model_hues: npt.ArrayLike | None = None
 ) -> npt.NDArray[np.float32]:
     """(259, 259) table of eqs. 9-10: row = model colour code 0-257 (hue, DARK, LIGHT) or 258
     (S_out), column = pixel code.
@@ -170,7 +170,7 @@ def score_table(
 
 
 def seen_table(
-    background_hue: float, params: FitnessParams, model_hues: npt.ArrayLike | None = None
+    background_hue: float, params: FitnessSettings, model_hues: npt.ArrayLike | None = None
 ) -> npt.NDArray[np.bool_]:
     """(259, 259) like `score_table`: does a point of that row on that pixel code count as seen?
 
@@ -204,14 +204,14 @@ def _background_distance(background_hue: float) -> FloatArray:
 
 
 def _foreign_hues(
-    background_hue: float, params: FitnessParams, model_hues: npt.ArrayLike, background_threshold: int
+    background_hue: float, params: FitnessSettings, model_hues: npt.ArrayLike, background_threshold: int
 ) -> npt.NDArray[np.bool_]:
     """(258,) colour codes neither within `background_threshold` of H̄_B nor near a model colour."""
     far_from_background = _background_distance(background_hue) > background_threshold
     return np.asarray(far_from_background & ~_near_model_hues(model_hues, params))
 
 
-def _near_model_hues(model_hues: npt.ArrayLike, params: FitnessParams) -> npt.NDArray[np.bool_]:
+def _near_model_hues(model_hues: npt.ArrayLike, params: FitnessSettings) -> npt.NDArray[np.bool_]:
     """(258,) colour codes that match one the model really has: one that at least
     `model_hue_min_share` of its S_in points have (a few mixed pixels along colour edges
     would otherwise make a blue sheet "near" a cyan cloth)."""
@@ -239,12 +239,12 @@ class FitnessEvaluator:
         self,
         model: ClothModel,
         rig: StereoRig,
-        params: FitnessParams | None = None,
-        search_params: FitnessParams | None = None,
+        params: FitnessSettings | None = None,
+        search_params: FitnessSettings | None = None,
     ) -> None:
         self.model = model
         self.rig = rig
-        self.params = params if params is not None else FitnessParams()
+        self.params = params if params is not None else FitnessSettings()
         self.search_params = search_params if search_params is not None else self.params
         self._table = _paired_table(model, self.params)
         self._search_table = _paired_table(model, self.search_params)
@@ -339,7 +339,7 @@ class FitnessEvaluator:
             search: score with `search_params` instead of `params`.
 
         Returns:
-            (P,) fitness, F(^C φ_M) / its maximum (see `FitnessParams.normalisation`; with
+            (P,) fitness, F(^C φ_M) / its maximum (see `FitnessSettings.normalisation`; with
             "model" that is score_in_match·N_in + score_out_background·N_out), each
             point's score weighted by the area it stands for (`ClothModel.weights_in`,
             `weights_out`; all 1 for the paper's uniform grid, which gives eqs. 9-11 exactly).
@@ -365,9 +365,9 @@ class FitnessEvaluator:
             InputError: no images yet (call `update`) or a stride below 1.
         """
         if self._codes is None:
-            raise InputError("no stereo pair to evaluate on: call update(left, right) first")
+            raise RuntimeError("no stereo pair to evaluate on: call update(left, right) first")
         if stride < 1:
-            raise InputError(f"stride must be a positive integer, got {stride}")
+            raise ValueError(f"stride must be a positive integer, got {stride}")
         width, height = self.rig.image_size
         points = self._point_set(int(stride))
         params = self.search_params if search else self.params
@@ -444,7 +444,7 @@ class KernelFitness:
         avoid: AvoidedPoses | None = None,
     ) -> None:
         if stride < 1:
-            raise InputError(f"stride must be a positive integer, got {stride}")
+            raise ValueError(f"stride must be a positive integer, got {stride}")
         self.evaluator = evaluator
         self.stride = stride
         self.search = search
@@ -482,7 +482,7 @@ def colour_table(min_saturation: int, min_value: int, value_split: int) -> npt.N
     return table
 
 
-def _paired_table(model: ClothModel, params: FitnessParams) -> npt.NDArray[np.float32]:
+def _paired_table(model: ClothModel, params: FitnessSettings) -> npt.NDArray[np.float32]:
     """The flat (score, seen) table the kernels read: entry 2 (row · columns + code) is the score."""
     scores = score_table(model.background_hue, params, model.hues_in)
     seen = seen_table(model.background_hue, params, model.hues_in)
@@ -504,7 +504,7 @@ def _as_poses(transforms: npt.ArrayLike) -> FloatArray:
     if T.ndim == 2:
         T = T[None]
     if T.ndim != 3 or T.shape[1:] != (4, 4):
-        raise InputError(f"poses must have shape (P, 4, 4) or (4, 4), got {T.shape}")
+        raise ValueError(f"poses must have shape (P, 4, 4) or (4, 4), got {T.shape}")
     return T
 
 
@@ -513,7 +513,7 @@ __all__ = [
     "OUTSIDE_ROW",
     "AvoidedPoses",
     "FitnessEvaluator",
-    "FitnessParams",
+    "FitnessSettings",
     "KernelFitness",
     "colour_table",
     "score_table",

@@ -17,8 +17,13 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import InputError
-from robot_app.geometry import FloatArray, is_rotation, make_transform, rotation_about_z
+from robot_app.geometry import (
+    is_rotation,
+    make_transform,
+    rotation_about_z,
+)
 
 
 class PoseEvaluator(Protocol):

@@ -31,9 +31,8 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import Field, model_validator
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
-from robot_app.errors import InputError
-from robot_app.geometry import FloatArray
 from robot_app.vision._kernels import evolve, next_generation, pose_parameters, transforms_from_genes
 from robot_app.vision.fitness import KernelFitness
 
@@ -41,11 +40,11 @@ BITS = 12
 GENES = 6
 LEVELS = (1 << BITS) - 1  # highest gene value, 4095
 Genes = npt.NDArray[np.uint16]
-FitnessFunction = Callable[[FloatArray], FloatArray]  # (P, 4, 4) poses -> (P,) fitness
+Objective = Callable[[FloatArray], FloatArray]  # (P, 4, 4) poses -> (P,) fitness values
 
 
 class SearchBounds(StrictModel):
-    """The search space, in the right camera frame Σ_CR (defaults: DESIGN.md).
+    """The search space, in the right camera frame Σ_CR (defaults: docs/architecture.md).
 
     Attributes:
         x, y, z: ranges of the position of Σ_M [m].
@@ -197,16 +196,16 @@ class GAResult:
 
 
 class GeneticAlgorithm:
-    """The GA over a fitness function of poses; holds the population between calls."""
+    """The GA over an objective (a fitness function of poses); holds the population between calls."""
 
     def __init__(
         self,
-        fitness: FitnessFunction,
+        objective: Objective,
         bounds: SearchBounds | None = None,
         settings: GASettings | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
-        self.fitness = fitness
+        self.objective = objective
         self.bounds = bounds if bounds is not None else SearchBounds()
         self.settings = settings if settings is not None else GASettings()
         self.rng = rng if rng is not None else np.random.default_rng(self.settings.seed)
@@ -228,7 +227,7 @@ class GeneticAlgorithm:
     def islands(self) -> list[tuple[Genes, FloatArray]]:
         """(genes, scores) of each island's current individuals."""
         if self.population is None or self.scores is None:
-            raise InputError("no population yet: call run() first")
+            raise RuntimeError("no population yet: call run() first")
         return [(self.population[sl], self.scores[sl]) for sl in self._islands]
 
     def transforms(self, genes: Genes) -> FloatArray:
@@ -248,9 +247,9 @@ class GeneticAlgorithm:
         return self._evolve(genes, s.generations if generations is None else generations)
 
     def evolve(self, generations: int) -> GAResult:
-        """Continues from the kept population (re-scored with the current `fitness`)."""
+        """Continues from the kept population (re-scored with the current `objective`)."""
         if self.population is None:
-            raise InputError("evolve() needs a population: call run() first")
+            raise RuntimeError("evolve() needs a population: call run() first")
         return self._evolve(self.population, generations)
 
     def track(
@@ -272,7 +271,7 @@ class GeneticAlgorithm:
         if transform_motion is not None:
             motion = np.asarray(transform_motion, dtype=float)
             if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
-                raise InputError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
+                raise ValueError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
             moved = motion @ self.transforms(genes)
             genes = encode(parameters_from_transforms(moved), self.bounds, self.settings.gray_code)
         count = self.settings.tracking_generations if generations is None else generations
@@ -280,13 +279,13 @@ class GeneticAlgorithm:
 
     def _evolve(self, genes: Genes, generations: int) -> GAResult:
         if generations < 0:
-            raise InputError(f"generations must be >= 0, got {generations}")
-        scores = self.fitness(self.transforms(genes))
+            raise ValueError(f"generations must be >= 0, got {generations}")
+        scores = self.objective(self.transforms(genes))
         evaluations = len(genes)
         history = [float(scores.max())]
         in_python = generations
-        if isinstance(self.fitness, KernelFitness) and not self.fitness.subpixel and generations > 0:
-            compiled = self._compiled_generations(self.fitness, genes, scores, generations)
+        if isinstance(self.objective, KernelFitness) and not self.objective.subpixel and generations > 0:
+            compiled = self._compiled_generations(self.objective, genes, scores, generations)
             genes, scores, evaluated, best_history = compiled
             evaluations += evaluated
             history.extend(best_history.tolist())
@@ -328,7 +327,7 @@ class GeneticAlgorithm:
         offspring = source < 0
         new_scores = np.empty(len(new_genes))
         new_scores[~offspring] = scores[source[~offspring]]
-        new_scores[offspring] = self.fitness(self.transforms(new_genes[offspring]))
+        new_scores[offspring] = self.objective(self.transforms(new_genes[offspring]))
         return new_genes, new_scores, int(offspring.sum())
 
 

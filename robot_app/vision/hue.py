@@ -66,7 +66,7 @@ def circular_mean_hue(hues: npt.ArrayLike) -> float:
     """Mean of hues (0-255) on the circle, in [0, 256)."""
     angles = np.asarray(hues, dtype=float).reshape(-1) * (2 * np.pi / HUE_RANGE)
     if angles.size == 0:
-        raise InputError("circular_mean_hue of no hues")
+        raise ValueError("circular_mean_hue of no hues")
     mean = np.arctan2(np.sin(angles).mean(), np.cos(angles).mean())
     hue = float((mean * HUE_RANGE / (2 * np.pi)) % HUE_RANGE)
     return 0.0 if hue >= HUE_RANGE else hue  # -1e-15 % 256 rounds to 256.0

@@ -4,7 +4,7 @@ A photo of the cloth lying flat on a green sheet, taken by the model camera at a
 distance (Fig. 7, paper: 400 mm), becomes a set of points in metres on the cloth plane:
 S_in, the pixels whose hue differs from the average background hue H̄_B, each with its
 hue, and S_out, a band enveloping S_in that must look like background. Points are in
-Σ_M (DESIGN.md): origin at the centroid of S_in, x along the photo's image x, y along
+Σ_M (docs/architecture.md): origin at the centroid of S_in, x along the photo's image x, y along
 its image y, z = 0 on the cloth plane.
 """
 
@@ -22,9 +22,10 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import Field, field_validator
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.errors import InputError, ModelError
-from robot_app.geometry import FloatArray, rotation_about_z
+from robot_app.geometry import rotation_about_z
 from robot_app.vision.camera import ModelCamera, PinholeCamera
 from robot_app.vision.hue import (
     COLOUR_CODES,
@@ -236,7 +237,7 @@ class ModelSettings(StrictModel):
     outline (the sheet is saturated green), so S_out stays outside the whole cloth. With
     `tones` (beyond the paper) they are sampled into S_in with a tone, DARK (value below
     `value_split`) or LIGHT, that the fitness matches against pixels of the same tone
-    (its `FitnessParams.min_saturation` etc. should be the same); without, they carry no
+    (its `FitnessSettings.min_saturation` etc. should be the same); without, they carry no
     sample, as in the paper's hue-only model, and a cloth's black or white parts add
     nothing to its fitness: a yellow-black check cloth then scored 0.83 at its true pose
     in the simulator, and a maroon cloth with white dots matched itself half-turned.

@@ -13,8 +13,8 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import InputError, ModelError
-from robot_app.geometry import FloatArray
 from robot_app.vision.camera import PinholeCamera
 from robot_app.vision.full_search import FullSearchResult
 from robot_app.vision.hue import DARK, HUE_RANGE
@@ -62,7 +62,7 @@ def save_preview(model: ClothModel, photo_bgr: npt.NDArray[np.uint8], path: str 
     """
     photo = np.asarray(photo_bgr)
     if photo.ndim != 3 or photo.shape[2] != 3 or photo.dtype != np.uint8:
-        raise InputError(f"photo must be an (H, W, 3) uint8 image, got {photo.shape} {photo.dtype}")
+        raise ValueError(f"photo must be an (H, W, 3) uint8 image, got {photo.shape} {photo.dtype}")
     pix_in, pix_out, pix_grasp = model_points_in_photo(model)
     radius = max(1, round(min(photo.shape[:2]) / 240))
     s_in = np.zeros_like(photo)
@@ -154,7 +154,7 @@ def _individual_points(
     else:
         z = np.asarray(fitness, dtype=float).reshape(-1)
         if z.shape != x.shape:
-            raise InputError(f"individual_fitness needs one value per individual ({len(x)}), got {z.shape}")
+            raise ValueError(f"individual_fitness needs one value per individual ({len(x)}), got {z.shape}")
     return np.column_stack([x * 1e3, y * 1e3, z])
 
 

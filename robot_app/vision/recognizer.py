@@ -11,7 +11,7 @@ counted. `found` compares the paper's (nearest-pixel) fitness at the final pose 
 acceptance threshold.
 
 Multi-step recognition (`Recognizer.track`) keeps the GA population between frames,
-moves it by the camera motion and evolves a few generations per frame (Sec. II-E, DESIGN).
+moves it by the camera motion and evolves a few generations per frame (Sec. II-E; docs/architecture.md).
 With `report_peaks`, further GA runs that ignore the neighbourhoods of the peaks found so
 far report the best pose of each distinct peak (e.g. each cloth in view, Fig. 13 e-f).
 """
@@ -29,11 +29,16 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import Field
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
-from robot_app.errors import InputError
-from robot_app.geometry import FloatArray, quaternion_xyzw_from_matrix, rotation_about_z, wrap_angle, yaw_of
+from robot_app.geometry import (
+    quaternion_xyzw_from_matrix,
+    rotation_about_z,
+    wrap_angle,
+    yaw_of,
+)
 from robot_app.vision.camera import StereoRig
-from robot_app.vision.fitness import AvoidedPoses, FitnessEvaluator, FitnessParams, KernelFitness
+from robot_app.vision.fitness import AvoidedPoses, FitnessEvaluator, FitnessSettings, KernelFitness
 from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBounds, encode, parameters_from_transforms
 from robot_app.vision.photo_model import ClothModel
 from robot_app.vision.refinement import (
@@ -75,12 +80,12 @@ class RecognitionSettings(StrictModel):
             another cloth); None searches with the paper's `score_out_other`. The
             reported fitness and `found` always use `fitness` (the paper's eqs.).
         search_hidden_foreign: the search takes points on a foreign hue as hidden (see
-            `FitnessParams.hidden_foreign`), so that a cloth partly under a sheet of another
+            `FitnessSettings.hidden_foreign`), so that a cloth partly under a sheet of another
             colour matches fully at its true pose; needs `fitness.normalisation` "view".
             On the synthetic bench with 45 % covered, without it the search preferred a
             smaller, farther pose squeezed onto the visible part (median z error +34 mm).
-        search_hidden_penalty: the search's `FitnessParams.hidden_penalty`.
-        search_min_view_fraction: the search's `FitnessParams.min_view_fraction`. 0.3: a
+        search_hidden_penalty: the search's `FitnessSettings.hidden_penalty`.
+        search_min_view_fraction: the search's `FitnessSettings.min_view_fraction`. 0.3: a
             cloth 45 % under a sheet that also reaches past an image edge has less than
             half of its points seen, and with the floor at 0.5 its true pose scored
             0.81-0.88 while a smaller, farther pose squeezed onto the visible part scored
@@ -134,7 +139,7 @@ class RecognitionSettings(StrictModel):
             median on the benchmark went from 62 to 45 ms.
     """
 
-    fitness: FitnessParams = FitnessParams(min_saturation=40, min_value=40)
+    fitness: FitnessSettings = FitnessSettings(min_saturation=40, min_value=40)
     ga: GASettings = GASettings()
     bounds: SearchBounds = SearchBounds()
     acceptance_threshold: float = Field(default=0.85, ge=0.0, le=1.0)
@@ -226,7 +231,7 @@ class Recognition:
         return yaw_of(self.transform_model_to_camera[:3, :3])
 
     def to_json(self) -> dict[str, object]:
-        """The DESIGN.md recognition record (plus `peaks` when there are any)."""
+        """The docs/architecture.md recognition record (plus `peaks` when there are any)."""
         data: dict[str, object] = {
             "found": bool(self.found),
             "fitness": float(self.fitness),
@@ -407,12 +412,12 @@ class Recognizer:
         s = self.settings
         count = s.ga.tracking_generations if generations is None else generations
         if count < 0:
-            raise InputError(f"generations must be >= 0, got {count}")
+            raise ValueError(f"generations must be >= 0, got {count}")
         poses = self._poses
         if transform_motion is not None:
             motion = np.asarray(transform_motion, dtype=float)
             if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
-                raise InputError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
+                raise ValueError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
             poses = motion @ poses
         self.evaluator.update(image_left_bgr, image_right_bgr)
         before = self.evaluator.evaluations
@@ -463,7 +468,7 @@ class Recognizer:
         coarse = min(s.coarse_generations, s.ga.generations)
         ga = GeneticAlgorithm(self._score(s.coarse_stride, centres=centres), s.bounds, s.ga, rng)
         ga.run(coarse)
-        ga.fitness = self._score(s.fine_stride, centres=centres)
+        ga.objective = self._score(s.fine_stride, centres=centres)
         ga.evolve(s.ga.generations - coarse)
         return ga
 

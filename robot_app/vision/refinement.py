@@ -33,13 +33,13 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import Field
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
-from robot_app.geometry import FloatArray
 from robot_app.vision._kernels import cma_run, cma_sample, cma_update, compass_run, moved_poses, poses_allowed
 from robot_app.vision.fitness import AvoidedPoses, KernelFitness
 
 PoseScore = Callable[[FloatArray], FloatArray]  # (P, 4, 4) poses -> (P,) fitness
-PoseFilter = Callable[[FloatArray], np.ndarray]  # (P, 4, 4) poses -> (P,) bool allowed
+PosePredicate = Callable[[FloatArray], np.ndarray]  # (P, 4, 4) poses -> (P,) bool allowed
 
 
 class RefinementSettings(StrictModel):
@@ -106,7 +106,7 @@ def compass_search(
     score: PoseScore,
     settings: RefinementSettings,
     iterations: int,
-    allowed: PoseFilter | None = None,
+    allowed: PosePredicate | None = None,
 ) -> tuple[FloatArray, float]:
     """Compass search with gradient moves on (x, y, depth along the ray, rotation about camera x, y, z).
 
@@ -159,7 +159,7 @@ def cma_search(
     score: PoseScore,
     settings: RefinementSettings,
     rng: np.random.Generator,
-    allowed: PoseFilter | None = None,
+    allowed: PosePredicate | None = None,
     fine_score: PoseScore | None = None,
 ) -> tuple[FloatArray, float]:
     """CMA-ES over the pose moves of `moved` (x, y, depth along the ray, rotation vector).
@@ -216,55 +216,55 @@ def cma_search(
 
 def cma_search_compiled(
     pose: FloatArray,
-    fitness: KernelFitness,
+    objective: KernelFitness,
     settings: RefinementSettings,
     rng: np.random.Generator,
     limits: PoseLimits,
     fine: KernelFitness | None = None,
 ) -> tuple[FloatArray, float]:
     """`cma_search` in one compiled loop (`_kernels.cma_run`): the same result, bit for bit,
-    for `score` = `fitness` (nearest pixel), `fine_score` = the sub-pixel fitness of
+    for `score` = `objective` (nearest pixel), `fine_score` = the sub-pixel fitness of
     `fine`'s points and parameters (None: no fine ranking) and `allowed` = `limits.allows`
-    with `fitness.avoid`. Saves the Python overhead of each iteration (about 0.1 ms of the
+    with `objective.avoid`. Saves the Python overhead of each iteration (about 0.1 ms of the
     0.2 ms an iteration of 12 poses cost).
 
     Returns:
-        (best pose seen, its score by the fitness of the last iteration).
+        (best pose seen, its score by the objective of the last iteration).
     """
     weights, constants = _cma_constants(settings.cma_population)
     draws = rng.standard_normal((settings.cma_iterations, settings.cma_population, _CMA_DIMENSIONS))
-    arguments, normalisation = fitness.kernel_arguments()
-    fine_arguments, fine_normalisation = (fitness if fine is None else fine).kernel_arguments()
+    arguments, normalisation = objective.kernel_arguments()
+    fine_arguments, fine_normalisation = (objective if fine is None else fine).kernel_arguments()
     best_pose, best, evaluated = cma_run(
         np.ascontiguousarray(pose, dtype=float), draws, settings.steps(), settings.cma_sigma,
         settings.cma_tolerance, settings.cma_iterations - settings.cma_fine_iterations + 1,
         settings.cma_fine_below, weights, constants, arguments, normalisation, fine is not None,
-        fine_arguments, fine_normalisation, tuple(limits), fitness.avoid.kernel_arguments(),
+        fine_arguments, fine_normalisation, tuple(limits), objective.avoid.kernel_arguments(),
     )  # fmt: skip
-    fitness.count(evaluated)
+    objective.count(evaluated)
     return np.asarray(best_pose), float(best)
 
 
 def compass_search_compiled(
     pose: FloatArray,
-    fitness: KernelFitness,
+    objective: KernelFitness,
     settings: RefinementSettings,
     iterations: int,
     limits: PoseLimits,
 ) -> tuple[FloatArray, float]:
     """`compass_search` in one compiled loop (`_kernels.compass_run`): the same result for
-    `score` = `fitness` (its `subpixel` or not) and `allowed` = `limits.allows` with
+    `score` = `objective` (its `subpixel` or not) and `allowed` = `limits.allows` with
     `fitness.avoid`, without the Python overhead of each iteration (~0.2 ms of 15 poses).
 
     Returns:
         (best pose, its score).
     """
-    arguments, normalisation = fitness.kernel_arguments()
+    arguments, normalisation = objective.kernel_arguments()
     best_pose, best, evaluated = compass_run(
         np.ascontiguousarray(pose, dtype=float), settings.steps(), iterations, settings.min_step_position,
-        arguments, normalisation, fitness.subpixel, tuple(limits), fitness.avoid.kernel_arguments(),
+        arguments, normalisation, objective.subpixel, tuple(limits), objective.avoid.kernel_arguments(),
     )  # fmt: skip
-    fitness.count(evaluated)
+    objective.count(evaluated)
     return np.asarray(best_pose), float(best)
 
 

@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from robot_app.geometry import FloatArray
+from robot_app.arrays import FloatArray
 from robot_app.vision.camera import PinholeCamera
 from robot_app.vision.hue import HUE_RANGE, colour_codes, colours_match, hue_distance
 

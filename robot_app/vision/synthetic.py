@@ -18,8 +18,12 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
+from robot_app.arrays import FloatArray
 from robot_app.errors import InputError
-from robot_app.geometry import FloatArray, make_transform, rotation_about_z
+from robot_app.geometry import (
+    make_transform,
+    rotation_about_z,
+)
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 
 Image = npt.NDArray[np.uint8]
@@ -50,11 +54,11 @@ class SyntheticCloth:
         texture = np.asarray(self.texture_bgr)
         alpha = np.asarray(self.alpha, dtype=bool)
         if texture.ndim != 3 or texture.shape[2] != 3 or texture.dtype != np.uint8:
-            raise InputError(f"texture_bgr must be (H, W, 3) uint8, got {texture.shape} {texture.dtype}")
+            raise ValueError(f"texture_bgr must be (H, W, 3) uint8, got {texture.shape} {texture.dtype}")
         if alpha.shape != texture.shape[:2] or not alpha.any():
-            raise InputError(f"alpha must be a non-empty (H, W) mask of shape {texture.shape[:2]}")
+            raise ValueError(f"alpha must be a non-empty (H, W) mask of shape {texture.shape[:2]}")
         if len(self.size) != 2 or min(self.size) <= 0:
-            raise InputError(f"size must be (width, height) > 0 [m], got {self.size}")
+            raise ValueError(f"size must be (width, height) > 0 [m], got {self.size}")
         texture.setflags(write=False)
         alpha.setflags(write=False)
         object.__setattr__(self, "texture_bgr", texture)
@@ -280,7 +284,7 @@ def render_stereo_pair(
         table = np.asarray(background_bgr)
         width, height = rig.image_size
         if table.shape != (height, width, 3) or table.dtype != np.uint8:
-            raise InputError(f"background_bgr must be ({height}, {width}, 3) uint8, got {table.shape}")
+            raise ValueError(f"background_bgr must be ({height}, {width}, 3) uint8, got {table.shape}")
     layers = [*placements, occluder] if occluder is not None else list(placements)
     T_right_to_left = rig.transform_right_to_left
     images = []
@@ -289,7 +293,7 @@ def render_stereo_pair(
         for cloth, transform in layers:
             pose = np.asarray(transform, dtype=float)
             if pose.shape != (4, 4):
-                raise InputError(f"a placement's transform must be 4x4, got {pose.shape}")
+                raise ValueError(f"a placement's transform must be 4x4, got {pose.shape}")
             image = _draw_cloth(image, camera, cloth, to_camera @ pose)
         images.append(_add_noise(image, rng, noise_sigma))
     return images[0], images[1]
@@ -318,7 +322,7 @@ def occluder_covering(
         (sheet, transform_sheet_to_right) to pass as `occluder=`.
     """
     if not 0.0 < fraction < 1.0:
-        raise InputError(f"occluder fraction must be in (0, 1), got {fraction}")
+        raise ValueError(f"occluder fraction must be in (0, 1), got {fraction}")
     v, u = np.nonzero(cloth.alpha)
     points = cloth.texel_to_model(np.stack([u, v], axis=-1))[:, :2]
     d = np.array([np.cos(direction), np.sin(direction)])
@@ -401,7 +405,7 @@ def _normalised_rays(camera: PinholeCamera) -> FloatArray:
 
 def _add_noise(image: npt.NDArray[np.float32], rng: np.random.Generator, sigma: float) -> Image:
     if sigma < 0:
-        raise InputError(f"noise_sigma must be >= 0 [grey levels], got {sigma}")
+        raise ValueError(f"noise_sigma must be >= 0 [grey levels], got {sigma}")
     if sigma > 0:
         image = image + rng.normal(0.0, sigma, image.shape).astype(np.float32)
     return np.clip(np.rint(image), 0, 255).astype(np.uint8)
