@@ -14,7 +14,7 @@ from typing import Any, TypeVar
 import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from robot_app.errors import ConfigError
+from robot_app.errors import ConfigError, ConfigProblem
 
 ModelT = TypeVar("ModelT", bound=BaseModel)
 
@@ -28,16 +28,28 @@ class StrictModel(BaseModel):
 def read_yaml(path: str | Path) -> dict[str, Any]:
     """Reads a YAML mapping from `path`; an empty file is an empty mapping."""
     file = Path(path)
+    if file.is_dir():
+        raise ConfigError(
+            f"config file {file} is a folder, not a YAML file", path=file, expected="a YAML file"
+        )
     if not file.is_file():
-        raise ConfigError(f"config file not found: {file}")
+        raise ConfigError(f"config file not found: {file}", path=file, expected="an existing YAML file")
     try:
         data = yaml.safe_load(file.read_text())
-    except yaml.YAMLError as err:
-        raise ConfigError(f"{file} is not valid YAML: {err}") from err
+    except (yaml.YAMLError, UnicodeDecodeError) as err:
+        problem = str(err).replace("\n", " ")
+        raise ConfigError(f"{file} is not valid YAML: {problem}", path=file, expected="YAML text") from err
+    except OSError as err:
+        raise ConfigError(f"cannot read config file {file}: {err.strerror}", path=file) from err
     if data is None:
         return {}
     if not isinstance(data, dict):
-        raise ConfigError(f"{file} must hold a mapping at the top level, got {type(data).__name__}")
+        raise ConfigError(
+            f"{file} must hold a mapping at the top level, got {type(data).__name__}",
+            path=file,
+            value=data,
+            expected="key: value lines",
+        )
     return data
 
 
@@ -45,11 +57,20 @@ def parse_override(text: str) -> tuple[list[str], Any]:
     """Splits 'a.b.c=value' into (['a', 'b', 'c'], value), the value parsed as YAML."""
     key, sep, raw = text.partition("=")
     if not sep or not key.strip():
-        raise ConfigError(f"override {text!r} must look like key.path=value")
+        raise ConfigError(
+            f"--set {text!r} must look like key.path=value",
+            key=key.strip() or None,
+            expected="key.path=value",
+        )
     try:
         value = yaml.safe_load(raw) if raw.strip() else ""
     except yaml.YAMLError as err:
-        raise ConfigError(f"override {text!r}: value is not valid YAML: {err}") from err
+        raise ConfigError(
+            f"--set {text!r}: the value is not valid YAML",
+            key=key.strip(),
+            value=raw,
+            expected="a YAML value",
+        ) from err
     return [part for part in key.strip().split(".")], value
 
 
@@ -65,7 +86,9 @@ def apply_overrides(data: dict[str, Any], overrides: list[str] | tuple[str, ...]
                 child = {}
                 node[part] = child
             elif not isinstance(child, dict):
-                raise ConfigError(f"override {text!r}: {part!r} is a value, not a section")
+                raise ConfigError(
+                    f"--set {text!r}: {part!r} is a value, not a section", key=".".join(path), value=value
+                )
             node = child
         node[path[-1]] = value
     return result
@@ -76,7 +99,8 @@ def validate(model_cls: type[ModelT], data: dict[str, Any], source: str = "confi
     try:
         return model_cls.model_validate(data)
     except ValidationError as err:
-        raise ConfigError(format_validation_error(err, source)) from err
+        problems = validation_problems(err)
+        raise ConfigError(format_validation_error(err, source), problems=problems) from err
 
 
 def load_config(
@@ -86,8 +110,15 @@ def load_config(
 ) -> ModelT:
     """Loads `path` (or the model's defaults if None), applies overrides, validates."""
     data = read_yaml(path) if path is not None else {}
-    source = str(path) if path is not None else "defaults"
-    return validate(model_cls, apply_overrides(data, overrides), source)
+    source = str(path) if path is not None else "settings"
+    if overrides:
+        source += " with --set " + " ".join(overrides) if path is not None else " (--set)"
+    try:
+        return validate(model_cls, apply_overrides(data, overrides), source)
+    except ConfigError as err:
+        if path is not None and err.path is None:
+            err.path = Path(path)
+        raise
 
 
 def dump_config(config: BaseModel, path: str | Path) -> None:
@@ -95,15 +126,28 @@ def dump_config(config: BaseModel, path: str | Path) -> None:
     Path(path).write_text(yaml.safe_dump(config.model_dump(mode="json"), sort_keys=False))
 
 
-def format_validation_error(err: ValidationError, source: str) -> str:
-    """One readable line per problem: 'key.path: what was wrong (got value)'."""
-    lines = [f"invalid {source}:"]
+def validation_problems(err: ValidationError) -> tuple[ConfigProblem, ...]:
+    """Each bad key of a pydantic validation error: dotted key, what was wrong, value given."""
+    problems = []
     for problem in err.errors():
         key = ".".join(str(part) for part in problem["loc"]) or "<top level>"
         if problem["type"] == "extra_forbidden":
-            lines.append(f"  {key}: unknown key")
+            problems.append(ConfigProblem(key, "unknown key", problem.get("input")))
         else:
-            lines.append(f"  {key}: {problem['msg']} (got {problem.get('input')!r})")
+            problems.append(ConfigProblem(key, str(problem["msg"]), problem.get("input")))
+    return tuple(problems)
+
+
+def format_validation_error(err: ValidationError, source: str) -> str:
+    """The first line names the first bad key (the one a user reads); one line per further problem.
+
+    'key.path: what was wrong (got value) [in source]'.
+    """
+    lines = []
+    for i, problem in enumerate(validation_problems(err)):
+        got = "" if problem.problem == "unknown key" else f" (got {problem.value!r})"
+        where = f" [in {source}]" if i == 0 else ""
+        lines.append(f"{'' if i == 0 else '  '}{problem.key}: {problem.problem}{got}{where}")
     return "\n".join(lines)
 
 
@@ -120,4 +164,5 @@ __all__ = [
     "parse_override",
     "read_yaml",
     "validate",
+    "validation_problems",
 ]

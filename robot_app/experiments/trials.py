@@ -64,11 +64,15 @@ def _prepare_folder(config: AnyTrialConfig, out_dir: Path, resume: bool) -> None
     config_file = out_dir / CONFIG_FILE
     if config_file.exists():
         if not resume:
-            raise InputError(f"{out_dir} already holds results; resume them or choose another --out")
+            raise InputError(
+                f"{out_dir} already holds results; resume them or choose another --out", path=out_dir
+            )
         try:
             previous = parse_trial_config(read_yaml(config_file), str(config_file))
         except ConfigError as err:
-            raise InputError(f"cannot resume {out_dir}: its {CONFIG_FILE} is invalid: {err}") from err
+            raise InputError(
+                f"cannot resume {out_dir}: its {CONFIG_FILE} is invalid: {err}", path=out_dir
+            ) from err
         if previous.config_hash() != config.config_hash():
             raise InputError(
                 f"cannot resume {out_dir}: it holds results of a different config "

@@ -236,26 +236,26 @@ class ModelCamera:
 def _read_mapping(path: str | Path, what: str) -> dict[str, Any]:
     file = Path(path)
     if not file.is_file():
-        raise InputError(f"{what} file not found: {file}")
+        raise InputError(f"{what} file not found: {file}", path=file)
     try:
         data = yaml.safe_load(file.read_text())
     except (yaml.YAMLError, UnicodeDecodeError) as err:
-        raise CalibrationError(f"{file} is not a YAML {what} file: {err}") from err
+        raise CalibrationError(f"{file} is not a YAML {what} file: {err}", path=file) from err
     if not isinstance(data, dict):
-        raise CalibrationError(f"{file} is not a YAML {what} file (no mapping at top level)")
+        raise CalibrationError(f"{file} is not a YAML {what} file (no mapping at top level)", path=file)
     return data
 
 
 def _require(data: dict[str, Any], key: str, file: str | Path) -> Any:
     if key not in data:
-        raise CalibrationError(f"{file}: missing key '{key}'")
+        raise CalibrationError(f"{file}: missing key '{key}'", path=file, key=key)
     return data[key]
 
 
 def _image_size(data: dict[str, Any], file: str | Path) -> tuple[int, int]:
     size = _require(data, "image_size", file)
     if not (isinstance(size, list | tuple) and len(size) == 2):
-        raise CalibrationError(f"{file}: image_size must be [width, height], got {size!r}")
+        raise CalibrationError(f"{file}: image_size must be [width, height], got {size!r}", path=file)
     return int(size[0]), int(size[1])
 
 
@@ -273,13 +273,13 @@ def load_rig(path: str | Path) -> StereoRig:
         R = np.asarray(_require(data, "R", path), dtype=float)
         T = np.asarray(_require(data, "T", path), dtype=float).reshape(-1)
         if R.shape != (3, 3) or T.shape != (3,):
-            raise CalibrationError(f"{path}: R must be 3x3 and T a 3-vector")
+            raise CalibrationError(f"{path}: R must be 3x3 and T a 3-vector", path=path)
         if not is_rotation(R, tol=1e-5):
-            raise CalibrationError(f"{path}: R is not a rotation matrix (R^T R != I or det != 1)")
+            raise CalibrationError(f"{path}: R is not a rotation matrix (R^T R != I or det != 1)", path=path)
         hand = data.get("transform_right_camera_to_hand")
         return StereoRig(cameras["left"], cameras["right"], make_transform(R, T), hand)
     except (TypeError, ValueError) as err:
-        raise CalibrationError(f"{path}: malformed stereo rig: {err}") from err
+        raise CalibrationError(f"{path}: malformed stereo rig: {err}", path=path) from err
 
 
 def save_rig(rig: StereoRig, path: str | Path) -> None:
@@ -297,7 +297,7 @@ def load_model_camera(path: str | Path) -> ModelCamera:
         )
         return ModelCamera(camera, float(_require(data, "distance", path)))
     except (TypeError, ValueError) as err:
-        raise CalibrationError(f"{path}: malformed camera file: {err}") from err
+        raise CalibrationError(f"{path}: malformed camera file: {err}", path=path) from err
 
 
 def save_model_camera(model_camera: ModelCamera, path: str | Path) -> None:

@@ -189,20 +189,22 @@ class ClothModel:
         """
         file = Path(path)
         if not file.is_file():
-            raise InputError(f"cloth model file not found: {file}")
+            raise InputError(f"cloth model file not found: {file}", path=file)
         try:
             with np.load(file, allow_pickle=False) as data:
                 arrays = {key: data[key] for key in data.files}
         except (OSError, ValueError, zipfile.BadZipFile, EOFError) as err:
-            raise ModelError(f"{file} is not a cloth model (.npz written by 'model make')") from err
+            raise ModelError(
+                f"{file} is not a cloth model (.npz written by 'model make')", path=file
+            ) from err
         if not isinstance(arrays, dict) or "header" not in arrays:
-            raise ModelError(f"{file} is not a cloth model: no '{MODEL_FORMAT}' header")
+            raise ModelError(f"{file} is not a cloth model: no '{MODEL_FORMAT}' header", path=file)
         try:
             header = json.loads(str(arrays["header"]))
         except json.JSONDecodeError as err:
-            raise ModelError(f"{file} is not a cloth model: unreadable header") from err
+            raise ModelError(f"{file} is not a cloth model: unreadable header", path=file) from err
         if not isinstance(header, dict) or header.get("format") != MODEL_FORMAT:
-            raise ModelError(f"{file} is not a cloth model: format tag is not '{MODEL_FORMAT}'")
+            raise ModelError(f"{file} is not a cloth model: format tag is not '{MODEL_FORMAT}'", path=file)
         if header.get("version") not in _READABLE_VERSIONS:
             raise ModelError(
                 f"{file}: cloth model version {header.get('version')} is not supported "
@@ -210,7 +212,7 @@ class ClothModel:
             )
         missing = {"points_in", "hues_in", "points_out", "grasp_point"} - arrays.keys()
         if missing:
-            raise ModelError(f"{file}: cloth model lacks arrays {sorted(missing)}")
+            raise ModelError(f"{file}: cloth model lacks arrays {sorted(missing)}", path=file)
         try:
             return cls(
                 name=str(header["name"]),
@@ -226,7 +228,7 @@ class ClothModel:
                 weights_out=arrays.get("weights_out"),
             )
         except (KeyError, TypeError, ValueError) as err:
-            raise ModelError(f"{file}: malformed cloth model: {err}") from err
+            raise ModelError(f"{file}: malformed cloth model: {err}", path=file) from err
 
 
 class ModelSettings(StrictModel):
@@ -286,10 +288,10 @@ def load_photo(path: str | Path) -> Image:
     """Reads a colour image file as (H, W, 3) uint8 BGR; missing or unreadable -> InputError."""
     file = Path(path)
     if not file.is_file():
-        raise InputError(f"image file not found: {file}")
+        raise InputError(f"image file not found: {file}", path=file)
     image = cv2.imread(str(file), cv2.IMREAD_COLOR)
     if image is None:
-        raise InputError(f"{file} is not a readable image (PNG, JPEG, BMP, TIFF ...)")
+        raise InputError(f"{file} is not a readable image (PNG, JPEG, BMP, TIFF ...)", path=file)
     return np.asarray(image, dtype=np.uint8)
 
 
