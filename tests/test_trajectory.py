@@ -81,20 +81,25 @@ def test_settings_scale_kinematic_limits_and_trim_positions() -> None:
 def test_bad_limits_and_settings_are_config_errors(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="lower must be below upper"):
         JointLimits([1.0], [0.0], [1.0], [1.0], [1.0])
-    with pytest.raises(ConfigError, match="velocity must be > 0"):
+    with pytest.raises(ConfigError) as negative:
         JointLimits([0.0], [1.0], [-1.0], [1.0], [1.0])
+    assert (negative.value.key, negative.value.value) == ("velocity", [-1.0])
     with pytest.raises(ConfigError, match="one value per joint"):
         JointLimits([0.0, 0.0], [1.0], [1.0], [1.0], [1.0])
-    with pytest.raises(ConfigError, match="must be finite"):
+    with pytest.raises(ConfigError) as infinite:
         JointLimits([0.0], [np.inf], [1.0], [1.0], [1.0])
-    with pytest.raises(ConfigError, match=r"\(0, 1\]"):
+    assert (infinite.value.key, infinite.value.value) == ("upper", [np.inf])
+    with pytest.raises(ConfigError) as scale:
         LIMITS.scaled(1.5)
+    assert (scale.value.key, scale.value.value) == ("safety_scale", 1.5)
     with pytest.raises(ConfigError, match="leave a range"):
         LIMITS.scaled(1.0, position_margin=2.0)
-    with pytest.raises(ConfigError, match="safety_scale"):
+    with pytest.raises(ConfigError) as zero_scale:
         load_config(TrajectorySettings, None, ["safety_scale=0"])
-    with pytest.raises(ConfigError, match="acceleration_per_velocity"):
+    assert (zero_scale.value.key, zero_scale.value.value) == ("safety_scale", 0)
+    with pytest.raises(ConfigError) as ratio:
         load_config(TrajectorySettings, None, ["acceleration_per_velocity=-1"])
+    assert (ratio.value.key, ratio.value.value) == ("acceleration_per_velocity", -1)
 
 
 def test_urdf_problems_are_input_errors(tmp_path: Path) -> None:

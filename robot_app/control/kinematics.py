@@ -104,7 +104,9 @@ class Kinematics:
         for name in (base_link, tip_frame):
             if not model.existFrame(name):
                 known = ", ".join(sorted({f.name for f in model.frames})[:12])
-                raise InputError(f"frame '{name}' is not in model '{model.name}'; frames include: {known}")
+                raise InputError(
+                    f"frame '{name}' is not in model '{model.name}'; frames include: {known}", key=name
+                )
         chain = self._chain_joint_ids(model, base_link, tip_frame)
         q_ref = self._locked_configuration(model, locked_positions or {})
         locked = [j for j in range(1, model.njoints) if j not in chain]
@@ -141,14 +143,14 @@ class Kinematics:
         """
         path = Path(urdf_path)
         if not path.is_file():
-            raise InputError(f"URDF file not found: {path}")
+            raise InputError(f"URDF file not found: {path}", path=path)
         for folder in package_dirs or ():
             if not Path(folder).is_dir():
-                raise InputError(f"package dir not found: {folder}")
+                raise InputError(f"package dir not found: {folder}", path=folder)
         try:
             model = pin.buildModelFromUrdf(str(path))
         except (RuntimeError, ValueError) as err:
-            raise InputError(f"cannot parse URDF {path}: {err}") from err
+            raise InputError(f"cannot parse URDF {path}: {err}", path=path) from err
         return cls(model, base_link, tip_frame, locked_positions)
 
     # ----------------------------------------------------------------- model set-up
@@ -164,7 +166,9 @@ class Kinematics:
         tip_path = ancestors(model.frames[model.getFrameId(tip_frame)].parentJoint)
         base_path = ancestors(model.frames[model.getFrameId(base_link)].parentJoint)
         if base_path and base_path[0] not in tip_path:
-            raise InputError(f"'{base_link}' is not on the path from the root to '{tip_frame}'")
+            raise InputError(
+                f"'{base_link}' is not on the path from the root to '{tip_frame}'", key=base_link
+            )
         chain = set(tip_path) - set(base_path)
         if not chain:
             raise InputError(f"no joint between '{base_link}' and '{tip_frame}'")
@@ -180,7 +184,7 @@ class Kinematics:
                 q[joint.idx_q] = min(max(q[joint.idx_q], lo), hi)
         for name, value in locked_positions.items():
             if not model.existJointName(name):
-                raise InputError(f"locked joint '{name}' is not in model '{model.name}'")
+                raise InputError(f"locked joint '{name}' is not in model '{model.name}'", key=name)
             joint = model.joints[model.getJointId(name)]
             if joint.nq == 1:
                 q[joint.idx_q] = value

@@ -68,7 +68,11 @@ class JointLimits:
         for field in ("lower", "upper", "velocity", "acceleration", "jerk"):
             value = np.array(getattr(self, field), dtype=float).reshape(-1)
             if not np.all(np.isfinite(value)):
-                raise ConfigError(f"joint limits: {field} must be finite, got {value.tolist()}")
+                raise ConfigError(
+                    f"joint limits: {field} must be finite, got {value.tolist()}",
+                    key=field,
+                    value=value.tolist(),
+                )
             value.setflags(write=False)
             object.__setattr__(self, field, value)
             arrays[field] = value
@@ -86,7 +90,11 @@ class JointLimits:
             )
         for field in ("velocity", "acceleration", "jerk"):
             if np.any(arrays[field] <= 0.0):
-                raise ConfigError(f"joint limits: {field} must be > 0, got {arrays[field].tolist()}")
+                raise ConfigError(
+                    f"joint limits: {field} must be > 0, got {arrays[field].tolist()}",
+                    key=field,
+                    value=arrays[field].tolist(),
+                )
 
     @property
     def dof(self) -> int:
@@ -147,7 +155,9 @@ class JointLimits:
         """Limits with velocity, acceleration and jerk times `factor` (0, 1] and the
         position range narrowed by `position_margin` [rad] at each end."""
         if not (0.0 < factor <= 1.0):
-            raise ConfigError(f"limit scale factor must be in (0, 1], got {factor}")
+            raise ConfigError(
+                f"limit scale factor must be in (0, 1], got {factor}", key="safety_scale", value=factor
+            )
         if not (position_margin >= 0.0 and np.all(self.upper - self.lower > 2.0 * position_margin)):
             raise ConfigError(
                 f"position margin must be >= 0 and leave a range, got {position_margin} [rad] "

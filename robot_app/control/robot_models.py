@@ -125,7 +125,12 @@ def arm_spec(name: str) -> ArmSpec:
         InputError: unknown name.
     """
     if name not in _SPECS:
-        raise InputError(f"unknown arm '{name}'; valid arms: {', '.join(ARM_NAMES)}")
+        raise InputError(
+            f"unknown arm '{name}'; valid arms: {', '.join(ARM_NAMES)}",
+            key="arm",
+            value=name,
+            expected=", ".join(ARM_NAMES),
+        )
     return _SPECS[name]()
 
 
