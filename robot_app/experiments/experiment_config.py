@@ -83,7 +83,7 @@ class TrialSceneSettings(StrictModel):
         return value
 
 
-class Sweep(StrictModel):
+class SweepSettings(StrictModel):
     """One setting varied over values, e.g. key 'recognition.generations'.
 
     Attributes:
@@ -119,7 +119,7 @@ class _TrialConfigBase(StrictModel):
     seed: int = Field(default=0, ge=0, le=2**63 - 1)
     source: Literal["synthetic", "sim"] = "synthetic"
     scene: TrialSceneSettings = Field(default_factory=TrialSceneSettings)
-    sweep: Sweep | None = None
+    sweep: SweepSettings | None = None
 
     @model_validator(mode="after")
     def _sweep_points_valid(self) -> _TrialConfigBase:
@@ -243,7 +243,7 @@ __all__ = [
     "AnyTrialConfig",
     "PickPlaceTrialConfig",
     "RecognitionTrialConfig",
-    "Sweep",
+    "SweepSettings",
     "TrialConfig",
     "TrialSceneSettings",
     "load_trial_config",
