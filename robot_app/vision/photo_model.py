@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import os
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -362,6 +362,9 @@ class ModelSettings(StrictModel):
         0.9, gt=0.5, le=1.0, description="share of background pixels within the hue threshold"
     )
     symmetry_agreement: float = Field(0.9, gt=0.5, le=1.0, description="self-overlap to call a yaw symmetric")
+    symmetry_texture: float = Field(
+        0.7, gt=0.0, le=1.0, description="and the photo's lightness correlation with itself turned (textured)"
+    )
 
     @field_validator("edge_offsets")
     @classmethod
@@ -450,7 +453,16 @@ def make_model(
         "sources": dict(sources or {}),
     }
     grid = np.column_stack([samples.grid_in, np.zeros(len(samples.grid_in))])
-    symmetry = _symmetry_angles(grid, samples.grid_hues, settings.point_spacing, settings)
+    lightness = cv2.GaussianBlur(
+        cv2.cvtColor(np.ascontiguousarray(photo_bgr), cv2.COLOR_BGR2GRAY), (0, 0), 2.0
+    )
+
+    def lightness_at(points: FloatArray) -> FloatArray:
+        u, v = _to_pixel_index(camera, model_camera.distance, points[:, :2] + origin)
+        u, v = np.clip(u, 0, camera.width - 1), np.clip(v, 0, camera.height - 1)
+        return np.asarray(lightness[v, u], dtype=float)
+
+    symmetry = _symmetry_angles(grid, samples.grid_hues, settings.point_spacing, settings, lightness_at)
     texture, texture_mask, texture_from_model = _texture(
         photo_bgr, mask, camera, model_camera.distance, origin
     )
@@ -614,10 +626,19 @@ def _to_pixel_index(
 
 
 def _symmetry_angles(
-    points: FloatArray, hues: npt.NDArray[np.uint16], step: float, settings: ModelSettings
+    points: FloatArray,
+    hues: npt.NDArray[np.uint16],
+    step: float,
+    settings: ModelSettings,
+    lightness_at: Callable[[FloatArray], FloatArray] | None = None,
 ) -> tuple[float, ...]:
-    """Yaws k·π/4 (k = 1..7) under which S_in and its colours map onto themselves."""
+    """Yaws k·π/4 (k = 1..7) under which S_in and its colours map onto themselves and, where
+    the photo is textured (lightness deviation of at least 6 grey levels), its lightness
+    correlates with itself turned by at least `symmetry_texture`: a print of nearly one
+    hue on an ellipse is not symmetric under a half turn, its picture tells the two apart."""
     cells = {(int(i), int(j)): h for (i, j), h in zip(np.rint(points[:, :2] / step), hues, strict=True)}
+    own = lightness_at(points) if lightness_at is not None else None
+    textured = own is not None and float(np.std(own)) >= 6.0
     angles = []
     for k in range(1, 8):
         angle = k * np.pi / 4
@@ -626,8 +647,13 @@ def _symmetry_angles(
         for (i, j), hue in zip(np.rint(rotated[:, :2] / step).astype(int), hues, strict=True):
             other = cells.get((int(i), int(j)))
             hits += int(other is not None and bool(colours_match(hue, other, settings.min_hue_difference)))
-        if hits >= settings.symmetry_agreement * len(points):
-            angles.append(float(angle))
+        if hits < settings.symmetry_agreement * len(points):
+            continue
+        if textured and own is not None and lightness_at is not None:
+            turned = lightness_at(rotated)  # the lightness that lands on each point when turned
+            if float(np.corrcoef(own, turned)[0, 1]) < settings.symmetry_texture:
+                continue
+        angles.append(float(angle))
     return tuple(angles)
 
 
