@@ -11,7 +11,7 @@ import typer
 
 from robot_app.commands.recognize_pairs import read_pairs, recognize_pairs
 from robot_app.config import dump_config, load_config
-from robot_app.errors import InputError
+from robot_app.errors import InputError, RobotAppError
 from robot_app.vision.camera import load_rig
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.full_search import find_peaks, full_search
@@ -69,8 +69,9 @@ def recognize(
     if pairs is not None:
         rows = read_pairs(pairs)  # a malformed CSV is bad input before any work
         recognizer = Recognizer(ClothModel.load(model), load_rig(rig), settings)
-        if recognize_pairs(recognizer, rows, seed=seed, report_peaks=peaks).failed:
-            raise typer.Exit(1)
+        summary = recognize_pairs(recognizer, rows, seed=seed, report_peaks=peaks)
+        if summary.failed:  # a result, not bad input: exit 1 after every row has printed
+            raise RobotAppError(f"{summary.failed} of {summary.rows} pairs failed (their rows say why)")
         return
     if left is None or right is None:  # unreachable (checked above); narrows the types
         raise InputError("give --left and --right", key="--left")
