@@ -19,7 +19,7 @@ from robot_app.vision.fitness import (
     score_table,
     seen_table,
 )
-from robot_app.vision.fitness_kernels import bgr_codes, hsv_codes
+from robot_app.vision.fitness_kernels import bgr_codes, gain_levels, hsv_codes
 from robot_app.vision.hue import DARK, LIGHT, colour_codes, hue_distance, to_hsv
 from robot_app.vision.photo_model import ClothModel, ModelSettings, make_model
 from robot_app.vision.poses import AvoidedPoses
@@ -200,7 +200,9 @@ def test_pixel_codes_by_colour_table_agree_with_the_conversion() -> None:
     bgr[::4] //= 6  # plenty of dark pixels
     for thresholds in ((40, 40, 128), (0, 0, 128), (25, 60, 100)):
         expected = hsv_codes(to_hsv(bgr), *thresholds, DARK, LIGHT, OFF_IMAGE)
-        assert np.array_equal(bgr_codes(bgr, colour_table(*thresholds), OFF_IMAGE, np.ones(3)), expected)
+        assert np.array_equal(
+            bgr_codes(bgr, colour_table(*thresholds), OFF_IMAGE, gain_levels(np.ones(3))), expected
+        )
     assert not colour_table(40, 40, 128).flags.writeable
 
 

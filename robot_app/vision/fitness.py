@@ -54,7 +54,14 @@ from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.errors import InputError
 from robot_app.vision.camera import PinholeCamera, StereoRig
-from robot_app.vision.fitness_kernels import bgr_codes, every_colour, hsv_codes, normalised, score_poses
+from robot_app.vision.fitness_kernels import (
+    bgr_codes,
+    every_colour,
+    gain_levels,
+    hsv_codes,
+    normalised,
+    score_poses,
+)
 from robot_app.vision.hue import COLOUR_CODES, DARK, HUE_RANGE, LIGHT, colours_match, to_hsv
 from robot_app.vision.photo_model import ClothModel
 from robot_app.vision.poses import AvoidedPoses, as_poses
@@ -312,7 +319,7 @@ class FitnessEvaluator:
             image = np.asarray(cv2.undistort(image, K, camera.dist_coeffs, None, K), dtype=np.uint8)
         p = self.params  # framed by OFF_IMAGE:
         table = colour_table(p.min_saturation, p.min_value, p.value_split)
-        return bgr_codes(np.ascontiguousarray(image), table, OFF_IMAGE, gains)
+        return bgr_codes(np.ascontiguousarray(image), table, OFF_IMAGE, gain_levels(gains))
 
     def _point_set(self, stride: int) -> _PointSet:
         """Every `stride`-th S_in and S_out point (all of them for 1), cached."""

@@ -59,25 +59,35 @@ def every_colour():
 
 
 @_jit
-def bgr_codes(bgr, table, fill, gains):
+def bgr_codes(bgr, table, fill, levels):
     """(H, W, 3) BGR image -> flat pixel codes framed like `hsv_codes`'s, each pixel looked
     up in `table` ((2^24,) code of every colour, index b << 16 | g << 8 | r): one gather per
     pixel instead of an HSV conversion and a pass over it (0.27 against 0.78 ms per
     640 x 480 image; an image's colours are few, so the table's lines stay in cache).
-    Each channel is first multiplied by its `gains` (3,) entry (b, g, r) and rounded, which
-    maps the scene's exposure and white balance onto the model photo's (`exposure.py`);
-    gains of 1 change nothing."""
+    Each channel value first goes through its row of `levels` ((3, 256) uint8, b, g, r):
+    the exposure gains of `exposure.py` as look-up tables (`gain_levels`), which map the
+    scene's exposure and white balance onto the model photo's; identity rows change
+    nothing."""
     height, width = bgr.shape[0], bgr.shape[1]
     stride = width + 3
     out = np.full((height + 3) * stride, fill, dtype=np.uint16)
-    gb, gg, gr = gains[0], gains[1], gains[2]
     for v in range(height):
         base = (v + 1) * stride + 1
         for u in range(width):
-            b = np.int64(min(bgr[v, u, 0] * gb + 0.5, 255.0))
-            g = np.int64(min(bgr[v, u, 1] * gg + 0.5, 255.0))
-            r = np.int64(min(bgr[v, u, 2] * gr + 0.5, 255.0))
+            b = np.int64(levels[0, bgr[v, u, 0]])
+            g = np.int64(levels[1, bgr[v, u, 1]])
+            r = np.int64(levels[2, bgr[v, u, 2]])
             out[base + u] = table[(b << 16) | (g << 8) | r]
+    return out
+
+
+def gain_levels(gains):
+    """(3, 256) uint8: each channel value v of b, g, r times its gain, rounded and clipped
+    to 255 (the rows `bgr_codes` reads)."""
+    values = np.arange(256, dtype=np.float64)
+    out = np.empty((3, 256), dtype=np.uint8)
+    for k in range(3):
+        out[k] = np.minimum(np.floor(values * float(gains[k]) + 0.5), 255.0).astype(np.uint8)
     return out
 
 
@@ -269,4 +279,4 @@ def fitness_of(poses, fitness_arguments, normalisation, bilinear):
     return normalised(sums, seen, full, view, min_view_fraction, hidden_penalty)
 
 
-__all__ = ["bgr_codes", "every_colour", "fitness_of", "hsv_codes", "normalised", "score_poses"]
+__all__ = ["bgr_codes", "every_colour", "fitness_of", "gain_levels", "hsv_codes", "normalised", "score_poses"]
