@@ -1,59 +1,92 @@
-"""Measures recognition speed and accuracy on the synthetic renderer; prints every figure.
+"""Measures recognition on the harder synthetic scenes; prints every figure of issue 15.
 
-Rig: 640x480, 48° horizontal field of view, 0.1 m baseline, cloth at 580 mm ± 30 mm.
-Run from the repository root (numba is single-threaded here: one core):
+Rig: 640x480, 48° horizontal field of view, 0.1 m baseline, cloth at 580 mm ± 30 mm. The
+scenes (robot_app.vision.synthetic_prints, synthetic_camera): the 20-cloth catalogue (13
+pattern cloths and 7 photographic prints, two hue families), each scene through a camera
+drawn from the realistic ranges (gain 0.65-1.35, white balance 0.88-1.12 per channel,
+smooth shading, noise up to 7, blur up to 1.2 px, JPEG 70-92); flat, wrinkled, a folded
+corner (10-20 % of the area), 45 % covered by a blue, grey, white or brown sheet; absent
+targets (another cloth, or one of the target's hue family) and a same-family distractor.
 
-    python scripts/bench_recognition.py                 # the full run (200 poses, ...)
-    python scripts/bench_recognition.py --poses 20 --quick
-    python scripts/bench_recognition.py --set fine_stride=2 --model point_spacing=0.006
+The confidence threshold is chosen on calibration seeds (`--calibrate` fits the decision's
+weights and threshold on them and prints them) and reported on the test seeds (the default
+`--seed`); the two seed sets never overlap. Run pinned to one core, e.g.:
+
+    taskset -c 0 python scripts/bench_recognition.py                   # the full run
+    taskset -c 0 python scripts/bench_recognition.py --scenes 24 --quick
+    taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 120
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import os
+import subprocess
+import sys
+import tempfile
 import time
+from collections.abc import Callable
+from pathlib import Path
 
+import cv2
 import numpy as np
 
 from robot_app.config import load_config
 from robot_app.geometry import (
     invert_transform,
     make_transform,
+    pose_error,
     rotation_about_z,
     rotation_from_rpy,
-    yaw_error,
-    yaw_of,
 )
-from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
-from robot_app.vision.fitness import FitnessEvaluator
-from robot_app.vision.full_search import full_search
-from robot_app.vision.photo_model import ClothModel, ModelSettings, make_model
-from robot_app.vision.recognizer import RecognitionSettings, Recognizer
-from robot_app.vision.synthetic import (
+from robot_app.vision import (
+    ClothModel,
+    FitnessEvaluator,
+    ModelCamera,
+    PinholeCamera,
+    RecognitionSettings,
+    Recognizer,
+    StereoRig,
+    full_search,
+    make_model,
     occluder_covering,
     render_model_photo,
     render_stereo_pair,
-    synthetic_cloth,
+    save_rig,
+)
+from robot_app.vision.synthetic import OCCLUDER_COLOURS, SyntheticCloth
+from robot_app.vision.synthetic_camera import CameraRealism
+from robot_app.vision.synthetic_prints import (
+    EXTENDED_CATALOGUE_SIZE,
+    extended_cloth,
+    family_of,
+    folded_corner,
+    wrinkled,
 )
 
 CAMERA = PinholeCamera.from_fov((640, 480), np.deg2rad(48))
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
 MODEL_CAMERA = ModelCamera(CAMERA, 0.40)
-N_CLOTHS = 12
+N = EXTENDED_CATALOGUE_SIZE
+CALIBRATION_SEED_BASE = 10_000  # calibration scenes draw from seeds >= this, test scenes below
 
 
-def make_models(overrides: list[str]) -> list[ClothModel]:
+def verdict(ok: bool | np.bool_) -> str:
+    return "PASS" if ok else "MISS"
+
+
+def make_models() -> tuple[list[SyntheticCloth], list[ClothModel]]:
+    cloths = [extended_cloth(i) for i in range(N)]
     models = []
-    settings = load_config(ModelSettings, None, overrides)
-    for index in range(N_CLOTHS):
-        photo, background = render_model_photo(synthetic_cloth(index), MODEL_CAMERA)
-        models.append(make_model(photo, MODEL_CAMERA, background, settings, name=synthetic_cloth(index).name))
-    return models
+    for cloth in cloths:
+        photo, background = render_model_photo(cloth, MODEL_CAMERA)
+        models.append(make_model(photo, MODEL_CAMERA, background, name=cloth.name))
+    return cloths, models
 
 
 def random_pose(rng: np.random.Generator, model: ClothModel, max_tilt_deg: float = 10.0) -> np.ndarray:
-    """Full yaw, tilt up to max_tilt, centre anywhere the whole cloth stays in the recognition area."""
+    """Full yaw, tilt up to max_tilt, the whole cloth inside the recognition area."""
     radius = 0.5 * float(np.hypot(*model.extent))
     half = (max(0.255 - radius, 0.0), max(0.195 - radius, 0.0))
     tilt, direction = np.deg2rad(max_tilt_deg) * np.sqrt(rng.uniform()), rng.uniform(0, 2 * np.pi)
@@ -62,18 +95,63 @@ def random_pose(rng: np.random.Generator, model: ClothModel, max_tilt_deg: float
     return make_transform(R, t)
 
 
-def pose_error(model: ClothModel, estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
-    """(dx, dy, dz [mm], dyaw [deg]); yaw modulo the cloth's symmetry."""
-    d = yaw_error(yaw_of(estimate[:3, :3]) - yaw_of(truth[:3, :3]), model.symmetry_angles)
-    return np.array([*((estimate[:3, 3] - truth[:3, 3]) * 1e3), np.rad2deg(d)])
+class Scenes:
+    """Scene makers; every scene draws its camera from the realistic ranges."""
+
+    def __init__(self, cloths: list[SyntheticCloth], models: list[ClothModel]) -> None:
+        self.cloths, self.models = cloths, models
+
+    def render(self, rng, placements, occluder=None):
+        return render_stereo_pair(RIG, placements, occluder=occluder, rng=rng, camera=CameraRealism.draw(rng))
+
+    def present(self, kind: str, index: int, rng: np.random.Generator):
+        """(left, right, truth) of cloth `index`: flat, wrinkled, folded or covered."""
+        truth = random_pose(rng, self.models[index])
+        cloth = self.cloths[index]
+        occluder = None
+        if kind == "wrinkled":
+            cloth = wrinkled(cloth, rng)
+        elif kind == "folded":
+            cloth = folded_corner(cloth, float(rng.uniform(0.1, 0.2)), float(rng.uniform(0, 2 * np.pi)))
+        elif kind == "covered":
+            colour = list(OCCLUDER_COLOURS.values())[int(rng.integers(len(OCCLUDER_COLOURS)))]
+            occluder = occluder_covering(
+                cloth, truth, 0.45, float(rng.uniform(0, 2 * np.pi)), colour_bgr=colour
+            )
+        left, right = self.render(rng, [(cloth, truth)], occluder)
+        return left, right, truth
+
+    def absent(self, index: int, rng: np.random.Generator, family: bool):
+        """A scene without cloth `index`: one of its hue family (if it has one and `family`),
+        else another cloth."""
+        members = family_of(index)
+        if family and members:
+            other = int(rng.choice(members))
+        else:
+            other = int(rng.choice([j for j in range(N) if j != index and j not in members]))
+        pose = random_pose(rng, self.models[other])
+        left, right = self.render(rng, [(self.cloths[other], pose)])
+        return left, right, other
+
+    def beside(self, index: int, other: int, rng: np.random.Generator):
+        """Cloth `index` and cloth `other` side by side (which side drawn): (left, right, truth)."""
+        sides = [-0.12, 0.12] if rng.uniform() < 0.5 else [0.12, -0.12]
+        target = make_transform(
+            rotation_about_z(rng.uniform(-np.pi, np.pi)), [sides[0], rng.uniform(-0.04, 0.04), 0.58]
+        )
+        second = make_transform(
+            rotation_about_z(rng.uniform(-np.pi, np.pi)), [sides[1], rng.uniform(-0.04, 0.04), 0.58]
+        )
+        left, right = self.render(rng, [(self.cloths[index], target), (self.cloths[other], second)])
+        return left, right, target
 
 
-def verdict(ok: bool | np.bool_) -> str:
-    return "PASS" if ok else "MISS"
+def errors_of(model: ClothModel, estimate: np.ndarray, truth: np.ndarray) -> np.ndarray:
+    e = pose_error(estimate, truth, tuple(model.symmetry_angles))
+    return np.array([e.x_mm, e.y_mm, e.z_mm, e.yaw_deg])
 
 
 def print_errors(title: str, errors: np.ndarray, limits: tuple[float | None, ...]) -> None:
-    """Mean ± 3 sd of each error against its goal (None: no goal)."""
     e = np.asarray(errors)
     print(f"{title}: {len(e)} scenes")
     for k, (name, unit) in enumerate((("x", "mm"), ("y", "mm"), ("z", "mm"), ("yaw", "deg"))):
@@ -81,235 +159,321 @@ def print_errors(title: str, errors: np.ndarray, limits: tuple[float | None, ...
         lo, hi = mean - 3 * sd, mean + 3 * sd
         limit = limits[k]
         goal = "no goal" if limit is None else f"goal ±{limit}: {verdict(max(abs(lo), abs(hi)) <= limit)}"
-        med = np.median(np.abs(e[:, k]))
+        med, worst = np.median(np.abs(e[:, k])), np.max(np.abs(e[:, k]))
         print(f"  {name:3s} mean {mean:+7.2f} sd {sd:6.2f}  mean±3sd [{lo:+8.2f}, {hi:+8.2f}] {unit} "
-              f"({goal}); median |err| {med:.2f}")  # fmt: skip
-    gross = np.mean((np.abs(e[:, :2]) > 10).any(axis=1) | (np.abs(e[:, 3]) > 10))
-    print(f"  gross failures (>10 mm or >10 deg): {gross:.1%}")
+              f"({goal}); median |err| {med:.2f}, max |err| {worst:.2f}")  # fmt: skip
 
 
-def print_times(title: str, times: list[float]) -> None:
-    q = np.percentile(np.asarray(times) * 1e3, [50, 90, 100])
-    print(f"{title}: median {q[0]:.1f} ms, 90% {q[1]:.1f} ms, max {q[2]:.1f} ms")
+def seeds(args: argparse.Namespace, calibration: bool) -> Callable[[str, int], np.random.Generator]:
+    base = CALIBRATION_SEED_BASE + args.seed if calibration else args.seed
+
+    def rng(section: str, k: int) -> np.random.Generator:
+        return np.random.default_rng([base, sum(map(ord, section)), k])
+
+    return rng
 
 
-def time_every_cloth(
-    models: list[ClothModel], settings: RecognitionSettings, runs: int, rng: np.random.Generator
-) -> None:
-    """One-shot median of each cloth on a scene of its own (the models differ in size: 748 to
-    1567 points), so that the timing goal is not met only by the smallest."""
-    medians = []
-    for index, model in enumerate(models):
-        pose = random_pose(rng, model)
-        left, right = render_stereo_pair(RIG, [(synthetic_cloth(index), pose)], rng=rng)
-        recognizer = Recognizer(model, RIG, settings)
-        recognizer.recognize(left, right, seed=0)
-        times = [recognizer.recognize(left, right, seed=s).time_s for s in range(1, runs + 1)]
-        medians.append(np.median(times))
+def collect(scenes: Scenes, recognizers: list[Recognizer], args, calibration: bool) -> dict[str, list]:
+    """Recognitions of every scene kind: per kind a list of (index, recognition, truth)."""
+    rng = seeds(args, calibration)
+    out: dict[str, list] = {}
+    for kind in ("flat", "wrinkled", "folded", "covered"):
+        count = args.scenes if kind == "flat" else max(N, args.scenes // 2)
+        rows = []
+        for k in range(count):
+            index = k % N
+            left, right, truth = scenes.present(kind, index, rng(kind, k))
+            rows.append((index, recognizers[index].recognize(left, right, seed=k), truth))
+        out[kind] = rows
+    for kind, family in (("absent_family", True), ("absent_other", False)):
+        rows = []
+        count = max(N, args.scenes // 2)
+        for k in range(count):
+            index = k % N
+            left, right, _ = scenes.absent(index, rng(kind, k), family)
+            rows.append((index, recognizers[index].recognize(left, right, seed=k), None))
+        out[kind] = rows
+    return out
+
+
+def features(rows: list) -> np.ndarray:
+    return np.array([[r.search_fitness, r.appearance, r.visible_fraction] for _, r, _ in rows])
+
+
+def correct(models: list[ClothModel], row: tuple) -> bool:
+    """The recognised pose of a present cloth is within 10 mm (x, y) and 10° of the truth."""
+    index, result, truth = row
+    e = errors_of(models[index], result.transform_model_to_camera, truth)
+    return bool(max(abs(e[0]), abs(e[1])) <= 10 and abs(e[3]) <= 10)
+
+
+def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list[ClothModel]) -> None:
+    """Logistic regression of present at the right pose (1) against absent (0) on (fitness,
+    appearance, visible) by Newton's method with a weak ridge (present scenes recognised at a
+    wrong pose are left out: neither a right answer to accept nor an absent cloth); prints the
+    weights and the threshold that best separates the calibration scenes."""
+    kinds = ("flat", "wrinkled", "folded", "covered")
+    wrong = sum(not correct(models, r) for kind in kinds for r in data[kind])
+    present = [r for kind in kinds for r in data[kind] if correct(models, r)]
+    absent = [r for kind in ("absent_family", "absent_other") for r in data[kind]]
+    X = np.vstack([features(present), features(absent)])
+    X[:, 1] = np.where(np.isnan(X[:, 1]), settings.decide.appearance_nothing_seen, X[:, 1])
+    y = np.concatenate([np.ones(len(present)), np.zeros(len(absent))])
+    A = np.column_stack([np.ones(len(X)), X])
+    w = np.zeros(A.shape[1])
+    for _ in range(50):
+        p = 1.0 / (1.0 + np.exp(-np.clip(A @ w, -60, 60)))
+        gradient = A.T @ (p - y) + 1e-2 * w
+        hessian = A.T @ (A * (p * (1 - p))[:, None]) + 1e-2 * np.eye(len(w))
+        w -= np.linalg.solve(hessian, gradient)
+    z = A @ w
+    candidates = np.sort(z)
+    best = max(candidates, key=lambda t: min(np.mean(z[y == 1] >= t), np.mean(z[y == 0] < t)))
+    lowest_present = np.sort(z[y == 1])[: max(1, len(z[y == 1]) // 100)]
+    highest_absent = np.sort(z[y == 0])[-max(1, len(z[y == 0]) // 100) :]
+    margin = (float(lowest_present.min()) + float(highest_absent.max())) / 2.0
+    threshold_z = margin if lowest_present.min() > highest_absent.max() else float(best)
+    print(f"calibration: {len(present)} present at the right pose, {len(absent)} absent scenes "
+          f"({wrong} present scenes recognised at a wrong pose left out)")  # fmt: skip
+    print(f"  decide.bias={w[0]:.3f} decide.weight_fitness={w[1]:.3f} decide.weight_appearance={w[2]:.3f} "
+          f"decide.weight_visible={w[3]:.3f}")  # fmt: skip
+    print(f"  logit of present: min {z[y == 1].min():+.2f}; of absent: max {z[y == 0].max():+.2f}; "
+          f"threshold logit {threshold_z:+.2f} = confidence "
+          f"{1 / (1 + np.exp(-threshold_z)):.3f}")  # fmt: skip
+    for kind, rows in data.items():
+        f = features(rows)
+        low, high = np.nanmin(f, axis=0), np.nanmax(f, axis=0)
+        print(f"  {kind:14s} fitness {low[0]:.3f}-{high[0]:.3f}, appearance {low[1]:+.2f}-{high[1]:+.2f}, "
+              f"visible {low[2]:.2f}-{high[2]:.2f}")  # fmt: skip
+
+
+def half_turn_symmetric(model: ClothModel) -> bool:
+    """The model (texture-aware, `make_model`) calls itself symmetric under a half turn."""
+    return any(abs(abs(a) - np.pi) < 1e-6 for a in model.symmetry_angles)
+
+
+def report_accuracy(data: dict[str, list], models: list[ClothModel], threshold: float) -> None:
+    flat = data["flat"]
+    e = np.array([errors_of(models[i], r.transform_model_to_camera, t) for i, r, t in flat])
+    print_errors("flat, realistic camera", e, (1.5, 1.5, 5.0, 1.5))
+    asymmetric = [k for k, (i, _, _) in enumerate(flat) if not half_turn_symmetric(models[i])]
+    half = [k for k in asymmetric if abs(e[k, 3]) > 90.0]
+    names = sorted({models[flat[k][0]].name for k in half})
+    print(f"  half-turn errors (|yaw err| > 90°) on {len(asymmetric)} scenes of cloths not symmetric under a "
+          f"half turn: {len(half)} (goal 0: {verdict(not half)}) {names}")  # fmt: skip
+    print(f"  found: {np.mean([r.found for _, r, _ in flat]):.1%}")
+    for kind, title in (
+        ("wrinkled", "wrinkled"),
+        ("folded", "folded corner 10-20 %"),
+        ("covered", "45 % covered (blue, grey, white, brown)"),
+    ):
+        rows = data[kind]
+        e = np.array([errors_of(models[i], r.transform_model_to_camera, t) for i, r, t in rows])
+        print_errors(title, e, (6.0, 6.0, None, 6.0))
+        within = np.mean((np.abs(e[:, :2]) <= 6).all(axis=1) & (np.abs(e[:, 3]) <= 6))
+        found = np.mean([r.found for _, r, _ in rows])
+        print(
+            f"  within ±6 mm x/y and ±6°: {within:.1%}; found {found:.1%} "
+            f"(goal 100%: {verdict(found == 1 and within == 1)})"
+        )
+    present = [r for kind in ("flat", "wrinkled", "folded", "covered") for _, r, _ in data[kind]]
+    absent = [r for kind in ("absent_family", "absent_other") for _, r, _ in data[kind]]
+    found = np.mean([r.confidence >= threshold for r in present])
+    rejected = np.mean([r.confidence < threshold for r in absent])
+    print(f"one threshold on confidence ({threshold}): present found {found:.1%} of {len(present)} "
+          f"(goal >= 99%: {verdict(found >= 0.99)}), absent rejected {rejected:.1%} of {len(absent)} "
+          f"(goal >= 99%: {verdict(rejected >= 0.99)})")  # fmt: skip
+    for kind, rows in data.items():
+        c = np.array([r.confidence for _, r, _ in rows])
+        print(f"  {kind:14s} confidence min {c.min():.3f} median {np.median(c):.3f} max {c.max():.3f}; "
+              f"decided found {np.mean(c >= threshold):.1%}")  # fmt: skip
+
+
+def report_distractor(scenes: Scenes, recognizers: list[Recognizer], args) -> None:
+    rng = seeds(args, False)
+    members = [i for i in range(N) if family_of(i)]
+    chosen, found, count = 0, 0, max(len(members), args.scenes // 2)
+    for k in range(count):
+        index = members[k % len(members)]
+        r = rng("distractor", k)
+        other = int(r.choice(family_of(index)))
+        left, right, truth = scenes.beside(index, other, r)
+        result = recognizers[index].recognize(left, right, seed=k)
+        chosen += np.linalg.norm(result.position[:2] - truth[:2, 3]) < 0.02
+        found += result.found
+    print(f"same-hue-family distractor beside the target: target chosen {chosen / count:.1%} of {count} "
+          f"(goal >= 99%: {verdict(chosen / count >= 0.99)}); found {found / count:.1%}")  # fmt: skip
+
+
+def report_identification(scenes: Scenes, recognizers: list[Recognizer], args, size: int) -> None:
+    rng = seeds(args, False)
+    false_accepts, missed = [], []
+    for j in range(size):
+        left, right, _ = scenes.present("flat", j, rng(f"identification{size}", j))
+        for i in range(size):
+            result = recognizers[i].recognize(left, right, seed=i * size + j)
+            if result.found and i != j:
+                false_accepts.append((i, j, round(result.confidence, 3)))
+            if not result.found and i == j:
+                missed.append(j)
+    print(f"{size}x{size} identification (model i on a scene of cloth j alone, realistic camera): "
+          f"false accepts {len(false_accepts)} (goal 0: {verdict(not false_accepts)}) {false_accepts[:6]}; "
+          f"own cloth missed {len(missed)} {missed}")  # fmt: skip
+
+
+def report_speed(scenes: Scenes, recognizers: list[Recognizer], models: list[ClothModel], args) -> None:
+    rng = seeds(args, False)
+    medians: list[float] = []
+    cpu_medians: list[float] = []
+    for index in range(N):
+        left, right, _ = scenes.present("flat", index, rng("speed", index))
+        recognizers[index].recognize(left, right, seed=0)
+        times, cpu = [], []
+        for s in range(1, args.timing + 1):
+            start = time.thread_time()
+            times.append(recognizers[index].recognize(left, right, seed=s).time_s)
+            cpu.append(time.thread_time() - start)
+        medians.append(float(np.median(times)))
+        cpu_medians.append(float(np.median(cpu)))
     ms = np.array(medians) * 1e3
-    worst = models[int(np.argmax(ms))]
-    print(f"one-shot recognition, every cloth ({runs} runs each): medians {ms.min():.1f}-{ms.max():.1f} ms, "
-          f"median of them {np.median(ms):.1f} ms; slowest {worst.name} ({worst.n_in + worst.n_out} points; "
-          f"each <= 50 ms: {verdict(ms.max() <= 50)})")  # fmt: skip
+    worst = int(np.argmax(ms))
+    print(f"one-shot recognition incl. verification, every cloth ({args.timing} runs each, "
+          "flat realistic scene): "
+          f"median of the medians {np.median(ms):.1f} ms (goal <= 25: {verdict(np.median(ms) <= 25)}); "
+          f"slowest {models[worst].name} {ms[worst]:.1f} ms (goal <= 40: {verdict(ms[worst] <= 40)}); "
+          f"per cloth {np.round(ms, 1).tolist()}; CPU time: median of the medians "
+          f"{np.median(cpu_medians) * 1e3:.1f} ms, slowest {max(cpu_medians) * 1e3:.1f} ms")  # fmt: skip
+    index = 3
+    recognizer = recognizers[index]
+    pose = random_pose(rng("track", 0), models[index])
+    camera = CameraRealism.draw(rng("track", 1))
+    r = rng("track", 2)
+    left, right = render_stereo_pair(RIG, [(scenes.cloths[index], pose)], rng=r, camera=camera)
+    recognizer.recognize(left, right, seed=0)
+    step = make_transform(rotation_about_z(0.01), [0.003, -0.002, -0.002])
+    times, cpu_times, worst_error, found = [], [], np.zeros(4), 0
+    for _ in range(args.timing * 2):
+        motion = invert_transform(step)
+        pose = motion @ pose
+        left, right = render_stereo_pair(RIG, [(scenes.cloths[index], pose)], rng=r, camera=camera)
+        start = time.thread_time()
+        tracked = recognizer.track(left, right, motion)
+        cpu_times.append(time.thread_time() - start)
+        times.append(tracked.time_s)
+        found += tracked.found
+        worst_error = np.maximum(
+            worst_error, np.abs(errors_of(models[index], tracked.transform_model_to_camera, pose))
+        )
+    every = recognizer.settings.propose.tracking.verify_every
+    print(f"tracking update (verified every {every} frame(s)): median {np.median(times) * 1e3:.2f} ms "
+          f"(goal <= 3: {verdict(np.median(times) <= 0.003)}), "
+          f"CPU {np.median(cpu_times) * 1e3:.2f} ms; found {found}/{len(times)}; worst |error| "
+          f"x/y/z {worst_error[:3].round(2)} mm, yaw {worst_error[3]:.2f} deg")  # fmt: skip
+
+
+def report_batch(scenes: Scenes, models: list[ClothModel], args) -> None:
+    """`robot-app recognize --pairs` in a fresh process on PNG files: first line after start,
+    then the time between lines."""
+    rng = seeds(args, False)
+    index = 3
+    with tempfile.TemporaryDirectory() as folder:
+        root = Path(folder)
+        models[index].save(root / "model.npz")
+        save_rig(RIG, root / "rig.yaml")
+        with (root / "pairs.csv").open("w", newline="") as file:
+            writer = csv.writer(file)
+            writer.writerow(["left", "right"])
+            for k in range(args.batch):
+                left, right, _ = scenes.present("flat", index, rng("batch", k))
+                cv2.imwrite(str(root / f"l{k}.png"), left)
+                cv2.imwrite(str(root / f"r{k}.png"), right)
+                writer.writerow([f"l{k}.png", f"r{k}.png"])
+        command = [sys.executable, "-m", "robot_app.cli", "recognize", "--model", str(root / "model.npz"),
+                   "--rig", str(root / "rig.yaml"), "--pairs", str(root / "pairs.csv")]  # fmt: skip
+        start = time.perf_counter()
+        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        stamps = []
+        assert process.stdout is not None
+        for _line in process.stdout:
+            stamps.append(time.perf_counter() - start)
+        code = process.wait()
+    steps = np.diff(stamps) * 1e3
+    print(f"batch mode ({args.batch} PNG pairs, new process): exit {code}; first result "
+          f"{stamps[0]:.2f} s after start (goal <= 1.5: {verdict(stamps[0] <= 1.5)}), then median "
+          f"{np.median(steps):.1f} ms per pair incl. PNG decode "
+          f"(goal <= 40: {verdict(np.median(steps) <= 40)})")  # fmt: skip
+
+
+def report_full_search(scenes: Scenes, recognizers: list[Recognizer], models: list[ClothModel], args) -> None:
+    print("GA against full search (x-y grid at the true depth and tilt, yaw grid; then a fine local grid)")
+    rng = seeds(args, False)
+    settings = recognizers[0].settings
+    for k in range(args.fullsearch_scenes):
+        index = (5 * k + 2) % N
+        r = rng("fullsearch", k)
+        truth = random_pose(r, models[index], max_tilt_deg=0.0)
+        left, right = render_stereo_pair(
+            RIG, [(scenes.cloths[index], truth)], rng=r, camera=CameraRealism.draw(r)
+        )
+        evaluator = FitnessEvaluator(models[index], RIG, settings.fitness)
+        evaluator.update(left, right)
+        z = float(truth[2, 3])
+        bounds = settings.propose.bounds
+        coarse = full_search(
+            evaluator, bounds.x, bounds.y, 0.004, z, None, np.deg2rad(np.arange(-180, 180, 3.0)).tolist()
+        )
+        c = coarse.best_transform
+        fine = full_search(evaluator, (c[0, 3] - 0.006, c[0, 3] + 0.006), (c[1, 3] - 0.006, c[1, 3] + 0.006),
+                           0.0005, z, c[:3, :3], np.deg2rad(np.arange(-3, 3.01, 0.25)).tolist())  # fmt: skip
+        grid = 511 * 391 * 360
+        result = recognizers[index].recognize(left, right, seed=k)
+        d = errors_of(models[index], result.transform_model_to_camera, fine.best_transform)
+        close = max(abs(d[0]), abs(d[1])) <= 1 and abs(d[3]) <= 1
+        cheap = result.evaluations <= 0.01 * grid
+        print(f"  {models[index].name}: full search best {fine.best_fitness:.3f}, GA "
+              f"{result.fitness:.3f}; GA - full search dx {d[0]:+.2f} mm, dy {d[1]:+.2f} mm, dyaw "
+              f"{d[3]:+.2f} deg; GA evaluations {result.evaluations} = {result.evaluations / grid:.4%} "
+              f"of a 1 mm x 1 deg full search: {verdict(close and cheap)}")  # fmt: skip
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    parser.add_argument("--poses", type=int, default=200, help="scenes for the accuracy figures")
-    parser.add_argument("--occluded", type=int, default=None, help="occluded scenes (default: poses / 2)")
-    parser.add_argument("--pairs", type=int, default=None, help="two-cloth / absent scenes (default: poses)")
-    parser.add_argument("--timing", type=int, default=21, help="runs for the timing medians")
-    parser.add_argument("--cloth-timing", type=int, default=7, help="one-shot runs per cloth (0: skip)")
-    parser.add_argument("--fullsearch-scenes", type=int, default=3, help="scenes compared with a full search")
-    parser.add_argument("--quick", action="store_true", help="skip the confusion matrix and full search")
-    parser.add_argument(
-        "--model", dest="model_overrides", action="append", default=[], help="ModelSettings key=value"
-    )
+    parser.add_argument("--scenes", type=int, default=200, help="flat scenes (other kinds: half as many)")
+    parser.add_argument("--timing", type=int, default=7, help="runs per cloth for the timing medians")
+    parser.add_argument("--batch", type=int, default=30, help="pairs of the batch-mode run")
+    parser.add_argument("--fullsearch-scenes", type=int, default=3)
+    parser.add_argument("--quick", action="store_true", help="skip identification and full search")
+    parser.add_argument("--speed-only", action="store_true", help="only the timing figures")
+    parser.add_argument("--calibrate", action="store_true", help="fit the decision on the calibration seeds")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
         "--set", dest="overrides", action="append", default=[], help="RecognitionSettings key=value"
     )
     args = parser.parse_args()
     settings = load_config(RecognitionSettings, None, args.overrides)
-    rng = np.random.default_rng(args.seed)
-    models = make_models(args.model_overrides)
     print(f"load average (1, 5, 15 min): {os.getloadavg()}; cpus allowed: {sorted(os.sched_getaffinity(0))}")
-    print(f"settings: {settings.model_dump(mode='json')}")
-    print(f"model settings: {load_config(ModelSettings, None, args.model_overrides).model_dump(mode='json')}")
-    print(f"model points (S_in + S_out): {[m.n_in + m.n_out for m in models]}")
-
-    # --- speed --------------------------------------------------------------------------
-    index = 3
-    pose = random_pose(rng, models[index])
-    left, right = render_stereo_pair(RIG, [(synthetic_cloth(index), pose)], rng=rng)
-    recognizer = Recognizer(models[index], RIG, settings)
-    recognizer.recognize(left, right, seed=0)  # compile / warm caches
-    times, cpu_times, evaluations = [], [], []
-    before_points, start = recognizer.evaluator.point_evaluations, time.perf_counter()
-    for run in range(args.timing):
-        cpu = time.thread_time()
-        result = recognizer.recognize(left, right, seed=run)
-        cpu_times.append(time.thread_time() - cpu)
-        times.append(result.time_s)
-        evaluations.append(result.evaluations)
-    total_time = time.perf_counter() - start
-    points = recognizer.evaluator.point_evaluations - before_points
-    print(f"one-shot recognition ({models[index].name}, {models[index].n_in + models[index].n_out} points): "
-          f"median {np.median(times) * 1e3:.1f} ms wall, {np.median(cpu_times) * 1e3:.1f} ms CPU "
-          f"(goal <= 50 ms: {verdict(np.median(times) <= 0.05)} wall, "
-          f"{verdict(np.median(cpu_times) <= 0.05)} CPU), "
-          f"{int(np.median(evaluations))} poses evaluated")  # fmt: skip
-    print(f"point evaluations per second (whole recognition): {points / total_time / 1e6:.1f} M/s "
-          f"= {total_time / points * 1e9:.2f} ns per point and image (floor ~0.5-1 ns)")  # fmt: skip
-    evaluator = FitnessEvaluator(models[index], RIG, settings.fitness)
-    evaluator.update(left, right)
-    batch = np.repeat(pose[None], 10000, axis=0)
-    batch[:, 0, 3] += np.linspace(-0.05, 0.05, 10000)
-    evaluator.evaluate(batch[:10])
-    start = time.perf_counter()
-    evaluator.evaluate(batch)
-    kernel = time.perf_counter() - start
-    print(f"fitness kernel alone: {20000 * evaluator.n_points / kernel / 1e6:.1f} M point evaluations/s "
-          f"({kernel / (20000 * evaluator.n_points) * 1e9:.2f} ns each)")  # fmt: skip
-    if args.cloth_timing:
-        time_every_cloth(models, settings, args.cloth_timing, np.random.default_rng(args.seed + 1))
-    track_times, track_cpu, track_errors = [], [], []
-    step = make_transform(rotation_about_z(0.01), [0.003, -0.002, -0.002])
-    for _ in range(args.timing):
-        motion = invert_transform(step)
-        pose = motion @ pose
-        left, right = render_stereo_pair(RIG, [(synthetic_cloth(index), pose)], rng=rng)
-        cpu = time.thread_time()
-        tracked = recognizer.track(left, right, motion)
-        track_cpu.append(time.thread_time() - cpu)
-        track_times.append(tracked.time_s)
-        track_errors.append(np.abs(pose_error(models[index], tracked.transform_model_to_camera, pose)))
-    wall, cpu_median, worst = np.median(track_times), np.median(track_cpu), np.max(track_errors, axis=0)
-    print(f"tracking update: median {wall * 1e3:.2f} ms wall, {cpu_median * 1e3:.2f} ms CPU "
-          f"(goal <= 5 ms: {verdict(wall <= 0.005)} wall, {verdict(cpu_median <= 0.005)} CPU); "
-          f"worst |error| over the run x/y/z {worst[:3].round(2)} mm, yaw {worst[3]:.2f} deg")  # fmt: skip
-
-    # --- accuracy -----------------------------------------------------------------------
-    errors, fitness = [], []
-    for k in range(args.poses):
-        index = k % N_CLOTHS
-        truth = random_pose(rng, models[index])
-        left, right = render_stereo_pair(RIG, [(synthetic_cloth(index), truth)], rng=rng)
-        result = Recognizer(models[index], RIG, settings).recognize(left, right, seed=k)
-        errors.append(pose_error(models[index], result.transform_model_to_camera, truth))
-        fitness.append(result.fitness)
-    print_errors("accuracy, unoccluded", np.array(errors), (2, 2, 5, 2))
-    print(f"  fitness at the result: median {np.median(fitness):.3f}, min {np.min(fitness):.3f}")
-
-    errors, fitness, times = [], [], []
-    for k in range(args.occluded if args.occluded is not None else max(1, args.poses // 2)):
-        index = k % N_CLOTHS
-        cloth = synthetic_cloth(index)
-        truth = random_pose(rng, models[index])
-        cover = occluder_covering(cloth, truth, fraction=0.45, direction=rng.uniform(0, 2 * np.pi))
-        left, right = render_stereo_pair(RIG, [(cloth, truth)], occluder=cover, rng=rng)
-        result = Recognizer(models[index], RIG, settings).recognize(left, right, seed=k)
-        errors.append(pose_error(models[index], result.transform_model_to_camera, truth))
-        fitness.append(result.fitness)
-        times.append(result.time_s)
-    print_errors("accuracy, 45% covered by a blue sheet", np.array(errors), (5, 5, None, 5))
-    print(f"  fitness at the result: median {np.median(fitness):.3f} (paper: 0.32)")
-    print_times("  one-shot time, 45% covered (restarts while the search fitness < restart_below)", times)
-
-    # --- target choice, absence ---------------------------------------------------------
-    chosen, absent_found, present_found = 0, 0, 0
-    present_fitness: list[float] = []
-    absent_fitness: list[float] = []
-    present_times: list[float] = []
-    absent_times: list[float] = []
-    n_pairs = args.pairs if args.pairs is not None else args.poses
-    for k in range(n_pairs):
-        i = k % N_CLOTHS
-        j = (i + 1 + k // N_CLOTHS % (N_CLOTHS - 1)) % N_CLOTHS
-        target = make_transform(
-            rotation_about_z(rng.uniform(-np.pi, np.pi)), [-0.12, rng.uniform(-0.04, 0.04), 0.58]
-        )
-        other = make_transform(
-            rotation_about_z(rng.uniform(-np.pi, np.pi)), [0.12, rng.uniform(-0.04, 0.04), 0.58]
-        )
-        if k % 2:
-            target, other = (
-                make_transform(target[:3, :3], other[:3, 3]),
-                make_transform(other[:3, :3], target[:3, 3]),
-            )
-        recognizer = Recognizer(models[i], RIG, settings)
-        both = render_stereo_pair(RIG, [(synthetic_cloth(i), target), (synthetic_cloth(j), other)], rng=rng)
-        result = recognizer.recognize(*both, seed=k)
-        chosen += np.linalg.norm(result.position[:2] - target[:2, 3]) < 0.02
-        present_found += result.found
-        present_fitness.append(result.fitness)
-        present_times.append(result.time_s)
-        only_other = render_stereo_pair(RIG, [(synthetic_cloth(j), other)], rng=rng)
-        absent = recognizer.recognize(*only_other, seed=k)
-        absent_found += absent.found
-        absent_fitness.append(absent.fitness)
-        absent_times.append(absent.time_s)
-    print(f"two cloths in view: target chosen in {chosen / n_pairs:.1%} of {n_pairs} scenes "
-          f"(goal >= 99%: {verdict(chosen / n_pairs >= 0.99)})")  # fmt: skip
-    print(f"present (two cloths): found in {present_found / n_pairs:.1%} "
-          f"(goal >= 99%: {verdict(present_found / n_pairs >= 0.99)}); "
-          f"absent (only the other cloth): rejected in {1 - absent_found / n_pairs:.1%} "
-          f"(goal >= 99%: {verdict(1 - absent_found / n_pairs >= 0.99)}), "
-          f"threshold {settings.acceptance_threshold}")  # fmt: skip
-    for name, values in (("present", present_fitness), ("absent", absent_fitness)):
-        q = np.percentile(values, [0, 1, 50, 99, 100])
-        print(f"  fitness {name}: min {q[0]:.3f}, 1% {q[1]:.3f}, median {q[2]:.3f}, "
-              f"99% {q[3]:.3f}, max {q[4]:.3f}")  # fmt: skip
-    print_times("  one-shot time, two cloths in view", present_times)
-    print_times("  one-shot time, the cloth absent (every restart runs)", absent_times)
-    print(f"  gap between the highest absent and the lowest present fitness: "
-          f"{np.min(present_fitness) - np.max(absent_fitness):+.3f} "
-          f"(a threshold midway: {(np.min(present_fitness) + np.max(absent_fitness)) / 2:.3f})")  # fmt: skip
+    cloths, models = make_models()
+    recognizers = [Recognizer(m, RIG, settings) for m in models]
+    scenes = Scenes(cloths, models)
+    print(f"catalogue: {[m.name for m in models]}; half-turn symmetric: "
+          f"{[m.name for m in models if half_turn_symmetric(m)]}")  # fmt: skip
+    if args.calibrate:
+        calibrate(collect(scenes, recognizers, args, calibration=True), settings, models)
+        return
+    report_speed(scenes, recognizers, models, args)
+    report_batch(scenes, models, args)
+    if args.speed_only:
+        return
+    data = collect(scenes, recognizers, args, calibration=False)
+    report_accuracy(data, models, settings.decide.threshold)
+    report_distractor(scenes, recognizers, args)
     if args.quick:
         return
-
-    # --- confusion matrix -----------------------------------------------------------------
-    print("confusion matrix: fitness of model i (rows) on a scene of cloth j (columns), * = found")
-    scenes = []
-    for j in range(N_CLOTHS):
-        truth = random_pose(rng, models[j])
-        scenes.append(render_stereo_pair(RIG, [(synthetic_cloth(j), truth)], rng=rng))
-    print("      " + " ".join(f"{j:6d}" for j in range(N_CLOTHS)))
-    for i in range(N_CLOTHS):
-        recognizer = Recognizer(models[i], RIG, settings)
-        cells = []
-        for j in range(N_CLOTHS):
-            result = recognizer.recognize(*scenes[j], seed=i * N_CLOTHS + j)
-            cells.append(f"{result.fitness:5.2f}{'*' if result.found else ' '}")
-        print(f"{i:4d}  " + " ".join(cells))
-
-    # --- GA against full search -----------------------------------------------------------
-    print("GA against full search (x-y grid at the true depth and tilt, yaw grid; then a fine local grid)")
-    for k in range(args.fullsearch_scenes):
-        index = (5 * k + 2) % N_CLOTHS
-        truth = random_pose(rng, models[index], max_tilt_deg=0.0)
-        left, right = render_stereo_pair(RIG, [(synthetic_cloth(index), truth)], rng=rng)
-        evaluator = FitnessEvaluator(models[index], RIG, settings.fitness)
-        evaluator.update(left, right)
-        z = float(truth[2, 3])
-        coarse = full_search(evaluator, settings.bounds.x, settings.bounds.y, 0.004, z, None,
-                             np.deg2rad(np.arange(-180, 180, 3.0)).tolist())  # fmt: skip
-        c = coarse.best_transform
-        fine = full_search(evaluator, (c[0, 3] - 0.006, c[0, 3] + 0.006), (c[1, 3] - 0.006, c[1, 3] + 0.006),
-                           0.0005, z, c[:3, :3], np.deg2rad(np.arange(-3, 3.01, 0.25)).tolist())  # fmt: skip
-        grid_1mm_1deg = 511 * 391 * 360
-        result = Recognizer(models[index], RIG, settings).recognize(left, right, seed=k)
-        d = pose_error(models[index], result.transform_model_to_camera, fine.best_transform)
-        print(f"  {models[index].name}: full search best {fine.best_fitness:.3f}, GA {result.fitness:.3f}; "
-              f"GA - full search: dx {d[0]:+.2f} mm, dy {d[1]:+.2f} mm, dyaw {d[3]:+.2f} deg; "
-              f"GA evaluations {result.evaluations} = {result.evaluations / grid_1mm_1deg:.4%} "
-              f"of a 1 mm x 1 deg full search ({grid_1mm_1deg}); "
-              f"ran {coarse.evaluations + fine.evaluations} here")  # fmt: skip
-        close = max(abs(d[0]), abs(d[1])) <= 1 and abs(d[3]) <= 1
-        cheap = result.evaluations <= 0.01 * grid_1mm_1deg
-        print(f"    goal within 1 mm and 1 deg using <= 1% of the evaluations: {verdict(close and cheap)}")
+    report_identification(scenes, recognizers, args, 12)
+    report_identification(scenes, recognizers, args, 20)
+    report_full_search(scenes, recognizers, models, args)
 
 
 if __name__ == "__main__":

@@ -16,7 +16,14 @@ from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig, save_
 from robot_app.vision.photo_model import make_model
 from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
 
-FAST = ["--set", "ga.population=60", "--set", "ga.generations=60", "--set", "coarse_generations=30"]
+FAST = [
+    "--set",
+    "propose.ga.population=60",
+    "--set",
+    "propose.ga.generations=60",
+    "--set",
+    "propose.coarse_generations=30",
+]
 TRUTH = make_transform(rotation_about_z(0.5), [0.03, -0.02, 0.58])
 
 
@@ -89,7 +96,7 @@ def test_bad_input_exits_2_with_one_line(files, capsys, change, reason) -> None:
 
 
 def test_bad_setting_exits_2(files, capsys) -> None:
-    assert main(["recognize", *args(files), "--set", "ga.population=1"]) == 2
+    assert main(["recognize", *args(files), "--set", "propose.ga.population=1"]) == 2
     assert "ga.population" in capsys.readouterr().err
 
 

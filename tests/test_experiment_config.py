@@ -130,7 +130,7 @@ def test_recognition_overrides_are_checked_before_any_trial(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "out"
-    bad_key = "recognition.ga.generationz=3"
+    bad_key = "recognition.propose.ga.generationz=3"
     code = main(["trial", str(CONFIGS / "default.yaml"), "--out", str(out), "--set", bad_key])
     assert code == 2 and "ga.generationz: unknown key" in capsys.readouterr().err
     code = main(["trial", str(CONFIGS / "ga_sweep.yaml"), "--out", str(out), "--set", "sweep.values=[10, 0]"])

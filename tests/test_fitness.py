@@ -9,20 +9,20 @@ import pytest
 from robot_app.config import validate
 from robot_app.errors import ConfigError, InputError
 from robot_app.geometry import make_transform, rotation_about_z, rotation_from_rpy
-from robot_app.vision._kernels import bgr_codes, hsv_codes
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.fitness import (
     OFF_IMAGE,
     OUTSIDE_ROW,
-    AvoidedPoses,
     FitnessEvaluator,
     FitnessSettings,
     colour_table,
     score_table,
     seen_table,
 )
+from robot_app.vision.fitness_kernels import bgr_codes, gain_levels, hsv_codes
 from robot_app.vision.hue import DARK, LIGHT, colour_codes, hue_distance, to_hsv
 from robot_app.vision.photo_model import ClothModel, ModelSettings, make_model
+from robot_app.vision.poses import AvoidedPoses
 from robot_app.vision.recognizer import RecognitionSettings
 from robot_app.vision.synthetic import SyntheticCloth, render_model_photo, render_stereo_pair, synthetic_cloth
 
@@ -200,7 +200,9 @@ def test_pixel_codes_by_colour_table_agree_with_the_conversion() -> None:
     bgr[::4] //= 6  # plenty of dark pixels
     for thresholds in ((40, 40, 128), (0, 0, 128), (25, 60, 100)):
         expected = hsv_codes(to_hsv(bgr), *thresholds, DARK, LIGHT, OFF_IMAGE)
-        assert np.array_equal(bgr_codes(bgr, colour_table(*thresholds), OFF_IMAGE), expected)
+        assert np.array_equal(
+            bgr_codes(bgr, colour_table(*thresholds), OFF_IMAGE, gain_levels(np.ones(3))), expected
+        )
     assert not colour_table(40, 40, 128).flags.writeable
 
 

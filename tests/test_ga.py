@@ -14,9 +14,9 @@ from robot_app.vision.ga import (
     SearchBounds,
     decode,
     encode,
-    parameters_from_transforms,
-    transforms_from_parameters,
 )
+from robot_app.vision.poses import parameters_from_transforms, transforms_from_parameters
+from tests.vision_oracles import ga_evolve, ga_run
 
 BOUNDS = SearchBounds()
 
@@ -86,10 +86,13 @@ TARGET = make_transform(rotation_from_rpy(0.05, -0.03, 2.0), [0.1, -0.05, 0.6])
 
 @pytest.mark.parametrize("islands", [1, 4])
 def test_run_converges_and_same_seed_gives_same_result(islands: int) -> None:
+    # The algorithm (the compiled breeding of `next_generation`) on an analytic fitness,
+    # through the Python oracle loop that the compiled loop equals bit for bit (below).
     settings = GASettings(population=60, generations=80, seed=4, islands=islands)
-    first = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, settings).run()
-    again = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, settings).run()
-    other = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, settings.model_copy(update={"seed": 5})).run()
+    first = ga_run(GeneticAlgorithm(BOUNDS, settings), target_fitness(TARGET), 80)
+    again = ga_run(GeneticAlgorithm(BOUNDS, settings), target_fitness(TARGET), 80)
+    other_settings = GASettings(population=60, generations=80, seed=5, islands=islands)
+    other = ga_run(GeneticAlgorithm(BOUNDS, other_settings), target_fitness(TARGET), 80)
     assert np.linalg.norm(first.transform_model_to_camera[:3, 3] - TARGET[:3, 3]) < 0.01
     np.testing.assert_array_equal(first.transform_model_to_camera, again.transform_model_to_camera)
     assert not np.array_equal(first.transform_model_to_camera, other.transform_model_to_camera)
@@ -100,8 +103,8 @@ def test_run_converges_and_same_seed_gives_same_result(islands: int) -> None:
 @pytest.mark.parametrize("uniform_yaw", [True, False])
 def test_the_random_population_covers_every_yaw_evenly(uniform_yaw: bool) -> None:
     settings = GASettings(population=4000, islands=1, uniform_yaw=uniform_yaw)
-    ga = GeneticAlgorithm(lambda T: np.zeros(len(T)), BOUNDS, settings)
-    ga.run(0)
+    ga = GeneticAlgorithm(BOUNDS, settings)
+    ga.population = ga.random_genes()
     yaws = np.array([yaw_of(T[:3, :3]) for T in ga.transforms(ga.population)])
     near_half_turn = np.mean(np.abs(yaws) > np.deg2rad(160.0))  # 40° of the 360°: 11 %
     near_zero = np.mean(np.abs(yaws) < np.deg2rad(20.0))
@@ -111,21 +114,16 @@ def test_the_random_population_covers_every_yaw_evenly(uniform_yaw: bool) -> Non
         assert near_half_turn / near_zero < 0.25
 
 
-def test_track_moves_the_population_by_the_camera_motion() -> None:
-    ga = GeneticAlgorithm(target_fitness(TARGET), BOUNDS, GASettings(population=60, generations=80, seed=2))
-    ga.run()
-    before = ga.transforms(ga.population)
-    motion = make_transform(rotation_about_z(0.2), [0.01, -0.02, 0.005])  # ^CR_new T_CR_old
-    ga.track(motion, generations=0)
-    after = ga.transforms(ga.population)
-    moved = motion @ before
-    np.testing.assert_allclose(after[:, :3, 3], moved[:, :3, 3], atol=2e-4)
-    np.testing.assert_allclose(after[:, :3, :3], moved[:, :3, :3], atol=2e-3)
-    # The target moved with the camera: a few generations from the moved population find it.
-    ga.objective = target_fitness(motion @ TARGET)
-    result = ga.track(None, generations=5)
-    assert np.linalg.norm(result.transform_model_to_camera[:3, 3] - (motion @ TARGET)[:3, 3]) < 0.01
-    assert result.evaluations == 60 + 5 * (60 - 4 * 2)  # 4 islands keep 2 elites each
+def test_seed_makes_poses_the_population_clipped_into_the_bounds() -> None:
+    ga = GeneticAlgorithm(BOUNDS, GASettings(population=8, islands=1))
+    poses = np.repeat(TARGET[None], 8, axis=0)
+    poses[-1, 0, 3] = 1.0  # far outside x
+    ga.seed(poses)
+    back = ga.transforms(ga.population)
+    np.testing.assert_allclose(back[:7, :3, 3], poses[:7, :3, 3], atol=2e-4)
+    assert back[-1, 0, 3] == pytest.approx(BOUNDS.x[1])
+    with pytest.raises(ValueError, match="8 poses"):
+        ga.seed(poses[:3])
 
 
 def test_settings_are_validated() -> None:
@@ -147,14 +145,13 @@ def test_islands_breed_only_among_themselves() -> None:
     def two_peaks(T: np.ndarray) -> np.ndarray:
         return np.maximum(near_a(T), near_b(T))
 
-    ga = GeneticAlgorithm(two_peaks, BOUNDS, GASettings(population=40, generations=1, seed=1, islands=2))
-    ga.run(0)
-    assert ga.population is not None
+    ga = GeneticAlgorithm(BOUNDS, GASettings(population=40, generations=1, seed=1, islands=2))
+    ga.population = ga.random_genes()
     half = len(ga.population) // 2
     # Seed each island with copies of one target only; evolution must not mix them.
     ga.population[:half] = encode(parameters_from_transforms(np.repeat(TARGET[None], half, 0)), BOUNDS)
     ga.population[half:] = encode(parameters_from_transforms(np.repeat(other[None], half, 0)), BOUNDS)
-    ga.evolve(5)
+    ga_evolve(ga, two_peaks, ga.population, 5)
     for (genes, _), centre in zip(ga.islands(), (TARGET, other), strict=True):
         positions = ga.transforms(genes)[:, :3, 3]
         # mutation moves individuals a little, never to the other island's target
@@ -163,8 +160,8 @@ def test_islands_breed_only_among_themselves() -> None:
 
 @pytest.mark.parametrize("rate", [0.0, 0.02, 0.3, 1.0])
 def test_mutation_flips_each_bit_with_the_mutation_rate(rate: float) -> None:
-    from robot_app.vision._kernels import breed
     from robot_app.vision.ga import mutation_draws
+    from robot_app.vision.ga_kernels import breed
 
     rng = np.random.default_rng(3)
     parent = rng.integers(0, 4096, (1, 6)).astype(np.uint16)
@@ -176,7 +173,7 @@ def test_mutation_flips_each_bit_with_the_mutation_rate(rate: float) -> None:
 
 
 def test_two_point_crossover_swaps_the_bits_between_the_cuts() -> None:
-    from robot_app.vision._kernels import breed
+    from robot_app.vision.ga_kernels import breed
 
     parents = np.array([[0] * 6, [4095] * 6], np.uint16)
     cut_6, cut_15 = 6.5 / 73, 15.5 / 73  # bits [6, 15) of the 72 are swapped
@@ -189,8 +186,9 @@ def test_two_point_crossover_swaps_the_bits_between_the_cuts() -> None:
 @pytest.mark.parametrize("avoiding", [False, True])
 def test_compiled_generations_equal_the_python_loop_bit_for_bit(avoiding: bool) -> None:
     from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
-    from robot_app.vision.fitness import AvoidedPoses, FitnessEvaluator, KernelFitness
+    from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
     from robot_app.vision.photo_model import make_model
+    from robot_app.vision.poses import AvoidedPoses
     from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
 
     camera = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
@@ -204,20 +202,30 @@ def test_compiled_generations_equal_the_python_loop_bit_for_bit(avoiding: bool) 
     # avoiding: the cloth's own pose (within 45° of its yaw) and a spot beside it (any yaw)
     avoid = AvoidedPoses(np.array([[0.01, 0.02, 0.3], [-0.05, 0.0, np.nan]]), 0.03, np.deg2rad(45.0))
     compiled = KernelFitness(evaluator, stride=2, avoid=avoid if avoiding else None)
-    results = []
-    for fitness in (compiled, lambda T: compiled(T)):  # the lambda takes the Python loop
-        before = evaluator.evaluations
-        ga = GeneticAlgorithm(fitness, BOUNDS, GASettings(islands=4), np.random.default_rng(9))
-        result = ga.run(30)
-        results.append((ga.population, ga.scores, result, evaluator.evaluations - before))
-    (genes_a, scores_a, run_a, count_a), (genes_b, scores_b, run_b, count_b) = results
-    assert np.array_equal(genes_a, genes_b) and np.array_equal(scores_a, scores_b)
+    settings = GASettings(islands=4)
+    before = evaluator.evaluations
+    ga_a = GeneticAlgorithm(BOUNDS, settings, np.random.default_rng(9))
+    run_a = ga_a.run(compiled, 30)
+    count_a = evaluator.evaluations - before
+    before = evaluator.evaluations
+    ga_b = GeneticAlgorithm(BOUNDS, settings, np.random.default_rng(9))
+    run_b = ga_run(ga_b, lambda T: compiled(T), 30)  # the Python oracle loop
+    count_b = evaluator.evaluations - before
+    assert np.array_equal(ga_a.population, ga_b.population) and np.array_equal(ga_a.scores, ga_b.scores)
     assert np.array_equal(run_a.best_per_generation, run_b.best_per_generation)
     assert run_a.evaluations == run_b.evaluations == count_a == count_b
     assert run_a.generations == run_b.generations == 30
     assert run_a.fitness > 0.5  # it did search: the cloth is there
     if avoiding:  # every pose in the avoided regions scored -1, and the best lies outside them
-        poses = GeneticAlgorithm(compiled, BOUNDS).transforms(genes_a)
+        poses = ga_a.transforms(ga_a.population)
         inside = avoid.mask(poses)
-        assert inside.any() and np.all(scores_a[inside] == -1.0)
+        assert inside.any() and np.all(ga_a.scores[inside] == -1.0)
         assert not avoid.mask(run_a.transform_model_to_camera[None])[0]
+
+
+def test_the_ga_refuses_a_subpixel_fitness() -> None:
+    from robot_app.vision.fitness import KernelFitness
+
+    fitness = KernelFitness(object(), subpixel=True)  # never called: refused before
+    with pytest.raises(ValueError, match="nearest pixel"):
+        GeneticAlgorithm(BOUNDS, GASettings(population=8, islands=1)).run(fitness, 1)

@@ -77,11 +77,46 @@ def test_a_version_1_file_still_loads(tmp_path):
     arrays["hues_in"] = arrays["hues_in"].astype(np.uint8)  # version 1: hues only, uint8
     np.savez(tmp_path / "old.npz", **arrays)
     assert ClothModel.load(tmp_path / "old.npz") == model
-    header["version"] = 3
+    header["version"] = 4
     arrays["header"] = np.array(json.dumps(header))
     np.savez(tmp_path / "future.npz", **arrays)
-    with pytest.raises(ModelError, match="version 3"):
+    with pytest.raises(ModelError, match="version 4"):
         ClothModel.load(tmp_path / "future.npz")
+
+
+def test_a_version_3_model_keeps_its_photo_texture_and_sheet_colour(tmp_path):
+    cloth = synthetic_cloth(3)
+    photo, background = render_model_photo(cloth, MODEL_CAMERA)
+    model = make_model(photo, MODEL_CAMERA, background)
+    assert model.has_texture and model.sheet_bgr is not None
+    # the sheet's colour is the photo's green
+    assert np.all(np.abs(model.sheet_bgr - np.median(background.reshape(-1, 3), axis=0)) <= 3)
+    # the texture map sends each S_in point to a pixel of the cloth of the point's hue
+    A = model.texture_from_model
+    uv = model.points_in[:, :2] @ A[:, :2].T + A[:, 2]
+    iu, iv = np.rint(uv).astype(int).T
+    assert model.texture_mask[iv, iu].all()
+    hues = to_hue(np.ascontiguousarray(model.texture_bgr))[iv, iu]
+    hued = model.hues_in < 256
+    assert np.median(hue_distance(hues[hued], model.hues_in[hued])) <= 3
+    model.save(tmp_path / "m.npz")
+    assert ClothModel.load(tmp_path / "m.npz") == model
+    assert not any(p.name.startswith(".") for p in tmp_path.iterdir())  # no partial file left
+
+
+def test_a_version_2_file_loads_without_texture(tmp_path):
+    cloth = synthetic_cloth(3)
+    photo, background = render_model_photo(cloth, MODEL_CAMERA)
+    make_model(photo, MODEL_CAMERA, background).save(tmp_path / "new.npz")
+    with np.load(tmp_path / "new.npz") as data:
+        arrays = {k: v for k, v in data.items() if not k.startswith("texture")}
+    header = json.loads(str(arrays["header"]))
+    header["version"] = 2
+    del header["sheet_bgr"]
+    arrays["header"] = np.array(json.dumps(header))
+    np.savez(tmp_path / "v2.npz", **arrays)
+    old = ClothModel.load(tmp_path / "v2.npz")
+    assert not old.has_texture and old.sheet_bgr is None and old.n_in > 0
 
 
 def _checks_with_white_stripe() -> SyntheticCloth:

@@ -146,24 +146,23 @@ def test_wrong_image_size_is_bad_input() -> None:
 def test_settings_reach_the_parts() -> None:
     settings = RecognitionSettings.model_validate(
         {
-            "ga": {"population": 20, "generations": 5, "islands": 1},
-            "refinement": {"enabled": False},
-            "coarse_generations": 2,
-            "restarts": 0,
+            "propose": {"ga": {"population": 20, "generations": 5, "islands": 1}, "coarse_generations": 2,
+                        "restarts": 0},
+            "refine": {"enabled": False},
         }
-    )
+    )  # fmt: skip
     left, right = render_stereo_pair(RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(6))
     result = Recognizer(model(0), RIG, settings).recognize(left, right, seed=0)
-    assert (
-        result.generations == 5 and result.evaluations == 20 + 2 * 18 + 20 + 3 * 18 + 2
-    )  # rescored at the coarse-to-fine switch; + the search and the reported (paper) fitness of the result
+    # rescored at the coarse-to-fine switch; + the search fitness of the end; the 4 turns of
+    # the ambiguity check; the reported (paper) fitness of the result
+    assert result.generations == 5 and result.evaluations == 20 + 2 * 18 + 20 + 3 * 18 + 1 + 4 + 1
 
 
 def test_garbage_collector_runs_again_after_a_recognition() -> None:
     import gc
 
     left, right = render_stereo_pair(RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(0))
-    settings = RecognitionSettings(ga={"generations": 5}, restarts=0)
+    settings = RecognitionSettings.model_validate({"propose": {"ga": {"generations": 5}, "restarts": 0}})
     recognizer = Recognizer(model(0), RIG, settings)
     assert gc.isenabled()
     recognizer.recognize(left, right, seed=0)

@@ -10,18 +10,14 @@ from robot_app.config import validate
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform, rotation_from_rpy
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
-from robot_app.vision.fitness import AvoidedPoses, FitnessEvaluator, KernelFitness
+from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
 from robot_app.vision.photo_model import make_model
-from robot_app.vision.refinement import (
-    PoseLimits,
-    RefinementSettings,
-    cma_search,
-    cma_search_compiled,
-    compass_search,
-    compass_search_compiled,
-    moved,
-)
+from robot_app.vision.poses import AvoidedPoses, PoseLimits, moved
+from robot_app.vision.refinement import RefinementSettings, Refiner
+from robot_app.vision.refinement import cma_search as cma_search_compiled
+from robot_app.vision.refinement import compass_search as compass_search_compiled
 from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
+from tests.vision_oracles import cma_search, compass_search
 
 START = make_transform(rotation_from_rpy(0.05, -0.03, 0.7), [0.02, -0.01, 0.58])
 # The optimum, in the refinement's coordinates (dx, dy, depth along the ray [m], rotation [rad]):
@@ -70,13 +66,14 @@ def evaluator() -> FitnessEvaluator:
 def test_cma_takes_a_real_fitness_from_a_displaced_start_to_the_true_pose(evaluator) -> None:
     truth = TRUTH
 
-    def score(poses: np.ndarray) -> np.ndarray:
-        return evaluator.evaluate(poses, subpixel=True)
-
+    fitness_at, fine = KernelFitness(evaluator), KernelFitness(evaluator, subpixel=True)
     start = moved(truth, [0.003, -0.002, 0.008, 0.03, 0.0, 0.02])  # 8 mm deeper, 1.7° off in tilt
     for seed in range(3):
-        pose, fitness = cma_search(start, score, RefinementSettings(), np.random.default_rng(seed))
-        assert fitness > float(score(start[None])[0])
+        result = cma_search_compiled(
+            start, fitness_at, RefinementSettings(), np.random.default_rng(seed), _limits(False), fine
+        )
+        pose, fitness = result.transform_model_to_camera, result.score
+        assert fitness > float(fine(start[None])[0])
         assert np.all(np.abs(pose[:2, 3] - truth[:2, 3]) < 0.001)
         assert abs(pose[2, 3] - truth[2, 3]) < 0.003
 
@@ -107,7 +104,8 @@ def test_compiled_cma_is_the_python_cma_bit_for_bit(evaluator, tight: bool, avoi
     before = evaluator.evaluations
     fitness = KernelFitness(evaluator, stride=stride, search=True, avoid=avoid)
     fine = KernelFitness(evaluator, search=True, subpixel=True)
-    compiled = cma_search_compiled(start, fitness, settings, np.random.default_rng(5), limits, fine)
+    result = cma_search_compiled(start, fitness, settings, np.random.default_rng(5), limits, fine)
+    compiled = (result.transform_model_to_camera, result.score)
     counted = evaluator.evaluations - before
 
     def allowed(poses: np.ndarray) -> np.ndarray:
@@ -139,7 +137,8 @@ def test_compiled_compass_is_the_python_compass(evaluator, tight: bool, avoid, s
     start = moved(TRUTH, [0.003, -0.002, 0.008, 0.03, 0.0, 0.02])
     fitness = KernelFitness(evaluator, search=True, subpixel=subpixel, avoid=avoid)
     before = evaluator.evaluations
-    compiled = compass_search_compiled(start, fitness, settings, 30, limits)
+    result = compass_search_compiled(start, fitness, settings, 30, limits)
+    compiled = (result.transform_model_to_camera, result.score)
     counted = evaluator.evaluations - before
     before = evaluator.evaluations
     python = compass_search(start, fitness, settings, 30, lambda poses: limits.allows(poses, avoid))
@@ -200,3 +199,9 @@ def test_settings_are_validated() -> None:
         validate(RefinementSettings, {"method": "newton"})
     with pytest.raises(ConfigError, match="cma_sigma"):
         validate(RefinementSettings, {"cma_sigma": 0.0})
+
+
+def test_a_disabled_refiner_returns_the_pose_unscored() -> None:
+    refiner = Refiner(RefinementSettings(enabled=False))
+    result = refiner.polish(START, None, None, None, np.random.default_rng(0))  # type: ignore[arg-type]
+    assert np.array_equal(result.transform_model_to_camera, START) and result.evaluations == 0

@@ -9,8 +9,9 @@ from typing import Annotated
 import numpy as np
 import typer
 
+from robot_app.commands.recognize_pairs import read_pairs, recognize_pairs
 from robot_app.config import dump_config, load_config
-from robot_app.errors import InputError
+from robot_app.errors import InputError, RobotAppError
 from robot_app.vision.camera import load_rig
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.full_search import find_peaks, full_search
@@ -24,6 +25,14 @@ RigOption = Annotated[
 ]
 LeftOption = Annotated[Path, typer.Option("--left", help="Left camera image.")]
 RightOption = Annotated[Path, typer.Option("--right", help="Right camera image.")]
+PairsOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--pairs",
+        help="CSV with header left,right (paths relative to its folder or absolute): "
+        "one JSON line per row, instead of --left/--right.",
+    ),
+]
 ConfigOption = Annotated[
     Path | None, typer.Option("--config", help="YAML of recognition settings (fitness, ga, bounds, ...).")
 ]
@@ -33,8 +42,9 @@ SetOption = Annotated[list[str] | None, typer.Option("--set", help="Setting key=
 def recognize(
     model: ModelOption,
     rig: RigOption,
-    left: LeftOption,
-    right: RightOption,
+    left: Annotated[Path | None, typer.Option("--left", help="Left camera image.")] = None,
+    right: Annotated[Path | None, typer.Option("--right", help="Right camera image.")] = None,
+    pairs: PairsOption = None,
     seed: Annotated[int | None, typer.Option("--seed", help="Seed of the GA (default: settings).")] = None,
     as_json: Annotated[
         bool, typer.Option("--json", help="One compact JSON line instead of indented.")
@@ -47,9 +57,24 @@ def recognize(
 
     A cloth that is not there is a result, not an error: `found` is false and the exit
     code is 0. Bad input (missing file, image size not the rig's, non-rotation R, a file
-    that is not a cloth model) exits with 2.
+    that is not a cloth model) exits with 2. With --pairs, each row prints one JSON line
+    (a row that fails prints {"row": i, "error": ...} and the rest go on; exit 1 at the
+    end if any failed), with a progress bar on stderr.
     """
+    if pairs is not None and (left is not None or right is not None):
+        raise InputError("give either --pairs or --left and --right, not both", key="--pairs")
+    if pairs is None and (left is None or right is None):
+        raise InputError("give --left and --right (or --pairs PAIRS.csv)", key="--left")
     settings = load_config(RecognitionSettings, config, overrides or [])
+    if pairs is not None:
+        rows = read_pairs(pairs)  # a malformed CSV is bad input before any work
+        recognizer = Recognizer(ClothModel.load(model), load_rig(rig), settings)
+        summary = recognize_pairs(recognizer, rows, seed=seed, report_peaks=peaks)
+        if summary.failed:  # a result, not bad input: exit 1 after every row has printed
+            raise RobotAppError(f"{summary.failed} of {summary.rows} pairs failed (their rows say why)")
+        return
+    if left is None or right is None:  # unreachable (checked above); narrows the types
+        raise InputError("give --left and --right", key="--left")
     recognizer = Recognizer(ClothModel.load(model), load_rig(rig), settings)
     result = recognizer.recognize(load_photo(left), load_photo(right), seed=seed, report_peaks=peaks)
     typer.echo(json.dumps(result.to_json(), indent=None if as_json else 2))
@@ -80,7 +105,7 @@ def fullsearch(
     evaluator = FitnessEvaluator(cloth_model, stereo_rig, settings.fitness)
     evaluator.update(image_left, image_right)
     yaws = None if yaw_step_deg is None else np.deg2rad(np.arange(-180.0, 180.0, yaw_step_deg)).tolist()
-    bounds = settings.bounds
+    bounds = settings.propose.bounds
     with typer.progressbar(length=1, label="full search") as bar:
 
         def progress(done: int, total: int) -> None:
@@ -107,7 +132,10 @@ def fullsearch(
             "step_m": step,
             "depth_m": depth,
             "peaks": [
-                p._asdict() for p in find_peaks(result, settings.peak_separation, settings.peak_min_fitness)
+                p._asdict()
+                for p in find_peaks(
+                    result, settings.propose.peak_separation, settings.propose.peak_min_fitness
+                )
             ],
         },
         "ga": recognition.to_json(),

@@ -60,9 +60,7 @@ class PickPlaceConfig(StrictModel):
     world: WorldConfig = WorldConfig()
     scene: SceneSettings = SceneSettings()
     model: ModelSettings = ModelSettings()
-    # 0.45: a cloth 45% under the paper scores ~0.55 (S_out on the paper counts against it),
-    # absent cloths stay below (checked by the absent-target tests and benchmark).
-    recognition: RecognitionSettings = RecognitionSettings(acceptance_threshold=0.45)
+    recognition: RecognitionSettings = RecognitionSettings()
     filter: PoseFilterSettings = PoseFilterSettings()
     trajectory: TrajectorySettings = TrajectorySettings()
     loop: LoopSettings = LoopSettings()
@@ -73,7 +71,7 @@ class PickPlaceConfig(StrictModel):
         0.015,
         gt=0.0,
         description="the cloth lies on the known table: search depth = observation height ± this [m], "
-        "tilt ≤ table_tilt_deg, depth window while tracking = this; None keeps recognition.bounds",
+        "tilt ≤ table_tilt_deg, depth window while tracking = this; None keeps recognition.propose.bounds",
     )
     table_tilt_deg: float = Field(5.0, gt=0.0, le=90.0)
     grasp_radius: float = Field(0.035, gt=0.0, le=0.1, description="nodes anchored around the TCP [m]")
@@ -176,10 +174,10 @@ def _recognition_settings(config: PickPlaceConfig) -> RecognitionSettings:
     if window is None:
         return config.recognition
     height = config.world.observation.height
-    bounds = config.recognition.bounds.model_copy(
-        update={"z": (height - window, height + window), "max_tilt_deg": config.table_tilt_deg}
-    )
-    return config.recognition.model_copy(update={"bounds": bounds, "tracking_depth_window": window})
+    data = config.recognition.model_dump()
+    data["propose"]["bounds"].update(z=(height - window, height + window), max_tilt_deg=config.table_tilt_deg)
+    data["propose"]["tracking"]["depth_window"] = window
+    return RecognitionSettings.model_validate(data)
 
 
 def _make_target_model(config: PickPlaceConfig):

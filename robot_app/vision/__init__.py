@@ -9,6 +9,8 @@ from robot_app.vision.camera import (
     save_model_camera,
     save_rig,
 )
+from robot_app.vision.decide import Decision, DecisionSettings, confidence, decide
+from robot_app.vision.exposure import ExposureSettings, sheet_gains
 from robot_app.vision.fitness import FitnessEvaluator, FitnessSettings, KernelFitness
 from robot_app.vision.full_search import FitnessPeak, FullSearchResult, find_peaks, full_search
 from robot_app.vision.ga import GAResult, GASettings, GeneticAlgorithm, SearchBounds
@@ -24,8 +26,10 @@ from robot_app.vision.hue import (
 )
 from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
 from robot_app.vision.plots import plot_full_search, save_preview
+from robot_app.vision.poses import AvoidedPoses, PoseLimits
+from robot_app.vision.propose import Candidate, Proposal, ProposalSettings, Proposer, TrackingSettings
 from robot_app.vision.recognizer import Peak, Recognition, RecognitionSettings, Recognizer
-from robot_app.vision.refinement import RefinementSettings, cma_search, compass_search
+from robot_app.vision.refinement import Refinement, RefinementSettings, Refiner, cma_search, compass_search
 from robot_app.vision.sampling import ModelSamples, sample_model
 from robot_app.vision.synthetic import (
     CATALOGUE_SIZE,
@@ -36,12 +40,18 @@ from robot_app.vision.synthetic import (
     render_stereo_pair,
     synthetic_cloth,
 )
+from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
 __all__ = [
     "CATALOGUE_SIZE",
     "DARK",
     "LIGHT",
+    "AvoidedPoses",
+    "Candidate",
     "ClothModel",
+    "Decision",
+    "DecisionSettings",
+    "ExposureSettings",
     "FitnessEvaluator",
     "FitnessPeak",
     "FitnessSettings",
@@ -55,18 +65,30 @@ __all__ = [
     "ModelSettings",
     "Peak",
     "PinholeCamera",
+    "PoseLimits",
+    "Proposal",
+    "ProposalSettings",
+    "Proposer",
     "Recognition",
     "RecognitionSettings",
     "Recognizer",
+    "Refinement",
     "RefinementSettings",
+    "Refiner",
     "SearchBounds",
     "StereoRig",
     "SyntheticCloth",
+    "TrackingSettings",
+    "Verification",
+    "VerificationSettings",
+    "Verifier",
     "circular_mean_hue",
     "cma_search",
     "colour_codes",
     "colours_match",
     "compass_search",
+    "confidence",
+    "decide",
     "find_peaks",
     "full_search",
     "hue_distance",
@@ -83,6 +105,7 @@ __all__ = [
     "save_model_camera",
     "save_preview",
     "save_rig",
+    "sheet_gains",
     "synthetic_cloth",
     "to_hsv",
     "to_hue",

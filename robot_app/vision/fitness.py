@@ -53,17 +53,18 @@ from pydantic import Field, model_validator
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.errors import InputError
-from robot_app.vision._kernels import (
+from robot_app.vision.camera import PinholeCamera, StereoRig
+from robot_app.vision.fitness_kernels import (
     bgr_codes,
     every_colour,
+    gain_levels,
     hsv_codes,
     normalised,
-    poses_avoided,
     score_poses,
 )
-from robot_app.vision.camera import PinholeCamera, StereoRig
 from robot_app.vision.hue import COLOUR_CODES, DARK, HUE_RANGE, LIGHT, colours_match, to_hsv
 from robot_app.vision.photo_model import ClothModel
+from robot_app.vision.poses import AvoidedPoses, as_poses
 
 OFF_IMAGE = COLOUR_CODES  # code of the frame around each image that off-image points read: scores 0
 OUTSIDE_ROW = COLOUR_CODES  # table row of S_out points; rows 0-257 are S_in points by colour code
@@ -211,6 +212,15 @@ def _foreign_hues(
     return np.asarray(far_from_background & ~_near_model_hues(model_hues, params))
 
 
+def foreign_codes(
+    background_hue: float, params: FitnessSettings, model_hues: npt.ArrayLike
+) -> npt.NDArray[np.bool_]:
+    """(259,) per pixel code: is it a foreign colour for an S_in point (neither within
+    `hue_threshold_in` of H̄_B nor near a colour the model has; `OFF_IMAGE` counts as
+    foreign)? What the verification takes as hidden."""
+    return np.append(_foreign_hues(background_hue, params, model_hues, params.hue_threshold_in), True)
+
+
 def _near_model_hues(model_hues: npt.ArrayLike, params: FitnessSettings) -> npt.NDArray[np.bool_]:
     """(258,) colour codes that match one the model really has: one that at least
     `model_hue_min_share` of its S_in points have (a few mixed pixels along colour edges
@@ -265,38 +275,51 @@ class FitnessEvaluator:
         """Point projections and look-ups done so far (poses x points x 2 images)."""
         return self.evaluations * self.n_points * 2
 
-    def update(self, image_left_bgr: npt.NDArray[np.uint8], image_right_bgr: npt.NDArray[np.uint8]) -> None:
+    def update(
+        self,
+        image_left_bgr: npt.NDArray[np.uint8],
+        image_right_bgr: npt.NDArray[np.uint8],
+        gains: tuple[FloatArray, FloatArray] | None = None,
+    ) -> None:
         """Takes a new stereo pair (BGR uint8, the rig's image size); undistorts if the rig says so.
+
+        Args:
+            image_left_bgr, image_right_bgr: the pair.
+            gains: per image, (3,) factors of the b, g, r channels that map the scene's
+                exposure and white balance onto the model photo's before the colour codes
+                are taken (`exposure.sheet_gains`); None: as they are.
 
         Raises:
             InputError: an image is not (H, W, 3) uint8 of the rig's size.
         """
         codes = []
-        for side, image, camera in (
-            ("left", image_left_bgr, self.rig.left),
-            ("right", image_right_bgr, self.rig.right),
+        unit = np.ones(3)
+        left_gains, right_gains = (unit, unit) if gains is None else gains
+        for side, image, camera, gain in (
+            ("left", image_left_bgr, self.rig.left, left_gains),
+            ("right", image_right_bgr, self.rig.right, right_gains),
         ):
-            array = np.asarray(image)
-            width, height = camera.image_size
-            if array.ndim != 3 or array.shape[2] != 3 or array.dtype != np.uint8:
-                raise InputError(
-                    f"{side} image must be an (H, W, 3) uint8 BGR image, got {array.shape} {array.dtype}"
-                )
-            if array.shape[:2] != (height, width):
-                raise InputError(
-                    f"{side} image is {array.shape[1]}x{array.shape[0]} px but the rig expects "
-                    f"{width}x{height} px"
-                )
-            codes.append(self._pixel_codes(array, camera))
+            array = checked_image(image, camera, side)
+            codes.append(self._pixel_codes(array, camera, np.asarray(gain, dtype=float)))
         self._codes = (codes[0], codes[1])
 
-    def _pixel_codes(self, image: npt.NDArray[np.uint8], camera: PinholeCamera) -> npt.NDArray[np.uint16]:
+    @property
+    def codes(self) -> tuple[npt.NDArray[np.uint16], npt.NDArray[np.uint16]]:
+        """The current pair's framed pixel codes (left, right), as the kernels read them
+        (row stride width + 3, one frame pixel left and top)."""
+        if self._codes is None:
+            raise RuntimeError("no stereo pair yet: call update(left, right) first")
+        return self._codes
+
+    def _pixel_codes(
+        self, image: npt.NDArray[np.uint8], camera: PinholeCamera, gains: FloatArray
+    ) -> npt.NDArray[np.uint16]:
         if camera.has_distortion:
             K = camera.camera_matrix
             image = np.asarray(cv2.undistort(image, K, camera.dist_coeffs, None, K), dtype=np.uint8)
         p = self.params  # framed by OFF_IMAGE:
         table = colour_table(p.min_saturation, p.min_value, p.value_split)
-        return bgr_codes(np.ascontiguousarray(image), table, OFF_IMAGE)
+        return bgr_codes(np.ascontiguousarray(image), table, OFF_IMAGE, gain_levels(gains))
 
     def _point_set(self, stride: int) -> _PointSet:
         """Every `stride`-th S_in and S_out point (all of them for 1), cached."""
@@ -348,11 +371,20 @@ class FitnessEvaluator:
             InputError: no images yet (call `update`), poses of the wrong shape or a stride
                 below 1.
         """
-        T = np.ascontiguousarray(_as_poses(transforms_model_to_right))
+        T = np.ascontiguousarray(as_poses(transforms_model_to_right))
         arguments, normalisation = self.kernel_arguments(stride=stride, search=search)
         sums, seen = score_poses(T, *arguments, subpixel)  # type: ignore[call-arg]  # numba stub
         self.evaluations += len(sums)
         return np.asarray(normalised(sums, seen, *normalisation))
+
+    def seen_fraction(self, transforms_model_to_right: npt.ArrayLike, *, search: bool = True) -> FloatArray:
+        """(P,) share of the model's maximum score that the points seen could score at each
+        pose (in view and, with `hidden_foreign`, not on a foreign colour), both images."""
+        T = as_poses(transforms_model_to_right)
+        arguments, normalisation = self.kernel_arguments(search=search)
+        _, seen = score_poses(T, *arguments, False)  # type: ignore[call-arg]  # numba stub
+        self.evaluations += len(T)
+        return np.asarray(seen) / normalisation[0]
 
     def kernel_arguments(
         self, *, stride: int = 1, search: bool = False
@@ -391,40 +423,11 @@ class FitnessEvaluator:
         return arguments, (2.0 * points.maximum, view, params.min_view_fraction, params.hidden_penalty)
 
 
-class AvoidedPoses(NamedTuple):
-    """Poses a search must not visit (peaks already reported, or poor peaks that drew it):
-    the model origin within `separation` (x-y) [m] of a centre (x, y [m], yaw [rad]) and,
-    unless the centre's yaw is NaN (any yaw), the yaw within `yaw_window` [rad] of it."""
-
-    centres: FloatArray  # (K, 3)
-    separation: float
-    yaw_window: float
-
-    @classmethod
-    def none(cls) -> AvoidedPoses:
-        """Nothing avoided."""
-        return cls(np.zeros((0, 3)), 0.0, 0.0)
-
-    def kernel_arguments(self) -> tuple[FloatArray, FloatArray, float]:
-        """(centres, windows, separation) as `_kernels.poses_avoided` takes them: a NaN yaw
-        becomes 0 with a window wider than a half turn (the kernels assume no NaN)."""
-        centres = np.array(self.centres, dtype=float).reshape(-1, 3)
-        any_yaw = np.isnan(centres[:, 2])
-        windows = np.where(any_yaw, 4.0, self.yaw_window)
-        centres[any_yaw, 2] = 0.0
-        return centres, windows, float(self.separation)
-
-    def mask(self, transforms: npt.ArrayLike) -> npt.NDArray[np.bool_]:
-        """(P,) True where a pose of (P, 4, 4) `transforms` is avoided."""
-        T = np.ascontiguousarray(_as_poses(transforms))
-        return np.asarray(poses_avoided(T, *self.kernel_arguments()))
-
-
 class KernelFitness:
-    """The fitness of one evaluator at one stride as a function of poses, which the compiled
-    loops (the GA's `_kernels.evolve`, the refinement's `cma_run` and `compass_run`) also
-    run inside instead of calling it once per step: same scores, bit for bit, without the
-    Python overhead.
+    """The fitness of one evaluator at one stride as a function of poses: what the search
+    stages optimise. The compiled loops (the GA's `ga_kernels.evolve`, the refinement's
+    `cma_run` and `compass_run`) run it inside from its `kernel_arguments` instead of
+    calling it once per step: same scores, bit for bit, without the Python overhead.
 
     Args:
         evaluator: the evaluator (its current stereo pair is read at each call).
@@ -482,6 +485,25 @@ def colour_table(min_saturation: int, min_value: int, value_split: int) -> npt.N
     return table
 
 
+def checked_image(image: npt.ArrayLike, camera: PinholeCamera, side: str) -> npt.NDArray[np.uint8]:
+    """`image` as an (H, W, 3) uint8 array of `camera`'s size.
+
+    Raises:
+        InputError: another type or size (the message names `side` and both sizes).
+    """
+    array = np.asarray(image)
+    width, height = camera.image_size
+    if array.ndim != 3 or array.shape[2] != 3 or array.dtype != np.uint8:
+        raise InputError(
+            f"{side} image must be an (H, W, 3) uint8 BGR image, got {array.shape} {array.dtype}"
+        )
+    if array.shape[:2] != (height, width):
+        raise InputError(
+            f"{side} image is {array.shape[1]}x{array.shape[0]} px but the rig expects {width}x{height} px"
+        )
+    return array
+
+
 def _paired_table(model: ClothModel, params: FitnessSettings) -> npt.NDArray[np.float32]:
     """The flat (score, seen) table the kernels read: entry 2 (row · columns + code) is the score."""
     scores = score_table(model.background_hue, params, model.hues_in)
@@ -499,23 +521,15 @@ class _PointSet(NamedTuple):
     maximum: float  # score of a perfect match in one image
 
 
-def _as_poses(transforms: npt.ArrayLike) -> FloatArray:
-    T = np.asarray(transforms, dtype=float)
-    if T.ndim == 2:
-        T = T[None]
-    if T.ndim != 3 or T.shape[1:] != (4, 4):
-        raise ValueError(f"poses must have shape (P, 4, 4) or (4, 4), got {T.shape}")
-    return T
-
-
 __all__ = [
     "OFF_IMAGE",
     "OUTSIDE_ROW",
-    "AvoidedPoses",
     "FitnessEvaluator",
     "FitnessSettings",
     "KernelFitness",
+    "checked_image",
     "colour_table",
+    "foreign_codes",
     "score_table",
     "seen_table",
 ]

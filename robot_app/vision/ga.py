@@ -1,4 +1,4 @@
-"""The 72-bit genetic algorithm of the paper (Sec. II-E): one-shot search and multi-step tracking.
+"""The 72-bit genetic algorithm of the paper (Sec. II-E), over a compiled fitness.
 
 A chromosome is six 12-bit genes (t_x, t_y, t_z, ε1, ε2, ε3): the position of Σ_M in Σ_CR
 and the vector part ε of a unit quaternion with ε0 = sqrt(1 - |ε|²) ≥ 0. Each gene maps
@@ -14,17 +14,20 @@ linear ranking selection, two-point crossover over the 72 bits, bit-flip mutatio
 evaluate only the offspring. With `islands` > 1 the population is split into that many
 sub-populations that rank and breed only among themselves (their offspring are scored
 in one batch): each island converges on its own peak, so one island caught on a wrong
-peak does not take the whole search with it. `run` starts from a random population; `track` keeps the
-last population, moves every individual by the camera motion and evolves a few
-generations. The RNG is a seeded `np.random.Generator`: same seed, same result. With a
-`KernelFitness` (the recognizer's), all generations of a call run in one compiled loop
-that draws the same random numbers and gives the same population as the loop in Python.
+peak does not take the whole search with it.
+
+The objective is an argument of each call (`run(fitness, n)`, `evolve(fitness, n)`), a
+`KernelFitness`: all generations of a call run in one compiled loop
+(`ga_kernels.evolve`). A caller that wants cheap early generations calls `run` with a
+strided fitness and `evolve` with the full one; the kept population is re-scored by the
+new objective. The RNG is a seeded `np.random.Generator`: same seed, same result. The
+multi-step (tracking) use of the GA is the proposal stage's (`propose.Proposer.track`):
+it seeds a GA with moved poses (`seed`) and evolves a few generations.
 """
 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,14 +36,14 @@ from pydantic import Field, model_validator
 
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
-from robot_app.vision._kernels import evolve, next_generation, pose_parameters, transforms_from_genes
 from robot_app.vision.fitness import KernelFitness
+from robot_app.vision.ga_kernels import evolve
+from robot_app.vision.pose_kernels import transforms_from_genes
+from robot_app.vision.poses import GENES, as_poses, parameters_from_transforms
 
 BITS = 12
-GENES = 6
 LEVELS = (1 << BITS) - 1  # highest gene value, 4095
 Genes = npt.NDArray[np.uint16]
-Objective = Callable[[FloatArray], FloatArray]  # (P, 4, 4) poses -> (P,) fitness values
 
 
 class SearchBounds(StrictModel):
@@ -146,36 +149,6 @@ def decode(genes: Genes, bounds: SearchBounds, gray_code: bool = True) -> FloatA
     return ranges[:, 0] + g / LEVELS * (ranges[:, 1] - ranges[:, 0])
 
 
-def transforms_from_parameters(parameters: npt.ArrayLike) -> FloatArray:
-    """(P, 6) (t, ε) -> (P, 4, 4) ^CR T_M; an ε with |ε| > 1 is normalised (ε0 = 0)."""
-    x = np.asarray(parameters, dtype=float).reshape(-1, GENES)
-    eps = x[:, 3:].copy()
-    norm = np.linalg.norm(eps, axis=1)
-    long = norm > 1.0
-    eps[long] /= norm[long, None]
-    e1, e2, e3 = eps.T
-    e0 = np.sqrt(np.clip(1.0 - (e1 * e1 + e2 * e2 + e3 * e3), 0.0, 1.0))
-    T = np.zeros((len(x), 4, 4))
-    T[:, 0, 0] = 1 - 2 * (e2 * e2 + e3 * e3)
-    T[:, 0, 1] = 2 * (e1 * e2 - e0 * e3)
-    T[:, 0, 2] = 2 * (e1 * e3 + e0 * e2)
-    T[:, 1, 0] = 2 * (e1 * e2 + e0 * e3)
-    T[:, 1, 1] = 1 - 2 * (e1 * e1 + e3 * e3)
-    T[:, 1, 2] = 2 * (e2 * e3 - e0 * e1)
-    T[:, 2, 0] = 2 * (e1 * e3 - e0 * e2)
-    T[:, 2, 1] = 2 * (e2 * e3 + e0 * e1)
-    T[:, 2, 2] = 1 - 2 * (e1 * e1 + e2 * e2)
-    T[:, :3, 3] = x[:, :3]
-    T[:, 3, 3] = 1.0
-    return T
-
-
-def parameters_from_transforms(transforms: npt.ArrayLike) -> FloatArray:
-    """(P, 4, 4) ^CR T_M -> (P, 6) (t, ε) with ε0 ≥ 0 (the inverse of `transforms_from_parameters`)."""
-    T = np.ascontiguousarray(np.asarray(transforms, dtype=float).reshape(-1, 4, 4))
-    return np.asarray(pose_parameters(T))
-
-
 @dataclass(frozen=True)
 class GAResult:
     """Outcome of `run` or `track`.
@@ -196,16 +169,14 @@ class GAResult:
 
 
 class GeneticAlgorithm:
-    """The GA over an objective (a fitness function of poses); holds the population between calls."""
+    """The GA's population between calls, its bounds, settings and random generator."""
 
     def __init__(
         self,
-        objective: Objective,
         bounds: SearchBounds | None = None,
         settings: GASettings | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
-        self.objective = objective
         self.bounds = bounds if bounds is not None else SearchBounds()
         self.settings = settings if settings is not None else GASettings()
         self.rng = rng if rng is not None else np.random.default_rng(self.settings.seed)
@@ -234,9 +205,22 @@ class GeneticAlgorithm:
         """(P, 4, 4) poses of (P, 6) genes."""
         return transforms_from_genes(genes, self._lows, self._spans, self.settings.gray_code)
 
-    def run(self, generations: int | None = None) -> GAResult:
-        """One-shot search: a random population (see `GASettings.uniform_yaw`) evolved `generations`
-        (default: settings) times."""
+    def best_pose(self) -> FloatArray:
+        """(4, 4) the best individual's pose."""
+        if self.population is None or self.scores is None:
+            raise RuntimeError("no population yet: call run() first")
+        best = int(np.argmax(self.scores))
+        return self.transforms(self.population[best : best + 1])[0]
+
+    def ranked_poses(self, count: int) -> FloatArray:
+        """(min(count, P), 4, 4) the best `count` individuals' poses, best first."""
+        if self.population is None or self.scores is None:
+            raise RuntimeError("no population yet: call run() first")
+        order = np.argsort(-self.scores, kind="stable")[:count]
+        return self.transforms(self.population[order])
+
+    def random_genes(self) -> Genes:
+        """A random population (see `GASettings.uniform_yaw`), drawn from the generator."""
         s = self.settings
         genes = self.rng.integers(0, LEVELS + 1, (s.population, GENES), dtype=np.uint16)
         if s.uniform_yaw:
@@ -244,91 +228,65 @@ class GeneticAlgorithm:
             parameters = decode(genes, self.bounds, s.gray_code)
             parameters[:, 5] = np.sin(yaw / 2.0)
             genes[:, 5] = encode(parameters, self.bounds, s.gray_code)[:, 5]
-        return self._evolve(genes, s.generations if generations is None else generations)
+        return genes
 
-    def evolve(self, generations: int) -> GAResult:
-        """Continues from the kept population (re-scored with the current `objective`)."""
+    def run(self, fitness: KernelFitness, generations: int | None = None) -> GAResult:
+        """One-shot search: a random population evolved `generations` (default: settings) times."""
+        count = self.settings.generations if generations is None else generations
+        return self._evolve(fitness, self.random_genes(), count)
+
+    def seed(self, transforms_model_to_camera: npt.ArrayLike) -> None:
+        """Makes (P, 4, 4) poses the population (clipped into the bounds; P = settings.population)."""
+        poses = as_poses(transforms_model_to_camera)
+        if len(poses) != self.settings.population:
+            raise ValueError(f"seed needs {self.settings.population} poses, got {len(poses)}")
+        self.population = encode(parameters_from_transforms(poses), self.bounds, self.settings.gray_code)
+        self.scores = None
+
+    def evolve(self, fitness: KernelFitness, generations: int) -> GAResult:
+        """Continues from the kept population, re-scored by `fitness` first."""
         if self.population is None:
-            raise RuntimeError("evolve() needs a population: call run() first")
-        return self._evolve(self.population, generations)
+            raise RuntimeError("evolve() needs a population: call run() or seed() first")
+        return self._evolve(fitness, self.population, generations)
 
-    def track(
-        self, transform_motion: npt.ArrayLike | None = None, generations: int | None = None
-    ) -> GAResult:
-        """Multi-step search: moves the kept population by the camera motion, then evolves.
-
-        Args:
-            transform_motion: (4, 4) ^CR_new T_CR_old; every individual becomes
-                transform_motion @ T_old (clipped into the bounds). None: no motion.
-            generations: generations this frame (default: settings.tracking_generations).
-
-        Returns:
-            The result of this frame. Without a kept population this is a `run`.
-        """
-        if self.population is None:
-            return self.run()
-        genes = self.population
-        if transform_motion is not None:
-            motion = np.asarray(transform_motion, dtype=float)
-            if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
-                raise ValueError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
-            moved = motion @ self.transforms(genes)
-            genes = encode(parameters_from_transforms(moved), self.bounds, self.settings.gray_code)
-        count = self.settings.tracking_generations if generations is None else generations
-        return self._evolve(genes, count)
-
-    def _evolve(self, genes: Genes, generations: int) -> GAResult:
+    def _evolve(self, fitness: KernelFitness, genes: Genes, generations: int) -> GAResult:
+        """`generations` generations in `ga_kernels.evolve` (all draws made up front)."""
         if generations < 0:
             raise ValueError(f"generations must be >= 0, got {generations}")
-        scores = self.objective(self.transforms(genes))
-        evaluations = len(genes)
+        if fitness.subpixel:
+            raise ValueError("the GA scores at the nearest pixel: give it a fitness without subpixel")
+        s = self.settings
+        scores = fitness(self.transforms(genes))
         history = [float(scores.max())]
-        in_python = generations
-        if isinstance(self.objective, KernelFitness) and not self.objective.subpixel and generations > 0:
-            compiled = self._compiled_generations(self.objective, genes, scores, generations)
-            genes, scores, evaluated, best_history = compiled
-            evaluations += evaluated
-            history.extend(best_history.tolist())
-            in_python = 0
-        for _ in range(in_python):
-            genes, scores, evaluated = self._generation(genes, scores)
-            evaluations += evaluated
-            history.append(float(scores.max()))
+        evaluations = len(genes)
+        if generations > 0:
+            uniforms = self.rng.random((generations, *self._uniforms_shape))
+            arguments, normalisation = fitness.kernel_arguments()
+            genes, scores, evaluated, best = evolve(
+                genes, scores, self._starts, s.elite, self._cdfs, uniforms, s.crossover_rate,
+                s.mutation_rate, self._lows, self._spans, s.gray_code, arguments, normalisation,
+                fitness.avoid.kernel_arguments(),
+            )  # fmt: skip
+            fitness.count(int(evaluated))
+            evaluations += int(evaluated)
+            history.extend(np.asarray(best).tolist())
         self.population, self.scores = genes, scores
-        best = int(np.argmax(scores))
+        best_index = int(np.argmax(scores))
         return GAResult(
-            self.transforms(genes[best : best + 1])[0],
-            float(scores[best]),
+            self.transforms(genes[best_index : best_index + 1])[0],
+            float(scores[best_index]),
             generations,
             evaluations,
             np.array(history),
         )
 
-    def _compiled_generations(
-        self, fitness: KernelFitness, genes: Genes, scores: FloatArray, generations: int
-    ) -> tuple[Genes, FloatArray, int, FloatArray]:
-        """`generations` generations in `_kernels.evolve` (the draws of `_generation`, all at once)."""
-        s = self.settings
-        uniforms = self.rng.random((generations, *self._uniforms_shape))
-        arguments, normalisation = fitness.kernel_arguments()
-        genes, scores, evaluated, best = evolve(
-            genes, scores, self._starts, s.elite, self._cdfs, uniforms, s.crossover_rate, s.mutation_rate,
-            self._lows, self._spans, s.gray_code, arguments, normalisation, fitness.avoid.kernel_arguments(),
-        )  # fmt: skip
-        fitness.count(evaluated)
-        return genes, scores, int(evaluated), best
+    def draws_per_generation(self) -> tuple[int, int]:
+        """Shape of the uniform draws one generation takes (for a test oracle)."""
+        return self._uniforms_shape
 
-    def _generation(self, genes: Genes, scores: FloatArray) -> tuple[Genes, FloatArray, int]:
-        s = self.settings
-        uniforms = self.rng.random(self._uniforms_shape)
-        new_genes, source = next_generation(
-            genes, scores, self._starts, s.elite, self._cdfs, uniforms, s.crossover_rate, s.mutation_rate
-        )
-        offspring = source < 0
-        new_scores = np.empty(len(new_genes))
-        new_scores[~offspring] = scores[source[~offspring]]
-        new_scores[offspring] = self.objective(self.transforms(new_genes[offspring]))
-        return new_genes, new_scores, int(offspring.sum())
+    def breeding_tables(self) -> tuple[npt.NDArray[np.int64], FloatArray]:
+        """(island starts, ranking cdfs), as `ga_kernels.next_generation` takes them."""
+        return self._starts, self._cdfs
 
 
 def mutation_draws(rate: float) -> int:
@@ -347,13 +305,11 @@ def _ranking_cdf(size: int, pressure: float) -> FloatArray:
 
 __all__ = [
     "BITS",
-    "GENES",
     "GAResult",
     "GASettings",
     "GeneticAlgorithm",
     "SearchBounds",
     "decode",
     "encode",
-    "parameters_from_transforms",
-    "transforms_from_parameters",
+    "mutation_draws",
 ]

@@ -11,8 +11,9 @@ its image y, z = 0 on the cloth plane.
 from __future__ import annotations
 
 import json
+import os
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -41,8 +42,13 @@ from robot_app.vision.sampling import sample_model
 Image = npt.NDArray[np.uint8]
 
 MODEL_FORMAT = "robot_app.cloth_model"
-MODEL_VERSION = 2  # 2: hues_in may hold the tones DARK / LIGHT (uint16); version 1 files load too
-_READABLE_VERSIONS = (1, 2)
+# 2: hues_in may hold the tones DARK / LIGHT (uint16). 3: the model photo's texture (a crop
+# of the photo around the cloth, its mask and the map from Σ_M to its pixels) and the sheet's
+# colour in the photo, for the verify stage and the exposure reference. Versions 1-2 load
+# too, without texture: the verification then has no appearance to compare.
+MODEL_VERSION = 3
+_READABLE_VERSIONS = (1, 2, 3)
+_TEXTURE_MARGIN_PX = 4  # photo pixels kept around the cloth's bounding box
 
 
 def _frozen_points(array: npt.ArrayLike, name: str) -> FloatArray:
@@ -74,6 +80,13 @@ class ClothModel:
             edge sampling, so the fitness stays an area integral and a partly hidden
             cloth does not pull the dense outline onto its visible part).
         weights_out: (N_out,) the same for S_out.
+        texture_bgr: (h, w, 3) uint8 the model photo around the cloth (undistorted), or
+            None (a version 1-2 file).
+        texture_mask: (h, w) bool, the cloth's S_in in `texture_bgr`.
+        texture_from_model: (2, 3) affine map of Σ_M (x, y) [m] to `texture_bgr` pixel
+            (u, v) (pixel centres at integers).
+        sheet_bgr: (3,) median colour (b, g, r) of the green sheet in the model photo, the
+            exposure reference (`exposure.sheet_gains`), or None.
     """
 
     name: str
@@ -87,6 +100,10 @@ class ClothModel:
     metadata: dict[str, Any] = field(default_factory=dict)
     weights_in: FloatArray | None = None
     weights_out: FloatArray | None = None
+    texture_bgr: npt.NDArray[np.uint8] | None = None
+    texture_mask: npt.NDArray[np.bool_] | None = None
+    texture_from_model: FloatArray | None = None
+    sheet_bgr: FloatArray | None = None
 
     def __post_init__(self) -> None:
         points_in = _frozen_points(self.points_in, "points_in")
@@ -127,12 +144,58 @@ class ClothModel:
                 raise ModelError(f"{name} must be {n} positive weights, got shape {weights.shape}")
             weights.setflags(write=False)
             object.__setattr__(self, name, weights)
+        self._check_texture()
+
+    def _check_texture(self) -> None:
+        parts = (self.texture_bgr, self.texture_mask, self.texture_from_model)
+        if all(p is None for p in parts):
+            object.__setattr__(self, "texture_mask", None)
+        elif any(p is None for p in parts):
+            raise ModelError("texture_bgr, texture_mask and texture_from_model come together (or none)")
+        else:
+            texture = np.array(self.texture_bgr)
+            mask = np.array(self.texture_mask, dtype=bool)
+            affine = np.array(self.texture_from_model, dtype=float)
+            if texture.ndim != 3 or texture.shape[2] != 3 or texture.dtype != np.uint8:
+                raise ModelError(f"texture_bgr must be (h, w, 3) uint8, got {texture.shape} {texture.dtype}")
+            if mask.shape != texture.shape[:2] or not mask.any():
+                raise ModelError(f"texture_mask must be a non-empty (h, w) mask of shape {texture.shape[:2]}")
+            if affine.shape != (2, 3) or not np.all(np.isfinite(affine)):
+                raise ModelError(f"texture_from_model must be a finite 2x3 affine map, got {affine.shape}")
+            for name, array in (
+                ("texture_bgr", texture),
+                ("texture_mask", mask),
+                ("texture_from_model", affine),
+            ):
+                array.setflags(write=False)
+                object.__setattr__(self, name, array)
+        if self.sheet_bgr is not None:
+            sheet = np.array(self.sheet_bgr, dtype=float).reshape(-1)
+            if sheet.shape != (3,) or not np.all((sheet > 0) & (sheet <= 255)):
+                raise ModelError(f"sheet_bgr must be three channel values in (0, 255], got {sheet.tolist()}")
+            sheet.setflags(write=False)
+            object.__setattr__(self, "sheet_bgr", sheet)
+
+    @property
+    def has_texture(self) -> bool:
+        """The model keeps its photo's texture (version 3), so it can be verified by appearance."""
+        return self.texture_bgr is not None
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, ClothModel):
             return NotImplemented
-        arrays = ("points_in", "hues_in", "points_out", "grasp_point", "weights_in", "weights_out")
-        return all(np.array_equal(getattr(self, a), getattr(other, a)) for a in arrays) and (
+        arrays = ("points_in", "hues_in", "points_out", "grasp_point", "weights_in", "weights_out",
+                  "texture_bgr", "texture_mask", "texture_from_model", "sheet_bgr")  # fmt: skip
+        same = all(
+            (getattr(self, a) is None and getattr(other, a) is None)
+            or (
+                getattr(self, a) is not None
+                and getattr(other, a) is not None
+                and np.array_equal(getattr(self, a), getattr(other, a))
+            )
+            for a in arrays
+        )
+        return same and (
             self.name,
             self.background_hue,
             self.extent,
@@ -153,7 +216,8 @@ class ClothModel:
         return len(self.points_out)
 
     def save(self, path: str | Path) -> None:
-        """Writes the model as one `.npz` (format tag + version); `load` reads it back equal."""
+        """Writes the model as one `.npz` (format tag + version) atomically (a temporary
+        file in the same folder, then renamed); `load` reads it back equal."""
         header = {
             "format": MODEL_FORMAT,
             "version": MODEL_VERSION,
@@ -162,12 +226,30 @@ class ClothModel:
             "extent": list(self.extent),
             "symmetry_angles": list(self.symmetry_angles),
             "metadata": self.metadata,
+            "sheet_bgr": None if self.sheet_bgr is None else [float(v) for v in self.sheet_bgr],
         }
+        texture: dict[str, npt.NDArray[Any]] = {}
+        if self.texture_bgr is not None:
+            texture = {
+                "texture_bgr": np.asarray(self.texture_bgr),
+                "texture_mask": np.asarray(self.texture_mask),
+                "texture_from_model": np.asarray(self.texture_from_model),
+            }
         try:
             header_json = json.dumps(header)
         except (TypeError, ValueError) as err:
             raise ModelError(f"model metadata must be JSON-serialisable: {err}") from err
-        with Path(path).open("wb") as file:
+        target = Path(path)
+        temporary = target.with_name(f".{target.name}.partial")
+        try:
+            self._write(temporary, header_json, texture)
+            os.replace(temporary, target)
+        except BaseException:
+            temporary.unlink(missing_ok=True)
+            raise
+
+    def _write(self, file_path: Path, header_json: str, texture: dict[str, npt.NDArray[Any]]) -> None:
+        with file_path.open("wb") as file:
             np.savez_compressed(
                 file,
                 header=np.array(header_json),
@@ -177,6 +259,7 @@ class ClothModel:
                 grasp_point=self.grasp_point,
                 weights_in=np.asarray(self.weights_in),
                 weights_out=np.asarray(self.weights_out),
+                **texture,  # type: ignore[arg-type]  # numpy's stub types the keywords as allow_pickle
             )
 
     @classmethod
@@ -226,6 +309,10 @@ class ClothModel:
                 metadata=header["metadata"],
                 weights_in=arrays.get("weights_in"),  # absent in files of older builds: ones
                 weights_out=arrays.get("weights_out"),
+                texture_bgr=arrays.get("texture_bgr"),  # version 3
+                texture_mask=arrays.get("texture_mask"),
+                texture_from_model=arrays.get("texture_from_model"),
+                sheet_bgr=header.get("sheet_bgr"),
             )
         except (KeyError, TypeError, ValueError) as err:
             raise ModelError(f"{file}: malformed cloth model: {err}", path=file) from err
@@ -275,6 +362,9 @@ class ModelSettings(StrictModel):
         0.9, gt=0.5, le=1.0, description="share of background pixels within the hue threshold"
     )
     symmetry_agreement: float = Field(0.9, gt=0.5, le=1.0, description="self-overlap to call a yaw symmetric")
+    symmetry_texture: float = Field(
+        0.7, gt=0.0, le=1.0, description="and the photo's lightness correlation with itself turned (textured)"
+    )
 
     @field_validator("edge_offsets")
     @classmethod
@@ -363,7 +453,20 @@ def make_model(
         "sources": dict(sources or {}),
     }
     grid = np.column_stack([samples.grid_in, np.zeros(len(samples.grid_in))])
-    symmetry = _symmetry_angles(grid, samples.grid_hues, settings.point_spacing, settings)
+    lightness = cv2.GaussianBlur(
+        cv2.cvtColor(np.ascontiguousarray(photo_bgr), cv2.COLOR_BGR2GRAY), (0, 0), 2.0
+    )
+
+    def lightness_at(points: FloatArray) -> FloatArray:
+        u, v = _to_pixel_index(camera, model_camera.distance, points[:, :2] + origin)
+        u, v = np.clip(u, 0, camera.width - 1), np.clip(v, 0, camera.height - 1)
+        return np.asarray(lightness[v, u], dtype=float)
+
+    symmetry = _symmetry_angles(grid, samples.grid_hues, settings.point_spacing, settings, lightness_at)
+    texture, texture_mask, texture_from_model = _texture(
+        photo_bgr, mask, camera, model_camera.distance, origin
+    )
+    sheet = _sheet_colour(photo_bgr, hsv, mask, H_B, settings)
     return ClothModel(
         name,
         points_in,
@@ -376,7 +479,44 @@ def make_model(
         metadata,
         weights_in=samples.weights_in,
         weights_out=samples.weights_out,
+        texture_bgr=texture,
+        texture_mask=texture_mask,
+        texture_from_model=texture_from_model,
+        sheet_bgr=sheet,
     )
+
+
+def _texture(
+    photo_bgr: Image, mask: npt.NDArray[np.bool_], camera: PinholeCamera, distance: float, origin: FloatArray
+) -> tuple[Image, npt.NDArray[np.bool_], FloatArray]:
+    """The photo (undistorted) cropped around the cloth, its mask there and the affine map
+    of Σ_M (x, y) [m] to the crop's pixels."""
+    K = camera.camera_matrix
+    photo = np.ascontiguousarray(photo_bgr)
+    if camera.has_distortion:
+        photo = np.asarray(cv2.undistort(photo, K, camera.dist_coeffs, None, K), dtype=np.uint8)
+        mask = cv2.undistort(mask.astype(np.uint8), K, camera.dist_coeffs, None, K).astype(bool)
+    rows, cols = np.nonzero(mask)
+    m = _TEXTURE_MARGIN_PX
+    v0, v1 = max(int(rows.min()) - m, 0), min(int(rows.max()) + m + 1, camera.height)
+    u0, u1 = max(int(cols.min()) - m, 0), min(int(cols.max()) + m + 1, camera.width)
+    fx, fy = K[0, 0] / distance, K[1, 1] / distance  # [px/m] on the cloth plane
+    affine = np.array([[fx, 0.0, fx * origin[0] + K[0, 2] - u0], [0.0, fy, fy * origin[1] + K[1, 2] - v0]])
+    return photo[v0:v1, u0:u1].copy(), mask[v0:v1, u0:u1].copy(), affine
+
+
+def _sheet_colour(
+    photo_bgr: Image, hsv: Image, mask: npt.NDArray[np.bool_], H_B: float, settings: ModelSettings
+) -> FloatArray:
+    """Median (b, g, r) of the sheet in the photo: saturated background-hued pixels away
+    from the cloth."""
+    near = cv2.dilate(mask.astype(np.uint8), np.ones((9, 9), np.uint8)).astype(bool)
+    sheet = (
+        ~near
+        & (hsv[..., 1] >= settings.min_saturation)
+        & (hue_distance(hsv[..., 0], H_B) <= settings.min_hue_difference // 2)
+    )
+    return np.maximum(np.median(np.asarray(photo_bgr)[sheet].reshape(-1, 3), axis=0), 1.0).astype(float)
 
 
 def _checked_hsv(image: Image, camera: PinholeCamera, what: str) -> Image:
@@ -486,10 +626,19 @@ def _to_pixel_index(
 
 
 def _symmetry_angles(
-    points: FloatArray, hues: npt.NDArray[np.uint16], step: float, settings: ModelSettings
+    points: FloatArray,
+    hues: npt.NDArray[np.uint16],
+    step: float,
+    settings: ModelSettings,
+    lightness_at: Callable[[FloatArray], FloatArray] | None = None,
 ) -> tuple[float, ...]:
-    """Yaws k·π/4 (k = 1..7) under which S_in and its colours map onto themselves."""
+    """Yaws k·π/4 (k = 1..7) under which S_in and its colours map onto themselves and, where
+    the photo is textured (lightness deviation of at least 6 grey levels), its lightness
+    correlates with itself turned by at least `symmetry_texture`: a print of nearly one
+    hue on an ellipse is not symmetric under a half turn, its picture tells the two apart."""
     cells = {(int(i), int(j)): h for (i, j), h in zip(np.rint(points[:, :2] / step), hues, strict=True)}
+    own = lightness_at(points) if lightness_at is not None else None
+    textured = own is not None and float(np.std(own)) >= 6.0
     angles = []
     for k in range(1, 8):
         angle = k * np.pi / 4
@@ -498,8 +647,13 @@ def _symmetry_angles(
         for (i, j), hue in zip(np.rint(rotated[:, :2] / step).astype(int), hues, strict=True):
             other = cells.get((int(i), int(j)))
             hits += int(other is not None and bool(colours_match(hue, other, settings.min_hue_difference)))
-        if hits >= settings.symmetry_agreement * len(points):
-            angles.append(float(angle))
+        if hits < settings.symmetry_agreement * len(points):
+            continue
+        if textured and own is not None and lightness_at is not None:
+            turned = lightness_at(rotated)  # the lightness that lands on each point when turned
+            if float(np.corrcoef(own, turned)[0, 1]) < settings.symmetry_texture:
+                continue
+        angles.append(float(angle))
     return tuple(angles)
 
 

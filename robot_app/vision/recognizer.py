@@ -1,19 +1,22 @@
 """Recognition: a cloth model, a stereo rig and a stereo pair -> the cloth's pose, or "not there".
 
-One-shot recognition (`Recognizer.recognize`) runs the GA of the paper from a random
-population: the first `coarse_generations` score every `coarse_stride`-th model point
-(a cheaper estimate of the same fitness), the rest score all points. A local refinement
-then polishes the GA's best pose: a compass search over the continuous pose (position
-along the camera axes, rotation about them through the model origin) that halves its
-steps when no neighbour is better, on the sub-pixel (bilinear score) fitness, which is
-smooth where the paper's nearest-pixel fitness is a staircase. Its evaluations are
-counted. `found` compares the paper's (nearest-pixel) fitness at the final pose with the
-acceptance threshold.
+The recogniser composes the stages and holds no search logic of its own:
 
-Multi-step recognition (`Recognizer.track`) keeps the GA population between frames,
-moves it by the camera motion and evolves a few generations per frame (Sec. II-E; docs/architecture.md).
-With `report_peaks`, further GA runs that ignore the neighbourhoods of the peaks found so
-far report the best pose of each distinct peak (e.g. each cloth in view, Fig. 13 e-f).
+1. exposure: the green sheet in each image gives the channel gains that map the scene's
+   exposure and white balance onto the model photo's (`exposure.sheet_gains`);
+2. propose (`propose.Proposer`): the paper's GA on the hue fitness, with restarts; each
+   run's best is climbed and polished by
+3. refine (`refinement.Refiner`): compass search and CMA-ES on the continuous pose;
+4. verify (`verify.Verifier`): the model photo's texture against both images at the best
+   pose, its half and quarter turns and the other runs' ends whose search fitness is
+   within `verify.ambiguity_margin`; the most confident is kept (and polished if it was
+   not the polished one);
+5. decide (`decide.decide`): `found` = confidence >= `decide.threshold`, the one
+   acceptance threshold.
+
+Multi-step recognition (`Recognizer.track`) proposes from the kept poses moved by the
+camera motion (Sec. II-E), then verifies (every `propose.tracking.verify_every`-th frame)
+and decides the same way.
 """
 
 from __future__ import annotations
@@ -27,147 +30,76 @@ from typing import Any, TypeVar, cast
 
 import numpy as np
 import numpy.typing as npt
-from pydantic import Field
+from pydantic import model_validator
 
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
-from robot_app.geometry import (
-    quaternion_xyzw_from_matrix,
-    rotation_about_z,
-    wrap_angle,
-    yaw_of,
-)
+from robot_app.geometry import quaternion_xyzw_from_matrix, rotation_about_z, yaw_of
 from robot_app.vision.camera import StereoRig
-from robot_app.vision.fitness import AvoidedPoses, FitnessEvaluator, FitnessSettings, KernelFitness
-from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBounds, encode, parameters_from_transforms
+from robot_app.vision.decide import DecisionSettings, confidence, decide
+from robot_app.vision.exposure import ExposureSettings, sheet_gains
+from robot_app.vision.fitness import FitnessEvaluator, FitnessSettings, checked_image
 from robot_app.vision.photo_model import ClothModel
-from robot_app.vision.refinement import (
-    PoseLimits,
-    RefinementSettings,
-    cma_search_compiled,
-    compass_search_compiled,
-)
+from robot_app.vision.propose import HALF_TURN, Candidate, ProposalSettings, Proposer
+from robot_app.vision.refinement import RefinementSettings, Refiner
+from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
 _Method = TypeVar("_Method", bound=Callable[..., "Recognition"])
+_QUARTER_TURN = np.eye(4)
+_QUARTER_TURN[:3, :3] = rotation_about_z(np.pi / 2)
 
 
 class RecognitionSettings(StrictModel):
-    """Everything the recognizer needs besides the model and rig (one config section).
+    """The recogniser's settings: one tree, one section per stage, validated once.
 
     Attributes:
-        fitness: eqs. 9-11 constants; by default pixels with saturation or value below 40
-            have a tone (DARK / LIGHT) instead of a hue, the thresholds `ModelSettings`
-            gives a model's black and white parts (with every pixel hued, as in the paper,
-            a white or black pixel reads hue 0, red, and matches a red cloth).
-        ga: GA parameters.
-        bounds: search space in Σ_CR.
-        acceptance_threshold: normalised fitness from which the cloth counts as found. 0.85:
-            over three 12 x 12 model-against-cloth matrices on the synthetic renderer the
-            intended cloth scored >= 0.87 and another cloth <= 0.83 (red_cyan_tshirt's
-            model on the patchwork, which shares its red and cyan). A cloth partly
-            hidden under a sheet scores less (45 % hidden: ~0.55); configs for scenes
-            with occluders lower it (configs/pick_place.yaml: 0.45).
-        coarse_generations: first generations scored on a point subset.
-        coarse_stride: every n-th model point scored in the coarse generations.
-        fine_stride: every n-th model point scored in the other generations and while
-            tracking (the refinement and the reported fitness always use every point).
-        refinement: the local search after the GA.
-        max_peaks: peaks reported with `report_peaks`.
-        peak_separation: x-y distance between distinct peaks [m].
-        peak_min_fitness: weaker peaks are not reported.
-        search_out_foreign: the score the search gives an S_out point on a pixel of a
-            foreign hue (neither background nor any of the model's hues: an occluder,
-            another cloth); None searches with the paper's `score_out_other`. The
-            reported fitness and `found` always use `fitness` (the paper's eqs.).
-        search_hidden_foreign: the search takes points on a foreign hue as hidden (see
-            `FitnessSettings.hidden_foreign`), so that a cloth partly under a sheet of another
-            colour matches fully at its true pose; needs `fitness.normalisation` "view".
-            On the synthetic bench with 45 % covered, without it the search preferred a
-            smaller, farther pose squeezed onto the visible part (median z error +34 mm).
-        search_hidden_penalty: the search's `FitnessSettings.hidden_penalty`.
-        search_min_view_fraction: the search's `FitnessSettings.min_view_fraction`. 0.3: a
-            cloth 45 % under a sheet that also reaches past an image edge has less than
-            half of its points seen, and with the floor at 0.5 its true pose scored
-            0.81-0.88 while a smaller, farther pose squeezed onto the visible part scored
-            0.95 (5 of 96 occluded scenes on the synthetic bench, 15-56 mm off).
-        search_out_other: the search's score of an S_out point on a pixel of the model's
-            own hues (the model sits inside a cloth like it); None: `fitness.score_out_other`.
-            -1.25 balances the outermost S_out ring against the outermost S_in ring, so
-            the smoothed peak is not skewed towards a smaller (farther) model: on the
-            synthetic bench the median depth error fell from 4.2 to 1.0 mm.
-        candidates_per_island: distinct poses (x-y farther apart than `candidate_separation`
-            or yaws farther apart than 20°) taken from each island's final population.
-        candidate_separation: x-y distance that makes two candidates distinct [m].
-        candidate_depths: offsets along the ray through the model origin at which every
-            candidate is also scored [m].
-        refine_candidates: the best candidates (after adding each one's half turn about
-            the cloth normal) that the refinement polishes for
-            `refinement.candidate_iterations` before the best goes on.
-        restarts: further island runs while the best search fitness is below
-            `restart_below` and the best peak is not confirmed (two runs ended on it and
-            it scores at least `confirm_above`); the best of all runs is kept. A poor
-            result is more often a missed peak than a poor view, while a partly hidden
-            cloth scores below `restart_below` at its true pose but ends there twice. An
-            absent cloth costs all these runs. With 2 restarts, 2 of 120 plain synthetic
-            scenes (checks, diagonals) ended all three runs on a wrong peak (0.85, 0.89);
-            4 found both. Later runs search away (`peak_separation`) from a poor peak
-            (below `confirm_above`) that two runs ended on: a plain cyan cloth drew all
-            five runs of a dotted cyan model (0.66) from its narrow target peak (0.99).
-            One that scores at least `avoid_any_yaw_below` is a near miss on the cloth
-            itself, so only yaws within `avoid_yaw_deg` of it are avoided (its half or
-            quarter turn may be the true pose): a quarter turn of a check cloth 45 %
-            under the sheet (0.90) drew 6 of 8 seeds from its true pose (0.95, 19 mm
-            away), 3 of 8 with this; avoided at every yaw, the true pose was too.
-            (Restarting also when the reported fitness is below `acceptance_threshold`,
-            away from that peak, took a model off another cloth it shared a hue with, but
-            a cloth 45 % hidden reports below it at its true pose: 4 of 100 such scenes
-            ended wrong.)
-        restart_below: search fitness under which a restart is run.
-        confirm_above: the search fitness from which a peak two runs ended on is taken
-            (wrong peaks that two runs ended on scored 0.66-0.85; a cloth 45 % hidden
-            scores 0.95-0.98 at its true pose).
-        avoid_yaw_deg, avoid_any_yaw_below: see `restarts`.
-        tracking_population: individuals kept between tracking frames (the best ones).
-        tracking_window: half-width of the x-y search window around the motion-predicted
-            pose while tracking [m].
-        tracking_depth_window: half-width of the depth window while tracking [m]; the
-            window moves with the camera, so a descending camera keeps its cloth.
+        fitness: the reported fitness (eqs. 9-11): by default pixels with saturation or
+            value below 40 have a tone (DARK / LIGHT) instead of a hue, as `ModelSettings`
+            gives a model's black and white parts. `FitnessSettings()` with
+            `normalisation: model` is the paper's fitness exactly.
+        search: the fitness the propose and refine stages optimise and the decision
+            weighs: beyond `fitness`, a point on a foreign hue (an occluder, another cloth)
+            is hidden (`hidden_foreign`) with a small `hidden_penalty`, the view floor is
+            0.3 (`min_view_fraction`: a cloth 45 % under a sheet that also reaches past an
+            image edge has less than half its points seen; with 0.5 a smaller, farther pose
+            squeezed onto the visible part won in 5 of 96 such scenes), an S_out point on a
+            foreign hue scores 0 and on the model's own hues -1.25 (balances the outermost
+            S_out ring against the outermost S_in ring: median depth error 4.2 -> 1.0 mm).
+            Its tone thresholds must be those of `fitness` (one pixel code per image).
+        exposure: the green sheet as the exposure reference.
+        propose: the GA search, one-shot and tracking.
+        refine: the local polish.
+        verify: the appearance check and the ambiguity margin.
+        decide: the confidence and THE acceptance threshold.
         pause_garbage_collector: switch Python's cyclic garbage collector off during a
             recognition (it runs again afterwards; a recognition makes no reference
-            cycles, so nothing piles up). In a process holding many objects a full
-            collection that falls inside a recognition costs 10-20 ms: the one-shot
-            median on the benchmark went from 62 to 45 ms.
+            cycles). A full collection inside a recognition costs 10-20 ms.
     """
 
     fitness: FitnessSettings = FitnessSettings(min_saturation=40, min_value=40)
-    ga: GASettings = GASettings()
-    bounds: SearchBounds = SearchBounds()
-    acceptance_threshold: float = Field(default=0.85, ge=0.0, le=1.0)
-    coarse_generations: int = Field(default=60, ge=0)
-    coarse_stride: int = Field(default=4, ge=1)
-    fine_stride: int = Field(default=3, ge=1)
-    refinement: RefinementSettings = RefinementSettings()
-    max_peaks: int = Field(default=3, ge=1)
-    peak_separation: float = Field(default=0.06, gt=0.0)
-    peak_min_fitness: float = Field(default=0.2, ge=0.0, le=1.0)
-    search_out_foreign: float | None = 0.0
-    search_hidden_foreign: bool = True
-    search_hidden_penalty: float = Field(default=0.05, ge=0.0, le=1.0)
-    search_min_view_fraction: float = Field(default=0.3, gt=0.0, le=1.0)
-    search_out_other: float | None = -1.25
-    candidates_per_island: int = Field(default=2, ge=1)
-    candidate_separation: float = Field(default=0.01, gt=0.0)
-    candidate_depths: tuple[float, ...] = (-0.03, -0.015, 0.0, 0.015, 0.03)
-    refine_candidates: int = Field(default=3, ge=1)
-    restarts: int = Field(default=4, ge=0)
-    restart_below: float = Field(default=0.97, ge=0.0, le=1.0)
-    confirm_above: float = Field(default=0.94, ge=0.0, le=1.0)
-    avoid_yaw_deg: float = Field(default=45.0, gt=0.0, le=90.0)
-    avoid_any_yaw_below: float = Field(default=0.8, ge=0.0, le=1.0)
-    tracking_population: int = Field(default=24, ge=4)
-    tracking_window: float = Field(default=0.02, gt=0.0)
-    tracking_depth_window: float = Field(default=0.03, gt=0.0)
+    search: FitnessSettings = FitnessSettings(
+        min_saturation=40,
+        min_value=40,
+        score_out_foreign=0.0,
+        hidden_foreign=True,
+        hidden_penalty=0.05,
+        min_view_fraction=0.3,
+        score_out_other=-1.25,
+    )
+    exposure: ExposureSettings = ExposureSettings()
+    propose: ProposalSettings = ProposalSettings()
+    refine: RefinementSettings = RefinementSettings()
+    verify: VerificationSettings = VerificationSettings()
+    decide: DecisionSettings = DecisionSettings()
     pause_garbage_collector: bool = True
+
+    @model_validator(mode="after")
+    def _one_pixel_code(self) -> RecognitionSettings:
+        keys = ("min_saturation", "min_value", "value_split")
+        differ = [k for k in keys if getattr(self.search, k) != getattr(self.fitness, k)]
+        if differ:
+            raise ValueError(f"search.{differ[0]} must equal fitness.{differ[0]} (one pixel code per image)")
+        return self
 
 
 @dataclass(frozen=True)
@@ -198,13 +130,18 @@ class Recognition:
     """Result of one recognition.
 
     Attributes:
-        found: fitness >= the acceptance threshold: the intended cloth is in view.
-        fitness: normalised fitness of the reported pose (1.0 = perfect match).
+        found: the decision: confidence >= `decide.threshold`, the intended cloth is in view.
+        fitness: normalised hue fitness (`RecognitionSettings.fitness`, eqs. 9-11) of the
+            reported pose (1.0 = perfect match).
         transform_model_to_camera: (4, 4) ^CR T_M, Σ_M in the right camera.
         evaluations: poses evaluated (GA, refinement and peaks).
         generations: GA generations run.
         time_s: wall time of the call [s].
         peaks: with `report_peaks`, the best pose of each distinct peak, best first.
+        confidence: the calibrated confidence in [0, 1] that `found` decides on.
+        visible_fraction: share of the model's texture in view and not under a foreign colour.
+        appearance: the texture's agreement with the images, -1 to 1 (NaN: no texture).
+        search_fitness: the search fitness (occluders hidden) of the reported pose.
     """
 
     found: bool
@@ -214,6 +151,10 @@ class Recognition:
     generations: int
     time_s: float
     peaks: tuple[Peak, ...] = field(default=())
+    confidence: float = 0.0
+    visible_fraction: float = 0.0
+    appearance: float = float("nan")
+    search_fitness: float = 0.0
 
     @property
     def position(self) -> FloatArray:
@@ -231,7 +172,7 @@ class Recognition:
         return yaw_of(self.transform_model_to_camera[:3, :3])
 
     def to_json(self) -> dict[str, object]:
-        """The docs/architecture.md recognition record (plus `peaks` when there are any)."""
+        """The DESIGN.md recognition record (plus `appearance`, and `peaks` when there are any)."""
         data: dict[str, object] = {
             "found": bool(self.found),
             "fitness": float(self.fitness),
@@ -242,6 +183,9 @@ class Recognition:
             "generations": int(self.generations),
             "evaluations": int(self.evaluations),
             "time_s": float(self.time_s),
+            "confidence": float(self.confidence),
+            "visible_fraction": float(self.visible_fraction),
+            "appearance": None if np.isnan(self.appearance) else float(self.appearance),
         }
         if self.peaks:
             data["peaks"] = [
@@ -272,6 +216,14 @@ def _collector_paused(method: _Method) -> _Method:
     return cast(_Method, paused)
 
 
+@dataclass(frozen=True)
+class _Verified:
+    pose: FloatArray
+    search_fitness: float
+    verification: Verification
+    score: float  # the decision's logit: how the alternatives are ranked
+
+
 class Recognizer:
     """Recognises one cloth model in stereo pairs; keeps the best poses for tracking."""
 
@@ -282,36 +234,31 @@ class Recognizer:
         self.rig = rig
         self.settings = settings if settings is not None else RecognitionSettings()
         s = self.settings
-        search = s.fitness.model_copy(
-            update={
-                "score_out_foreign": s.search_out_foreign,
-                "hidden_foreign": s.search_hidden_foreign and s.fitness.normalisation == "view",
-                "hidden_penalty": s.search_hidden_penalty,
-                "min_view_fraction": s.search_min_view_fraction,
-                "score_out_other": s.fitness.score_out_other
-                if s.search_out_other is None
-                else s.search_out_other,
-            }
-        )
-        self.evaluator = FitnessEvaluator(model, rig, s.fitness, search)
-        self._tracking_ga = s.ga.model_copy(
-            update={
-                "population": s.tracking_population,
-                "elite": min(s.ga.elite, s.tracking_population - 1),
-                "islands": 1,
-            }
-        )
-        self.reset()
+        self.evaluator = FitnessEvaluator(model, rig, s.fitness, s.search)
+        self.refiner = Refiner(s.refine)
+        self.proposer = Proposer(self.evaluator, s.propose, self.refiner, s.propose.ga.seed)
+        self.verifier = Verifier(model, self.evaluator, s.search, s.verify)
+        self._frames_since_verified = 0
+        self._last_verification: Verification | None = None
 
     @property
     def population(self) -> FloatArray | None:
         """(P, 4, 4) poses kept for tracking, best first (None before the first recognition)."""
-        return None if self._poses is None else self._poses.copy()
+        return self.proposer.kept_poses
 
     def reset(self) -> None:
         """Forgets the tracked poses and reseeds the random generator."""
-        self._rng = np.random.default_rng(self.settings.ga.seed)
-        self._poses: FloatArray | None = None
+        self.proposer.reset()
+        self._last_verification = None
+
+    def _take(self, image_left_bgr: npt.NDArray[np.uint8], image_right_bgr: npt.NDArray[np.uint8]) -> None:
+        """Exposure gains of both images, then the pair into the evaluator and verifier."""
+        s = self.settings
+        left = checked_image(image_left_bgr, self.rig.left, "left")
+        right = checked_image(image_right_bgr, self.rig.right, "right")
+        gains = (sheet_gains(left, self.model, s.exposure), sheet_gains(right, self.model, s.exposure))
+        self.evaluator.update(left, right, gains)
+        self.verifier.update(left, right, gains)
 
     @_collector_paused
     def recognize(
@@ -322,7 +269,7 @@ class Recognizer:
         seed: int | None = None,
         report_peaks: bool = False,
     ) -> Recognition:
-        """One-shot recognition from a random population.
+        """One-shot recognition: propose, verify the alternatives, refine the chosen, decide.
 
         Args:
             image_left_bgr, image_right_bgr: the stereo pair, (H, W, 3) uint8 of the rig's size.
@@ -333,51 +280,25 @@ class Recognizer:
             InputError: images of the wrong type or size.
         """
         start = time.perf_counter()
-        s = self.settings
-        self.evaluator.update(image_left_bgr, image_right_bgr)
+        self._take(image_left_bgr, image_right_bgr)
         before = self.evaluator.evaluations
-        rng = np.random.default_rng(seed) if seed is not None else self._rng
-        peaks: list[Peak] = []
-        generations = 0
-        for _ in range(s.max_peaks if report_peaks else 1):
-            centres = np.array([[*p.position[:2], np.nan] for p in peaks]).reshape(-1, 3)
-            ga = self._search(rng, centres)
-            generations += s.ga.generations
-            pose, fitness, search_fitness = self._finish(ga, s.refinement.enabled, rng, centres)
-            ends = [pose]  # where each run ended
-            avoid = centres  # and poor peaks that draw the runs
-            for _ in range(s.restarts):
-                if search_fitness >= s.restart_below:
-                    break
-                again = self._search(rng, avoid)
-                generations += s.ga.generations
-                result = self._finish(again, s.refinement.enabled, rng, avoid)
-                ends.append(result[0])
-                if result[2] > search_fitness:
-                    ga, (pose, fitness, search_fitness) = again, result
-                twice = sum(_same_peak(pose, end, s.candidate_separation) for end in ends) >= 2
-                if twice and search_fitness >= s.confirm_above:
-                    break  # two runs ended on the best peak, and it is a good one: confirmed
-                last = result[0]
-                drawn = sum(_same_peak(last, end, s.candidate_separation) for end in ends) >= 2
-                if drawn and result[2] < s.confirm_above:
-                    yaw = yaw_of(last[:3, :3]) if result[2] >= s.avoid_any_yaw_below else np.nan
-                    avoid = np.vstack([avoid, [*last[:2, 3], yaw]])  # a poor peak that draws the runs
-            if peaks and fitness < s.peak_min_fitness:
-                break
-            peaks.append(Peak(pose, fitness))
-            if len(peaks) == 1:
-                self._keep(ga)  # tracking continues from the target's best poses
-        best = peaks[0]
-        return Recognition(
-            found=best.fitness >= s.acceptance_threshold,
-            fitness=best.fitness,
-            transform_model_to_camera=best.transform_model_to_camera,
-            evaluations=self.evaluator.evaluations - before,
-            generations=generations,
-            time_s=time.perf_counter() - start,
-            peaks=tuple(sorted(peaks, key=lambda p: -p.fitness)) if report_peaks else (),
+        rng = np.random.default_rng(seed) if seed is not None else self.proposer.rng
+        proposal = self.proposer.propose(rng, peaks=report_peaks)
+        chosen = self._most_confident(proposal.best, proposal.candidates, rng)
+        self._last_verification, self._frames_since_verified = chosen.verification, 0
+        peaks = tuple(
+            sorted(
+                (
+                    Peak(
+                        p.transform_model_to_camera,
+                        float(self.evaluator.evaluate(p.transform_model_to_camera)[0]),
+                    )
+                    for p in proposal.peaks
+                ),
+                key=lambda p: -p.fitness,
+            )
         )
+        return self._result(chosen, proposal.generations, before, start, peaks)
 
     @_collector_paused
     def track(
@@ -390,221 +311,96 @@ class Recognizer:
     ) -> Recognition:
         """Multi-step recognition: continues from the kept poses (a one-shot run if none).
 
-        The kept poses (the best `tracking_population` of the last frame) move by the
-        camera motion; a GA of that size then evolves them inside a window of
-        ±`tracking_window` (x, y) and ±`tracking_depth_window` (z) around the best moved
-        pose, with the full yaw and the configured tilt, and the refinement polishes
-        the best for at most `refinement.tracking_iterations` iterations.
+        The kept poses move by the camera motion; a small GA evolves them inside a window
+        around the best moved pose and the refine stage climbs the best briefly
+        (`propose.Proposer.track`); the result is verified every
+        `propose.tracking.verify_every`-th frame and decided.
 
         Args:
             image_left_bgr, image_right_bgr: the new stereo pair.
             transform_motion: (4, 4) ^CR_new T_CR_old, the previous right-camera frame in
                 the new one; every kept pose moves by it. None: the camera did not move.
-            generations: GA generations this frame (default: settings.ga.tracking_generations).
+            generations: GA generations this frame (default: propose.tracking.ga.generations).
 
         Raises:
-            InputError: images of the wrong type or size, or a motion that is not a 4x4
-                transform.
+            InputError: images of the wrong type or size.
+            ValueError: a motion that is not a finite 4x4 transform.
         """
-        if self._poses is None:
+        if self.proposer.kept_poses is None:
             return self.recognize(image_left_bgr, image_right_bgr)
         start = time.perf_counter()
-        s = self.settings
-        count = s.ga.tracking_generations if generations is None else generations
-        if count < 0:
-            raise ValueError(f"generations must be >= 0, got {count}")
-        poses = self._poses
-        if transform_motion is not None:
-            motion = np.asarray(transform_motion, dtype=float)
-            if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
-                raise ValueError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
-            poses = motion @ poses
-        self.evaluator.update(image_left_bgr, image_right_bgr)
+        self._take(image_left_bgr, image_right_bgr)
         before = self.evaluator.evaluations
-        x, y, z = poses[0, :3, 3]
-        w, wz = s.tracking_window, s.tracking_depth_window
-        window = SearchBounds(
-            x=(x - w, x + w),
-            y=(y - w, y + w),
-            z=(max(z - wz, 1e-3), max(z + wz, 2e-3)),
-            max_tilt_deg=s.bounds.max_tilt_deg,
-            max_yaw_deg=s.bounds.max_yaw_deg,
+        best, count = self.proposer.track(transform_motion, generations)
+        pose = best.transform_model_to_camera
+        self._frames_since_verified += 1
+        every = self.settings.propose.tracking.verify_every
+        if self._last_verification is None or self._frames_since_verified >= every:
+            self._last_verification = self.verifier.verify(pose)[0]
+            self._frames_since_verified = 0
+        chosen = _Verified(pose, best.search_fitness, self._last_verification, 0.0)
+        return self._result(chosen, count, before, start, ())
+
+    def _result(
+        self, chosen: _Verified, generations: int, before: int, start: float, peaks: tuple[Peak, ...]
+    ) -> Recognition:
+        v = chosen.verification
+        decision = decide(
+            self.settings.decide,
+            chosen.search_fitness,
+            v.appearance,
+            v.visible_fraction,
+            self.model.has_texture,
         )
-        ga = GeneticAlgorithm(self._score(s.fine_stride), window, self._tracking_ga, self._rng)
-        ga.population = encode(parameters_from_transforms(poses), window, self._tracking_ga.gray_code)
-        result = ga.evolve(count)
-        refine = s.refinement.enabled and s.refinement.in_tracking
-        pose, fitness, _ = self._polish(ga, self._best_pose(ga), s.refinement.tracking_iterations, refine)
-        self._keep(ga)
         return Recognition(
-            found=fitness >= s.acceptance_threshold,
-            fitness=fitness,
-            transform_model_to_camera=pose,
+            found=decision.found,
+            fitness=float(self.evaluator.evaluate(chosen.pose)[0]),
+            transform_model_to_camera=chosen.pose,
             evaluations=self.evaluator.evaluations - before,
-            generations=result.generations,
+            generations=generations,
             time_s=time.perf_counter() - start,
+            peaks=peaks,
+            confidence=decision.confidence,
+            visible_fraction=v.visible_fraction,
+            appearance=v.appearance,
+            search_fitness=chosen.search_fitness,
         )
 
-    def _score(
-        self, stride: int = 1, subpixel: bool = False, centres: FloatArray | None = None
-    ) -> KernelFitness:
-        """The search fitness of poses; poses `_avoided(centres)` score -1 (and the compiled
-        refinement does not visit them)."""
-        return KernelFitness(
-            self.evaluator, stride=stride, search=True, subpixel=subpixel, avoid=self._avoided(centres)
-        )
-
-    def _avoided(self, centres: FloatArray | None) -> AvoidedPoses:
-        """Poses within `peak_separation` (x-y) of a centre (x, y, yaw): of a peak already
-        reported (yaw NaN: at any yaw), or of a poor peak that drew the runs (at any yaw,
-        or within `avoid_yaw_deg` of its yaw: see `RecognitionSettings.restarts`)."""
+    def _most_confident(
+        self, best: Candidate, candidates: tuple[Candidate, ...], rng: np.random.Generator
+    ) -> _Verified:
+        """The most confident of `best`, its half and quarter turns and the other candidates
+        whose search fitness is within `verify.ambiguity_margin` of the best (ties keep
+        `best`); polished by the refine stage if it is not `best`."""
         s = self.settings
-        points = np.zeros((0, 3)) if centres is None else np.asarray(centres, dtype=float).reshape(-1, 3)
-        return AvoidedPoses(points, s.peak_separation, float(np.deg2rad(s.avoid_yaw_deg)))
-
-    def _search(self, rng: np.random.Generator, centres: FloatArray) -> GeneticAlgorithm:
-        """A GA run (coarse generations on a point subset, then all points), away from `centres`."""
-        s = self.settings
-        coarse = min(s.coarse_generations, s.ga.generations)
-        ga = GeneticAlgorithm(self._score(s.coarse_stride, centres=centres), s.bounds, s.ga, rng)
-        ga.run(coarse)
-        ga.objective = self._score(s.fine_stride, centres=centres)
-        ga.evolve(s.ga.generations - coarse)
-        return ga
-
-    def _keep(self, ga: GeneticAlgorithm) -> None:
-        """Keeps the best `tracking_population` poses of `ga`, best first."""
-        if ga.population is None or ga.scores is None:
-            raise RuntimeError("the GA has no population")  # unreachable: it ran
-        order = np.argsort(-ga.scores, kind="stable")[: self.settings.tracking_population]
-        self._poses = ga.transforms(ga.population[order])
-
-    @staticmethod
-    def _best_pose(ga: GeneticAlgorithm) -> FloatArray:
-        if ga.population is None or ga.scores is None:
-            raise RuntimeError("the GA has no population")  # unreachable: it ran
-        best = int(np.argmax(ga.scores))
-        return ga.transforms(ga.population[best : best + 1])[0]
-
-    def _candidates(self, ga: GeneticAlgorithm) -> FloatArray:
-        """(C, 4, 4) distinct good poses of each island, each also untilted (a cloth on a table
-        facing the camera), and all of those also turned by half a turn about the cloth normal.
-
-        Each of them is tried at the depths `candidate_depths` along the ray through the
-        model origin. A tilted, deeper pose can imitate a flat cloth's outline
-        (foreshortening for scale) and hold the GA on that separate peak; the untilted
-        variant at another depth starts the refinement on the true one's slope.
-        """
-        s = self.settings
-        poses = []
-        for genes, scores in ga.islands():
-            order = np.argsort(-scores, kind="stable")
-            transforms = ga.transforms(genes[order])
-            chosen: list[FloatArray] = []
-            for T in transforms:
-                if all(not _same_peak(T, other, s.candidate_separation) for other in chosen):
-                    chosen.append(T)
-                    if len(chosen) == s.candidates_per_island:
-                        break
-            poses.extend(chosen)
-        level = [_untilted(T) for T in poses]
-        half_turn = np.diag([-1.0, -1.0, 1.0, 1.0])  # about the model's z axis, through its origin
-        variants = np.array(poses + level + [T @ half_turn for T in poses + level])
-        scales = [(T_z + dz) / T_z for T_z in variants[:, 2, 3] for dz in s.candidate_depths]
-        out = np.repeat(variants, len(s.candidate_depths), axis=0)
-        out[:, :3, 3] *= np.asarray(scales)[:, None]  # along the ray through the model origin
-        return out
-
-    def _finish(
-        self,
-        ga: GeneticAlgorithm,
-        refine: bool,
-        rng: np.random.Generator,
-        centres: FloatArray | None = None,
-    ) -> tuple[FloatArray, float, float]:
-        """The best of the islands' candidates, refined (and injected back), with its paper and
-        search fitness.
-
-        The candidates are scored with the full search fitness; the best
-        `refine_candidates` are refined briefly by the compass search, the best of those
-        to the end by `refinement.method` (a CMA-ES draws from `rng`). The refinement
-        stays inside the bounds and away from `centres`.
-        """
-        s, r = self.settings, self.settings.refinement
-        limits = _limits(ga)
-        candidates = self._candidates(ga)
-        candidates = candidates[limits.allows(candidates, self._avoided(centres))]
-        if not len(candidates) or not refine:
-            return self._polish(ga, self._best_pose(ga), r.max_iterations, refine, centres, rng)
-        scores = self._score(centres=centres)(candidates)
-        order = np.argsort(-scores, kind="stable")[: s.refine_candidates]
-        quick = self._score(subpixel=r.candidate_subpixel, centres=centres)
-        polished = [
-            compass_search_compiled(T, quick, r, r.candidate_iterations, limits) for T in candidates[order]
+        T = best.transform_model_to_camera
+        others = [c.transform_model_to_camera for c in candidates if c.transform_model_to_camera is not T]
+        poses = np.array([T, T @ HALF_TURN, T @ _QUARTER_TURN, T @ _QUARTER_TURN.T, *others])
+        fitness = self.proposer.fitness()
+        scores = fitness(poses)
+        scores[0] = best.search_fitness
+        keep = np.flatnonzero(scores >= best.search_fitness - s.verify.ambiguity_margin)
+        verified = [
+            self._verified(poses[k], float(scores[k]), v)
+            for k, v in zip(keep, self.verifier.verify(poses[keep]), strict=True)
         ]
-        pose = max(polished, key=lambda item: item[1])[0]
-        return self._polish(ga, pose, max(r.max_iterations - r.candidate_iterations, 1), True, centres, rng)
+        chosen = max(verified, key=lambda item: item.score)  # the first (best) on ties
+        if chosen.pose is verified[0].pose or chosen.score <= verified[0].score:
+            return verified[0]
+        if s.refine.enabled:
+            limits = self.proposer.limits()
+            fine = self.proposer.fitness(subpixel=True)
+            polished = self.refiner.polish(chosen.pose, fitness, fine, limits, rng).transform_model_to_camera
+            return self._verified(polished, float(fitness(polished)[0]), self.verifier.verify(polished)[0])
+        return chosen
 
-    def _polish(
-        self,
-        ga: GeneticAlgorithm,
-        pose: FloatArray,
-        iterations: int,
-        refine: bool,
-        centres: FloatArray | None = None,
-        rng: np.random.Generator | None = None,
-    ) -> tuple[FloatArray, float, float]:
-        """`pose` refined (and injected into `ga`'s population), with its paper and search fitness.
-
-        With `rng` and `refinement.method` "cma" the refinement is a CMA-ES drawing from
-        `rng`, else a compass search of at most `iterations`.
-        """
-        if refine:
-            r = self.settings.refinement
-            if rng is not None and r.method == "cma":
-                fine = self._score(subpixel=True, centres=centres) if r.subpixel else None
-                pose, _ = cma_search_compiled(pose, self._score(centres=centres), r, rng, _limits(ga), fine)
-            else:
-                fitness = self._score(subpixel=r.subpixel, centres=centres)
-                pose, _ = compass_search_compiled(pose, fitness, r, iterations, _limits(ga))
-        search_fitness = float(self.evaluator.evaluate(pose, search=True)[0])
-        if (
-            refine
-            and ga.population is not None
-            and ga.scores is not None
-            and search_fitness >= ga.scores.max()
-        ):
-            worst = int(np.argmin(ga.scores))  # the population keeps the polished pose
-            genes = encode(parameters_from_transforms(pose), ga.bounds, ga.settings.gray_code)
-            ga.population[worst] = genes[0]
-            ga.scores[worst] = search_fitness
-        return pose, float(self.evaluator.evaluate(pose)[0]), search_fitness
+    def _verified(self, pose: FloatArray, search_fitness: float, verification: Verification) -> _Verified:
+        d = self.settings.decide
+        value = confidence(
+            d, search_fitness, verification.appearance, verification.visible_fraction, self.model.has_texture
+        )
+        logit = float(np.log(max(value, 1e-300)) - np.log(max(1.0 - value, 1e-300)))
+        return _Verified(pose, search_fitness, verification, logit)
 
 
-def _untilted(pose: FloatArray) -> FloatArray:
-    """`pose` with the model's normal turned onto the camera axis, keeping its yaw and origin."""
-    out = pose.copy()
-    out[:3, :3] = rotation_about_z(yaw_of(pose[:3, :3]))
-    return out
-
-
-def _limits(ga: GeneticAlgorithm) -> PoseLimits:
-    """The refinement's allowed set: position inside the GA's bounds, tilt within
-    `max_tilt_deg` (a cone: the GA's box reaches ~1.4x that on diagonals), yaw within
-    `max_yaw_deg`."""
-    b = ga.bounds
-    return PoseLimits(
-        np.array([b.x[0], b.y[0], b.z[0]]),
-        np.array([b.x[1], b.y[1], b.z[1]]),
-        float(np.cos(np.deg2rad(b.max_tilt_deg))),
-        float(np.deg2rad(b.max_yaw_deg)) if b.max_yaw_deg < 180.0 else np.inf,
-    )
-
-
-def _same_peak(a: FloatArray, b: FloatArray, separation: float) -> bool:
-    """Two poses closer than `separation` in x-y and 20° in yaw."""
-    close = float(np.linalg.norm(a[:2, 3] - b[:2, 3])) < separation
-    return close and abs(float(wrap_angle(yaw_of(a[:3, :3]) - yaw_of(b[:3, :3])))) < np.deg2rad(20.0)
-
-
-__all__ = ["Peak", "Recognition", "RecognitionSettings", "Recognizer", "RefinementSettings"]
+__all__ = ["Peak", "Recognition", "RecognitionSettings", "Recognizer"]

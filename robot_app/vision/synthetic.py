@@ -25,12 +25,19 @@ from robot_app.geometry import (
     rotation_about_z,
 )
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
+from robot_app.vision.synthetic_camera import CameraRealism
 
 Image = npt.NDArray[np.uint8]
 Placement = tuple["SyntheticCloth", FloatArray]
 
 TABLE_GREEN_BGR = (60, 150, 45)  # hue ≈ 86 of 255 (HSV_FULL), the paper's green sheet
 OCCLUDER_BLUE_BGR = (205, 35, 30)  # the blue paper of Fig. 11 (b), hue ≈ 169 of 255
+OCCLUDER_COLOURS: dict[str, tuple[int, int, int]] = {  # hued and unhued sheets over a cloth
+    "blue": OCCLUDER_BLUE_BGR,
+    "grey": (128, 128, 128),
+    "white": (232, 232, 232),
+    "brown": (45, 75, 125),
+}
 
 
 @dataclass(frozen=True)
@@ -43,12 +50,15 @@ class SyntheticCloth:
             times the texel size.
         alpha: (H, W) bool, True inside the cloth's outline.
         size: (width, height) of the texture [m].
+        origin: the Σ_M origin in texture metres from the texture's corner [m], or None
+            for the outline's centroid (a folded or wrinkled cloth keeps its flat frame).
     """
 
     name: str
     texture_bgr: Image
     alpha: npt.NDArray[np.bool_]
     size: tuple[float, float]
+    origin: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         texture = np.asarray(self.texture_bgr)
@@ -73,7 +83,10 @@ class SyntheticCloth:
 
     @property
     def centroid(self) -> FloatArray:
-        """Centroid of the outline in texture metres from the texture's corner [m], (2,)."""
+        """The Σ_M origin in texture metres from the texture's corner [m], (2,): `origin`, or
+        the centroid of the outline."""
+        if self.origin is not None:
+            return np.array(self.origin, dtype=float)
         v, u = np.nonzero(self.alpha)
         sx, sy = self.texel_size
         return np.array([(u.mean() + 0.5) * sx, (v.mean() + 0.5) * sy])
@@ -263,6 +276,7 @@ def render_stereo_pair(
     rng: np.random.Generator | None = None,
     noise_sigma: float = 2.0,
     background_bgr: Image | None = None,
+    camera: CameraRealism | None = None,
 ) -> tuple[Image, Image]:
     """Renders cloths lying at known poses into both hand cameras.
 
@@ -273,6 +287,8 @@ def render_stereo_pair(
         rng: noise source (default: a fixed seed).
         noise_sigma: standard deviation of pixel noise [grey levels].
         background_bgr: the table as seen by both cameras; default a green sheet.
+        camera: the cameras' imaging (exposure, white balance, shading, noise, blur, JPEG),
+            instead of plain noise of `noise_sigma`.
 
     Returns:
         (left_bgr, right_bgr) uint8 images of the rig's size.
@@ -287,15 +303,19 @@ def render_stereo_pair(
             raise ValueError(f"background_bgr must be ({height}, {width}, 3) uint8, got {table.shape}")
     layers = [*placements, occluder] if occluder is not None else list(placements)
     T_right_to_left = rig.transform_right_to_left
+    shade = camera.shade_field(rig.image_size, rng) if camera is not None else None
     images = []
-    for camera, to_camera in ((rig.left, T_right_to_left), (rig.right, np.eye(4))):
+    for lens, to_camera in ((rig.left, T_right_to_left), (rig.right, np.eye(4))):
         image = table.astype(np.float32)
         for cloth, transform in layers:
             pose = np.asarray(transform, dtype=float)
             if pose.shape != (4, 4):
                 raise ValueError(f"a placement's transform must be 4x4, got {pose.shape}")
-            image = _draw_cloth(image, camera, cloth, to_camera @ pose)
-        images.append(_add_noise(image, rng, noise_sigma))
+            image = _draw_cloth(image, lens, cloth, to_camera @ pose)
+        if camera is not None and shade is not None:
+            images.append(camera.image(image, rng, shade))
+        else:
+            images.append(_add_noise(image, rng, noise_sigma))
     return images[0], images[1]
 
 
@@ -305,8 +325,9 @@ def occluder_covering(
     fraction: float = 0.45,
     direction: float = 0.0,
     lift: float = 0.003,
+    colour_bgr: tuple[int, int, int] = OCCLUDER_BLUE_BGR,
 ) -> Placement:
-    """A blue sheet lying just above `cloth` that hides `fraction` of its area.
+    """A sheet (blue by default) lying just above `cloth` that hides `fraction` of its area.
 
     The sheet covers every point of the cloth beyond a line perpendicular to
     `direction`, placed so that `fraction` of the outline's area is under it.
@@ -317,6 +338,7 @@ def occluder_covering(
         fraction: share of the cloth's area to cover, in (0, 1).
         direction: in Σ_M, the side the sheet comes from [rad] (0: from +x).
         lift: height of the sheet above the cloth, towards the camera [m].
+        colour_bgr: the sheet's colour (`OCCLUDER_COLOURS` has blue, grey, white, brown).
 
     Returns:
         (sheet, transform_sheet_to_right) to pass as `occluder=`.
@@ -334,8 +356,8 @@ def occluder_covering(
     texel = 0.001
     shape = (max(1, round(width / texel)), max(1, round(length / texel)))
     texture = np.empty((*shape, 3), np.uint8)
-    texture[:] = OCCLUDER_BLUE_BGR
-    sheet = SyntheticCloth("blue_sheet", texture, np.ones(shape, bool), (shape[1] * texel, shape[0] * texel))
+    texture[:] = colour_bgr
+    sheet = SyntheticCloth("sheet", texture, np.ones(shape, bool), (shape[1] * texel, shape[0] * texel))
     centre = d * (start + sheet.size[0] / 2.0)
     in_model = make_transform(rotation_about_z(direction), [centre[0], centre[1], -lift])
     return sheet, np.asarray(transform_model_to_right, dtype=float) @ in_model
@@ -414,6 +436,7 @@ def _add_noise(image: npt.NDArray[np.float32], rng: np.random.Generator, sigma: 
 __all__ = [
     "CATALOGUE_SIZE",
     "OCCLUDER_BLUE_BGR",
+    "OCCLUDER_COLOURS",
     "TABLE_GREEN_BGR",
     "SyntheticCloth",
     "green_table",

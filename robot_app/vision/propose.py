@@ -1,0 +1,377 @@
+"""Propose stage: the paper's GA on the hue fitness finds the pose candidates.
+
+One-shot (`Proposer.propose`): GA runs from a random population (the first
+`coarse_generations` score every `coarse_stride`-th model point, the rest every
+`fine_stride`-th), the best distinct poses of each island (also untilted, half-turned and
+at other depths) climbed briefly by the refine stage's compass search, the best of them
+polished by the refine stage. A poor result restarts the GA until two runs agree; a poor
+peak that two runs ended on is avoided by the next ones. Every run's polished end is kept
+as a candidate, so the verification can compare the peaks. With `peaks`, further runs that
+avoid the peaks found so far give one pose per distinct peak (e.g. each cloth in view,
+Fig. 13 e-f).
+
+Multi-step (`Proposer.track`, Sec. II-E): the kept poses move by the camera motion, a
+small GA evolves them a few generations inside a window around the best moved pose, and
+the refine stage polishes the best briefly. The proposer keeps the poses for the next
+frame explicitly (`keep`): the polished pose first, then the GA's best.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from pydantic import Field
+
+from robot_app.arrays import FloatArray
+from robot_app.config import StrictModel
+from robot_app.geometry import rotation_about_z, wrap_angle, yaw_of
+from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
+from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBounds
+from robot_app.vision.poses import AvoidedPoses, PoseLimits, as_poses
+from robot_app.vision.refinement import Refiner
+
+HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])  # about the model's z axis, through its origin
+
+
+class TrackingSettings(StrictModel):
+    """Multi-step proposal between frames.
+
+    Attributes:
+        ga: the tracking GA (its `generations` are per frame; 24 individuals, one island).
+        window: half-width of the x-y search window around the motion-predicted pose [m].
+        depth_window: half-width of the depth window [m]; the window moves with the
+            camera, so a descending camera keeps its cloth.
+        verify_every: verify (and decide) on every n-th tracking frame; between them the
+            last verification's appearance is carried over (1: every frame).
+    """
+
+    ga: GASettings = GASettings(population=24, generations=3, islands=1, elite=2)
+    window: float = Field(default=0.02, gt=0.0)
+    depth_window: float = Field(default=0.03, gt=0.0)
+    verify_every: int = Field(default=1, ge=1)
+
+
+class ProposalSettings(StrictModel):
+    """The GA search of one-shot recognition and tracking.
+
+    Attributes:
+        ga: GA parameters (100 generations of 100 individuals in 4 islands).
+        bounds: search space in Σ_CR.
+        coarse_generations: first generations scored on a point subset.
+        coarse_stride: every n-th model point scored in the coarse generations.
+        fine_stride: every n-th model point scored in the other generations and while
+            tracking (the refinement and the reported fitness always use every point).
+        candidates_per_island: distinct poses (x-y farther apart than `candidate_separation`
+            or yaws farther apart than 20°) taken from each island's final population.
+        candidate_separation: x-y distance that makes two candidates distinct [m].
+        candidate_depths: offsets along the ray through the model origin at which every
+            candidate is also scored [m].
+        refine_candidates: the best candidates (after adding each one's half turn about
+            the cloth normal) that the refine stage climbs for
+            `refinement.candidate_iterations` before the best is polished.
+        restarts: further runs while the best search fitness is below `restart_below` and
+            the best peak is not confirmed (two runs ended on it and it scores at least
+            `confirm_above`); the best of all runs is kept. A poor result is more often a
+            missed peak than a poor view, while a partly hidden cloth scores below
+            `restart_below` at its true pose but ends there twice. An absent cloth costs
+            all these runs. Later runs search away (`peak_separation`) from a poor peak
+            (below `confirm_above`) that two runs ended on; one that scores at least
+            `avoid_any_yaw_below` is a near miss on the cloth itself, so only yaws within
+            `avoid_yaw_deg` of it are avoided (its half or quarter turn may be the truth).
+        restart_below: search fitness under which a restart is run.
+        confirm_above: the search fitness from which a peak two runs ended on is taken.
+        avoid_yaw_deg, avoid_any_yaw_below: see `restarts`.
+        max_peaks: peaks reported with `peaks`.
+        peak_separation: x-y distance between distinct peaks [m].
+        peak_min_fitness: weaker peaks are not reported.
+        tracking: the multi-step proposal.
+    """
+
+    ga: GASettings = GASettings()
+    bounds: SearchBounds = SearchBounds()
+    coarse_generations: int = Field(default=60, ge=0)
+    coarse_stride: int = Field(default=4, ge=1)
+    fine_stride: int = Field(default=3, ge=1)
+    candidates_per_island: int = Field(default=2, ge=1)
+    candidate_separation: float = Field(default=0.01, gt=0.0)
+    candidate_depths: tuple[float, ...] = (-0.03, -0.015, 0.0, 0.015, 0.03)
+    refine_candidates: int = Field(default=3, ge=1)
+    restarts: int = Field(default=4, ge=0)
+    restart_below: float = Field(default=0.97, ge=0.0, le=1.0)
+    confirm_above: float = Field(default=0.94, ge=0.0, le=1.0)
+    avoid_yaw_deg: float = Field(default=45.0, gt=0.0, le=90.0)
+    avoid_any_yaw_below: float = Field(default=0.8, ge=0.0, le=1.0)
+    max_peaks: int = Field(default=3, ge=1)
+    peak_separation: float = Field(default=0.06, gt=0.0)
+    peak_min_fitness: float = Field(default=0.2, ge=0.0, le=1.0)
+    tracking: TrackingSettings = TrackingSettings()
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A proposed pose and its search fitness (`RecognitionSettings.search`)."""
+
+    transform_model_to_camera: FloatArray
+    search_fitness: float
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """What the propose stage found.
+
+    Attributes:
+        best: the polished best pose of all runs.
+        candidates: the polished end of every run, best first (`best` among them).
+        peaks: with `peaks`, the best of each distinct peak, in the order found.
+        generations: GA generations run.
+    """
+
+    best: Candidate
+    candidates: tuple[Candidate, ...]
+    peaks: tuple[Candidate, ...]
+    generations: int
+
+
+class Proposer:
+    """The propose stage of one model on one evaluator; keeps the poses to track.
+
+    Args:
+        evaluator: the fitness evaluator (its search parameters are the search fitness).
+        settings: the GA search.
+        refiner: the refine stage, which climbs candidates and polishes each run's best.
+        seed: seed of the generator used when a call gives none.
+    """
+
+    def __init__(
+        self, evaluator: FitnessEvaluator, settings: ProposalSettings, refiner: Refiner, seed: int = 0
+    ) -> None:
+        self.evaluator = evaluator
+        self.settings = settings
+        self.refiner = refiner
+        self._seed = seed
+        self.reset()
+
+    def reset(self) -> None:
+        """Forgets the tracked poses and reseeds the generator."""
+        self.rng = np.random.default_rng(self._seed)
+        self._poses: FloatArray | None = None
+
+    @property
+    def kept_poses(self) -> FloatArray | None:
+        """(P, 4, 4) poses kept for tracking, best first (None before the first proposal)."""
+        return None if self._poses is None else self._poses.copy()
+
+    def keep(self, best: FloatArray, others: FloatArray) -> None:
+        """Keeps `best` and then the first of `others` (P, 4, 4) for the next tracking frame."""
+        count = self.settings.tracking.ga.population
+        self._poses = np.concatenate([as_poses(best), as_poses(others)])[:count]
+
+    def fitness(
+        self, stride: int = 1, subpixel: bool = False, centres: npt.ArrayLike | None = None
+    ) -> KernelFitness:
+        """The search fitness; poses near `centres` (x, y, yaw; yaw NaN: any) score -1."""
+        return KernelFitness(
+            self.evaluator, stride=stride, search=True, subpixel=subpixel, avoid=self._avoided(centres)
+        )
+
+    def limits(self, bounds: SearchBounds | None = None) -> PoseLimits:
+        """The allowed set of the local searches: position inside `bounds` (default: the
+        search bounds), tilt within `max_tilt_deg` (a cone), yaw within `max_yaw_deg`."""
+        b = self.settings.bounds if bounds is None else bounds
+        return PoseLimits(
+            np.array([b.x[0], b.y[0], b.z[0]]),
+            np.array([b.x[1], b.y[1], b.z[1]]),
+            float(np.cos(np.deg2rad(b.max_tilt_deg))),
+            float(np.deg2rad(b.max_yaw_deg)) if b.max_yaw_deg < 180.0 else np.inf,
+        )
+
+    def propose(self, rng: np.random.Generator | None = None, *, peaks: bool = False) -> Proposal:
+        """One-shot proposal on the evaluator's current pair (see the module docstring)."""
+        s = self.settings
+        rng = self.rng if rng is None else rng
+        found: list[Candidate] = []
+        ends: list[Candidate] = []
+        generations = 0
+        for _ in range(s.max_peaks if peaks else 1):
+            centres = np.array([[*p.transform_model_to_camera[:2, 3], np.nan] for p in found]).reshape(-1, 3)
+            best, run_ends, best_ga, count = self._runs(rng, centres)
+            generations += count
+            if found and best.search_fitness < s.peak_min_fitness:
+                break
+            found.append(best)
+            if len(found) == 1:
+                ends = run_ends
+                self.keep(best.transform_model_to_camera, best_ga.ranked_poses(s.tracking.ga.population))
+        ranked = tuple(sorted(ends, key=lambda c: -c.search_fitness))
+        return Proposal(found[0], ranked, tuple(found) if peaks else (), generations)
+
+    def track(
+        self, transform_motion: FloatArray | None, generations: int | None = None
+    ) -> tuple[Candidate, int]:
+        """Multi-step proposal on the evaluator's current pair from the kept poses.
+
+        Args:
+            transform_motion: (4, 4) ^CR_new T_CR_old; every kept pose moves by it. None: no motion.
+            generations: GA generations this frame (default: `tracking.ga.generations`).
+
+        Returns:
+            the polished best pose and the generations run.
+
+        Raises:
+            RuntimeError: nothing kept yet (propose first).
+        """
+        if self._poses is None:
+            raise RuntimeError("nothing to track: propose() first")
+        s, t = self.settings, self.settings.tracking
+        count = t.ga.generations if generations is None else generations
+        if count < 0:
+            raise ValueError(f"generations must be >= 0, got {count}")
+        poses = self._poses
+        if transform_motion is not None:
+            motion = np.asarray(transform_motion, dtype=float)
+            if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
+                raise ValueError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
+            poses = motion @ poses
+        x, y, z = poses[0, :3, 3]
+        window = SearchBounds(
+            x=(x - t.window, x + t.window),
+            y=(y - t.window, y + t.window),
+            z=(max(z - t.depth_window, 1e-3), max(z + t.depth_window, 2e-3)),
+            max_tilt_deg=s.bounds.max_tilt_deg,
+            max_yaw_deg=s.bounds.max_yaw_deg,
+        )
+        ga = GeneticAlgorithm(window, t.ga, self.rng)
+        ga.seed(np.concatenate([poses, np.repeat(poses[-1:], t.ga.population - len(poses), axis=0)]))
+        ga.evolve(self.fitness(s.fine_stride), count)
+        pose = ga.best_pose()
+        r = self.refiner.settings
+        if r.enabled and r.in_tracking:
+            fine = self.fitness(subpixel=r.subpixel)
+            pose = self.refiner.climb(
+                pose, fine, r.tracking_iterations, self.limits(window)
+            ).transform_model_to_camera
+        best = Candidate(pose, float(self.fitness()(pose)[0]))
+        self.keep(pose, ga.ranked_poses(t.ga.population))
+        return best, count
+
+    # ------------------------------------------------------------------ one-shot internals
+    def _runs(
+        self, rng: np.random.Generator, centres: FloatArray
+    ) -> tuple[Candidate, list[Candidate], GeneticAlgorithm, int]:
+        """GA runs with restarts away from `centres`: the best end, every end, the best run's
+        GA and the generations run."""
+        s = self.settings
+        ga = self._search(rng, centres)
+        best = self._finish(ga, rng, centres)
+        generations = s.ga.generations
+        ends, avoid = [best], centres
+        for _ in range(s.restarts):
+            if best.search_fitness >= s.restart_below:
+                break
+            again = self._search(rng, avoid)
+            generations += s.ga.generations
+            result = self._finish(again, rng, avoid)
+            ends.append(result)
+            if result.search_fitness > best.search_fitness:
+                ga, best = again, result
+            pose = best.transform_model_to_camera
+            twice = (
+                sum(_same_peak(pose, e.transform_model_to_camera, s.candidate_separation) for e in ends) >= 2
+            )
+            if twice and best.search_fitness >= s.confirm_above:
+                break  # two runs ended on the best peak, and it is a good one: confirmed
+            last = result.transform_model_to_camera
+            drawn = (
+                sum(_same_peak(last, e.transform_model_to_camera, s.candidate_separation) for e in ends) >= 2
+            )
+            if drawn and result.search_fitness < s.confirm_above:
+                yaw = yaw_of(last[:3, :3]) if result.search_fitness >= s.avoid_any_yaw_below else np.nan
+                avoid = np.vstack([avoid, [*last[:2, 3], yaw]])  # a poor peak that draws the runs
+        return best, ends, ga, generations
+
+    def _search(self, rng: np.random.Generator, centres: FloatArray) -> GeneticAlgorithm:
+        """A GA run: coarse generations on a point subset, then on more points."""
+        s = self.settings
+        coarse = min(s.coarse_generations, s.ga.generations)
+        ga = GeneticAlgorithm(s.bounds, s.ga, rng)
+        ga.run(self.fitness(s.coarse_stride, centres=centres), coarse)
+        ga.evolve(self.fitness(s.fine_stride, centres=centres), s.ga.generations - coarse)
+        return ga
+
+    def _finish(self, ga: GeneticAlgorithm, rng: np.random.Generator, centres: FloatArray) -> Candidate:
+        """The best of the islands' candidates, climbed and then polished by the refine stage."""
+        s, r = self.settings, self.refiner.settings
+        limits = self.limits()
+        candidates = self._candidates(ga)
+        candidates = candidates[limits.allows(candidates, self._avoided(centres))]
+        fitness = self.fitness(centres=centres)
+        fine = self.fitness(subpixel=True, centres=centres)
+        if not r.enabled or not len(candidates):
+            pose = ga.best_pose()
+            if r.enabled:
+                pose = self.refiner.polish(pose, fitness, fine, limits, rng).transform_model_to_camera
+            return Candidate(pose, float(fitness(pose)[0]))
+        scores = fitness(candidates)
+        order = np.argsort(-scores, kind="stable")[: s.refine_candidates]
+        quick = self.fitness(subpixel=r.candidate_subpixel, centres=centres)
+        climbed = [self.refiner.climb(T, quick, r.candidate_iterations, limits) for T in candidates[order]]
+        start = max(climbed, key=lambda c: c.score).transform_model_to_camera
+        iterations = max(r.max_iterations - r.candidate_iterations, 1)
+        pose = self.refiner.polish(start, fitness, fine, limits, rng, iterations).transform_model_to_camera
+        return Candidate(pose, float(fitness(pose)[0]))
+
+    def _candidates(self, ga: GeneticAlgorithm) -> FloatArray:
+        """(C, 4, 4) distinct good poses of each island, each also untilted (a cloth on a table
+        facing the camera), all of those also half-turned about the cloth normal, and each
+        at the depths `candidate_depths` along the ray through the model origin. A tilted,
+        deeper pose can imitate a flat cloth's outline (foreshortening for scale) and hold
+        the GA on that separate peak; the untilted variant at another depth starts the
+        climb on the true one's slope."""
+        s = self.settings
+        poses = []
+        for genes, scores in ga.islands():
+            order = np.argsort(-scores, kind="stable")
+            chosen: list[FloatArray] = []
+            for T in ga.transforms(genes[order]):
+                if all(not _same_peak(T, other, s.candidate_separation) for other in chosen):
+                    chosen.append(T)
+                    if len(chosen) == s.candidates_per_island:
+                        break
+            poses.extend(chosen)
+        level = [untilted(T) for T in poses]
+        variants = np.array(poses + level + [T @ HALF_TURN for T in poses + level])
+        scales = [(T_z + dz) / T_z for T_z in variants[:, 2, 3] for dz in s.candidate_depths]
+        out = np.repeat(variants, len(s.candidate_depths), axis=0)
+        out[:, :3, 3] *= np.asarray(scales)[:, None]  # along the ray through the model origin
+        return out
+
+    def _avoided(self, centres: npt.ArrayLike | None) -> AvoidedPoses:
+        s = self.settings
+        points = np.zeros((0, 3)) if centres is None else np.asarray(centres, dtype=float).reshape(-1, 3)
+        return AvoidedPoses(points, s.peak_separation, float(np.deg2rad(s.avoid_yaw_deg)))
+
+
+def untilted(pose: FloatArray) -> FloatArray:
+    """`pose` with the model's normal turned onto the camera axis, keeping its yaw and origin."""
+    out = np.array(pose, dtype=float)
+    out[:3, :3] = rotation_about_z(yaw_of(out[:3, :3]))
+    return out
+
+
+def _same_peak(a: FloatArray, b: FloatArray, separation: float) -> bool:
+    """Two poses closer than `separation` in x-y and 20° in yaw."""
+    close = float(np.linalg.norm(a[:2, 3] - b[:2, 3])) < separation
+    return close and abs(float(wrap_angle(yaw_of(a[:3, :3]) - yaw_of(b[:3, :3])))) < np.deg2rad(20.0)
+
+
+__all__ = [
+    "HALF_TURN",
+    "Candidate",
+    "Proposal",
+    "ProposalSettings",
+    "Proposer",
+    "TrackingSettings",
+    "untilted",
+]

@@ -1,0 +1,221 @@
+"""Verify stage: does the model photo's full colour texture agree with the images at a pose?
+
+The hue fitness looks at hue bands only: a print of nearly one hue matches itself turned
+by half a turn, and another cloth of the same hue family matches nearly as well as the
+target. The model photo holds more. At a candidate pose, samples of the photo's texture
+(every `spacing` on the cloth, `edge_margin` inside its outline, blurred to about a hand
+camera pixel) are projected into both images; a sample counts if it lands in the image
+and not on a foreign colour (an occluder: the fitness's notion of hidden). The cloth is
+cut into square cells of `cell_size`, and each cell with enough visible samples compares
+model and image: where the model is textured by the zero-mean normalised cross-correlation
+of each colour channel (invariant to a gain and offset per channel: exposure and white
+balance), where it is flat by whether the image is flat too and of the model's mean colour.
+The appearance score is the cells' mean agreement in [-1, 1], weighted by their visible
+samples; the visible fraction is the share of samples visible.
+
+A model without texture (a version 1-2 file) cannot be verified: `Verification.appearance`
+is NaN and the decision uses its stand-in (`DecisionSettings.appearance_without_texture`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+from pydantic import Field
+
+from robot_app.arrays import FloatArray
+from robot_app.config import StrictModel
+from robot_app.vision.fitness import FitnessEvaluator, FitnessSettings, foreign_codes
+from robot_app.vision.photo_model import ClothModel
+from robot_app.vision.poses import as_poses
+from robot_app.vision.verify_kernels import appearance
+
+
+class VerificationSettings(StrictModel):
+    """The appearance check.
+
+    Attributes:
+        spacing: texture samples every this on the cloth [m].
+        edge_margin: no sample nearer the outline than this [m] (a pose a millimetre off
+            must not compare the sheet with the cloth).
+        blur: standard deviation of the blur of the model photo before sampling [m]
+            (about a hand-camera pixel at 580 mm).
+        cell_size: side of the square cells compared one by one [m].
+        min_points: samples a cell needs in view to be compared.
+        texture_min: RMS deviation of the model's colour in a cell from which it is
+            compared by correlation, below it by flatness [grey levels].
+        flat_tolerance: how much more an image cell may vary than a flat model cell before
+            it disagrees [grey levels] (noise of sigma 7 and JPEG stay inside).
+        chroma_tolerance: a flat cell's mean chromaticity (b, g, r over their sum) may
+            differ this much from the model's before it disagrees.
+        brightness_tolerance: ... and its brightness by this factor minus one (after the
+            exposure gains; smooth shading stays inside).
+        ambiguity_margin: alternatives (half and quarter turns, other peaks) whose search
+            fitness is within this of the best are verified and the most confident kept.
+    """
+
+    spacing: float = Field(default=0.003, gt=0.0005, le=0.02)
+    edge_margin: float = Field(default=0.003, ge=0.0, le=0.02)
+    blur: float = Field(default=0.0008, ge=0.0, le=0.005)
+    cell_size: float = Field(default=0.02, gt=0.002, le=0.2)
+    min_points: int = Field(default=8, ge=2)
+    texture_min: float = Field(default=6.0, gt=0.0)
+    flat_tolerance: float = Field(default=10.0, gt=0.0)
+    chroma_tolerance: float = Field(default=0.05, gt=0.0, le=1.0)
+    brightness_tolerance: float = Field(default=0.35, gt=0.0, le=4.0)
+    ambiguity_margin: float = Field(default=0.1, ge=0.0, le=1.0)
+
+
+@dataclass(frozen=True)
+class Verification:
+    """The appearance check at one pose.
+
+    Attributes:
+        appearance: cells' mean agreement in [-1, 1]; NaN without texture or with no cell in view.
+        visible_fraction: share of the texture samples in view and not under a foreign colour
+            (mean of both images); for a model without texture, the hue fitness's seen share.
+        textured_share: share of the compared weight on textured cells (0: a plain cloth,
+            compared by flatness alone).
+    """
+
+    appearance: float
+    visible_fraction: float
+    textured_share: float
+
+
+class Verifier:
+    """The verify stage of one model on one evaluator (whose current pair and pixel codes it reads).
+
+    Args:
+        model: the cloth model (its texture).
+        evaluator: the fitness evaluator holding the current pair's pixel codes.
+        search: the search fitness settings, which say what colour is foreign (hidden).
+        settings: the appearance check.
+    """
+
+    def __init__(
+        self,
+        model: ClothModel,
+        evaluator: FitnessEvaluator,
+        search: FitnessSettings,
+        settings: VerificationSettings,
+    ) -> None:
+        self.model = model
+        self.evaluator = evaluator
+        self.settings = settings
+        self._foreign = np.ascontiguousarray(foreign_codes(model.background_hue, search, model.hues_in))
+        self._samples = _texture_samples(model, settings)
+        self._images: tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]] | None = None
+        self._gains = (np.ones(3), np.ones(3))
+
+    @property
+    def n_samples(self) -> int:
+        """Texture samples compared per image and pose (0 without texture)."""
+        return 0 if self._samples is None else len(self._samples[0])
+
+    def update(
+        self,
+        image_left_bgr: npt.NDArray[np.uint8],
+        image_right_bgr: npt.NDArray[np.uint8],
+        gains: tuple[FloatArray, FloatArray] | None = None,
+    ) -> None:
+        """Takes the pair the evaluator has (undistorted the same way) and its exposure gains."""
+        images = []
+        for image, camera in (
+            (image_left_bgr, self.evaluator.rig.left),
+            (image_right_bgr, self.evaluator.rig.right),
+        ):
+            array = np.ascontiguousarray(image)
+            if camera.has_distortion:
+                K = camera.camera_matrix
+                array = np.asarray(cv2.undistort(array, K, camera.dist_coeffs, None, K), dtype=np.uint8)
+            images.append(array)
+        self._images = (images[0], images[1])
+        self._gains = (
+            (np.ones(3), np.ones(3))
+            if gains is None
+            else (np.asarray(gains[0], float), np.asarray(gains[1], float))
+        )
+
+    def verify(self, transforms_model_to_camera: npt.ArrayLike) -> list[Verification]:
+        """The appearance check of each of (P, 4, 4) or (4, 4) poses.
+
+        Raises:
+            RuntimeError: no pair yet (call `update`).
+        """
+        poses = as_poses(transforms_model_to_camera)
+        if self._samples is None:
+            seen = self.evaluator.seen_fraction(poses)
+            return [Verification(float("nan"), float(v), 0.0) for v in seen]
+        if self._images is None:
+            raise RuntimeError("no stereo pair to verify on: call update(left, right) first")
+        px, py, values, cells, n_cells = self._samples
+        codes_left, codes_right = self.evaluator.codes
+        rig = self.evaluator.rig
+        s = self.settings
+        scores, visible, textured = appearance(
+            poses, rig.left.camera_matrix, rig.right.camera_matrix,
+            np.ascontiguousarray(rig.transform_right_to_left), px, py, values, cells, n_cells,
+            self._images[0], self._images[1], codes_left, codes_right, self._foreign,
+            self._gains[0], self._gains[1], float(s.min_points), s.texture_min, s.flat_tolerance,
+            s.chroma_tolerance, s.brightness_tolerance,
+        )  # fmt: skip
+        return [
+            Verification(float(a), float(v), float(t))
+            for a, v, t in zip(scores, visible, textured, strict=True)
+        ]
+
+
+def _texture_samples(
+    model: ClothModel, settings: VerificationSettings
+) -> (
+    tuple[
+        npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.float32], npt.NDArray[np.int64], int
+    ]
+    | None
+):
+    """Sample positions (x, y [m]), their blurred b, g, r, cell indices and the cell count."""
+    if model.texture_bgr is None or model.texture_mask is None or model.texture_from_model is None:
+        return None
+    A = np.asarray(model.texture_from_model)
+    px_per_m = float(A[0, 0])
+    texture = np.asarray(model.texture_bgr, dtype=np.float32)
+    if settings.blur > 0:
+        texture = np.asarray(cv2.GaussianBlur(texture, (0, 0), settings.blur * px_per_m), dtype=np.float32)
+    margin = round(settings.edge_margin * px_per_m)
+    mask = np.asarray(model.texture_mask, dtype=np.uint8)
+    if margin > 0:
+        disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * margin + 1, 2 * margin + 1))
+        mask = np.asarray(cv2.erode(mask, disc), dtype=np.uint8)
+    xs = model.points_in[:, 0]
+    ys = model.points_in[:, 1]
+    gx = np.arange(xs.min(), xs.max() + settings.spacing, settings.spacing)
+    gy = np.arange(ys.min(), ys.max() + settings.spacing, settings.spacing)
+    x, y = (a.ravel() for a in np.meshgrid(gx, gy))
+    u = A[0, 0] * x + A[0, 1] * y + A[0, 2]
+    v = A[1, 0] * x + A[1, 1] * y + A[1, 2]
+    iu, iv = np.rint(u).astype(int), np.rint(v).astype(int)
+    height, width = mask.shape
+    inside = (iu >= 0) & (iu < width) & (iv >= 0) & (iv < height)
+    inside[inside] = mask[iv[inside], iu[inside]] > 0
+    if inside.sum() < settings.min_points:
+        return None
+    x, y, iu, iv = x[inside], y[inside], iu[inside], iv[inside]
+    values = texture[iv, iu].astype(np.float32)
+    cx = np.floor((x - x.min()) / settings.cell_size).astype(np.int64)
+    cy = np.floor((y - y.min()) / settings.cell_size).astype(np.int64)
+    cells = cx * (int(cy.max()) + 1) + cy
+    _, cells = np.unique(cells, return_inverse=True)
+    return (
+        np.ascontiguousarray(x, dtype=np.float32),
+        np.ascontiguousarray(y, dtype=np.float32),
+        np.ascontiguousarray(values),
+        np.ascontiguousarray(cells.astype(np.int64)),
+        int(cells.max()) + 1,
+    )
+
+
+__all__ = ["Verification", "VerificationSettings", "Verifier"]

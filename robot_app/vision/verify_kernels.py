@@ -1,0 +1,175 @@
+"""Compiled appearance comparison of the verify stage: the model photo's texture samples
+projected into both images at each pose, compared cell by cell."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from robot_app.vision.fitness_kernels import _projection
+
+_jit = njit(cache=True, fastmath=True, nogil=True, error_model="numpy")
+
+
+@_jit
+def _accumulate(M, px, py, values, cells, image, codes, foreign, gains, width, height, sums):
+    """Adds the visible samples of one image to `sums` (cells, 16): count, then per channel
+    (b, g, r) the sums of model, image, model², image² and model·image values. A sample is
+    visible if it lands inside the image and its pixel's code (nearest pixel of the framed
+    `codes`) is not `foreign`. Returns the number of visible samples."""
+    stride = width + 3
+    visible = 0
+    for i in range(px.shape[0]):
+        x, y = px[i], py[i]
+        w = M[2, 0] * x + M[2, 1] * y + M[2, 3]
+        if w <= 1e-6:
+            continue
+        u = (M[0, 0] * x + M[0, 1] * y + M[0, 3]) / w
+        v = (M[1, 0] * x + M[1, 1] * y + M[1, 3]) / w
+        if not (0.0 <= u < width - 1.0 and 0.0 <= v < height - 1.0):
+            continue
+        iu, iv = np.int64(u), np.int64(v)
+        fu, fv = u - iu, v - iv
+        nu, nv = np.int64(u + 0.5), np.int64(v + 0.5)
+        if foreign[codes[(nv + 1) * stride + nu + 1]]:
+            continue
+        visible += 1
+        c = cells[i]
+        sums[c, 0] += 1.0
+        for k in range(3):
+            a = image[iv, iu, k] + fu * (image[iv, iu + 1, k] - np.float32(image[iv, iu, k]))
+            b = image[iv + 1, iu, k] + fu * (image[iv + 1, iu + 1, k] - np.float32(image[iv + 1, iu, k]))
+            seen = (a + fv * (b - a)) * gains[k]
+            m = values[i, k]
+            sums[c, 1 + 5 * k] += m
+            sums[c, 2 + 5 * k] += seen
+            sums[c, 3 + 5 * k] += m * m
+            sums[c, 4 + 5 * k] += seen * seen
+            sums[c, 5 + 5 * k] += m * seen
+    return visible
+
+
+@_jit
+def _cell_scores(sums, min_points, texture_min, flat_tolerance, chroma_tolerance, brightness_tolerance,
+                 out_scores, out_weights):  # fmt: skip
+    """Each cell's agreement in [-1, 1] and weight (its visible samples; 0: not scored).
+
+    A cell whose model texture has an RMS deviation of at least `texture_min` (grey
+    levels, over the three channels) scores the zero-mean normalised cross-correlation of
+    each channel, weighted by the model's deviation in that channel: invariant to a gain
+    and an offset per channel, i.e. to exposure and white balance. A flat cell scores 1
+    if the image is flat there too (RMS deviation at most the model's + `flat_tolerance`),
+    falling to -1 at twice that tolerance: a plain model on a patterned cloth disagrees;
+    and only if its mean colour agrees: chromaticity (b, g, r over their sum) within
+    `chroma_tolerance` and brightness within a factor 1 + `brightness_tolerance` (the
+    image after the exposure gains), each falling to -1 at twice the tolerance.
+    """
+    log_bright = np.log(1.0 + brightness_tolerance)
+    mean_m = np.zeros(3)
+    mean_i = np.zeros(3)
+    for c in range(sums.shape[0]):
+        n = sums[c, 0]
+        out_scores[c] = 0.0
+        out_weights[c] = 0.0
+        if n < min_points:
+            continue
+        var_m = np.zeros(3)
+        var_i = np.zeros(3)
+        cov = np.zeros(3)
+        for k in range(3):
+            mean_m[k], mean_i[k] = sums[c, 1 + 5 * k] / n, sums[c, 2 + 5 * k] / n
+            var_m[k] = max(sums[c, 3 + 5 * k] / n - mean_m[k] * mean_m[k], 0.0)
+            var_i[k] = max(sums[c, 4 + 5 * k] / n - mean_i[k] * mean_i[k], 0.0)
+            cov[k] = sums[c, 5 + 5 * k] / n - mean_m[k] * mean_i[k]
+        rms_m = np.sqrt((var_m[0] + var_m[1] + var_m[2]) / 3.0)
+        rms_i = np.sqrt((var_i[0] + var_i[1] + var_i[2]) / 3.0)
+        if rms_m >= texture_min:
+            total, weights = 0.0, 0.0
+            for k in range(3):
+                sd = np.sqrt(var_m[k])
+                total += sd * cov[k] / np.sqrt(var_m[k] * var_i[k] + 1e-9)
+                weights += sd
+            score = total / weights
+        else:
+            excess = (rms_i - rms_m - flat_tolerance) / flat_tolerance
+            score = 1.0 - 2.0 * min(max(excess, 0.0), 1.0)
+            sum_m = max(mean_m[0] + mean_m[1] + mean_m[2], 1.0)
+            sum_i = max(mean_i[0] + mean_i[1] + mean_i[2], 1.0)
+            d = 0.0
+            for k in range(3):
+                d += (mean_m[k] / sum_m - mean_i[k] / sum_i) ** 2
+            excess = (np.sqrt(d) - chroma_tolerance) / chroma_tolerance
+            score = min(score, 1.0 - 2.0 * min(max(excess, 0.0), 1.0))
+            excess = (abs(np.log(sum_i / sum_m)) - log_bright) / log_bright
+            score = min(score, 1.0 - 2.0 * min(max(excess, 0.0), 1.0))
+        out_scores[c] = score
+        out_weights[c] = n
+    return out_scores, out_weights
+
+
+@_jit
+def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cells, n_cells, image_left,
+               image_right, codes_left, codes_right, foreign, gains_left, gains_right, min_points,
+               texture_min, flat_tolerance, chroma_tolerance, brightness_tolerance):  # fmt: skip
+    """For each pose: the cell-weighted agreement of the texture samples with both images
+    (NaN if no cell is scored), the share of samples visible (mean of both images) and the
+    share of the scored weight on textured cells.
+
+    Args:
+        transforms: (P, 4, 4) poses ^CR T_M.
+        K_left, K_right, left_from_right: the rig.
+        px, py: (N,) float32 sample positions on the cloth plane [m] (z = 0).
+        values: (N, 3) float32 the model photo's (blurred) b, g, r at each sample.
+        cells: (N,) int64 cell of each sample; n_cells cells.
+        image_left, image_right: (H, W, 3) uint8 images.
+        codes_left, codes_right: the framed pixel codes of `FitnessEvaluator.codes`.
+        foreign: (259,) bool per pixel code: a sample there is hidden.
+        gains_left, gains_right: (3,) channel gains of each image (exposure reference).
+        min_points, texture_min, flat_tolerance, chroma_tolerance, brightness_tolerance:
+            see `_cell_scores`.
+    """
+    height, width = image_left.shape[0], image_left.shape[1]
+    n_poses = transforms.shape[0]
+    scores = np.empty(n_poses)
+    visible = np.empty(n_poses)
+    textured = np.empty(n_poses)
+    P_right = np.zeros((3, 4))
+    P_right[:, :3] = K_right
+    P_left = K_left @ np.ascontiguousarray(left_from_right[:3, :])
+    M = np.empty((3, 4), np.float32)
+    cell_scores = np.empty(n_cells)
+    cell_weights = np.empty(n_cells)
+    model_rms = np.zeros(n_cells)
+    for p in range(n_poses):
+        total, weight, textured_weight, seen = 0.0, 0.0, 0.0, 0
+        for side in range(2):
+            sums = np.zeros((n_cells, 16))
+            if side == 0:
+                _projection(P_left, transforms[p], M)
+                seen += _accumulate(M, px, py, values, cells, image_left, codes_left, foreign, gains_left,
+                                    width, height, sums)  # fmt: skip
+            else:
+                _projection(P_right, transforms[p], M)
+                seen += _accumulate(M, px, py, values, cells, image_right, codes_right, foreign, gains_right,
+                                    width, height, sums)  # fmt: skip
+            _cell_scores(sums, min_points, texture_min, flat_tolerance, chroma_tolerance,
+                         brightness_tolerance, cell_scores, cell_weights)  # fmt: skip
+            for c in range(n_cells):
+                n = sums[c, 0]
+                if n > 0:
+                    var = 0.0
+                    for k in range(3):
+                        mean = sums[c, 1 + 5 * k] / n
+                        var += max(sums[c, 3 + 5 * k] / n - mean * mean, 0.0)
+                    model_rms[c] = np.sqrt(var / 3.0)
+                total += cell_scores[c] * cell_weights[c]
+                weight += cell_weights[c]
+                if model_rms[c] >= texture_min:
+                    textured_weight += cell_weights[c]
+        scores[p] = total / weight if weight > 0 else np.nan
+        visible[p] = seen / (2.0 * px.shape[0])
+        textured[p] = textured_weight / weight if weight > 0 else 0.0
+    return scores, visible, textured
+
+
+__all__ = ["appearance"]
