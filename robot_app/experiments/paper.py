@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 from pydantic import Field
 
-from robot_app.config import StrictModel, apply_overrides, dump_config, validate
-from robot_app.errors import ConfigError
+from robot_app.config import StrictModel, apply_overrides, dump_config, read_yaml, validate
+from robot_app.errors import ConfigError, InterruptError, OutputError
 from robot_app.experiments.experiment_config import (
     CLOTH_COUNT,
     ClothId,
@@ -34,6 +34,7 @@ from robot_app.experiments.image_sources import image_source
 from robot_app.experiments.kinds import run_trials
 from robot_app.experiments.paper_report import ClothRow, Fig13Case, PaperFigures, write_paper_report
 from robot_app.experiments.recognition_trial import (
+    RecognitionOutcome,
     check_recognition_config,
     recognizer_for,
     recognizer_settings,
@@ -41,7 +42,16 @@ from robot_app.experiments.recognition_trial import (
 from robot_app.experiments.report import plot_error_histograms, plot_matrix
 from robot_app.experiments.scenes import OBSERVATION_DEPTH, Placement, SceneSample, sample_scene
 from robot_app.experiments.summary import error_stats, write_summary
-from robot_app.experiments.trials import run_sweep
+from robot_app.experiments.trials import check_sweep, run_sweep
+from robot_app.interrupts import interrupt_signal, signal_name
+from robot_app.outputs import atomic_path, check_output_folder
+from robot_app.resources import (
+    MAX_FULL_SEARCH_EVALUATIONS,
+    ResourceLimits,
+    check_workers,
+    full_search_estimate,
+)
+from robot_app.vision.recognizer import RecognitionSettings
 
 
 class Fig13Settings(StrictModel):
@@ -172,7 +182,8 @@ def run_fig13_case(case: _Case, settings: PaperConfig, out: Path) -> Fig13Case:
     individuals = ga.transforms(ga.population) if ga.population is not None else None
     map_png, surface_png = out / f"fig13_{case.key}_map.png", out / f"fig13_{case.key}_surface.png"
     title = f"Fig. 13 ({case.key}) {case.title}: model No.{case.scene.target_id}"
-    plot_full_search(search, map_png, surface_png, individuals=individuals, title=title)
+    with atomic_path(map_png) as map_file, atomic_path(surface_png) as surface_file:
+        plot_full_search(search, map_file, surface_file, individuals=individuals, title=title)
     truths = [p for p in (case.scene.target, case.scene.distractor) if p is not None]
     gx, gy = np.meshgrid(search.xs, search.ys)
     near = [np.hypot(gx - p.x, gy - p.y) <= max(0.02, search.step) for p in truths]
@@ -256,46 +267,152 @@ class PaperReport:
     figures: PaperFigures
 
 
+def _sweep_configs(settings: PaperConfig) -> tuple[RecognitionTrialConfig, RecognitionTrialConfig]:
+    """The trial configs of Fig. 12 and of the identification matrix."""
+    common: dict[str, Any] = {"source": settings.source, "recognition": settings.recognition}
+    fig12_data = {"name": "fig12", "trials": settings.fig12_trials, "seed": settings.seed, **common}
+    fig12_data |= {"tolerance_mm": settings.tolerance_mm, "tolerance_deg": settings.tolerance_deg}
+    ids = list(settings.identification_cloths)
+    ident_data = {"name": "identification", "trials": len(ids) ** 2, "seed": settings.seed + 1}
+    configs = (
+        parse_trial_config(fig12_data, "fig12"),
+        parse_trial_config({**ident_data, "scene": {"cloth_ids": ids}, **common}, "identification"),
+    )
+    if not all(isinstance(c, RecognitionTrialConfig) for c in configs):  # pragma: no cover
+        raise ConfigError("the paper's trials must be recognition trials")
+    return configs  # type: ignore[return-value]
+
+
+def check_paper(settings: PaperConfig, out: Path, workers: int, limits: ResourceLimits) -> None:
+    """Everything `run_paper` checks before it writes anything: workers, the report folder
+    (new, empty, or a report of these same settings, which is resumed), the sweeps'
+    folders, and the full searches' and sweeps' sizes.
+
+    Raises:
+        InputError, OutputError, ResourceError: named, before any work.
+    """
+    check_workers(limits, workers, settings.source)
+    config_file = out / "config.yaml"
+    resumable = False
+    if config_file.is_file():
+        try:
+            previous = validate(PaperConfig, read_yaml(config_file), str(config_file))
+        except ConfigError:
+            previous = None
+        if previous != settings:
+            raise OutputError(
+                f"--out {out} holds a report of other settings ({config_file} differs); "
+                "choose another --out (or rerun with the same settings to resume)",
+                path=out,
+                key="--out",
+                value=str(out),
+            )
+        resumable = True
+    check_output_folder(out, key="--out", resumable=resumable)
+    fig13 = settings.fig13
+    yaws = len(np.arange(-180.0, 180.0, fig13.yaw_step_deg))
+    bounds = RecognitionSettings().bounds
+    cells, evaluations, memory = full_search_estimate(bounds.x, bounds.y, fig13.step_m, yaws)
+    limits.check_memory(
+        memory, key="fig13.step_m", value=fig13.step_m, what=f"a full-search grid of {cells:,} cells"
+    )
+    limits.check_count(
+        3 * evaluations,
+        MAX_FULL_SEARCH_EVALUATIONS,
+        key="fig13.step_m",
+        value=f"{fig13.step_m} (fig13.yaw_step_deg {fig13.yaw_step_deg})",
+        what="poses over the three Fig. 13 full searches",
+    )
+    fig12_config, ident_config = _sweep_configs(settings)
+    check_sweep(
+        fig12_config,
+        RecognitionOutcome,
+        out / "fig12",
+        workers=workers,
+        limits=limits,
+        trials_key="fig12_trials",
+    )
+    check_sweep(
+        ident_config, IdentificationOutcome, out / "identification", workers=workers, limits=limits,
+        trials_key="identification_cloths",
+    )  # fmt: skip
+
+
 def run_paper(
-    settings: PaperConfig, out_dir: str | Path, *, workers: int = 2, progress: bool = True
+    settings: PaperConfig,
+    out_dir: str | Path,
+    *,
+    workers: int = 2,
+    progress: bool = True,
+    limits: ResourceLimits | None = None,
 ) -> PaperReport:
     """Runs every experiment and writes the report folder.
 
     Args:
         settings: what to run (see `load_paper_config`).
-        out_dir: the report folder (the sweeps inside it resume if rerun).
+        out_dir: the report folder (the sweeps inside it resume if rerun with the same settings).
         workers: worker processes for the sweeps.
         progress: show progress bars.
+        limits: resource limits (default limits if None).
+
+    Raises:
+        InputError, OutputError, ResourceError: see `check_paper`, before anything is written.
+        InterruptError: Ctrl-C or SIGTERM; the parts finished are on disk and summary.json
+            says `"status": "interrupted"`.
     """
     start = time.perf_counter()
     out = Path(out_dir)
+    limits = limits or ResourceLimits()
+    check_paper(settings, out, workers, limits)
+    finished: list[str] = []
+    try:
+        return _run_paper(settings, out, workers, progress, limits, start, finished)
+    except (KeyboardInterrupt, InterruptError) as err:
+        number = interrupt_signal(err)
+        status = {"status": "interrupted", "signal": signal_name(number), "finished": finished}
+        write_summary(status, out / "summary.json")
+        done = ", ".join(finished) or "nothing"
+        raise InterruptError(
+            f"stopped by {signal_name(number)}; finished: {done} (in {out}); rerun the same command "
+            "to resume the trial sweeps",
+            signal_number=number,
+        ) from err
+
+
+def _run_paper(
+    settings: PaperConfig,
+    out: Path,
+    workers: int,
+    progress: bool,
+    limits: ResourceLimits,
+    start: float,
+    finished: list[str],
+) -> PaperReport:
     out.mkdir(parents=True, exist_ok=True)
     dump_config(settings, out / "config.yaml")
-    cases = [run_fig13_case(case, settings, out) for case in fig13_cases()]
-    common: dict[str, Any] = {"source": settings.source, "recognition": settings.recognition}
-    fig12_data = {"name": "fig12", "trials": settings.fig12_trials, "seed": settings.seed, **common}
-    fig12_data |= {"tolerance_mm": settings.tolerance_mm, "tolerance_deg": settings.tolerance_deg}
-    fig12_config = parse_trial_config(fig12_data, "fig12")
-    fig12 = run_trials(fig12_config, out / "fig12", workers=workers, progress=progress)
+    cases = []
+    for case in fig13_cases():
+        cases.append(run_fig13_case(case, settings, out))
+        finished.append(f"fig13_{case.key}")
+    fig12_config, ident_config = _sweep_configs(settings)
+    fig12 = run_trials(fig12_config, out / "fig12", workers=workers, progress=progress, limits=limits)
     rows = _rows(out / "fig12")
     columns = ["error_x_mm", "error_y_mm", "error_yaw_deg", "error_z_mm", "error_tilt_deg"]
     bounds = {"error_x_mm": settings.tolerance_mm, "error_y_mm": settings.tolerance_mm}
     bounds["error_yaw_deg"] = settings.tolerance_deg
     plot_error_histograms(rows, out / "fig12_errors.png", columns, "Fig. 12: errors over all cloths", bounds)
+    finished.append("fig12")
     ids = list(settings.identification_cloths)
-    ident_data = {"name": "identification", "trials": len(ids) ** 2, "seed": settings.seed + 1}
-    ident_config = parse_trial_config({**ident_data, "scene": {"cloth_ids": ids}, **common}, "identification")
-    if not isinstance(ident_config, RecognitionTrialConfig):  # pragma: no cover
-        raise ConfigError("identification trials must be recognition trials")
     check_recognition_config(ident_config)
     run_sweep(
         ident_config, run_identification_trial, IdentificationOutcome, out / "identification",
-        workers=workers, progress=progress,
+        workers=workers, progress=progress, limits=limits,
     )  # fmt: skip
     fitness, found = _matrix(_rows(out / "identification"), ids)
     labels = [f"No.{i}" for i in ids]
     title = "identification: best fitness (row: model, column: cloth in the scene)"
     plot_matrix(fitness, out / "identification.png", labels, title)
+    finished.append("identification")
     figures = PaperFigures(
         source=settings.source,
         cases=cases,
@@ -315,7 +432,7 @@ def run_paper(
         wall_time_s=time.perf_counter() - start,
     )
     report_path, table = write_paper_report(figures, out)
-    write_summary(asdict(figures), out / "summary.json")
+    write_summary(asdict(figures) | {"status": "finished"}, out / "summary.json")
     return PaperReport(out, report_path, table, figures.wall_time_s, figures)
 
 
@@ -352,6 +469,7 @@ __all__ = [
     "IdentificationOutcome",
     "PaperConfig",
     "PaperReport",
+    "check_paper",
     "fig13_cases",
     "load_paper_config",
     "run_fig13_case",
