@@ -62,6 +62,11 @@ def _check_writable_folder(folder: Path, target: Path, key: str) -> None:
         ) from err
 
 
+def _either(names: tuple[str, ...]) -> str:
+    """'.npz', '.yaml or .yml', '.png, .jpg or .bmp'."""
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
+
+
 def check_output_file(
     path: str | Path,
     *,
@@ -82,22 +87,22 @@ def check_output_file(
             missing parent folder (without `create_parents`) or an unwritable location.
     """
     target = Path(path)
-    if suffixes and target.suffix.lower() not in suffixes:
-        raise OutputError(
-            f"{key} {target}: must name a {' or '.join(suffixes)} file",
-            path=target,
-            key=key,
-            value=str(target),
-            expected=f"a file name ending in {' or '.join(suffixes)}",
-        )
     if target.is_dir():
         raise OutputError(
             f"{key} {target} is a folder; give a file name"
-            + (f" ending in {' or '.join(suffixes)}" if suffixes else ""),
+            + (f" ending in {_either(suffixes)}" if suffixes else ""),
             path=target,
             key=key,
             value=str(target),
             expected="a file name",
+        )
+    if suffixes and target.suffix.lower() not in suffixes:
+        raise OutputError(
+            f"{key} {target}: must name a {_either(suffixes)} file",
+            path=target,
+            key=key,
+            value=str(target),
+            expected=f"a file name ending in {_either(suffixes)}",
         )
     if target.exists() and not stat.S_ISREG(target.stat().st_mode):
         raise OutputError(
@@ -111,7 +116,7 @@ def check_output_file(
     if not create_parents and not parent.is_dir():
         what = "is a file, not a folder" if parent.exists() else "does not exist"
         raise OutputError(
-            f"cannot write {target}: folder {parent} {what}",
+            f"{key} {target}: cannot write there, folder {parent} {what}",
             path=target,
             key=key,
             value=str(target),

@@ -75,6 +75,8 @@ def default_memory_gb() -> float:
 
 def format_bytes(value: float) -> str:
     """'1.2 GB', '350 MB' (binary units)."""
+    if value >= 1e6 * GB:
+        return f"{value / GB:.1e} GB"
     if value >= GB:
         return f"{value / GB:.1f} GB"
     return f"{value / 1024**2:.0f} MB"

@@ -21,6 +21,14 @@ if TYPE_CHECKING:
 DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "configs" / "pick_place.yaml"
 
 
+def _print_phase(record: PhaseRecord) -> None:
+    note = f"  {record.note}" if record.note else ""
+    typer.echo(
+        f"  {record.phase:<9} t={record.end_time:6.2f} s  "
+        f"({record.duration:5.2f} s sim, {record.wall_s:5.1f} s wall){note}"
+    )
+
+
 def pick_place(
     config: Annotated[
         Path | None, typer.Option("--config", help="Pick-and-place YAML (default: configs/pick_place.yaml).")
@@ -66,21 +74,13 @@ def pick_place(
         f"occluder {scene.occluded_fraction:.0%}" if scene.occluder else "",
         f"distractor No.{scene.distractor}" if scene.distractor else "",
     ]
-    typer.echo(
-        f"pick-place: cloth No.{wanted}, scene seed {settings.seed}"
-        + "".join(f", {e}" for e in extras if e)
-        + f"; {settings.world.cameras.image_size[0]}x{settings.world.cameras.image_size[1]} cameras"
-    )
-
-    def progress(record: PhaseRecord) -> None:
-        note = f"  {record.note}" if record.note else ""
+    with stop_at_safe_points() as stop:  # from here, Ctrl-C or SIGTERM stops after the current step
         typer.echo(
-            f"  {record.phase:<9} t={record.end_time:6.2f} s  "
-            f"({record.duration:5.2f} s sim, {record.wall_s:5.1f} s wall){note}"
+            f"pick-place: cloth No.{wanted}, scene seed {settings.seed}"
+            + "".join(f", {e}" for e in extras if e)
+            + f"; {settings.world.cameras.image_size[0]}x{settings.world.cameras.image_size[1]} cameras"
         )
-
-    with stop_at_safe_points() as stop:  # Ctrl-C / SIGTERM: end after the current control step
-        episode = run_episode(settings, gui=gui, on_phase=progress, video_path=video, stop=stop.check)
+        episode = run_episode(settings, gui=gui, on_phase=_print_phase, video_path=video, stop=stop.check)
     write_episode(folder, settings, episode)
     r = episode.result
     if r.outcome is Outcome.INTERRUPTED:

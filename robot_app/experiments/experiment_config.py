@@ -216,10 +216,15 @@ def parse_trial_config(data: dict[str, Any], source: str = "config") -> AnyTrial
     kind = data.get("kind", "recognition")
     model = TRIAL_KINDS.get(kind) if isinstance(kind, str) else None
     if model is None:
-        raise ConfigError(f"invalid {source}:\n  kind: must be one of {sorted(TRIAL_KINDS)} (got {kind!r})")
+        raise ConfigError(
+            f"kind: must be one of {sorted(TRIAL_KINDS)} (got {kind!r}) [in {source}]",
+            key="kind",
+            value=kind,
+            expected=f"one of {sorted(TRIAL_KINDS)}",
+        )
     result = validate(model, data, source)
     if not isinstance(result, RecognitionTrialConfig | PickPlaceTrialConfig):  # pragma: no cover
-        raise ConfigError(f"invalid {source}: kind {kind!r}")
+        raise ConfigError(f"kind: {kind!r} is not a trial kind [in {source}]", key="kind", value=kind)
     return result
 
 

@@ -257,6 +257,14 @@ class ModelCamera:
         }
 
 
+def _with_path(err: CalibrationError, path: str | Path) -> CalibrationError:
+    """`err` with the file named (the camera classes do not know which file they came from)."""
+    if err.path is not None:
+        return err
+    value = err.value if err.has_value else None
+    return CalibrationError(f"{path}: {err}", path=path, key=err.key, value=value, expected=err.expected)
+
+
 def _read_mapping(path: str | Path, what: str) -> dict[str, Any]:
     file = require_input_file(path, what)
     try:
@@ -310,6 +318,8 @@ def load_rig(path: str | Path) -> StereoRig:
         rig = StereoRig(cameras["left"], cameras["right"], make_transform(R, T), hand)
     except (TypeError, ValueError, AttributeError) as err:
         raise CalibrationError(f"{path}: malformed stereo rig: {err}", path=path) from err
+    except CalibrationError as err:
+        raise _with_path(err, path) from err
     for side in ("left", "right"):
         _warn_short_distortion(data[side], path, f"{side}.dist_coeffs")
     if rig.baseline < MIN_BASELINE:
@@ -338,6 +348,8 @@ def load_model_camera(path: str | Path) -> ModelCamera:
         model_camera = ModelCamera(camera, float(_require(data, "distance", path)))
     except (TypeError, ValueError) as err:
         raise CalibrationError(f"{path}: malformed camera file: {err}", path=path) from err
+    except CalibrationError as err:
+        raise _with_path(err, path) from err
     _warn_short_distortion(data, path, "dist_coeffs")
     return model_camera
 
