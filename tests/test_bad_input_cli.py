@@ -379,3 +379,15 @@ def test_a_failed_pick_exits_1_not_0(monkeypatch, capsys, tmp_path) -> None:
     app.command("other")(lambda: None)
     monkeypatch.setattr(cli, "app", app)
     assert cli.main(["fails"]) == 1
+
+
+def test_running_out_of_memory_anyway_is_one_line(inputs, capsys, monkeypatch) -> None:
+    # the guards' estimates are upper bounds, but if memory still runs out: no traceback
+    from robot_app.vision.recognizer import Recognizer
+
+    def exhausted(*_args: object, **_kwargs: object) -> None:
+        raise MemoryError
+
+    monkeypatch.setattr(Recognizer, "recognize", exhausted)
+    run = run_cli(capsys, "recognize", *inputs.recognize_args(), *FAST_GA)
+    assert_one_line_error(run, 1, "out of memory", "--max-memory-gb")

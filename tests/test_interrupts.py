@@ -336,3 +336,21 @@ def test_a_sweep_interrupted_in_process_writes_its_summary(tmp_path) -> None:
     assert caught.value.exit_code == 143
     summary = json.loads((tmp_path / "s" / "summary.json").read_text())
     assert summary["status"] == "interrupted" and summary["finished"] == 3
+
+
+def test_an_interrupted_model_make_leaves_no_model(inputs, tmp_path, monkeypatch, capsys) -> None:
+    from robot_app.cli import main
+    from robot_app.vision.photo_model import ClothModel
+
+    def save_then_interrupt(self: ClothModel, path: Path) -> None:
+        Path(path).write_bytes(b"half a model")
+        raise SignalInterrupt(signal.SIGTERM)  # SIGTERM arrives while the file is being written
+
+    monkeypatch.setattr(ClothModel, "save", save_then_interrupt)
+
+    out = tmp_path / "m.npz"
+    args = ["model", "make", str(inputs.photo), "--camera", str(inputs.camera), "--out", str(out)]
+    assert main(args) == 143
+    err = capsys.readouterr().err
+    assert err.startswith("interrupted: stopped by SIGTERM") and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []  # neither the model nor its temporary
