@@ -75,7 +75,7 @@ def _report_usage(err: typer.TyperException) -> int:
 
 def _run(argv: list[str] | None) -> int:
     try:
-        result = app(args=argv, standalone_mode=False)
+        result = app(args=argv, standalone_mode=False, prog_name="robot-app")
     except RobotAppError as err:
         if debug_enabled():
             raise

@@ -391,3 +391,19 @@ def test_running_out_of_memory_anyway_is_one_line(inputs, capsys, monkeypatch) -
     monkeypatch.setattr(Recognizer, "recognize", exhausted)
     run = run_cli(capsys, "recognize", *inputs.recognize_args(), *FAST_GA)
     assert_one_line_error(run, 1, "out of memory", "--max-memory-gb")
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["demo", "--gui"], ("--gui", "display")),
+        (["demo", "--seconds", "-1"], ("--seconds", "-1")),
+        (["recognize", "--max-memory-gb", "0"], ("--max-memory-gb", "0")),
+        (["trial", "missing.yaml"], ("config file not found", "missing.yaml")),
+        (["model", "make"], ("'photo'", "robot-app model make --help")),
+    ],
+)
+def test_other_bad_arguments_are_one_line(capsys, monkeypatch, args, words) -> None:
+    monkeypatch.delenv("DISPLAY", raising=False)
+    run = run_cli(capsys, *args)
+    assert_one_line_error(run, 2, *words)

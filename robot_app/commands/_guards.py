@@ -12,6 +12,9 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+import numpy.typing as npt
+
 from robot_app.console import warn_input
 from robot_app.errors import InputError
 from robot_app.input_files import read_image
@@ -60,11 +63,15 @@ def check_stereo_images(left: Path, right: Path, limits: ResourceLimits) -> None
         )
 
 
-def check_colour_photo(path: Path, what: str, key: str, limits: ResourceLimits) -> None:
-    """A model photo (or background photo) must have colour: its hue is the whole model.
+def read_colour_photo(path: Path, what: str, key: str, limits: ResourceLimits) -> npt.NDArray[np.uint8]:
+    """Reads a model photo (or background photo), which must have colour: its hue is the model.
+
+    Returns:
+        The photo, (H, W, 3) uint8 BGR.
 
     Raises:
-        InputError: the photo is grayscale (or unreadable).
+        InputError: the photo is grayscale, unreadable or missing.
+        ResourceError: too large for the memory limit.
     """
     image = read_image(path, key=key, limits=limits)
     if image.grayscale:
@@ -75,6 +82,7 @@ def check_colour_photo(path: Path, what: str, key: str, limits: ResourceLimits) 
             key=key,
             expected="a colour photo",
         )
+    return image.bgr
 
 
 def check_model_size(model: ClothModel, source: str, limits: ResourceLimits) -> None:
@@ -200,7 +208,6 @@ def check_display(gui: bool) -> None:
 
 
 __all__ = [
-    "check_colour_photo",
     "check_display",
     "check_full_search",
     "check_made_model",
@@ -209,4 +216,5 @@ __all__ = [
     "check_recognition_settings",
     "check_stereo_images",
     "check_world_cameras",
+    "read_colour_photo",
 ]

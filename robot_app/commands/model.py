@@ -10,13 +10,13 @@ from typing import Annotated
 
 import typer
 
-from robot_app.commands._guards import check_colour_photo, check_made_model, check_model_making
+from robot_app.commands._guards import check_made_model, check_model_making, read_colour_photo
 from robot_app.commands._options import AllowLargeOption, MaxMemoryOption, resource_limits
 from robot_app.config import load_config
 from robot_app.errors import InputError
 from robot_app.outputs import atomic_path, check_output_file
 from robot_app.vision.camera import load_model_camera
-from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
+from robot_app.vision.photo_model import ClothModel, ModelSettings, make_model
 from robot_app.vision.plots import save_preview
 
 PREVIEW_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
@@ -56,12 +56,13 @@ def make(
             raise InputError(f"{key} {target} is one of the input files", key=key, value=str(target))
     settings = load_config(ModelSettings, config, overrides or [])
     model_camera = load_model_camera(camera)
-    check_colour_photo(photo, "the photo", "PHOTO", limits)
-    if background is not None:
-        check_colour_photo(background, "the background photo", "--background", limits)
+    photo_bgr = read_colour_photo(photo, "the photo", "PHOTO", limits)
+    background_bgr = (
+        read_colour_photo(background, "the background photo", "--background", limits)
+        if background is not None
+        else None
+    )
     check_model_making(model_camera, camera, settings, limits)
-    photo_bgr = load_photo(photo)
-    background_bgr = load_photo(background) if background is not None else None
     sources = {"photo": str(photo), "camera": str(camera)}
     if background is not None:
         sources["background"] = str(background)
