@@ -14,7 +14,9 @@ from typing import Any, TypeVar
 import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError
 
+from robot_app.console import warn_input
 from robot_app.errors import ConfigError, ConfigProblem
+from robot_app.outputs import atomic_write_text
 
 ModelT = TypeVar("ModelT", bound=BaseModel)
 
@@ -26,7 +28,7 @@ class StrictModel(BaseModel):
 
 
 def read_yaml(path: str | Path) -> dict[str, Any]:
-    """Reads a YAML mapping from `path`; an empty file is an empty mapping."""
+    """Reads a YAML mapping from `path`; an empty file is an empty mapping (with a warning)."""
     file = Path(path)
     if file.is_dir():
         raise ConfigError(
@@ -42,6 +44,7 @@ def read_yaml(path: str | Path) -> dict[str, Any]:
     except OSError as err:
         raise ConfigError(f"cannot read config file {file}: {err.strerror}", path=file) from err
     if data is None:
+        warn_input(f"config file {file} is empty: every setting keeps its default", path=file)
         return {}
     if not isinstance(data, dict):
         raise ConfigError(
@@ -122,8 +125,8 @@ def load_config(
 
 
 def dump_config(config: BaseModel, path: str | Path) -> None:
-    """Writes the resolved config as YAML (round-trips through `load_config`)."""
-    Path(path).write_text(yaml.safe_dump(config.model_dump(mode="json"), sort_keys=False))
+    """Writes the resolved config as YAML, atomically (round-trips through `load_config`)."""
+    atomic_write_text(path, yaml.safe_dump(config.model_dump(mode="json"), sort_keys=False))
 
 
 def validation_problems(err: ValidationError) -> tuple[ConfigProblem, ...]:

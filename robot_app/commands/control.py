@@ -8,13 +8,25 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
+from robot_app.commands._guards import check_display, check_world_cameras
+from robot_app.commands._options import ForceOption, MaxMemoryOption, SeedOption, resource_limits
 from robot_app.config import load_config
-from robot_app.errors import InputError
+from robot_app.errors import InterruptError
+from robot_app.interrupts import stop_at_safe_points
+from robot_app.outputs import check_output_file, check_output_folder, unique_folder
 
 if TYPE_CHECKING:
     from robot_app.control.episode import PhaseRecord
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "configs" / "pick_place.yaml"
+
+
+def _print_phase(record: PhaseRecord) -> None:
+    note = f"  {record.note}" if record.note else ""
+    typer.echo(
+        f"  {record.phase:<9} t={record.end_time:6.2f} s  "
+        f"({record.duration:5.2f} s sim, {record.wall_s:5.1f} s wall){note}"
+    )
 
 
 def pick_place(
@@ -24,48 +36,60 @@ def pick_place(
     overrides: Annotated[
         list[str] | None, typer.Option("--set", help="Setting key=value (repeatable).")
     ] = None,
-    seed: Annotated[
-        int | None, typer.Option("--seed", help="Scene and GA seed (overrides the config).")
-    ] = None,
+    seed: SeedOption = None,
     out: Annotated[
         Path | None, typer.Option("--out", help="Results folder (default: results/pick_place-<time>).")
     ] = None,
     video: Annotated[Path | None, typer.Option("--video", help="Write an MP4 of the episode.")] = None,
     gui: Annotated[bool, typer.Option("--gui", help="Show pybullet's GUI (needs a display).")] = False,
+    force: ForceOption = False,
+    max_memory_gb: MaxMemoryOption = None,
 ) -> None:
-    """Run one pick-and-place episode in simulation: find the cloth, grasp it, put it in the box."""
+    """Run one pick-and-place episode in simulation: find the cloth, grasp it, put it in the box.
+
+    Ctrl-C (or SIGTERM) stops it after the current control step: the results folder is
+    written with outcome 'interrupted' and the phases so far, the video is closed
+    playable, and the exit code is 130 (143).
+    """
     # here, not at the top: every `robot-app` command imports this module (pybullet, Pinocchio)
+    from robot_app.control.episode import Outcome
     from robot_app.experiments.pick_place_episode import PickPlaceConfig, run_episode, write_episode
 
     path = config if config is not None else (DEFAULT_CONFIG if DEFAULT_CONFIG.is_file() else None)
     settings = load_config(
         PickPlaceConfig, path, [*(overrides or []), *([f"seed={seed}"] if seed is not None else [])]
     )
-    if video is not None and video.suffix.lower() != ".mp4":
-        raise InputError(f"--video must name an .mp4 file, got {video}")
-    folder = out or Path("results") / time.strftime("pick_place-%Y%m%d-%H%M%S")
+    # every output and resource checked before the cell is built: a bad path never costs an episode
+    if video is not None:
+        check_output_file(video, key="--video", suffixes=(".mp4",))
+    folder = (
+        out if out is not None else unique_folder(Path("results") / time.strftime("pick_place-%Y%m%d-%H%M%S"))
+    )
+    check_output_folder(folder, key="--out", force=force)
+    check_world_cameras(settings.world, resource_limits(max_memory_gb, False))
+    check_display(gui)
     wanted = settings.wanted
     scene = settings.scene
     extras = [
         f"occluder {scene.occluded_fraction:.0%}" if scene.occluder else "",
         f"distractor No.{scene.distractor}" if scene.distractor else "",
     ]
-    typer.echo(
-        f"pick-place: cloth No.{wanted}, scene seed {settings.seed}"
-        + "".join(f", {e}" for e in extras if e)
-        + f"; {settings.world.cameras.image_size[0]}x{settings.world.cameras.image_size[1]} cameras"
-    )
-
-    def progress(record: PhaseRecord) -> None:
-        note = f"  {record.note}" if record.note else ""
+    with stop_at_safe_points() as stop:  # from here, Ctrl-C or SIGTERM stops after the current step
         typer.echo(
-            f"  {record.phase:<9} t={record.end_time:6.2f} s  "
-            f"({record.duration:5.2f} s sim, {record.wall_s:5.1f} s wall){note}"
+            f"pick-place: cloth No.{wanted}, scene seed {settings.seed}"
+            + "".join(f", {e}" for e in extras if e)
+            + f"; {settings.world.cameras.image_size[0]}x{settings.world.cameras.image_size[1]} cameras"
         )
-
-    episode = run_episode(settings, gui=gui, on_phase=progress, video_path=video)
+        episode = run_episode(settings, gui=gui, on_phase=_print_phase, video_path=video, stop=stop.check)
     write_episode(folder, settings, episode)
     r = episode.result
+    if r.outcome is Outcome.INTERRUPTED:
+        shown = f"; video (up to the stop): {video}" if video is not None and video.exists() else ""
+        raise InterruptError(
+            f"{r.reason}, {r.sim_time:.2f} s into the episode; results (outcome 'interrupted', "
+            f"{len(r.phases)} phases) in {folder}{shown}",
+            signal_number=stop.signal_number or 2,
+        )
     verdict = "SUCCESS" if r.success else "FAILED"
     placed = f"{r.placed_fraction:.0%} of the cloth in the box" if r.placed_fraction is not None else ""
     typer.echo(

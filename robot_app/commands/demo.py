@@ -10,8 +10,6 @@ target fails quickly with its residual instead of raising.
 from __future__ import annotations
 
 import math
-import os
-import sys
 import time
 from typing import TYPE_CHECKING, Annotated
 
@@ -19,7 +17,8 @@ import numpy as np
 import typer
 
 from robot_app.arrays import FloatArray
-from robot_app.errors import InputError, SimulationError
+from robot_app.commands._guards import check_display
+from robot_app.errors import InputError
 from robot_app.geometry import make_transform, rotation_angle_between
 
 if TYPE_CHECKING:
@@ -52,9 +51,6 @@ def _drive(q_goal: FloatArray, gui: bool, seconds: float) -> tuple[FloatArray, F
     (tcp pose 4x4, final q)."""
     from robot_app.sim import World  # here, not at the top: every `robot-app` command imports this module
 
-    if gui and sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
-        # pybullet's GUI would print "cannot connect to X server" and exit the process.
-        raise SimulationError("--gui needs a display (DISPLAY is not set); run without --gui")
     with World(gui=gui) as world:
         robot = world.robot
         robot.reset_joints(READY_POSTURE)
@@ -76,7 +72,8 @@ def demo(
 ) -> None:
     """Solve IK for a tcp pose looking down, drive the PA10 there in pybullet, compare."""
     if not 0.0 < seconds <= 60.0:
-        raise InputError(f"--seconds must be in (0, 60], got {seconds}")
+        raise InputError(f"--seconds must be in (0, 60], got {seconds}", key="--seconds", value=seconds)
+    check_display(gui)  # pybullet's GUI would print "cannot connect to X server" and end the process
     from robot_app.control.robot_models import pa10_spec
 
     kin = pa10_spec("tcp").load()

@@ -7,6 +7,7 @@ from typing import Annotated, Any, Literal
 
 import typer
 
+from robot_app.commands._options import AllowLargeOption, MaxMemoryOption, resource_limits
 from robot_app.errors import InputError, RobotAppError
 
 
@@ -59,18 +60,32 @@ def register(app: typer.Typer) -> None:
         out: OutOpt = None,
         overrides: SetOpt = None,
         progress: ProgressOpt = True,
+        max_memory_gb: MaxMemoryOption = None,
+        allow_large: AllowLargeOption = False,
     ) -> None:
-        """Run seeded trials from a config; an existing folder of the same config is resumed."""
+        """Run seeded trials from a config; an existing folder of the same config is resumed.
+
+        Ctrl-C (or SIGTERM) keeps every finished trial in trials.csv, writes summary.json
+        with status 'interrupted' and exits 130 (143); the same command resumes.
+        """
         from robot_app.experiments import load_trial_config, run_trials
 
         if backend not in ("local", "ray"):
-            raise InputError(f"--backend must be local or ray, got {backend!r}")
+            raise InputError(
+                f"--backend must be local or ray, got {backend!r}", key="--backend", value=backend
+            )
         settings = list(overrides or []) + ([f"trials={trials}"] if trials is not None else [])
         config = load_trial_config(config_path, settings)
         folder = out if out is not None else Path("results") / config.name
         backend_name: Literal["local", "ray"] = "ray" if backend == "ray" else "local"
         result = run_trials(
-            config, folder, workers=workers, backend=backend_name, ray_address=ray_address, progress=progress
+            config,
+            folder,
+            workers=workers,
+            backend=backend_name,
+            ray_address=ray_address,
+            progress=progress,
+            limits=resource_limits(max_memory_gb, allow_large),
         )
         _print_summary(result.summary, result.out_dir)
         if result.summary["ok"] == 0:
@@ -84,12 +99,24 @@ def register(app: typer.Typer) -> None:
         source: SourceOpt = "synthetic",
         overrides: SetOpt = None,
         progress: ProgressOpt = True,
+        max_memory_gb: MaxMemoryOption = None,
+        allow_large: AllowLargeOption = False,
     ) -> None:
-        """Reproduce the paper's experiments (Fig. 11-13, identification) into a report folder."""
+        """Reproduce the paper's experiments (Fig. 11-13, identification) into a report folder.
+
+        A folder holding a report of the same settings is resumed (its trial sweeps);
+        Ctrl-C keeps what finished and exits 130 (143 on SIGTERM).
+        """
         from robot_app.experiments import load_paper_config, run_paper
 
         settings = load_paper_config(quick=quick, source=source, overrides=list(overrides or []))
-        report = run_paper(settings, out or Path("results/paper"), workers=workers, progress=progress)
+        report = run_paper(
+            settings,
+            out or Path("results/paper"),
+            workers=workers,
+            progress=progress,
+            limits=resource_limits(max_memory_gb, allow_large),
+        )
         typer.echo(report.table_markdown)
         typer.echo(f"report: {report.report_path} ({report.wall_time_s:.0f} s)")
 

@@ -1,4 +1,9 @@
-"""`robot-app sim ...`: pictures of the simulated cell and model photos from the station."""
+"""`robot-app sim ...`: pictures of the simulated cell and model photos from the station.
+
+These commands write pictures and files under fixed names: rerunning them replaces
+those files (each written whole), and an output path is checked before the world is
+built.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +11,11 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+
+from robot_app.commands._guards import check_world_cameras
+from robot_app.commands._options import MaxMemoryOption, check_seed, resource_limits
+from robot_app.config import validate
+from robot_app.outputs import atomic_path, check_output_file, check_output_folder, staged_folder
 
 ConfigOption = Annotated[Path | None, typer.Option(help="World config YAML (default configs/world.yaml).")]
 SetOption = Annotated[list[str] | None, typer.Option("--set", help="Override a config key: key.path=value.")]
@@ -18,21 +28,27 @@ sim_app = typer.Typer(help="The pybullet simulation: pictures, model photos, rig
 @sim_app.command("show")
 def show(
     out: Annotated[Path, typer.Option(help="Folder for the PNGs.")] = Path("out/sim_pictures"),
-    seed: Annotated[int, typer.Option(help="Scene seed.")] = 0,
+    seed: Annotated[int, typer.Option(callback=check_seed, help="Scene seed (an integer >= 0).")] = 0,
     target: Annotated[int, typer.Option(help="Target cloth No.1-12.")] = 3,
     occluder: Annotated[bool, typer.Option(help="Cover 45% of the target with blue paper.")] = False,
     distractor: Annotated[int | None, typer.Option(help="A second cloth No.1-12.")] = None,
     config: ConfigOption = None,
     set_: SetOption = None,
+    max_memory_gb: MaxMemoryOption = None,
 ) -> None:
     """Writes overview.png, stereo.png and catalogue.png of the cell."""
     from robot_app.sim import SceneSettings, load_world_config
     from robot_app.sim.pictures import write_pictures
 
+    check_output_folder(out, key="--out", force=True)
     world = load_world_config(config, tuple(set_ or ()))
-    scene = SceneSettings(target=target, occluder=occluder, distractor=distractor)
-    for path in write_pictures(out, world, scene, seed):
-        typer.echo(str(path))
+    check_world_cameras(world, resource_limits(max_memory_gb, False))
+    options = {"target": target, "occluder": occluder, "distractor": distractor}
+    scene = validate(SceneSettings, options, "the options --target/--occluder/--distractor")
+    with staged_folder(out) as stage:
+        written = write_pictures(stage, world, scene, seed)
+    for path in written:
+        typer.echo(str(out / path.name))
 
 
 @sim_app.command("model-photo")
@@ -43,6 +59,7 @@ def model_photo(
     ),
     config: ConfigOption = None,
     set_: SetOption = None,
+    max_memory_gb: MaxMemoryOption = None,
 ) -> None:
     """Photographs a cloth at the Fig. 7 station, for `robot-app model make`."""
     import cv2
@@ -51,14 +68,16 @@ def model_photo(
     from robot_app.sim.station import ModelStation
     from robot_app.vision.camera import save_model_camera
 
+    check_output_folder(out, key="--out", force=True)
     world = load_world_config(config, tuple(set_ or ()))
+    check_world_cameras(world, resource_limits(max_memory_gb, False))
     spec = cloth_spec(cloth)
-    out.mkdir(parents=True, exist_ok=True)
     with ModelStation(world.station, world.cloth, world.range.sheet_rgb) as station:
         photo = station.photograph(spec)
-    cv2.imwrite(str(out / "photo.png"), photo.photo_bgr)
-    cv2.imwrite(str(out / "background.png"), photo.background_bgr)
-    save_model_camera(photo.model_camera, out / "camera.yaml")
+    with staged_folder(out) as stage:
+        cv2.imwrite(str(stage / "photo.png"), photo.photo_bgr)
+        cv2.imwrite(str(stage / "background.png"), photo.background_bgr)
+        save_model_camera(photo.model_camera, stage / "camera.yaml")
     typer.echo(str(out))
 
 
@@ -71,9 +90,10 @@ def rig(
     """Writes the hand stereo rig file that matches the simulated cameras."""
     from robot_app.sim import World, load_world_config
 
-    out.parent.mkdir(parents=True, exist_ok=True)
-    with World(load_world_config(config, tuple(set_ or ()))) as world:
-        world.save_rig(out)
+    check_output_file(out, key="--out", suffixes=(".yaml", ".yml"))
+    world_config = load_world_config(config, tuple(set_ or ()))
+    with World(world_config) as world, atomic_path(out) as rig_file:
+        world.save_rig(rig_file)
     typer.echo(str(out))
 
 

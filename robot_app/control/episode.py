@@ -36,6 +36,7 @@ class Outcome(StrEnum):
     GRASP_FAILED = "grasp_failed"
     TRAJECTORY_ERROR = "trajectory_error"
     TIMEOUT = "timeout"
+    INTERRUPTED = "interrupted"  # the user stopped it (SIGINT/SIGTERM) between two control steps
 
 
 class EpisodeAbortError(RobotAppError):

@@ -38,7 +38,7 @@ from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits, check_limits
 from robot_app.control.pose_filter import PoseFilter, PoseFilterSettings
 from robot_app.control.trajectory import OnlineTrajectory, plan_point_to_point
-from robot_app.errors import TrajectoryError
+from robot_app.errors import InterruptError, TrajectoryError
 from robot_app.geometry import (
     invert_transform,
     make_transform,
@@ -161,7 +161,11 @@ class PickPlaceLoop:
 
     # ------------------------------------------------------------------ episode
     def run(self) -> EpisodeResult:
-        """Runs one episode from the current arm state; never raises for a failed pick."""
+        """Runs one episode from the current arm state; never raises for a failed pick.
+
+        An `InterruptError` raised by `on_step` (a stop requested by the user) ends the
+        episode where it is, with outcome INTERRUPTED and the phases so far.
+        """
         self._reset_logs()
         wall_start = time.perf_counter()
         start_time = self.cell.time
@@ -174,7 +178,9 @@ class PickPlaceLoop:
             outcome, reason = stop.outcome, stop.reason
         except TrajectoryError as err:
             outcome, reason = Outcome.TRAJECTORY_ERROR, str(err)
-        if outcome is not Outcome.PLACED and outcome is not Outcome.TIMEOUT:
+        except InterruptError as err:  # raised by on_step at a safe point: end here, as it stands
+            outcome, reason = Outcome.INTERRUPTED, f"{err} during {self._current.value}"
+        if outcome not in (Outcome.PLACED, Outcome.TIMEOUT, Outcome.INTERRUPTED):
             self._safe_home()
         return self._result(outcome, reason, start_time, wall_start)
 

@@ -224,7 +224,7 @@ def parse_trial_config(data: dict[str, Any], source: str = "config") -> AnyTrial
         )
     result = validate(model, data, source)
     if not isinstance(result, RecognitionTrialConfig | PickPlaceTrialConfig):  # pragma: no cover
-        raise ConfigError(f"invalid {source}: kind {kind!r}")
+        raise ConfigError(f"kind: {kind!r} is not a trial kind [in {source}]", key="kind", value=kind)
     return result
 
 

@@ -8,6 +8,7 @@ from typing import Literal
 from robot_app.experiments.experiment_config import AnyTrialConfig, RecognitionTrialConfig
 from robot_app.experiments.trial_result import TrialFunction
 from robot_app.experiments.trials import SweepResult, run_sweep
+from robot_app.resources import ResourceLimits
 
 
 def trial_kind(config: AnyTrialConfig) -> tuple[TrialFunction, type]:
@@ -46,6 +47,7 @@ def run_trials(
     ray_address: str = "auto",
     progress: bool = True,
     plots: bool = True,
+    limits: ResourceLimits | None = None,
 ) -> SweepResult:
     """Runs (or resumes) the trials of `config` into `out_dir`, with its plots.
 
@@ -57,6 +59,7 @@ def run_trials(
         ray_address: Ray cluster address ("auto", "local", "host:port").
         progress: show a progress bar.
         plots: write errors.png (and sweep.png for a sweep).
+        limits: resource limits for the trial count and workers (default limits if None).
     """
     trial_fn, outcome_type = trial_kind(config)
     on_finished = None
@@ -74,6 +77,7 @@ def run_trials(
         ray_address=ray_address,
         progress=progress,
         on_finished=on_finished,
+        limits=limits,
     )
 
 

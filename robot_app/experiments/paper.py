@@ -20,92 +20,29 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import Field
 
-from robot_app.config import StrictModel, apply_overrides, dump_config, validate
-from robot_app.errors import ConfigError
-from robot_app.experiments.experiment_config import (
-    CLOTH_COUNT,
-    ClothId,
-    RecognitionTrialConfig,
-    parse_trial_config,
-)
+from robot_app.config import dump_config
+from robot_app.errors import InterruptError
+from robot_app.experiments.identification_trial import IdentificationOutcome, run_identification_trial
 from robot_app.experiments.image_sources import image_source
 from robot_app.experiments.kinds import run_trials
-from robot_app.experiments.paper_report import ClothRow, Fig13Case, PaperFigures, write_paper_report
-from robot_app.experiments.recognition_trial import (
-    check_recognition_config,
-    recognizer_for,
-    recognizer_settings,
+from robot_app.experiments.paper_config import (
+    QUICK,
+    Fig13Settings,
+    PaperConfig,
+    check_paper,
+    load_paper_config,
+    sweep_configs,
 )
+from robot_app.experiments.paper_report import ClothRow, Fig13Case, PaperFigures, write_paper_report
+from robot_app.experiments.recognition_trial import check_recognition_config, recognizer_settings
 from robot_app.experiments.report import plot_error_histograms, plot_matrix
-from robot_app.experiments.scenes import OBSERVATION_DEPTH, Placement, SceneSample, sample_scene
+from robot_app.experiments.scenes import OBSERVATION_DEPTH, Placement, SceneSample
 from robot_app.experiments.summary import error_stats, write_summary
 from robot_app.experiments.trials import run_sweep
-
-
-class Fig13Settings(StrictModel):
-    """The full search and GA of Fig. 13.
-
-    Attributes:
-        step_m: grid step of the full search [m] (paper: every pixel).
-        yaw_step_deg: the yaw grid of the full search [deg].
-        population: GA individuals.
-        generations: GA generations (paper: 100).
-    """
-
-    step_m: float = Field(default=0.002, ge=0.0005, le=0.02)
-    yaw_step_deg: float = Field(default=10.0, ge=1.0, le=90.0)
-    population: int = Field(default=100, ge=4, le=2000)
-    generations: int = Field(default=100, ge=1, le=2000)
-
-
-class PaperConfig(StrictModel):
-    """What `robot-app paper` runs.
-
-    Attributes:
-        source: image source, synthetic or sim.
-        seed: base seed of every scene and GA run.
-        fig13: full search and GA settings of Fig. 13.
-        fig12_trials: recognitions for the error histograms (paper: 1000).
-        identification_cloths: cloths of the identification matrix (paper: all 12).
-        recognition: overrides of the recogniser's settings for all recognitions.
-        tolerance_mm: the paper's position bound [mm] drawn on the histograms.
-        tolerance_deg: the paper's angle bound [deg].
-    """
-
-    source: str = Field(default="synthetic", pattern="^(synthetic|sim)$")
-    seed: int = Field(default=2016, ge=0)
-    fig13: Fig13Settings = Field(default_factory=Fig13Settings)
-    fig12_trials: int = Field(default=1000, ge=12, le=100_000)
-    identification_cloths: list[ClothId] = Field(
-        default_factory=lambda: list(range(1, CLOTH_COUNT + 1)), min_length=2
-    )
-    recognition: dict[str, Any] = Field(default_factory=dict)
-    tolerance_mm: float = Field(default=10.0, gt=0)
-    tolerance_deg: float = Field(default=10.0, gt=0)
-
-
-QUICK = {
-    "fig13": {"step_m": 0.006, "yaw_step_deg": 30.0, "population": 60, "generations": 40},
-    "fig12_trials": 24,
-    "identification_cloths": [2, 3, 4, 9],
-    "recognition": {},
-}
-"""The `--quick` version: a small run for tests (about a minute)."""
-
-
-def load_paper_config(
-    quick: bool = False, source: str = "synthetic", overrides: list[str] | None = None
-) -> PaperConfig:
-    """The paper settings, quick or full, with `--set key=value` overrides.
-
-    Raises:
-        ConfigError: an unknown key or a bad value, named.
-    """
-    data: dict[str, Any] = {"source": source, **(QUICK if quick else {})}
-    return validate(PaperConfig, apply_overrides(data, overrides or []), "paper settings")
-
+from robot_app.interrupts import interrupt_signal, signal_name
+from robot_app.outputs import atomic_path
+from robot_app.resources import ResourceLimits
 
 # --- Fig. 11/13 -------------------------------------------------------------------------------
 
@@ -172,7 +109,8 @@ def run_fig13_case(case: _Case, settings: PaperConfig, out: Path) -> Fig13Case:
     individuals = ga.transforms(ga.population) if ga.population is not None else None
     map_png, surface_png = out / f"fig13_{case.key}_map.png", out / f"fig13_{case.key}_surface.png"
     title = f"Fig. 13 ({case.key}) {case.title}: model No.{case.scene.target_id}"
-    plot_full_search(search, map_png, surface_png, individuals=individuals, title=title)
+    with atomic_path(map_png) as map_file, atomic_path(surface_png) as surface_file:
+        plot_full_search(search, map_file, surface_file, individuals=individuals, title=title)
     truths = [p for p in (case.scene.target, case.scene.distractor) if p is not None]
     gx, gy = np.meshgrid(search.xs, search.ys)
     near = [np.hypot(gx - p.x, gy - p.y) <= max(0.02, search.step) for p in truths]
@@ -192,46 +130,6 @@ def run_fig13_case(case: _Case, settings: PaperConfig, out: Path) -> Fig13Case:
         map_png=map_png.name,
         surface_png=surface_png.name,
     )
-
-
-# --- identification matrix ---------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class IdentificationOutcome:
-    """Model No.`model_id` searched in a scene holding only cloth No.`scene_id`.
-
-    Attributes:
-        model_id: the model searched for.
-        scene_id: the cloth on the table.
-        found: the recogniser's decision.
-        fitness: best normalised fitness.
-        recognition_time_s: recogniser wall time [s].
-    """
-
-    model_id: int
-    scene_id: int
-    found: bool
-    fitness: float
-    recognition_time_s: float
-
-
-def run_identification_trial(
-    config: RecognitionTrialConfig, scene_index: int, seed: int
-) -> IdentificationOutcome:
-    """Trial k of the matrix: model ids[k // n] in a scene with cloth ids[k % n] alone."""
-    ids = config.scene.cloth_ids
-    n = len(ids)
-    model_id, scene_id = ids[(scene_index // n) % n], ids[scene_index % n]
-    rng = np.random.default_rng(seed)
-    source = image_source(config.source)
-    alone = config.scene.model_copy(update={"cloth_ids": [scene_id]})
-    scene = sample_scene(alone, 0, rng, source.radii())
-    rendered = source.render(scene, rng)
-    recognizer = recognizer_for(config.source, model_id, config.recognition)
-    result = recognizer.recognize(rendered.left_bgr, rendered.right_bgr, seed=int(rng.integers(2**31)))
-    found, fitness = bool(result.found), float(result.fitness)
-    return IdentificationOutcome(model_id, scene_id, found, fitness, float(result.time_s))
 
 
 # --- the whole run -------------------------------------------------------------------------------
@@ -257,45 +155,80 @@ class PaperReport:
 
 
 def run_paper(
-    settings: PaperConfig, out_dir: str | Path, *, workers: int = 2, progress: bool = True
+    settings: PaperConfig,
+    out_dir: str | Path,
+    *,
+    workers: int = 2,
+    progress: bool = True,
+    limits: ResourceLimits | None = None,
 ) -> PaperReport:
     """Runs every experiment and writes the report folder.
 
     Args:
         settings: what to run (see `load_paper_config`).
-        out_dir: the report folder (the sweeps inside it resume if rerun).
+        out_dir: the report folder (the sweeps inside it resume if rerun with the same settings).
         workers: worker processes for the sweeps.
         progress: show progress bars.
+        limits: resource limits (default limits if None).
+
+    Raises:
+        InputError, OutputError, ResourceError: see `check_paper`, before anything is written.
+        InterruptError: Ctrl-C or SIGTERM; the parts finished are on disk and summary.json
+            says `"status": "interrupted"`.
     """
     start = time.perf_counter()
     out = Path(out_dir)
+    limits = limits or ResourceLimits()
+    check_paper(settings, out, workers, limits)
+    finished: list[str] = []
+    try:
+        return _run_paper(settings, out, workers, progress, limits, start, finished)
+    except (KeyboardInterrupt, InterruptError) as err:
+        number = interrupt_signal(err)
+        status = {"status": "interrupted", "signal": signal_name(number), "finished": finished}
+        write_summary(status, out / "summary.json")
+        done = ", ".join(finished) or "nothing"
+        raise InterruptError(
+            f"stopped by {signal_name(number)}; finished: {done} (in {out}); rerun the same command "
+            "to resume the trial sweeps",
+            signal_number=number,
+        ) from err
+
+
+def _run_paper(
+    settings: PaperConfig,
+    out: Path,
+    workers: int,
+    progress: bool,
+    limits: ResourceLimits,
+    start: float,
+    finished: list[str],
+) -> PaperReport:
     out.mkdir(parents=True, exist_ok=True)
     dump_config(settings, out / "config.yaml")
-    cases = [run_fig13_case(case, settings, out) for case in fig13_cases()]
-    common: dict[str, Any] = {"source": settings.source, "recognition": settings.recognition}
-    fig12_data = {"name": "fig12", "trials": settings.fig12_trials, "seed": settings.seed, **common}
-    fig12_data |= {"tolerance_mm": settings.tolerance_mm, "tolerance_deg": settings.tolerance_deg}
-    fig12_config = parse_trial_config(fig12_data, "fig12")
-    fig12 = run_trials(fig12_config, out / "fig12", workers=workers, progress=progress)
+    cases = []
+    for case in fig13_cases():
+        cases.append(run_fig13_case(case, settings, out))
+        finished.append(f"fig13_{case.key}")
+    fig12_config, ident_config = sweep_configs(settings)
+    fig12 = run_trials(fig12_config, out / "fig12", workers=workers, progress=progress, limits=limits)
     rows = _rows(out / "fig12")
     columns = ["error_x_mm", "error_y_mm", "error_yaw_deg", "error_z_mm", "error_tilt_deg"]
     bounds = {"error_x_mm": settings.tolerance_mm, "error_y_mm": settings.tolerance_mm}
     bounds["error_yaw_deg"] = settings.tolerance_deg
     plot_error_histograms(rows, out / "fig12_errors.png", columns, "Fig. 12: errors over all cloths", bounds)
+    finished.append("fig12")
     ids = list(settings.identification_cloths)
-    ident_data = {"name": "identification", "trials": len(ids) ** 2, "seed": settings.seed + 1}
-    ident_config = parse_trial_config({**ident_data, "scene": {"cloth_ids": ids}, **common}, "identification")
-    if not isinstance(ident_config, RecognitionTrialConfig):  # pragma: no cover
-        raise ConfigError("identification trials must be recognition trials")
     check_recognition_config(ident_config)
     run_sweep(
         ident_config, run_identification_trial, IdentificationOutcome, out / "identification",
-        workers=workers, progress=progress,
+        workers=workers, progress=progress, limits=limits,
     )  # fmt: skip
     fitness, found = _matrix(_rows(out / "identification"), ids)
     labels = [f"No.{i}" for i in ids]
     title = "identification: best fitness (row: model, column: cloth in the scene)"
     plot_matrix(fitness, out / "identification.png", labels, title)
+    finished.append("identification")
     figures = PaperFigures(
         source=settings.source,
         cases=cases,
@@ -315,7 +248,7 @@ def run_paper(
         wall_time_s=time.perf_counter() - start,
     )
     report_path, table = write_paper_report(figures, out)
-    write_summary(asdict(figures), out / "summary.json")
+    write_summary(asdict(figures) | {"status": "finished"}, out / "summary.json")
     return PaperReport(out, report_path, table, figures.wall_time_s, figures)
 
 
@@ -348,10 +281,12 @@ def _matrix(rows: list[dict[str, Any]], ids: list[int]) -> tuple[np.ndarray, np.
 
 
 __all__ = [
+    "QUICK",
     "Fig13Settings",
     "IdentificationOutcome",
     "PaperConfig",
     "PaperReport",
+    "check_paper",
     "fig13_cases",
     "load_paper_config",
     "run_fig13_case",

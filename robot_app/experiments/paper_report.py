@@ -15,6 +15,7 @@ import numpy as np
 
 from robot_app.experiments.report import ERROR_LABELS
 from robot_app.experiments.summary import ErrorStats
+from robot_app.outputs import atomic_write_text
 
 PAPER_BOUNDED = ("error_x_mm", "error_y_mm", "error_yaw_deg")
 """Errors the paper bounds (Fig. 12: x, y within ±10 mm, angle within ±10°)."""
@@ -215,8 +216,7 @@ def write_paper_report(figures: PaperFigures, out_dir: str | Path) -> tuple[Path
         "![identification](identification.png)",
         "",
     ]
-    path = out / "report.md"
-    path.write_text("\n".join(parts))
+    path = atomic_write_text(out / "report.md", "\n".join(parts))
     return path, table
 
 

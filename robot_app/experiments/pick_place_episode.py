@@ -9,8 +9,10 @@ runs `PickPlaceLoop` and measures the outcome against the simulator's ground tru
 from __future__ import annotations
 
 import csv
+import io
 import json
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -25,6 +27,7 @@ from robot_app.control.pick_place import LoopSettings, PickPlaceLoop
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.errors import ConfigError
 from robot_app.geometry import yaw_of
+from robot_app.outputs import atomic_path, atomic_write_text, output_folder
 from robot_app.sim import (
     EpisodeVideo,
     ModelStation,
@@ -35,7 +38,7 @@ from robot_app.sim import (
     cloth_spec,
     make_scene,
 )
-from robot_app.vision import ModelSettings, RecognitionSettings, Recognizer, make_model
+from robot_app.vision import ClothModel, ModelSettings, RecognitionSettings, Recognizer, make_model
 
 SUCCESS_FRACTION = 0.9  # of the cloth's nodes inside the box walls: the cloth counts as placed
 
@@ -106,6 +109,7 @@ def run_episode(
     gui: bool = False,
     on_phase: Callable[[PhaseRecord], None] | None = None,
     video_path: str | Path | None = None,
+    stop: Callable[[], None] | None = None,
 ) -> Episode:
     """Runs one pick-and-place episode in a fresh simulated cell.
 
@@ -113,12 +117,30 @@ def run_episode(
         config: the episode's settings; `config.seed` fixes the scene and the GA.
         gui: show pybullet's GUI.
         on_phase: called after every phase (progress output).
-        video_path: write an MP4 of the episode there.
+        video_path: write an MP4 of the episode there. It is written under a temporary
+            name and renamed when closed, so it is whole (playable) or absent: an episode
+            that fails with an error, or ends before its first frame, leaves no file.
+        stop: called after every control step; raising `InterruptError` there ends the
+            episode at that step with outcome INTERRUPTED (see `stop_at_safe_points`).
     """
     w = config.world
     if any(abs(v) > 1e-12 for v in (*w.robot.base_xyz, w.robot.base_yaw)):
         raise ConfigError("world.robot.base_xyz/base_yaw: the loop needs the robot base at the world origin")
     model = _make_target_model(config)
+    with ExitStack() as stack:
+        video_file = stack.enter_context(atomic_path(video_path)) if video_path is not None else None
+        return _run_in_cell(config, model, gui, on_phase, video_file, stop)
+
+
+def _run_in_cell(
+    config: PickPlaceConfig,
+    model: ClothModel,
+    gui: bool,
+    on_phase: Callable[[PhaseRecord], None] | None,
+    video_file: Path | None,
+    stop: Callable[[], None] | None,
+) -> Episode:
+    w = config.world
     with World(w, gui=gui) as world:
         scene = make_scene(world, config.scene, seed=config.seed)
         present = config.wanted in (config.scene.target, config.scene.distractor)
@@ -127,7 +149,7 @@ def run_episode(
         kinematics = Kinematics.from_urdf(w.robot.urdf, "base_link", "tcp")
         limits = JointLimits.from_urdf(w.robot.urdf, config.trajectory)
         recognizer = Recognizer(model, world.stereo.rig, _recognition_settings(config))
-        video = EpisodeVideo(world, cell, video_path) if video_path is not None else None
+        video = EpisodeVideo(world, cell, video_file) if video_file is not None else None
         nudge = _Nudger(world, scene.target, config.nudge) if config.nudge is not None else None
 
         def on_step(_cell: object, _capture: object) -> None:
@@ -135,6 +157,8 @@ def run_episode(
                 nudge.tick(loop.current_phase)
             if video is not None:
                 video.tick()
+            if stop is not None:
+                stop()  # a safe point: between two control steps, the video frame written
 
         loop = PickPlaceLoop(
             cell,
@@ -147,7 +171,7 @@ def run_episode(
             config.loop,
             config.filter,
             on_phase=on_phase,
-            on_step=on_step if (video is not None or nudge is not None) else None,
+            on_step=on_step if (video is not None or nudge is not None or stop is not None) else None,
             ground_truth=wanted_body.pose if wanted_body is not None else None,
         )
         try:
@@ -155,6 +179,8 @@ def run_episode(
         finally:
             if video is not None:
                 video.close()
+        if video is not None and video_file is not None and video.frames == 0:
+            video_file.unlink(missing_ok=True)  # no frame, no playable video: leave none
         judged = wanted_body if wanted_body is not None else scene.target
         placed = world.cloth_in_box(judged)
         pose = judged.pose()
@@ -180,7 +206,7 @@ def _recognition_settings(config: PickPlaceConfig) -> RecognitionSettings:
     return RecognitionSettings.model_validate(data)
 
 
-def _make_target_model(config: PickPlaceConfig):
+def _make_target_model(config: PickPlaceConfig) -> ClothModel:
     with ModelStation(config.world.station, config.world.cloth, config.world.range.sheet_rgb) as station:
         photo = station.photograph(cloth_spec(config.wanted))
     return make_model(
@@ -209,28 +235,27 @@ class _Nudger:
 def write_episode(out_dir: str | Path, config: PickPlaceConfig, episode: Episode) -> Path:
     """Writes the results folder: config.yaml, phases.csv, recognitions.csv, summary.json."""
     folder = Path(out_dir)
-    folder.mkdir(parents=True, exist_ok=True)
-    dump_config(config, folder / "config.yaml")
     result = episode.result
-    _write_csv(folder / "phases.csv", [asdict(p) | {"duration": p.duration} for p in result.phases])
-    _write_csv(folder / "recognitions.csv", [asdict(r) for r in result.recognitions])
     summary = result.summary() | {
         "target": f"No.{episode.target}",
         "box_centre": episode.box_centre,
         "success_fraction_threshold": SUCCESS_FRACTION,
     }
-    (folder / "summary.json").write_text(json.dumps(summary, indent=2, default=_json_default))
+    with output_folder(folder):  # each file is written whole (temporary name, then renamed)
+        dump_config(config, folder / "config.yaml")
+        _write_csv(folder / "phases.csv", [asdict(p) | {"duration": p.duration} for p in result.phases])
+        _write_csv(folder / "recognitions.csv", [asdict(r) for r in result.recognitions])
+        atomic_write_text(folder / "summary.json", json.dumps(summary, indent=2, default=_json_default))
     return folder
 
 
 def _write_csv(path: Path, rows: list[dict[str, object]]) -> None:
-    with path.open("w", newline="") as handle:
-        if not rows:
-            handle.write("")
-            return
-        writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+    buffer = io.StringIO(newline="")
+    if rows:
+        writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
         writer.writeheader()
         writer.writerows(rows)
+    atomic_write_text(path, buffer.getvalue())
 
 
 def _json_default(value: object) -> object:

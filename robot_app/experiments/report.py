@@ -20,6 +20,7 @@ import numpy.typing as npt
 
 from robot_app.experiments.results_table import Row, read_table
 from robot_app.experiments.summary import error_stats
+from robot_app.outputs import atomic_path
 
 ERROR_LABELS = {
     "error_x_mm": "position x error [mm]",
@@ -165,9 +166,11 @@ def plot_trial_folder(folder: str | Path) -> list[Path]:
 
 def _save(fig: Any, path: str | Path) -> Path:
     file = Path(path)
-    file.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(file, dpi=110)
-    plt.close(fig)
+    try:
+        with atomic_path(file) as temporary:  # a PNG is whole or absent
+            fig.savefig(temporary, dpi=110)
+    finally:
+        plt.close(fig)
     return file
 
 

@@ -11,7 +11,6 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
-import os
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -19,6 +18,7 @@ from typing import Any
 
 from robot_app.errors import InputError
 from robot_app.experiments.trial_result import TrialResult
+from robot_app.outputs import atomic_write_text
 
 BASE_COLUMNS = ("index", "seed", "point", "sweep", "status", "reason", "duration_s")
 """Columns of every table; the outcome dataclass's fields follow them."""
@@ -83,36 +83,60 @@ class ResultsTable:
         outcome_type: the frozen dataclass whose fields follow `BASE_COLUMNS`.
     """
 
-    def __init__(self, path: str | Path, outcome_type: type) -> None:
+    def __init__(self, path: str | Path, outcome_type: type, *, repair: bool = True) -> None:
         self.path = Path(path)
         self.columns = table_columns(outcome_type)
         self.outcome_fields = self.columns[len(BASE_COLUMNS) :]
-        self._repair()
+        if repair:
+            self._repair()
 
-    def _repair(self) -> None:
-        """Checks the header and drops incomplete lines left by a killed run."""
+    def complete_lines(self) -> tuple[list[str], int]:
+        """(header and complete rows, number of lines in the file), the header checked.
+
+        Raises:
+            InputError: the file is not text, or its header is another table's.
+        """
         if not self.path.exists() or self.path.stat().st_size == 0:
-            return
-        text = self.path.read_text()
-        lines = text.splitlines(keepends=True)
-        header = next(csv.reader([lines[0]]))
+            return [], 0
+        try:
+            lines = self.path.read_text(encoding="utf-8").splitlines(keepends=True)
+            header = next(csv.reader([lines[0]]))
+        except (UnicodeDecodeError, csv.Error) as err:
+            raise InputError(
+                f"{self.path} is not a text CSV written by robot-app trial ({err}); "
+                "choose another --out (or remove it)",
+                path=self.path,
+                expected="a trials.csv table",
+            ) from err
         if tuple(header) != self.columns:
             raise InputError(
                 f"{self.path} has columns {header}, expected {list(self.columns)}; "
-                "it was written by another trial kind or version; choose another --out"
+                "it was written by another trial kind or version; choose another --out",
+                path=self.path,
             )
         good = [lines[0]]
         for line in lines[1:]:
-            fields = next(csv.reader([line]), [])
+            try:
+                fields = next(csv.reader([line]), [])
+            except csv.Error:  # a NUL byte or similar from a killed write: not a row
+                continue
             if line.endswith("\n") and len(fields) == len(self.columns) and fields[0].isdigit():
                 good.append(line)
-        if len(good) != len(lines):
+        return good, len(lines)
+
+    def complete_indices(self) -> set[int]:
+        """Trial indices of the complete rows, without changing the file."""
+        good, _ = self.complete_lines()
+        return {int(next(csv.reader([line]))[0]) for line in good[1:]}
+
+    def _repair(self) -> None:
+        """Checks the header and drops incomplete lines left by a killed run."""
+        good, count = self.complete_lines()
+        if len(good) != count:
             self._write_atomic("".join(good))
 
     def _write_atomic(self, text: str) -> None:
-        temporary = self.path.with_suffix(".tmp")
-        temporary.write_text(text)
-        os.replace(temporary, self.path)
+        atomic_write_text(self.path, text)
 
     def finished_indices(self) -> set[int]:
         """Trial indices already in the table (ok or failed)."""

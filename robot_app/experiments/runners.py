@@ -45,6 +45,14 @@ def _died(config: Any, index: int, reason: str) -> TrialResult:
     return TrialResult(index, seed, index % points, "failed", reason, 0.0, None)
 
 
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Ends the pool's worker processes now instead of waiting for their trials (interrupt)."""
+    processes = getattr(pool, "_processes", None) or {}  # no public API before Python 3.14
+    for process in list(processes.values()):
+        if process.is_alive():
+            process.terminate()
+
+
 def _run_isolated(trial_fn: TrialFunction, config: Any, index: int) -> TrialResult:
     """Runs one trial alone in a fresh process, so a native crash is attributed to it."""
     context = multiprocessing.get_context("spawn")
@@ -107,6 +115,9 @@ def run_local(
                         broken.extend(in_flight.values())
                         in_flight.clear()
                         break
+            except KeyboardInterrupt:
+                _stop_workers(pool)  # their trials are not recorded: a resumed run redoes them
+                raise
             finally:
                 pool.shutdown(wait=True, cancel_futures=True)
             for index in sorted(broken):

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from robot_app.experiments.results_table import BASE_COLUMNS, Row, is_timing_column
+from robot_app.outputs import atomic_write_text
 
 
 @dataclass(frozen=True)
@@ -126,8 +127,8 @@ def summarize(
 
 
 def write_summary(summary: dict[str, Any], path: str | Path) -> None:
-    """Writes the summary as indented JSON."""
-    Path(path).write_text(json.dumps(_clean(summary), indent=2) + "\n")
+    """Writes the summary as indented JSON, atomically."""
+    atomic_write_text(path, json.dumps(_clean(summary), indent=2) + "\n")
 
 
 __all__ = ["ErrorStats", "error_stats", "summarize", "write_summary"]

@@ -4,6 +4,7 @@ One image source and one robot among possible others; `robot_app.vision` never i
 this package.
 """
 
+from robot_app.sim import _quiet  # noqa: F401  (first: pybullet imported with its banner silenced)
 from robot_app.sim.cameras import (
     Lighting,
     StereoCamera,

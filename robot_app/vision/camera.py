@@ -16,18 +16,42 @@ import numpy.typing as npt
 import yaml
 
 from robot_app.arrays import FloatArray
-from robot_app.errors import CalibrationError, InputError
+from robot_app.console import warn_input
+from robot_app.errors import CalibrationError
 from robot_app.geometry import (
     invert_transform,
     is_rotation,
     make_transform,
 )
+from robot_app.input_files import require_input_file
+
+DIST_COEFF_COUNTS = (0, 4, 5)
+"""Distortion vector lengths OpenCV's calibration writes that this camera model reads."""
+MIN_BASELINE = 1e-3
+"""A stereo baseline below this [m] gives no depth from the pair: warned about."""
+
+
+def _warn_short_distortion(entry: dict[str, Any], file: str | Path, key: str) -> None:
+    """Warns about a distortion vector of an unusual length (the rest are taken as 0)."""
+    coefficients = entry.get("dist_coeffs")
+    if coefficients is None:
+        return
+    count = np.asarray(coefficients, dtype=float).size
+    if count not in DIST_COEFF_COUNTS:
+        warn_input(
+            f"{file}: {key} has {count} coefficients; OpenCV writes 4 or 5 (k1, k2, p1, p2[, k3]), "
+            f"so the missing ones are taken as 0",
+            path=file,
+            key=key,
+        )
 
 
 def _readonly(array: npt.ArrayLike, shape: tuple[int, ...], name: str) -> FloatArray:
     a = np.array(array, dtype=float)
-    if a.shape != shape or not np.all(np.isfinite(a)):
-        raise CalibrationError(f"{name} must be a finite array of shape {shape}, got {a.shape}")
+    if a.shape != shape:
+        raise CalibrationError(f"{name} must be an array of shape {shape}, got shape {a.shape}", key=name)
+    if not np.all(np.isfinite(a)):
+        raise CalibrationError(f"{name} must hold finite numbers, got {a.tolist()}", key=name)
     a.setflags(write=False)
     return a
 
@@ -233,10 +257,16 @@ class ModelCamera:
         }
 
 
+def _with_path(err: CalibrationError, path: str | Path) -> CalibrationError:
+    """`err` with the file named (the camera classes do not know which file they came from)."""
+    if err.path is not None:
+        return err
+    value = err.value if err.has_value else None
+    return CalibrationError(f"{path}: {err}", path=path, key=err.key, value=value, expected=err.expected)
+
+
 def _read_mapping(path: str | Path, what: str) -> dict[str, Any]:
-    file = Path(path)
-    if not file.is_file():
-        raise InputError(f"{what} file not found: {file}", path=file)
+    file = require_input_file(path, what)
     try:
         data = yaml.safe_load(file.read_text())
     except (yaml.YAMLError, UnicodeDecodeError) as err:
@@ -254,8 +284,16 @@ def _require(data: dict[str, Any], key: str, file: str | Path) -> Any:
 
 def _image_size(data: dict[str, Any], file: str | Path) -> tuple[int, int]:
     size = _require(data, "image_size", file)
-    if not (isinstance(size, list | tuple) and len(size) == 2):
-        raise CalibrationError(f"{file}: image_size must be [width, height], got {size!r}", path=file)
+    whole = isinstance(size, list | tuple) and len(size) == 2
+    numbers = whole and all(isinstance(v, int | float) and not isinstance(v, bool) for v in size)
+    if not numbers or not all(np.isfinite(v) and v == int(v) and v > 0 for v in size):
+        raise CalibrationError(
+            f"{file}: image_size must be [width, height] in whole pixels > 0, got {size!r}",
+            path=file,
+            key="image_size",
+            value=size,
+            expected="[width, height]",
+        )
     return int(size[0]), int(size[1])
 
 
@@ -277,9 +315,21 @@ def load_rig(path: str | Path) -> StereoRig:
         if not is_rotation(R, tol=1e-5):
             raise CalibrationError(f"{path}: R is not a rotation matrix (R^T R != I or det != 1)", path=path)
         hand = data.get("transform_right_camera_to_hand")
-        return StereoRig(cameras["left"], cameras["right"], make_transform(R, T), hand)
-    except (TypeError, ValueError) as err:
+        rig = StereoRig(cameras["left"], cameras["right"], make_transform(R, T), hand)
+    except (TypeError, ValueError, AttributeError) as err:
         raise CalibrationError(f"{path}: malformed stereo rig: {err}", path=path) from err
+    except CalibrationError as err:
+        raise _with_path(err, path) from err
+    for side in ("left", "right"):
+        _warn_short_distortion(data[side], path, f"{side}.dist_coeffs")
+    if rig.baseline < MIN_BASELINE:
+        warn_input(
+            f"{path}: the baseline |T| is {rig.baseline * 1e3:.3g} mm: the two cameras sit at one "
+            "point, so the pair gives no depth; T is in metres (OpenCV stereoCalibrate)",
+            path=path,
+            key="T",
+        )
+    return rig
 
 
 def save_rig(rig: StereoRig, path: str | Path) -> None:
@@ -295,9 +345,13 @@ def load_model_camera(path: str | Path) -> ModelCamera:
         camera = PinholeCamera(
             _require(data, "camera_matrix", path), size, data.get("dist_coeffs", np.zeros(5))
         )
-        return ModelCamera(camera, float(_require(data, "distance", path)))
+        model_camera = ModelCamera(camera, float(_require(data, "distance", path)))
     except (TypeError, ValueError) as err:
         raise CalibrationError(f"{path}: malformed camera file: {err}", path=path) from err
+    except CalibrationError as err:
+        raise _with_path(err, path) from err
+    _warn_short_distortion(data, path, "dist_coeffs")
+    return model_camera
 
 
 def save_model_camera(model_camera: ModelCamera, path: str | Path) -> None:

@@ -114,7 +114,7 @@ class GASettings(StrictModel):
     gray_code: bool = True
     islands: int = Field(default=4, ge=1)
     uniform_yaw: bool = True
-    seed: int = 0
+    seed: int = Field(default=0, ge=0)
 
     @model_validator(mode="after")
     def _elite_fits(self) -> GASettings:

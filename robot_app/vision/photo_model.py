@@ -27,6 +27,7 @@ from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.errors import InputError, ModelError
 from robot_app.geometry import rotation_about_z
+from robot_app.input_files import read_image, require_input_file
 from robot_app.vision.camera import ModelCamera, PinholeCamera
 from robot_app.vision.hue import (
     COLOUR_CODES,
@@ -270,9 +271,7 @@ class ClothModel:
             InputError: the file does not exist.
             ModelError: the file is not a robot_app cloth model of a known version.
         """
-        file = Path(path)
-        if not file.is_file():
-            raise InputError(f"cloth model file not found: {file}", path=file)
+        file = require_input_file(path, "cloth model")
         try:
             with np.load(file, allow_pickle=False) as data:
                 arrays = {key: data[key] for key in data.files}
@@ -375,14 +374,13 @@ class ModelSettings(StrictModel):
 
 
 def load_photo(path: str | Path) -> Image:
-    """Reads a colour image file as (H, W, 3) uint8 BGR; missing or unreadable -> InputError."""
-    file = Path(path)
-    if not file.is_file():
-        raise InputError(f"image file not found: {file}", path=file)
-    image = cv2.imread(str(file), cv2.IMREAD_COLOR)
-    if image is None:
-        raise InputError(f"{file} is not a readable image (PNG, JPEG, BMP, TIFF ...)", path=file)
-    return np.asarray(image, dtype=np.uint8)
+    """Reads a colour image file as (H, W, 3) uint8 BGR.
+
+    Raises:
+        InputError: missing, a folder, or not a readable image.
+        ResourceError: too large for the default memory limit.
+    """
+    return read_image(path).bgr  # header and size checked first; libpng warnings kept quiet
 
 
 def make_model(
