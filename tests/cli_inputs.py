@@ -23,7 +23,14 @@ from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig, save_
 from robot_app.vision.photo_model import make_model
 from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
 
-FAST_GA = ["--set", "propose.ga.population=40", "--set", "propose.ga.generations=20", "--set", "propose.coarse_generations=10"]
+FAST_GA = [
+    "--set",
+    "propose.ga.population=40",
+    "--set",
+    "propose.ga.generations=20",
+    "--set",
+    "propose.coarse_generations=10",
+]
 TRUTH = make_transform(rotation_about_z(0.5), [0.03, -0.02, 0.58])
 REPO = Path(__file__).resolve().parents[1]
 
