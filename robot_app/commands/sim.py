@@ -9,6 +9,15 @@ import typer
 
 ConfigOption = Annotated[Path | None, typer.Option(help="World config YAML (default configs/world.yaml).")]
 SetOption = Annotated[list[str] | None, typer.Option("--set", help="Override a config key: key.path=value.")]
+RealismOption = Annotated[
+    str | None, typer.Option(help="clean, realistic or harsh (default: the config's world.realism).")
+]
+
+
+def _overrides(realism: str | None, set_: list[str] | None) -> tuple[str, ...]:
+    """--realism NAME is `--set realism=NAME`, before the other --set keys."""
+    return ((f"realism={realism}",) if realism is not None else ()) + tuple(set_ or ())
+
 
 # The commands import pybullet and the simulator in their bodies: every `robot-app`
 # command imports this module to register them.
@@ -19,28 +28,33 @@ sim_app = typer.Typer(help="The pybullet simulation: pictures, model photos, rig
 def show(
     out: Annotated[Path, typer.Option(help="Folder for the PNGs.")] = Path("out/sim_pictures"),
     seed: Annotated[int, typer.Option(help="Scene seed.")] = 0,
-    target: Annotated[int, typer.Option(help="Target cloth No.1-12.")] = 3,
+    target: Annotated[int, typer.Option(help="Target cloth No.1-20.")] = 3,
     occluder: Annotated[bool, typer.Option(help="Cover 45% of the target with blue paper.")] = False,
-    distractor: Annotated[int | None, typer.Option(help="A second cloth No.1-12.")] = None,
+    distractor: Annotated[int | None, typer.Option(help="A second cloth No.1-20.")] = None,
+    realism: RealismOption = None,
     config: ConfigOption = None,
     set_: SetOption = None,
 ) -> None:
     """Writes overview.png, stereo.png and catalogue.png of the cell."""
+    from robot_app.config import validate
     from robot_app.sim import SceneSettings, load_world_config
     from robot_app.sim.pictures import write_pictures
 
-    world = load_world_config(config, tuple(set_ or ()))
-    scene = SceneSettings(target=target, occluder=occluder, distractor=distractor)
+    world = load_world_config(config, _overrides(realism, set_))
+    scene = validate(
+        SceneSettings, {"target": target, "occluder": occluder, "distractor": distractor}, "options"
+    )
     for path in write_pictures(out, world, scene, seed):
         typer.echo(str(path))
 
 
 @sim_app.command("model-photo")
 def model_photo(
-    cloth: Annotated[int, typer.Argument(help="Catalogue cloth No.1-12.")],
+    cloth: Annotated[int, typer.Argument(help="Catalogue cloth No.1-20.")],
     out: Annotated[Path, typer.Option(help="Folder for photo.png, background.png, camera.yaml.")] = Path(
         "out/model_photo"
     ),
+    realism: RealismOption = None,
     config: ConfigOption = None,
     set_: SetOption = None,
 ) -> None:
@@ -51,10 +65,10 @@ def model_photo(
     from robot_app.sim.station import ModelStation
     from robot_app.vision.camera import save_model_camera
 
-    world = load_world_config(config, tuple(set_ or ()))
+    world = load_world_config(config, _overrides(realism, set_))
     spec = cloth_spec(cloth)
     out.mkdir(parents=True, exist_ok=True)
-    with ModelStation(world.station, world.cloth, world.range.sheet_rgb) as station:
+    with ModelStation.for_world(world) as station:
         photo = station.photograph(spec)
     cv2.imwrite(str(out / "photo.png"), photo.photo_bgr)
     cv2.imwrite(str(out / "background.png"), photo.background_bgr)

@@ -37,7 +37,7 @@ class SimSource:
         self.world = World()
         config = self.world.config
         self.rig = self.world.stereo.rig
-        self._station = ModelStation(config.station, config.cloth, config.range.sheet_rgb)
+        self._station = ModelStation.for_world(config)
         self._models: dict[int, ClothModel] = {}
         self._occluder: int | None = None
         self._camera_to_world = self.world.transform_observation_camera_to_world
