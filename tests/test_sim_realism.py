@@ -14,7 +14,7 @@ import pytest
 from robot_app.cli import main
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform
-from robot_app.sim import Lighting, ModelStation, SceneSettings, World, cloth_spec, make_scene
+from robot_app.sim import Lighting, ModelStation, SceneSettings, World, cloth_spec, make_scene, render_bgr
 from robot_app.sim.cloth_visual import ClothLook, Fold
 from robot_app.sim.config import StationSettings, WorldConfig, load_world_config
 from robot_app.sim.lighting import direction_from_angles
@@ -173,6 +173,24 @@ def test_the_hand_casts_its_shadow_on_the_sheet_under_it() -> None:
     assert shadow / open_sheet < 0.3 / (0.3 + 0.7 * np.cos(np.radians(zenith))) + 0.1
     unshadowed, _, _ = _hand_over_sheet(shadows=False)
     assert unshadowed[v - 2 : v + 3, u - 2 : u + 3, 1].mean() > 0.95 * open_sheet
+
+
+def test_specular_term_and_lamp_colour_reach_the_renderer() -> None:
+    with World(_config("clean")) as world:
+        camera = world.stereo.rig.right
+        pose = world.robot.frame_pose("camera_right_optical")
+        direction = direction_from_angles(40.0, 30.0)
+        matte = render_bgr(world.client, camera, pose, lighting=Lighting(0.3, 0.6, direction))
+        shiny = render_bgr(world.client, camera, pose, lighting=Lighting(0.3, 0.6, direction, 0.3))
+        warm = render_bgr(
+            world.client, camera, pose, lighting=Lighting(0.3, 0.6, direction, 0.0, (1.0, 0.9, 0.6))
+        )
+    sheet = (slice(50, 70), slice(70, 90))
+    assert shiny[sheet].astype(float).mean() > matte[sheet].astype(float).mean() + 1.0
+    b, g, r = warm[sheet].astype(float).mean(axis=(0, 1)) / np.maximum(
+        matte[sheet].astype(float).mean(axis=(0, 1)), 1
+    )
+    assert b < g <= r + 1e-9
 
 
 def test_the_key_lamp_direction_is_drawn_per_scene_within_its_range() -> None:

@@ -112,9 +112,8 @@ def recognition_check(
     model = make_model(photo.photo_bgr, photo.model_camera, photo.background_bgr, name=spec.name)
     rng = np.random.default_rng(seed)
     defaults = scene_defaults(config.realism)
-    look = ClothLook.draw(
-        np.random.default_rng((seed, 11)), spec.size, defaults["wrinkle_amplitude"], defaults["fold_probability"]
-    )
+    look_rng = np.random.default_rng((seed, 11))
+    look = ClothLook.draw(look_rng, spec.size, defaults["wrinkle_amplitude"], defaults["fold_probability"])
     with World(config) as world:
         world.reseed(seed)
         # within 50 mm of the range centre, so that the cloth is whole in both cameras

@@ -97,34 +97,41 @@ class CameraModel:
         if self.is_identity:
             return rendered_bgr, Exposure(1.0, 0.0)
         s = self.settings
-        signal = rendered_bgr.astype(np.float32) * np.float32(1.0 / 255.0)
+        counts = rendered_bgr.astype(np.float32)  # [DN] at unit gain
         if s.vignetting > 0:
-            signal *= self._vignetting(signal.shape[1], signal.shape[0])[..., None]
+            counts *= self._vignetting(counts.shape[1], counts.shape[0])[..., None]
         length = float(np.hypot(*blur_px))
         if length > 0.3:
-            signal = motion_blur(signal, blur_px)
-        gain = self._gain(signal, time)
+            counts = motion_blur(counts, blur_px)
+        gain = self._gain(counts, time)
         if isinstance(s, ImagingSettings) and s.flicker > 0:
             gain *= float(np.exp(self._rng.normal(0.0, s.flicker)))
-        counts = signal * np.float32(255.0 * gain)
-        variance = np.full(counts.shape, np.float32((s.noise_sigma * gain) ** 2))
-        if s.full_well is not None:
-            variance += np.maximum(counts, 0.0) * np.float32(gain * 255.0 / s.full_well)
-        if np.any(variance > 0):
-            counts += np.sqrt(variance) * self._rng.standard_normal(counts.shape, dtype=np.float32)
+        counts *= np.float32(gain)
+        read_variance = np.float32((s.noise_sigma * gain) ** 2)
+        if s.full_well is not None:  # photon noise: variance = signal [e-], in DN at this gain
+            sigma = np.maximum(counts, 0.0) * np.float32(gain * 255.0 / s.full_well)
+            sigma += read_variance
+            np.sqrt(sigma, out=sigma)
+            noise = self._rng.standard_normal(counts.shape, dtype=np.float32)
+            noise *= sigma
+            counts += noise
+        elif read_variance > 0:
+            counts += np.sqrt(read_variance) * self._rng.standard_normal(counts.shape, dtype=np.float32)
         counts *= self.white_balance_bgr
-        image = np.clip(np.rint(counts), 0, 255).astype(np.uint8)
+        np.rint(counts, out=counts)
+        np.clip(counts, 0, 255, out=counts)
+        image = counts.astype(np.uint8)
         if s.jpeg_quality is not None:
             image = jpeg_round_trip(image, s.jpeg_quality)
         return image, Exposure(gain, length)
 
-    def _gain(self, signal: npt.NDArray[np.float32], time: float) -> float:
+    def _gain(self, signal: npt.NDArray[np.float32], time: float) -> float:  # signal [DN]
         """This frame's gain. Auto-exposure meters the frame and sets the gain of the next one:
         the log gain moves towards the wanted one by 1 - exp(-dt / time constant)."""
         s = self.settings
         if not isinstance(s, ImagingSettings) or s.exposure == "fixed":
             return float(s.gain) if isinstance(s, ImagingSettings) else 1.0
-        metered = float(np.mean(signal @ LUMA_BGR))
+        metered = float(signal.reshape(-1, 3).mean(axis=0) @ LUMA_BGR) / 255.0
         wanted = s.target_level / max(metered, 1e-3)
         if self.gain is None or self._last_time is None:  # first frame: settled, with an error
             error = float(np.exp(self._rng.normal(0.0, s.ae_initial_error)))
