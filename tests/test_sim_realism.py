@@ -15,7 +15,7 @@ from robot_app.cli import main
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform
 from robot_app.sim import Lighting, ModelStation, SceneSettings, World, cloth_spec, make_scene, render_bgr
-from robot_app.sim.cloth_visual import ClothLook, Fold
+from robot_app.sim.cloth_visual import ClothLook, Fold, Ridge
 from robot_app.sim.config import StationSettings, WorldConfig, load_world_config
 from robot_app.sim.lighting import direction_from_angles
 from robot_app.sim.realism import PRESETS
@@ -224,6 +224,17 @@ def test_wrinkled_cloth_is_not_flat_but_its_ground_truth_is_the_placement() -> N
     with World(_config("clean")) as world:
         flat = make_scene(world, SceneSettings(target=1), seed=3).target
         np.testing.assert_allclose(flat.pose()[:3, 3], pose[:3, 3], atol=0.002)  # same place, same truth
+
+
+def test_a_wrinkled_cloth_is_grasped_where_it_is_drawn() -> None:
+    # the drawn ridges stand above the flat physics nodes; fingers closing on a ridge hold it
+    with World(_config("realistic")) as world:
+        ridge = Ridge((0.0, 0.0), 0.3, 0.01, 0.012, 0.05)
+        wrinkled = world.add_cloth(cloth_spec(1), 0.55, -0.1, 0.0, look=ClothLook((ridge,)))
+        flat = world.add_cloth(cloth_spec(1), 0.55, 0.15, 0.0)
+        lift = (wrinkled.drawn_nodes() - wrinkled.nodes())[:, 2]
+        assert 0.004 < lift.max() < 0.012
+        assert np.abs(flat.drawn_nodes() - flat.nodes()).max() < 0.0015
 
 
 def test_a_folded_corner_shows_the_darker_back_side_on_top() -> None:

@@ -75,6 +75,7 @@ class ClothBody:
         self._client = client
         self.mesh = mesh
         self._margin = physics.collision_margin
+        self._drawn = render_obj is not None
         obj = mesh_obj_path(mesh, cache)
         files = (
             {"fileName": str(obj)}
@@ -130,6 +131,23 @@ class ClothBody:
         """4x4 ground-truth pose of Σ_M in Σ_W: Kabsch fit of the rest nodes to the nodes."""
         return kabsch(self.mesh.vertices, self.nodes())
 
+    def drawn_nodes(self) -> FloatArray:
+        """(N, 3) nodes lifted to the drawn cloth around them [m] (= nodes without a render
+        mesh): each moves along the cloth's normal by the mean height, above it, of the
+        render vertices nearest to it."""
+        nodes = self.nodes()
+        if not self._drawn:
+            return nodes
+        _, positions = pb.getMeshData(self.body_id, -1, physicsClientId=self._client)
+        drawn = np.asarray(positions, dtype=float)
+        nearest = np.asarray(cKDTree(nodes).query(drawn)[1], dtype=np.int64)
+        offset = np.zeros_like(nodes)
+        np.add.at(offset, nearest, drawn - nodes[nearest])
+        count = np.bincount(nearest, minlength=len(nodes))[:, None]
+        normal = self.pose()[:3, 2]
+        lift = (offset / np.maximum(count, 1)) @ normal
+        return nodes + lift[:, None] * normal
+
     def max_edge_stretch(self) -> float:
         """Largest ratio of a mesh edge's current length to its rest length."""
         nodes = self.nodes()
@@ -151,6 +169,11 @@ class ClothBody:
     ) -> int:
         """Anchors the nodes within `radius` [m] of frame `at` to the robot's `link`.
 
+        A cloth drawn with a render mesh is held where it is drawn: its wrinkles stand up
+        to about a centimetre above the physics nodes (which cannot hold them), and fingers
+        closing on a drawn ridge hold the nodes under it. So each node is taken at the height
+        of the drawn cloth around it (`drawn_nodes`).
+
         Returns:
             The number of anchored nodes.
 
@@ -163,7 +186,8 @@ class ClothBody:
             raise GraspError(f"grasp radius must be positive [m], got {radius}")
         centre = robot.frame_pose(at)[:3, 3]
         link_index = robot.link_index(link)
-        distances = np.linalg.norm(self.nodes() - centre, axis=1)
+        nodes = self.drawn_nodes() if self._drawn else self.nodes()
+        distances = np.linalg.norm(nodes - centre, axis=1)
         chosen = np.flatnonzero(distances <= radius)
         if chosen.size == 0:
             raise GraspError(
