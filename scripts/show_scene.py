@@ -1,13 +1,14 @@
-"""Writes PNGs of the simulated cell: overview, hand stereo pair, the 12 cloths side by side.
+"""Writes PNGs of the simulated cell: overview, hand stereo pair, the 20 cloths side by side.
 
-python scripts/show_scene.py --out out/sim_pictures [--seed 3] [--target 3] [--occluder] [--distractor 4]
+python scripts/show_scene.py --out out/sim_pictures [--realism harsh] [--seed 3] [--target 3] [--occluder]
+                             [--distractor 4]
 """
 
 from __future__ import annotations
 
 import argparse
 
-from robot_app.sim import SceneSettings, load_world_config
+from robot_app.sim import REALISM_NAMES, SceneSettings, load_world_config
 from robot_app.sim.pictures import write_pictures
 
 
@@ -19,11 +20,13 @@ def main() -> None:
     parser.add_argument("--occluder", action="store_true")
     parser.add_argument("--distractor", type=int, default=None)
     parser.add_argument("--drop-height", type=float, default=0.0)
+    parser.add_argument("--realism", choices=REALISM_NAMES, default="realistic")
     args = parser.parse_args()
     scene = SceneSettings(
         target=args.target, occluder=args.occluder, distractor=args.distractor, drop_height=args.drop_height
     )
-    for path in write_pictures(args.out, load_world_config(), scene, args.seed):
+    world = load_world_config(overrides=(f"realism={args.realism}",))
+    for path in write_pictures(args.out, world, scene, args.seed):
         print(path)
 
 

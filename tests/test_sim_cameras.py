@@ -15,7 +15,8 @@ from robot_app.vision.camera import PinholeCamera, load_rig
 
 @pytest.fixture(scope="module")
 def world() -> World:
-    with World(WorldConfig(cameras=CameraSettings(image_size=(320, 240)))) as w:
+    # geometry, not looks: the clean cell draws the markers in their pure colours
+    with World(WorldConfig(realism="clean", cameras=CameraSettings(image_size=(320, 240)))) as w:
         yield w
 
 

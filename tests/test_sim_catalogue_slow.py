@@ -1,4 +1,8 @@
-"""Per-cloth checks over the whole catalogue (slow: run with `pytest -m slow`)."""
+"""Per-cloth checks over the whole catalogue (slow: run with `pytest -m slow`).
+
+The recognition check runs in the clean cell: there every cloth must be found precisely
+(the realistic and harsh figures are measured by scripts/bench_sim.py, not asserted).
+"""
 
 from __future__ import annotations
 
@@ -9,7 +13,7 @@ from robot_app.sim.cloths import CATALOGUE, ClothSpec
 from robot_app.sim.config import CameraSettings, WorldConfig
 from robot_app.sim.world import World
 
-CONFIG = WorldConfig(cameras=CameraSettings(image_size=(320, 240)))
+CONFIG = WorldConfig(cameras=CameraSettings(image_size=(320, 240)))  # realistic looks, same physics
 
 
 @pytest.mark.slow
@@ -28,7 +32,7 @@ def test_every_cloth_settles_and_survives_a_lift(spec: ClothSpec) -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("spec", CATALOGUE, ids=lambda s: f"No{s.number}")
 def test_station_model_recognises_the_flat_cloth(spec: ClothSpec) -> None:
-    result = recognition_check(spec, WorldConfig(), seed=spec.number)
+    result = recognition_check(spec, WorldConfig(realism="clean"), seed=spec.number)
     assert result.found
     assert abs(result.error_x_mm) <= 3.0 and abs(result.error_y_mm) <= 3.0
     assert abs(result.error_yaw_deg) <= 3.0

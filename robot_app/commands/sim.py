@@ -19,6 +19,15 @@ from robot_app.outputs import atomic_path, check_output_file, check_output_folde
 
 ConfigOption = Annotated[Path | None, typer.Option(help="World config YAML (default configs/world.yaml).")]
 SetOption = Annotated[list[str] | None, typer.Option("--set", help="Override a config key: key.path=value.")]
+RealismOption = Annotated[
+    str | None, typer.Option(help="clean, realistic or harsh (default: the config's world.realism).")
+]
+
+
+def _overrides(realism: str | None, set_: list[str] | None) -> tuple[str, ...]:
+    """--realism NAME is `--set realism=NAME`, before the other --set keys."""
+    return ((f"realism={realism}",) if realism is not None else ()) + tuple(set_ or ())
+
 
 # The commands import pybullet and the simulator in their bodies: every `robot-app`
 # command imports this module to register them.
@@ -29,9 +38,10 @@ sim_app = typer.Typer(help="The pybullet simulation: pictures, model photos, rig
 def show(
     out: Annotated[Path, typer.Option(help="Folder for the PNGs.")] = Path("out/sim_pictures"),
     seed: Annotated[int, typer.Option(callback=check_seed, help="Scene seed (an integer >= 0).")] = 0,
-    target: Annotated[int, typer.Option(help="Target cloth No.1-12.")] = 3,
+    target: Annotated[int, typer.Option(help="Target cloth No.1-20.")] = 3,
     occluder: Annotated[bool, typer.Option(help="Cover 45% of the target with blue paper.")] = False,
-    distractor: Annotated[int | None, typer.Option(help="A second cloth No.1-12.")] = None,
+    distractor: Annotated[int | None, typer.Option(help="A second cloth No.1-20.")] = None,
+    realism: RealismOption = None,
     config: ConfigOption = None,
     set_: SetOption = None,
     max_memory_gb: MaxMemoryOption = None,
@@ -41,7 +51,7 @@ def show(
     from robot_app.sim.pictures import write_pictures
 
     check_output_folder(out, key="--out", force=True)
-    world = load_world_config(config, tuple(set_ or ()))
+    world = load_world_config(config, _overrides(realism, set_))
     check_world_cameras(world, resource_limits(max_memory_gb, False))
     options = {"target": target, "occluder": occluder, "distractor": distractor}
     scene = validate(SceneSettings, options, "the options --target/--occluder/--distractor")
@@ -53,10 +63,11 @@ def show(
 
 @sim_app.command("model-photo")
 def model_photo(
-    cloth: Annotated[int, typer.Argument(help="Catalogue cloth No.1-12.")],
+    cloth: Annotated[int, typer.Argument(help="Catalogue cloth No.1-20.")],
     out: Annotated[Path, typer.Option(help="Folder for photo.png, background.png, camera.yaml.")] = Path(
         "out/model_photo"
     ),
+    realism: RealismOption = None,
     config: ConfigOption = None,
     set_: SetOption = None,
     max_memory_gb: MaxMemoryOption = None,
@@ -69,10 +80,10 @@ def model_photo(
     from robot_app.vision.camera import save_model_camera
 
     check_output_folder(out, key="--out", force=True)
-    world = load_world_config(config, tuple(set_ or ()))
+    world = load_world_config(config, _overrides(realism, set_))
     check_world_cameras(world, resource_limits(max_memory_gb, False))
     spec = cloth_spec(cloth)
-    with ModelStation(world.station, world.cloth, world.range.sheet_rgb) as station:
+    with ModelStation.for_world(world) as station:
         photo = station.photograph(spec)
     with staged_folder(out) as stage:
         cv2.imwrite(str(stage / "photo.png"), photo.photo_bgr)

@@ -38,6 +38,7 @@ from robot_app.sim import (
     cloth_spec,
     make_scene,
 )
+from robot_app.sim.config import CATALOGUE_SIZE
 from robot_app.vision import ClothModel, ModelSettings, RecognitionSettings, Recognizer, make_model
 
 SUCCESS_FRACTION = 0.9  # of the cloth's nodes inside the box walls: the cloth counts as placed
@@ -68,7 +69,10 @@ class PickPlaceConfig(StrictModel):
     trajectory: TrajectorySettings = TrajectorySettings()
     loop: LoopSettings = LoopSettings()
     model_cloth: int | None = Field(
-        None, ge=1, le=12, description="cloth the robot looks for (default: scene.target); another = absent"
+        None,
+        ge=1,
+        le=CATALOGUE_SIZE,
+        description="cloth the robot looks for (default: scene.target); another = absent",
     )
     table_depth_window: float | None = Field(
         0.015,
@@ -207,7 +211,7 @@ def _recognition_settings(config: PickPlaceConfig) -> RecognitionSettings:
 
 
 def _make_target_model(config: PickPlaceConfig) -> ClothModel:
-    with ModelStation(config.world.station, config.world.cloth, config.world.range.sheet_rgb) as station:
+    with ModelStation.for_world(config.world) as station:
         photo = station.photograph(cloth_spec(config.wanted))
     return make_model(
         photo.photo_bgr, photo.model_camera, photo.background_bgr, config.model, name=f"No.{config.wanted}"

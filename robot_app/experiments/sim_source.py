@@ -32,12 +32,16 @@ class SimSource:
 
     def __init__(self) -> None:
         from robot_app.sim import ModelStation, World, cloth_spec
+        from robot_app.sim.cloth_visual import ClothLook
+        from robot_app.sim.realism import scene_defaults
 
         self._cloth_spec = cloth_spec
+        self._look = ClothLook.draw
         self.world = World()
+        self._defaults = scene_defaults(self.world.config.realism)
         config = self.world.config
         self.rig = self.world.stereo.rig
-        self._station = ModelStation(config.station, config.cloth, config.range.sheet_rgb)
+        self._station = ModelStation.for_world(config)
         self._models: dict[int, ClothModel] = {}
         self._occluder: int | None = None
         self._camera_to_world = self.world.transform_observation_camera_to_world
@@ -64,20 +68,27 @@ class SimSource:
             self._occluder = None
         self.world.robot.reset_joints(self.world.observation_joints)
 
-    def _drop(self, placement: Placement, drop_height: float) -> ClothBody:
-        """Drops a cloth whose Σ_M sits at the placement seen from the observation camera."""
+    def _drop(self, placement: Placement, drop_height: float, rng: np.random.Generator) -> ClothBody:
+        """Drops a cloth whose Σ_M sits at the placement seen from the observation camera,
+        wrinkled and folded as the world's realism preset says."""
         point = self._camera_to_world @ [placement.x, placement.y, self._table_depth, 1.0]
         rotation_world = self._camera_to_world[:3, :3] @ rotation_about_z(placement.yaw)
         yaw_world = yaw_of(rotation_world @ FACE_UP)
         spec = self._cloth_spec(placement.cloth_id)
+        defaults = self._defaults  # clean: no wrinkles, no folds, nothing drawn from rng
+        look = self._look(rng, spec.size, defaults["wrinkle_amplitude"], defaults["fold_probability"])
         return self.world.add_cloth(
-            spec, float(point[0]), float(point[1]), yaw_world, drop_height, settle=False
+            spec, float(point[0]), float(point[1]), yaw_world, drop_height, settle=False, look=look
         )
 
     def render(self, scene: SceneSample, rng: np.random.Generator) -> RenderedScene:
         self._clear()
-        target = self._drop(scene.target, scene.drop_height) if scene.target is not None else None
-        distractor = self._drop(scene.distractor, scene.drop_height) if scene.distractor is not None else None
+        if self.world.config.realism != "clean":  # clean draws nothing more: old trials reproduce
+            self.world.reseed(int(rng.integers(2**31)))  # the scene's lamp direction, camera noise
+        target = self._drop(scene.target, scene.drop_height, rng) if scene.target is not None else None
+        distractor = (
+            self._drop(scene.distractor, scene.drop_height, rng) if scene.distractor is not None else None
+        )
         self.world.settle()
         if target is not None and scene.occluded_fraction > 0:
             nodes = target.nodes()[:, :2]

@@ -7,7 +7,6 @@ this package.
 from robot_app.sim import _quiet  # noqa: F401  (first: pybullet imported with its banner silenced)
 from robot_app.sim.cameras import (
     Lighting,
-    StereoCamera,
     StereoFrame,
     gl_projection_matrix,
     gl_view_matrix,
@@ -24,25 +23,43 @@ from robot_app.sim.config import (
     WorldConfig,
     load_world_config,
 )
+from robot_app.sim.imaging import CameraModel, FrameClock
+from robot_app.sim.lighting import ShadowMap, draw_lighting
+from robot_app.sim.realism import (
+    PRESETS,
+    REALISM_NAMES,
+    AppearanceSettings,
+    ImagingSettings,
+    LightingSettings,
+)
 from robot_app.sim.robot import Contact, SimRobot
 from robot_app.sim.scene import Scene, make_scene
 from robot_app.sim.station import ModelStation, StationPhoto
+from robot_app.sim.stereo import StereoCamera
 from robot_app.sim.video import EpisodeVideo
 from robot_app.sim.world import BoxGeometry, World
 
 __all__ = [
     "CATALOGUE",
+    "PRESETS",
+    "REALISM_NAMES",
+    "AppearanceSettings",
     "BoxGeometry",
+    "CameraModel",
     "ClothBody",
     "ClothMesh",
     "ClothPhysicsSettings",
     "ClothSpec",
     "Contact",
     "EpisodeVideo",
+    "FrameClock",
+    "ImagingSettings",
     "Lighting",
+    "LightingSettings",
     "ModelStation",
     "Scene",
     "SceneSettings",
+    "ShadowMap",
     "SimCell",
     "SimRobot",
     "StationPhoto",
@@ -54,6 +71,7 @@ __all__ = [
     "build_cloth_mesh",
     "cache_dir",
     "cloth_spec",
+    "draw_lighting",
     "gl_projection_matrix",
     "gl_view_matrix",
     "load_world_config",

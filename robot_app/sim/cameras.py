@@ -1,4 +1,4 @@
-"""Rendering: the hand stereo pair and the Fig. 7 model-generation photo.
+"""Rendering primitives: pybullet's GL camera as an OpenCV camera, lighting, the stereo frame.
 
 This is the one place where pybullet's GL camera meets the OpenCV convention of
 `robot_app.vision.camera`: an OpenCV camera frame (x right, y down, z forward) is the GL
@@ -9,8 +9,6 @@ that a point projected with `PinholeCamera.project` lands on the rendered pixel.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -19,11 +17,7 @@ import pybullet as pb
 from robot_app.arrays import FloatArray
 from robot_app.errors import CalibrationError
 from robot_app.geometry import invert_transform
-from robot_app.sim.config import CameraSettings
-from robot_app.vision.camera import PinholeCamera, StereoRig, save_rig
-
-if TYPE_CHECKING:
-    from robot_app.sim.robot import SimRobot
+from robot_app.vision.camera import PinholeCamera
 
 GL_FROM_CV = np.diag([1.0, -1.0, -1.0, 1.0])  # OpenCV camera axes -> GL camera axes
 LEFT_FRAME, RIGHT_FRAME, HAND_FRAME = "camera_left_optical", "camera_right_optical", "flange"
@@ -31,11 +25,24 @@ LEFT_FRAME, RIGHT_FRAME, HAND_FRAME = "camera_left_optical", "camera_right_optic
 
 @dataclass(frozen=True)
 class Lighting:
-    """TinyRenderer lighting; no specular term and no shadows, so hues stay the texture's."""
+    """TinyRenderer lighting: ambient + diffuse · max(0, n·direction) + specular.
+
+    The defaults are the clean cell's: straight down, no specular term, white, so hues
+    stay the texture's.
+
+    Attributes:
+        ambient: share of light from everywhere (0-1).
+        diffuse: the directional lamp's share on a surface facing it.
+        direction: unit vector from the scene towards the lamp (world frame).
+        specular: the renderer's specular coefficient.
+        colour: the lamp's colour, linear RGB gains (0-1).
+    """
 
     ambient: float = 0.6
     diffuse: float = 0.4
     direction: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    specular: float = 0.0
+    colour: tuple[float, float, float] = (1.0, 1.0, 1.0)
 
 
 def gl_view_matrix(transform_camera_to_world: npt.ArrayLike) -> list[float]:
@@ -84,11 +91,24 @@ def render_bgr(
         near, far: clipping distances [m].
         lighting: light model; default `Lighting()`.
     """
+    return render_bgr_depth(client, camera, transform_camera_to_world, near, far, lighting)[0]
+
+
+def render_bgr_depth(
+    client: int,
+    camera: PinholeCamera,
+    transform_camera_to_world: npt.ArrayLike,
+    near: float = 0.02,
+    far: float = 3.0,
+    lighting: Lighting | None = None,
+) -> tuple[npt.NDArray[np.uint8], FloatArray]:
+    """`render_bgr` and the (H, W) depth along the optical axis [m] (`far` where nothing is)."""
     if camera.has_distortion:
         raise CalibrationError("the renderer draws ideal pinholes: dist_coeffs must be zero")
     light = lighting or Lighting()
     width, height = camera.image_size
-    _, _, rgba, _, _ = pb.getCameraImage(
+    colour = {} if light.colour == (1.0, 1.0, 1.0) else {"lightColor": list(light.colour)}
+    _, _, rgba, zbuffer, _ = pb.getCameraImage(
         width,
         height,
         viewMatrix=gl_view_matrix(transform_camera_to_world),
@@ -98,12 +118,20 @@ def render_bgr(
         lightDirection=list(light.direction),
         lightAmbientCoeff=light.ambient,
         lightDiffuseCoeff=light.diffuse,
-        lightSpecularCoeff=0.0,
+        lightSpecularCoeff=light.specular,
         flags=pb.ER_NO_SEGMENTATION_MASK,
         physicsClientId=client,
+        **colour,
     )
     image = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)
-    return np.ascontiguousarray(image[:, :, 2::-1])
+    depth = linear_depth(np.asarray(zbuffer, dtype=np.float64).reshape(height, width), near, far)
+    return np.ascontiguousarray(image[:, :, 2::-1]), depth
+
+
+def linear_depth(zbuffer: npt.ArrayLike, near: float, far: float) -> FloatArray:
+    """pybullet's z-buffer values (0-1) as distances along the optical axis [m]."""
+    z = np.asarray(zbuffer, dtype=np.float64)
+    return far * near / (far - (far - near) * z)
 
 
 @dataclass(frozen=True)
@@ -112,69 +140,37 @@ class StereoFrame:
 
     Attributes:
         left_bgr, right_bgr: (H, W, 3) uint8 images.
-        time: simulated time of the capture [s].
-        transform_right_camera_to_world: 4x4 pose of Σ_CR at capture [m].
+        time: simulated time of the exposure [s].
+        transform_right_camera_to_world: 4x4 pose of Σ_CR at the exposure [m].
+        available_time: simulated time the images reach the computer [s] (>= time).
+        dropped: the camera lost the frame triggered at `time`; these images were
+            exposed at `time` but arrive a frame period later (in `available_time`).
     """
 
     left_bgr: npt.NDArray[np.uint8]
     right_bgr: npt.NDArray[np.uint8]
     time: float
     transform_right_camera_to_world: FloatArray
+    available_time: float = float("nan")
+    dropped: bool = False
 
-
-class _Clock(Protocol):
-    """Anything with a simulated `time` [s] (the World)."""
-
-    @property
-    def time(self) -> float: ...
-
-
-class StereoCamera:
-    """The two hand cameras, rendered at the robot's `camera_*_optical` frames.
-
-    The rig (intrinsics from the config, extrinsics from the URDF) is what a calibration
-    would give; `save_rig` writes the file the recogniser reads.
-    """
-
-    def __init__(self, client: int, robot: SimRobot, config: CameraSettings, clock: _Clock) -> None:
-        self._client = client
-        self._robot = robot
-        self._config = config
-        self._clock = clock
-        width, height = config.image_size
-        camera = PinholeCamera.from_fov((width, height), np.deg2rad(config.hfov_deg))
-        left = robot.frame_pose(LEFT_FRAME)
-        right = robot.frame_pose(RIGHT_FRAME)
-        hand = robot.frame_pose(HAND_FRAME)
-        self.rig = StereoRig(
-            camera,
-            camera,
-            invert_transform(right) @ left,
-            invert_transform(hand) @ right,
-        )
-        self.lighting = Lighting(config.ambient, config.diffuse)
-
-    def render(self) -> StereoFrame:
-        """Renders both cameras at the robot's current pose."""
-        left_pose = self._robot.frame_pose(LEFT_FRAME)
-        right_pose = self._robot.frame_pose(RIGHT_FRAME)
-        near, far = self._config.near, self._config.far
-        left = render_bgr(self._client, self.rig.left, left_pose, near, far, self.lighting)
-        right = render_bgr(self._client, self.rig.right, right_pose, near, far, self.lighting)
-        return StereoFrame(left, right, self._clock.time, right_pose)
-
-    def save_rig(self, path: str | Path) -> Path:
-        """Writes the rig YAML (docs/architecture.md format) and returns its path."""
-        save_rig(self.rig, path)
-        return Path(path)
+    def __post_init__(self) -> None:
+        if np.isnan(self.available_time):
+            object.__setattr__(self, "available_time", float(self.time))
+        if self.available_time < self.time:
+            raise ValueError(f"available_time {self.available_time} s precedes the exposure {self.time} s")
 
 
 __all__ = [
     "GL_FROM_CV",
+    "HAND_FRAME",
+    "LEFT_FRAME",
+    "RIGHT_FRAME",
     "Lighting",
-    "StereoCamera",
     "StereoFrame",
     "gl_projection_matrix",
     "gl_view_matrix",
+    "linear_depth",
     "render_bgr",
+    "render_bgr_depth",
 ]

@@ -13,8 +13,10 @@ import numpy as np
 
 from robot_app.geometry import make_transform, pose_error
 from robot_app.sim.cloth_body import ClothBody
+from robot_app.sim.cloth_visual import ClothLook
 from robot_app.sim.cloths import ClothSpec
 from robot_app.sim.config import WorldConfig
+from robot_app.sim.realism import scene_defaults
 from robot_app.sim.station import ModelStation
 from robot_app.sim.world import World
 
@@ -71,7 +73,10 @@ def lift_check(world: World, cloth: ClothBody, height: float = 0.3, duration: fl
 
 @dataclass(frozen=True)
 class RecognitionCheck:
-    """Recognition of one flat cloth at the observation pose, against ground truth.
+    """Recognition of one cloth at the observation pose, against ground truth.
+
+    The cloth lies as the world's realism preset lays it (flat in `clean`, wrinkled in
+    `realistic`, maybe with a folded corner in `harsh`).
 
     Errors are in the right-camera frame; yaw errors are taken modulo the model's
     symmetry angles (a plain rectangle looks the same turned by 180°).
@@ -91,13 +96,14 @@ class RecognitionCheck:
 def recognition_check(
     spec: ClothSpec, config: WorldConfig, seed: int = 0, station: ModelStation | None = None
 ) -> RecognitionCheck:
-    """Makes the cloth's model from the station photo, lays the cloth flat at a seeded random
-    pose in the range, renders the stereo pair at the observation pose and recognises it."""
+    """Makes the cloth's model from the station photo, lays the cloth at a seeded random pose
+    in the range (wrinkled and folded as the realism preset says), captures the stereo
+    pair at the observation pose and recognises it."""
     from robot_app.vision.photo_model import make_model  # vision is optional for the sim
     from robot_app.vision.recognizer import Recognizer
 
     own_station = station is None
-    station = station or ModelStation(config.station, config.cloth, config.range.sheet_rgb)
+    station = station or ModelStation.for_world(config)
     try:
         photo = station.photograph(spec)
     finally:
@@ -105,11 +111,15 @@ def recognition_check(
             station.close()
     model = make_model(photo.photo_bgr, photo.model_camera, photo.background_bgr, name=spec.name)
     rng = np.random.default_rng(seed)
+    defaults = scene_defaults(config.realism)
+    look_rng = np.random.default_rng((seed, 11))
+    look = ClothLook.draw(look_rng, spec.size, defaults["wrinkle_amplitude"], defaults["fold_probability"])
     with World(config) as world:
+        world.reseed(seed)
         # within 50 mm of the range centre, so that the cloth is whole in both cameras
         # (the left camera's view is shifted by the 0.1 m baseline)
         x, y = np.asarray(config.range.centre_xy) + rng.uniform(-0.05, 0.05, size=2)
-        cloth = world.add_cloth(spec, float(x), float(y), float(rng.uniform(-np.pi, np.pi)))
+        cloth = world.add_cloth(spec, float(x), float(y), float(rng.uniform(-np.pi, np.pi)), look=look)
         frame = world.stereo.render()
         truth = world.transform_model_to_camera(cloth)
         recognizer = Recognizer(model, world.stereo.rig)

@@ -4,6 +4,9 @@ Ground truth of Σ_M is the Kabsch fit of the rest-mesh nodes (in Σ_M) to the c
 nodes (in Σ_W). A cloth lying face up has Σ_M's z pointing down into the table, so a
 camera looking straight down with its image axes along the texture's sees ^CR R_M = I.
 
+A fabric cloth is drawn with a finer two-sided render mesh skinned to the physics mesh
+(`cloth_visual`); its texture is then an atlas of front and back.
+
 Every node of every cloth weighs NODE_MASS; a cloth's simulated mass is its node count
 times NODE_MASS, not the catalogue's `mass`. pybullet keeps one mass-spring force per
 world, with the constants of the first soft body loaded, so springs scaled per cloth held
@@ -31,6 +34,7 @@ from robot_app.geometry import (
     transform_points,
 )
 from robot_app.sim.cloth_mesh import ClothMesh, mesh_obj_path
+from robot_app.sim.cloth_visual import Fold
 from robot_app.sim.cloths import ClothSpec, texture_path
 from robot_app.sim.config import ClothPhysicsSettings
 
@@ -51,6 +55,10 @@ class ClothBody:
         transform_model_to_world: 4x4 initial pose of Σ_M [m].
         physics: spring constants, friction and collision margin.
         cache: folder for the .obj mesh and the texture PNG.
+        render_obj: a render mesh (`cloth_visual.RenderMesh`) skinned to the physics
+            mesh; None draws the physics mesh with the flat texture.
+        fabric: with a render mesh, texture it with the fabric atlas (else the flat
+            texture on both sides).
     """
 
     def __init__(
@@ -60,13 +68,22 @@ class ClothBody:
         transform_model_to_world: npt.ArrayLike,
         physics: ClothPhysicsSettings,
         cache: str | Path,
+        render_obj: str | Path | None = None,
+        fabric: bool = False,
     ) -> None:
         T = np.asarray(transform_model_to_world, dtype=float)
         self._client = client
         self.mesh = mesh
+        self._margin = physics.collision_margin
+        self._drawn = render_obj is not None
         obj = mesh_obj_path(mesh, cache)
+        files = (
+            {"fileName": str(obj)}
+            if render_obj is None
+            else {"fileName": str(render_obj), "simFileName": str(obj)}
+        )
         self.body_id = pb.loadSoftBody(
-            str(obj),
+            **files,
             basePosition=T[:3, 3].tolist(),
             baseOrientation=quaternion_xyzw_from_matrix(T[:3, :3]).tolist(),
             mass=len(mesh.vertices) * NODE_MASS,
@@ -85,7 +102,8 @@ class ClothBody:
         if self.body_id < 0:
             raise SimulationError(f"pybullet could not load the soft body {obj}")
         self._order = self._node_order(transform_points(T, mesh.vertices))
-        texture = pb.loadTexture(str(texture_path(mesh.spec, cache)), physicsClientId=client)
+        kind = "flat" if render_obj is None else ("fabric" if fabric else "flat_atlas")
+        texture = pb.loadTexture(str(texture_path(mesh.spec, cache, kind)), physicsClientId=client)
         pb.changeVisualShape(
             self.body_id,
             -1,
@@ -113,6 +131,23 @@ class ClothBody:
         """4x4 ground-truth pose of Σ_M in Σ_W: Kabsch fit of the rest nodes to the nodes."""
         return kabsch(self.mesh.vertices, self.nodes())
 
+    def drawn_nodes(self) -> FloatArray:
+        """(N, 3) nodes lifted to the drawn cloth around them [m] (= nodes without a render
+        mesh): each moves along the cloth's normal by the mean height, above it, of the
+        render vertices nearest to it."""
+        nodes = self.nodes()
+        if not self._drawn:
+            return nodes
+        _, positions = pb.getMeshData(self.body_id, -1, physicsClientId=self._client)
+        drawn = np.asarray(positions, dtype=float)
+        nearest = np.asarray(cKDTree(nodes).query(drawn)[1], dtype=np.int64)
+        offset = np.zeros_like(nodes)
+        np.add.at(offset, nearest, drawn - nodes[nearest])
+        count = np.bincount(nearest, minlength=len(nodes))[:, None]
+        normal = self.pose()[:3, 2]
+        lift = (offset / np.maximum(count, 1)) @ normal
+        return nodes + lift[:, None] * normal
+
     def max_edge_stretch(self) -> float:
         """Largest ratio of a mesh edge's current length to its rest length."""
         nodes = self.nodes()
@@ -134,6 +169,11 @@ class ClothBody:
     ) -> int:
         """Anchors the nodes within `radius` [m] of frame `at` to the robot's `link`.
 
+        A cloth drawn with a render mesh is held where it is drawn: its wrinkles stand up
+        to about a centimetre above the physics nodes (which cannot hold them), and fingers
+        closing on a drawn ridge hold the nodes under it. So each node is taken at the height
+        of the drawn cloth around it (`drawn_nodes`).
+
         Returns:
             The number of anchored nodes.
 
@@ -146,7 +186,8 @@ class ClothBody:
             raise GraspError(f"grasp radius must be positive [m], got {radius}")
         centre = robot.frame_pose(at)[:3, 3]
         link_index = robot.link_index(link)
-        distances = np.linalg.norm(self.nodes() - centre, axis=1)
+        nodes = self.drawn_nodes() if self._drawn else self.nodes()
+        distances = np.linalg.norm(nodes - centre, axis=1)
         chosen = np.flatnonzero(distances <= radius)
         if chosen.size == 0:
             raise GraspError(
@@ -173,6 +214,29 @@ class ClothBody:
         """The cloth passes through these links of a rigid or multi-body (-1 = its base)."""
         for link in links:
             pb.setCollisionFilterPair(body, self.body_id, link, -1, 0, physicsClientId=self._client)
+
+    def fold(self, fold: Fold, lift: float | None = None) -> int:
+        """Folds the nodes beyond the fold line over onto the cloth, `lift` [m] above it.
+
+        The cloth should be flat; the flap's nodes are mirrored about the fold line in
+        the cloth's plane and lifted off it (default: twice the collision margin).
+        Returns how many nodes were moved.
+        """
+        rest = self.mesh.vertices
+        flap = fold.along(rest) > fold.line(rest)
+        if not np.any(flap):
+            return 0
+        pose = self.pose()
+        direction = pose[:3, :2] @ np.array([np.cos(fold.angle), np.sin(fold.angle)])
+        nodes = self.nodes().copy()
+        along = (nodes - pose[:3, 3]) @ direction
+        nodes[flap] -= np.outer(2.0 * (along[flap] - fold.line(rest)), direction)
+        up = -pose[:3, 2]  # Σ_M z points into the table on a face-up cloth
+        nodes[flap] += (2.0 * self._margin if lift is None else lift) * up
+        ordered = np.empty_like(nodes)
+        ordered[self._order] = nodes
+        pb.resetMeshData(self.body_id, vertices=ordered.tolist(), physicsClientId=self._client)
+        return int(np.count_nonzero(flap))
 
     def translate(self, dx: float, dy: float) -> None:
         """Shifts the whole cloth by (dx, dy) [m] on the table, as a push would (tests)."""

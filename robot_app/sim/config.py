@@ -7,13 +7,24 @@ All lengths [m], angles [rad] unless the field name says `_deg`; positions are i
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
-from pydantic import Field, field_validator
+from pydantic import Field, field_validator, model_validator
 
 from robot_app.config import StrictModel, load_config
+from robot_app.sim.realism import (
+    DEFAULT_REALISM,
+    AppearanceSettings,
+    ImagingSettings,
+    LightingSettings,
+    Realism,
+    fill_preset_defaults,
+)
 
 Vec2 = tuple[float, float]
 Vec3 = tuple[float, float, float]
+
+CATALOGUE_SIZE = 20  # sample cloths No.1-No.20 (robot_app.sim.cloths.CATALOGUE)
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
 DEFAULT_URDF = REPO_ROOT / "urdf" / "pa10.urdf"
@@ -91,8 +102,6 @@ class CameraSettings(StrictModel):
     hfov_deg: float = Field(48.0, gt=1.0, lt=170.0)
     near: float = Field(0.02, gt=0.0)
     far: float = Field(3.0, gt=0.0)
-    ambient: float = Field(0.6, ge=0.0, le=1.0)
-    diffuse: float = Field(0.4, ge=0.0, le=1.0)
 
     @field_validator("image_size")
     @classmethod
@@ -136,7 +145,16 @@ class StationSettings(StrictModel):
 
 
 class WorldConfig(StrictModel):
-    """Everything that places and drives the simulated cell."""
+    """Everything that places and drives the simulated cell.
+
+    `realism` names the preset (robot_app.sim.realism) that fills every `lighting`,
+    `imaging` and `appearance` key not given explicitly.
+    """
+
+    realism: Realism = DEFAULT_REALISM
+    lighting: LightingSettings = LightingSettings()
+    imaging: ImagingSettings = ImagingSettings()
+    appearance: AppearanceSettings = AppearanceSettings()
 
     table: TableSettings = TableSettings()
     range: RangeSettings = RangeSettings()
@@ -149,18 +167,29 @@ class WorldConfig(StrictModel):
     physics_hz: float = Field(240.0, ge=60.0, le=2000.0)
     gravity: float = Field(9.81, ge=0.0)
 
+    @model_validator(mode="before")
+    @classmethod
+    def _preset_defaults(cls, data: Any) -> Any:
+        return fill_preset_defaults(data)
+
 
 class SceneSettings(StrictModel):
     """What `make_scene` puts on the table."""
 
-    target: int = Field(3, ge=1, le=12, description="catalogue number No.1-No.12")
+    target: int = Field(3, ge=1, le=CATALOGUE_SIZE, description="catalogue number No.1-No.20")
     occluder: bool = False
     occluded_fraction: float = Field(0.45, ge=0.0, lt=1.0)
     occluder_size: Vec2 = (0.20, 0.34)
-    distractor: int | None = Field(None, ge=1, le=12)
+    distractor: int | None = Field(None, ge=1, le=CATALOGUE_SIZE)
     drop_height: float = Field(0.0, ge=0.0, le=0.5)
     position_margin: float = Field(
         0.02, ge=0.0, description="keep the target's centre this far inside the range [m]"
+    )
+    wrinkle_amplitude: float | None = Field(
+        None, ge=0.0, le=0.03, description="highest wrinkle of a laid cloth [m]; null: the realism preset's"
+    )
+    fold_probability: float | None = Field(
+        None, ge=0.0, le=1.0, description="chance a cloth lies with a corner folded over; null: the preset's"
     )
 
 
@@ -172,6 +201,7 @@ def load_world_config(path: str | Path | None = None, overrides: tuple[str, ...]
 
 
 __all__ = [
+    "CATALOGUE_SIZE",
     "DEFAULT_URDF",
     "DEFAULT_WORLD_CONFIG",
     "BoxSettings",

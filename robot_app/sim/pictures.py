@@ -1,18 +1,21 @@
 """Pictures a person can look at: the cell from an overview camera, the stereo pair,
-and the 12 catalogue cloths side by side (as the station photographs them)."""
+and the catalogue cloths side by side (as the station photographs them)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import cv2
 import numpy as np
 import numpy.typing as npt
 
+from robot_app.arrays import FloatArray
+from robot_app.errors import OutputError
 from robot_app.geometry import make_transform
-from robot_app.sim.cameras import render_bgr
 from robot_app.sim.cloths import CATALOGUE
 from robot_app.sim.config import SceneSettings, WorldConfig
+from robot_app.sim.lighting import render_lit
 from robot_app.sim.scene import make_scene
 from robot_app.sim.station import ModelStation
 from robot_app.sim.world import World
@@ -31,32 +34,59 @@ def look_at(
     return make_transform(np.column_stack([x, np.cross(z, x), z]), eye)
 
 
+def overview_image(world: World, camera: PinholeCamera, pose: FloatArray) -> npt.NDArray[np.uint8]:
+    """The cell seen by a free camera, in its light and (if on) the key lamp's shadows."""
+    shadows = None
+    if world.config.lighting.shadows:
+        shadows = world.stereo.shadow_map((camera,), (pose,), size=512)
+    return render_lit(world.client, camera, pose, world.lighting, shadows, world.config.lighting.penumbra)
+
+
 def write_pictures(out: str | Path, config: WorldConfig, scene: SceneSettings, seed: int = 0) -> list[Path]:
-    """Writes overview.png, stereo.png and catalogue.png into `out`; returns their paths."""
+    """Writes overview.png, stereo.png and catalogue.png into `out`; returns their paths.
+
+    Raises:
+        OutputError: `out` exists and is not a folder, or cannot be written.
+    """
     folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
+    if folder.exists() and not folder.is_dir():
+        raise OutputError(f"{folder} exists and is not a folder", path=folder, expected="a folder")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise OutputError(f"cannot create the folder {folder}: {err.strerror}", path=folder) from err
     paths = []
     with World(config) as world:
         make_scene(world, scene, seed)
         overview = PinholeCamera.from_fov((960, 720), np.deg2rad(60))
         pose = look_at([1.6, 0.9, 1.1], [0.35, -0.15, 0.15])
-        image = render_bgr(world.client, overview, pose, lighting=world.stereo.lighting)
-        paths.append(folder / "overview.png")
-        cv2.imwrite(str(paths[-1]), image)
+        paths.append(write_png(folder / "overview.png", overview_image(world, overview, pose)))
         frame = world.stereo.render()
-        paths.append(folder / "stereo.png")
-        cv2.imwrite(str(paths[-1]), np.hstack([frame.left_bgr, frame.right_bgr]))
+        paths.append(write_png(folder / "stereo.png", np.hstack([frame.left_bgr, frame.right_bgr])))
     tiles = []
-    with ModelStation(config.station, config.cloth, config.range.sheet_rgb) as station:
+    with ModelStation.for_world(config) as station:
         for spec in CATALOGUE:
             photo = cv2.resize(station.photograph(spec).photo_bgr, (320, 240), interpolation=cv2.INTER_AREA)
             white = (255, 255, 255)
             cv2.putText(photo, f"No.{spec.number}", (8, 24), cv2.FONT_HERSHEY_SIMPLEX, 0.7, white, 2)
             tiles.append(photo)
-    rows = [np.hstack(tiles[i : i + 4]) for i in range(0, len(tiles), 4)]
-    paths.append(folder / "catalogue.png")
-    cv2.imwrite(str(paths[-1]), np.vstack(rows))
+    rows = [np.hstack(tiles[i : i + 5]) for i in range(0, len(tiles), 5)]
+    paths.append(write_png(folder / "catalogue.png", np.vstack(rows)))
     return paths
 
 
-__all__ = ["look_at", "write_pictures"]
+def write_png(path: Path, image: npt.NDArray[np.uint8]) -> Path:
+    """Writes a PNG atomically (a temporary name in the same folder, then renamed)."""
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
+    try:
+        if not cv2.imwrite(str(tmp), image):
+            raise OutputError(f"could not write {path}", path=path)
+        os.replace(tmp, path)
+    except OSError as err:
+        raise OutputError(f"could not write {path}: {err.strerror}", path=path) from err
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+__all__ = ["look_at", "overview_image", "write_pictures", "write_png"]

@@ -166,6 +166,22 @@ class SimRobot:
             pos, quat = state[4], state[5]
         return make_transform(matrix_from_quaternion_xyzw(quat), pos)
 
+    def frame_velocity(self, name: str) -> tuple[FloatArray, FloatArray]:
+        """Linear [m/s] and angular [rad/s] velocity (3,) of a URDF link frame, in Σ_W."""
+        index = self.link_index(name)
+        if index < 0:
+            linear, angular = pb.getBaseVelocity(self.body_id, physicsClientId=self._client)
+        else:
+            state = pb.getLinkState(
+                self.body_id,
+                index,
+                computeLinkVelocity=1,
+                computeForwardKinematics=True,
+                physicsClientId=self._client,
+            )
+            linear, angular = state[6], state[7]
+        return np.asarray(linear, dtype=float), np.asarray(angular, dtype=float)
+
     def arm_collisions(self, bodies: tuple[int, ...] | list[int], margin: float = 0.0) -> list[Contact]:
         """Contacts (closer than `margin` [m]) between moving robot links and the given bodies.
 

@@ -1,7 +1,12 @@
 """Scenes from a seed: the target cloth at a random pose in the recognition range, and
 optionally the blue paper occluding a given fraction of it and a distractor cloth.
 
-Same world config, same `SceneSettings`, same seed: same scene.
+Each cloth lies as a real one does: wrinkled (ridges up to `wrinkle_amplitude`) and,
+with `fold_probability`, with a corner folded over; both default to the world's
+realism preset. The key lamp's direction is drawn for the scene, and the cameras'
+noise restarts from the scene's seed.
+
+Same world config, same `SceneSettings`, same seed: same scene, same images.
 """
 
 from __future__ import annotations
@@ -19,8 +24,10 @@ from robot_app.geometry import (
     rotation_from_rpy,
 )
 from robot_app.sim.cloth_body import ClothBody
+from robot_app.sim.cloth_visual import ClothLook
 from robot_app.sim.cloths import ClothSpec, cloth_spec, outline_polygon, polygon_area
 from robot_app.sim.config import SceneSettings
+from robot_app.sim.realism import scene_defaults
 from robot_app.sim.world import FLIP_FACE_UP, World
 
 MAX_TRIES = 500
@@ -55,6 +62,13 @@ def make_scene(world: World, config: SceneSettings | None = None, seed: int = 0)
     """Places the scene's cloths (and paper) in `world` and lets them settle."""
     config = config or SceneSettings()
     rng = np.random.default_rng(seed)
+    world.reseed(seed)
+    defaults = scene_defaults(world.config.realism)
+    amplitude = (
+        defaults["wrinkle_amplitude"] if config.wrinkle_amplitude is None else config.wrinkle_amplitude
+    )
+    fold_chance = defaults["fold_probability"] if config.fold_probability is None else config.fold_probability
+    look_rng = np.random.default_rng((seed, 11))  # own stream: the layout stays the preset-free one
     range_cfg = world.config.range
     centre = np.asarray(range_cfg.centre_xy)
     half = np.asarray(range_cfg.size_xy) / 2 - config.position_margin
@@ -76,10 +90,12 @@ def make_scene(world: World, config: SceneSettings | None = None, seed: int = 0)
         raise SimulationError(
             f"no room for cloths No.{target_spec.number} and No.{config.distractor} side by side in the range"
         )
-    target = _drop(world, rng, target_spec, x, y, yaw, config.drop_height)
+    look = ClothLook.draw(look_rng, target_spec.size, amplitude, fold_chance)
+    target = _drop(world, rng, target_spec, x, y, yaw, config.drop_height, look)
     distractor = None
     if other is not None:
-        distractor = _drop(world, rng, other, dx, dy, dyaw, config.drop_height)
+        other_look = ClothLook.draw(look_rng, other.size, amplitude, fold_chance)
+        distractor = _drop(world, rng, other, dx, dy, dyaw, config.drop_height, other_look)
     settle_time = world.settle()
     occluder, fraction = None, 0.0
     if config.occluder and config.occluded_fraction > 0:
@@ -140,15 +156,22 @@ def _free_pose(
 
 
 def _drop(
-    world: World, rng: np.random.Generator, spec: ClothSpec, x: float, y: float, yaw: float, height: float
+    world: World,
+    rng: np.random.Generator,
+    spec: ClothSpec,
+    x: float,
+    y: float,
+    yaw: float,
+    height: float,
+    look: ClothLook,
 ) -> ClothBody:
     if height <= 0:
-        return world.add_cloth(spec, x, y, yaw, settle=False)
-    # tilted drops land edge first and fold: a wrinkled cloth
+        return world.add_cloth(spec, x, y, yaw, settle=False, look=look)
+    # tilted drops land edge first
     tilt = rotation_from_rpy(rng.uniform(-0.6, 0.6), rng.uniform(-0.6, 0.6), 0.0)
     z = world.config.table.top_z + world.config.cloth.collision_margin + height
     pose = make_transform(tilt @ rotation_about_z(yaw) @ FLIP_FACE_UP, [x, y, z])
-    return world.add_cloth_at(spec, pose, settle=False)
+    return world.add_cloth_at(spec, pose, settle=False, look=look)
 
 
 def _clip_half_plane(polygon: FloatArray, normal: FloatArray, offset: float) -> FloatArray:

@@ -1,9 +1,10 @@
 """The model-generation station of Fig. 7: one camera 400 mm above a green sheet.
 
-It has its own pybullet client (gravity off) so photographs never disturb a `World`.
-The cloth is laid with Σ_M at the sheet's centre, its texture axes along the camera's
-image axes, so the camera sees ^C R_M = I; the photo then goes through `make_model`
-like a real photograph.
+It has its own pybullet client (gravity off) so photographs never disturb a `World`,
+its own lamp (`world.lighting.station`) and its own camera (`world.imaging.station`:
+manual exposure, its own white balance, noise, JPEG). The cloth is laid flat with Σ_M
+at the sheet's centre, its texture axes along the camera's image axes, so the camera
+sees ^C R_M = I; the photo then goes through `make_model` like a real photograph.
 """
 
 from __future__ import annotations
@@ -21,8 +22,17 @@ from robot_app.geometry import make_transform
 from robot_app.sim.cameras import Lighting, render_bgr
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloth_mesh import build_cloth_mesh, cache_dir
+from robot_app.sim.cloth_visual import build_render_mesh, render_obj_path
 from robot_app.sim.cloths import ClothSpec
-from robot_app.sim.config import ClothPhysicsSettings, RangeSettings, StationSettings
+from robot_app.sim.config import (
+    ClothPhysicsSettings,
+    RangeSettings,
+    StationSettings,
+    WorldConfig,
+)
+from robot_app.sim.imaging import CameraModel
+from robot_app.sim.lighting import station_lighting
+from robot_app.sim.realism import AppearanceSettings, StationImagingSettings, StationLightingSettings
 from robot_app.vision.camera import ModelCamera, PinholeCamera
 
 FACE_UP = np.diag([1.0, -1.0, -1.0])  # camera looking down; also Σ_M of a face-up cloth
@@ -52,6 +62,9 @@ class ModelStation:
         config: camera distance [m], resolution, field of view, sheet size.
         physics: the cloth mesh spacing (the same meshes as in the World).
         sheet_rgb: colour of the green sheet (the World's, by default).
+        lighting: the station's lamp (default: the clean cell's straight-down light).
+        imaging: the station camera (default: ideal).
+        appearance: flat cartoon or fabric cloths (default: flat).
     """
 
     def __init__(
@@ -59,9 +72,16 @@ class ModelStation:
         config: StationSettings | None = None,
         physics: ClothPhysicsSettings | None = None,
         sheet_rgb: tuple[float, float, float] = RangeSettings().sheet_rgb,
+        lighting: StationLightingSettings | None = None,
+        imaging: StationImagingSettings | None = None,
+        appearance: AppearanceSettings | None = None,
     ) -> None:
         self.config = config or StationSettings()
         self._physics = physics or ClothPhysicsSettings()
+        self._lighting: Lighting = station_lighting(lighting or StationLightingSettings())
+        self._lamp_rgb = (lighting or StationLightingSettings()).key_rgb
+        self._imaging = imaging or StationImagingSettings()
+        self._appearance = appearance or AppearanceSettings()
         self._client = pb.connect(pb.DIRECT)
         if self._client < 0:
             raise SimulationError("could not connect to pybullet")
@@ -78,15 +98,45 @@ class ModelStation:
         self.transform_camera_to_world = make_transform(FACE_UP, [0.0, 0.0, self.config.distance])
         self._cache = cache_dir()
 
+    @classmethod
+    def for_world(cls, world: WorldConfig) -> ModelStation:
+        """The station of a world config: its station, cloth meshes, sheet, lamp, camera, look."""
+        return cls(
+            world.station,
+            world.cloth,
+            world.range.sheet_rgb,
+            world.lighting.station,
+            world.imaging.station,
+            world.appearance,
+        )
+
     def photograph(self, spec: ClothSpec) -> StationPhoto:
-        """Photographs the empty sheet, then the cloth lying flat in the middle of it."""
-        background = self._render()
+        """Photographs the empty sheet, then the cloth lying flat in the middle of it.
+
+        The camera's noise and white-balance error are drawn from the cloth's number:
+        the same cloth gives the same photo.
+        """
+        camera = CameraModel(self._imaging, (spec.number, 17), self._lamp_rgb)
+        background = camera.expose(self._render())[0]
         mesh = build_cloth_mesh(spec, self._physics.node_spacing, self._physics.boundary_spacing)
         pose = make_transform(FACE_UP, [0.0, 0.0, 0.0])
-        cloth = ClothBody(self._client, mesh, pose, self._physics, self._cache)
+        render = None
+        if self._appearance.fabric:
+            render = render_obj_path(
+                build_render_mesh(mesh, self._appearance.visual_spacing), self._cache, keep=True
+            )
+        cloth = ClothBody(
+            self._client,
+            mesh,
+            pose,
+            self._physics,
+            self._cache,
+            render_obj=render,
+            fabric=self._appearance.fabric,
+        )
         try:
             pb.stepSimulation(physicsClientId=self._client)  # soft-body visuals update on a step
-            photo = self._render()
+            photo = camera.expose(self._render())[0]
             truth = np.asarray(np.linalg.solve(self.transform_camera_to_world, cloth.pose()), dtype=float)
         finally:
             cloth.remove()
@@ -94,7 +144,7 @@ class ModelStation:
 
     def _render(self) -> npt.NDArray[np.uint8]:
         return render_bgr(
-            self._client, self.model_camera.camera, self.transform_camera_to_world, lighting=Lighting()
+            self._client, self.model_camera.camera, self.transform_camera_to_world, lighting=self._lighting
         )
 
     def close(self) -> None:

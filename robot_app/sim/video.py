@@ -9,9 +9,8 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.errors import InputError
-from robot_app.sim.cameras import render_bgr
 from robot_app.sim.cell import SimCell
-from robot_app.sim.pictures import look_at
+from robot_app.sim.pictures import look_at, overview_image
 from robot_app.sim.world import World
 from robot_app.vision import PinholeCamera
 
@@ -44,7 +43,6 @@ class EpisodeVideo:
         box = np.asarray(world.box.centre)
         focus = (centre + box) / 2 + np.array([0.0, 0.0, 0.25])
         self.pose = look_at(focus + np.array([1.3, -0.6, 0.9]), focus)
-        self.lighting = world.stereo.lighting
         self.writer = imageio.get_writer(str(self.path), fps=fps, codec="libx264", macro_block_size=8)
         self.frames = 0
 
@@ -53,7 +51,7 @@ class EpisodeVideo:
         if self.world.time + 1e-9 < self.next_time:
             return
         self.next_time += self.period
-        frame = render_bgr(self.world.client, self.camera, self.pose, lighting=self.lighting)
+        frame = overview_image(self.world, self.camera, self.pose)
         capture = self.cell.last_capture
         if capture is not None:
             left = _inset(capture.left_bgr)

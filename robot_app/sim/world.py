@@ -23,12 +23,15 @@ from robot_app.geometry import (
     quaternion_xyzw_from_matrix,
     rotation_about_z,
 )
-from robot_app.sim.cameras import RIGHT_FRAME, StereoCamera
+from robot_app.sim.cameras import RIGHT_FRAME, Lighting
 from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloth_mesh import build_cloth_mesh, cache_dir
+from robot_app.sim.cloth_visual import ClothLook, build_render_mesh, render_obj_path
 from robot_app.sim.cloths import ClothSpec
 from robot_app.sim.config import WorldConfig, load_world_config
+from robot_app.sim.lighting import draw_lighting
 from robot_app.sim.robot import SimRobot
+from robot_app.sim.stereo import StereoCamera
 
 FLIP_FACE_UP = np.diag([1.0, -1.0, -1.0])  # Σ_M of a face-up cloth: z into the table
 OCCLUDER_RGBA = (0.12, 0.25, 0.85, 1.0)  # the blue paper of Fig. 11 (b)
@@ -127,8 +130,22 @@ class World:
         )
         self.observation_joints.setflags(write=False)
         self.robot.reset_joints(self.observation_joints)
-        self.stereo = StereoCamera(self._client, self.robot, c.cameras, self)
+        self.stereo = StereoCamera(self._client, self.robot, c, self)
         self.cloths: list[ClothBody] = []
+
+    @property
+    def lighting(self) -> Lighting:
+        """The cell's light now (the key lamp's direction is drawn per scene by `reseed`)."""
+        return self.stereo.lighting
+
+    def reseed(self, seed: int) -> None:
+        """Draws the key lamp's direction for a scene and restarts the cameras' generators.
+
+        Same config and seed: same light and same camera noise for the same captures.
+        """
+        rng = np.random.default_rng((seed, 7))
+        self.stereo.lighting = draw_lighting(self.config.lighting, rng)
+        self.stereo.reseed(seed)
 
     @property
     def client(self) -> int:
@@ -156,20 +173,29 @@ class World:
         yaw: float,
         drop_height: float = 0.0,
         settle: bool = True,
+        look: ClothLook | None = None,
     ) -> ClothBody:
         """Lays a catalogue cloth face up with Σ_M's origin at (x, y) [m], turned by `yaw` [rad].
 
         The cloth starts `drop_height` [m] (plus its collision margin) above the table;
         with `settle` the simulation runs until it lies still (at most settle_time).
+        `look` wrinkles it and may fold a corner over (see `add_cloth_at`).
         """
         z = self.config.table.top_z + self.config.cloth.collision_margin + drop_height
         pose = make_transform(rotation_about_z(yaw) @ FLIP_FACE_UP, [x, y, z])
-        return self.add_cloth_at(spec, pose, settle)
+        return self.add_cloth_at(spec, pose, settle, look)
 
     def add_cloth_at(
-        self, spec: ClothSpec, transform_model_to_world: npt.ArrayLike, settle: bool = False
+        self,
+        spec: ClothSpec,
+        transform_model_to_world: npt.ArrayLike,
+        settle: bool = False,
+        look: ClothLook | None = None,
     ) -> ClothBody:
         """Adds a cloth in its rest shape with Σ_M at the given 4x4 pose [m].
+
+        A fabric cloth (`appearance.fabric`) or one with wrinkles is drawn with a render
+        mesh skinned to the physics mesh; `look.fold` folds a corner over right away.
 
         The gripper holds cloths by anchors only and never touches them: nodes next to
         the anchored ones, pushed by the fingers they are anchored to, make the cloth
@@ -177,9 +203,29 @@ class World:
         """
         physics = self.config.cloth
         mesh = build_cloth_mesh(spec, physics.node_spacing, physics.boundary_spacing)
-        cloth = ClothBody(self._client, mesh, transform_model_to_world, physics, self._cache)
+        fabric = self.config.appearance.fabric
+        plain = look is None or (not look.ridges and look.fold is None)
+        render = None
+        if fabric or not plain:
+            render_mesh = build_render_mesh(mesh, self.config.appearance.visual_spacing, look)
+            render = render_obj_path(render_mesh, self._cache, keep=plain)
+        try:
+            cloth = ClothBody(
+                self._client,
+                mesh,
+                transform_model_to_world,
+                physics,
+                self._cache,
+                render_obj=render,
+                fabric=fabric,
+            )
+        finally:
+            if render is not None and not plain:  # a one-off mesh: pybullet has read it
+                render.unlink(missing_ok=True)
         cloth.ignore_collisions_with(self.robot.body_id, self.robot.gripper_links)
         self.cloths.append(cloth)
+        if look is not None and look.fold is not None:
+            cloth.fold(look.fold)
         if settle:
             self.settle([cloth])
         return cloth
