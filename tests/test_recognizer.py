@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -12,6 +14,7 @@ from robot_app.geometry import (
     rotation_about_z,
     rotation_from_rpy,
     wrap_angle,
+    yaw_of,
 )
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.photo_model import ClothModel, make_model
@@ -174,3 +177,44 @@ def test_garbage_collector_runs_again_after_a_recognition() -> None:
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+def test_tracking_keeps_the_yaw_branch_of_the_predicted_pose() -> None:
+    """A plain rectangle scores the same half turned; tracking must not flip to the half
+    turn even when most of the poses it kept are half turned (they came from the one-shot
+    search, which explored both)."""
+    recognizer = Recognizer(model(0), RIG)
+    left, right = render_stereo_pair(RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(7))
+    recognizer.recognize(left, right, seed=0)
+    half_turn = np.diag([-1.0, -1.0, 1.0, 1.0])
+    kept = recognizer.proposer.kept_poses
+    predicted = make_transform(rotation_about_z(0.06), [0.002, -0.002, 0.0]) @ POSE  # a little off
+    recognizer.proposer.keep(predicted, np.repeat((POSE @ half_turn)[None], len(kept), axis=0))
+    for frame in range(3):
+        left, right = render_stereo_pair(
+            RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(20 + frame)
+        )
+        result = recognizer.track(left, right, np.eye(4))
+        turned = abs(wrap_angle(yaw_of(result.transform_model_to_camera[:3, :3]) - yaw_of(POSE[:3, :3])))
+        assert turned < np.deg2rad(5.0), (
+            f"frame {frame}: tracking turned the cloth by {np.rad2deg(turned):.0f} deg"
+        )
+
+
+def test_tracking_starts_from_the_verified_pose_not_the_proposal(monkeypatch: pytest.MonkeyPatch) -> None:
+    """When verification prefers another pose than the GA's best (e.g. its half turn), the
+    next tracking frame starts from the verified pose."""
+    recognizer = Recognizer(model(2), RIG)
+    left, right = render_stereo_pair(RIG, [(synthetic_cloth(2), POSE)], rng=np.random.default_rng(8))
+    half_turn = np.diag([-1.0, -1.0, 1.0, 1.0])
+    choose = recognizer._most_confident
+
+    def prefer_the_half_turn(best, candidates, rng):  # what verification does on a flipped proposal
+        verified = choose(best, candidates, rng)
+        return dataclasses.replace(verified, pose=verified.pose @ half_turn)
+
+    monkeypatch.setattr(recognizer, "_most_confident", prefer_the_half_turn)
+    result = recognizer.recognize(left, right, seed=0)
+    kept = recognizer.proposer.kept_poses
+    assert kept is not None
+    np.testing.assert_allclose(kept[0], result.transform_model_to_camera, atol=1e-12)

@@ -144,7 +144,7 @@ class PickPlaceLoop:
         self.place_position = np.asarray(place_position, dtype=float).reshape(3)
         self.table_z = float(table_z)
         self.settings = settings or LoopSettings()
-        self.filter = PoseFilter(filter_settings)
+        self.filter = PoseFilter(filter_settings, tuple(self.model.symmetry_angles))
         self.on_phase = on_phase
         self.on_step = on_step
         self.ground_truth = ground_truth

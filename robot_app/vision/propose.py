@@ -45,12 +45,18 @@ class TrackingSettings(StrictModel):
             camera, so a descending camera keeps its cloth.
         verify_every: verify (and decide) on every n-th tracking frame; between them the
             last verification's appearance is carried over (1: every frame).
+        yaw_window_deg: half-width of the yaw window around the motion-predicted pose
+            [deg]: a tracked cloth turns little between frames, while the hue fitness
+            cannot tell a plain cloth from its half turn, so a GA free in yaw flipped a
+            denim rectangle half a turn on the first tracking frame (pick-and-place,
+            realistic cell: every frame 180 deg off, the filter rejected them all).
     """
 
     ga: GASettings = GASettings(population=24, generations=3, islands=1, elite=2)
     window: float = Field(default=0.02, gt=0.0)
     depth_window: float = Field(default=0.03, gt=0.0)
     verify_every: int = Field(default=1, ge=1)
+    yaw_window_deg: float = Field(default=30.0, gt=0.0, le=180.0)
 
 
 class ProposalSettings(StrictModel):
@@ -242,10 +248,14 @@ class Proposer:
             max_tilt_deg=s.bounds.max_tilt_deg,
             max_yaw_deg=s.bounds.max_yaw_deg,
         )
+        near = _yaw_offsets(poses, poses[0]) <= np.deg2rad(t.yaw_window_deg)
+        poses = poses[near]  # the kept poses near the predicted one (a half turn may be among them)
         ga = GeneticAlgorithm(window, t.ga, self.rng)
         ga.seed(np.concatenate([poses, np.repeat(poses[-1:], t.ga.population - len(poses), axis=0)]))
         ga.evolve(self.fitness(s.fine_stride), count)
-        pose = ga.best_pose()
+        ranked = ga.ranked_poses(t.ga.population)
+        inside = _yaw_offsets(ranked, poses[0]) <= np.deg2rad(t.yaw_window_deg)
+        pose = ranked[int(np.argmax(inside))] if inside.any() else poses[0]
         r = self.refiner.settings
         if r.enabled and r.in_tracking:
             fine = self.fitness(subpixel=r.subpixel)
@@ -253,7 +263,7 @@ class Proposer:
                 pose, fine, r.tracking_iterations, self.limits(window)
             ).transform_model_to_camera
         best = Candidate(pose, float(self.fitness()(pose)[0]))
-        self.keep(pose, ga.ranked_poses(t.ga.population))
+        self.keep(pose, ranked)
         return best, count
 
     # ------------------------------------------------------------------ one-shot internals
@@ -364,6 +374,12 @@ def _same_peak(a: FloatArray, b: FloatArray, separation: float) -> bool:
     """Two poses closer than `separation` in x-y and 20° in yaw."""
     close = float(np.linalg.norm(a[:2, 3] - b[:2, 3])) < separation
     return close and abs(float(wrap_angle(yaw_of(a[:3, :3]) - yaw_of(b[:3, :3])))) < np.deg2rad(20.0)
+
+
+def _yaw_offsets(poses: FloatArray, reference: FloatArray) -> FloatArray:
+    """|yaw difference| [rad] of (P, 4, 4) poses from a reference pose, on the circle."""
+    yaws = np.arctan2(poses[:, 1, 0], poses[:, 0, 0])
+    return np.abs(np.asarray(wrap_angle(yaws - yaw_of(reference[:3, :3])), dtype=float)).reshape(-1)
 
 
 __all__ = [

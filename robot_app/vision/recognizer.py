@@ -285,6 +285,9 @@ class Recognizer:
         rng = np.random.default_rng(seed) if seed is not None else self.proposer.rng
         proposal = self.proposer.propose(rng, peaks=report_peaks)
         chosen = self._most_confident(proposal.best, proposal.candidates, rng)
+        kept = self.proposer.kept_poses
+        if kept is not None and chosen.pose is not proposal.best.transform_model_to_camera:
+            self.proposer.keep(chosen.pose, kept)  # tracking goes on from the verified pose (a half turn?)
         self._last_verification, self._frames_since_verified = chosen.verification, 0
         peaks = tuple(
             sorted(
