@@ -1,0 +1,497 @@
+"""Episode recordings in Rerun (`--record F.rrd`): what the robot saw and did, on one timeline.
+
+A recording holds, on the `cell_time` timeline [s] (and the `vision_cycle` sequence
+for what each vision cycle saw):
+
+- `cell/table`, `cell/sheet`, `cell/box`: the fixed cell in Σ_W (static);
+- `cell/robot/<link>`: each link's pose, its URDF primitives below it (scene samples);
+- `cell/tcp`, `cell/tcp_path`: the TCP now, and its path so far (at each phase end);
+- `cell/cloths/<No.n>`: every cloth's soft-body mesh with its print (scene samples);
+- `cameras/left`, `cameras/right`: the camera's pose, pinhole and image (JPEG), with
+  `cameras/<side>/outline/recognised` and `.../true`: S_in's outline under the
+  recognised and the true pose (vision cycles);
+- `cloth/recognised`, `cloth/filtered`, `cloth/true`: Σ_M's pose, its axes and S_in's
+  outline below; `cloth/grasp_point`: where the loop means to grasp (vision cycles);
+- `signals/recognition/*` (fitness, confidence, visible fraction), `signals/filter/*`
+  (NIS, residual), `signals/error/*` (against the truth) (vision cycles);
+- `signals/joints/<kind>/<joint>`: positions [rad], velocities [rad/s], and both as
+  shares of their limits (-1 and 1 are the limits) (control steps);
+- `log/phases`, `log/recognitions`, `log/outcome`: text entries.
+
+rerun-sdk is an optional extra (`robot_app[viewer]`) imported only when a recording is
+made; `require_rerun` turns its absence into a one-line input error. High-rate data
+(joints, link poses) is buffered and sent in columns at each phase end, so recording costs
+little per control step. The caller gives the file name (an `atomic_path` temporary);
+`close` finalises the file.
+"""
+
+from __future__ import annotations
+
+import math
+import uuid
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import ModuleType, TracebackType
+from typing import Any, Literal
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from robot_app.arrays import FloatArray
+from robot_app.control.episode import PhaseRecord, VisionCycle
+from robot_app.errors import InputError
+from robot_app.geometry import quaternion_xyzw_from_matrix
+from robot_app.vision import PinholeCamera, ProjectedOutline
+
+RERUN_RANGE = ">=0.41,<0.42"  # the tested range (pyproject.toml, extra `viewer`)
+INSTALL_HINT = "pip install 'robot_app[viewer]'"
+RECOGNISED_RGB, TRUE_RGB, FILTERED_RGB = (255, 215, 0), (255, 0, 255), (0, 200, 255)
+GRASP_RGB, TCP_RGB = (255, 60, 60), (240, 240, 240)
+PLURAL = {"box": "boxes", "cylinder": "cylinders", "sphere": "spheres"}
+
+
+def require_rerun(key: str = "--record") -> ModuleType:
+    """The `rerun` module, or an InputError (exit 2) saying how to install it.
+
+    Raises:
+        InputError: rerun-sdk is not installed (or cannot be imported); `key` names the option.
+    """
+    try:
+        import rerun
+    except ImportError as err:
+        raise InputError(
+            f"{key} needs the optional viewer extra (rerun-sdk {RERUN_RANGE}): {INSTALL_HINT}",
+            key=key,
+            expected=INSTALL_HINT,
+        ) from err
+    return rerun
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A primitive of the cell or of a robot link.
+
+    Attributes:
+        kind: "box", "cylinder" (axis along its z) or "sphere".
+        size: box: full lengths (x, y, z); cylinder: (radius, radius, length); sphere: (r, r, r) [m].
+        pose: (4, 4) pose of the shape's centre in its parent frame (Σ_W, or the link's) [m].
+        rgba: colour, 0-255.
+    """
+
+    kind: Literal["box", "cylinder", "sphere"]
+    size: tuple[float, float, float]
+    pose: FloatArray
+    rgba: tuple[int, int, int, int] = (180, 180, 180, 255)
+
+
+@dataclass(frozen=True)
+class ClothSurface:
+    """A cloth's mesh as drawn: triangles of its nodes and its print.
+
+    Attributes:
+        label: entity name under `cell/cloths/` (e.g. "No.3").
+        triangles: (T, 3) node indices.
+        uvs: (N, 2) texture coordinates of the nodes (u right, v down, 0-1).
+        texture_bgr: (H, W, 3) uint8 print.
+    """
+
+    label: str
+    triangles: npt.NDArray[np.int64]
+    uvs: FloatArray
+    texture_bgr: npt.NDArray[np.uint8]
+
+
+@dataclass(frozen=True)
+class CellLayout:
+    """What a recording draws once: the fixed cell, the robot's links, the cloths, the cameras.
+
+    Attributes:
+        fixed: entity name under `cell/` -> shapes in Σ_W.
+        links: robot link name -> its visual shapes in the link frame.
+        cloths: the cloths' meshes (their nodes move; see `SceneSample`).
+        cameras: (left, right) hand cameras (intrinsics).
+        joint_names: arm joints, in the order of the joint samples.
+        joint_lower, joint_upper: position limits [rad]; joint_velocity: |velocity| limits [rad/s].
+    """
+
+    fixed: Mapping[str, tuple[Shape, ...]]
+    links: Mapping[str, tuple[Shape, ...]]
+    cloths: tuple[ClothSurface, ...]
+    cameras: tuple[PinholeCamera, PinholeCamera]
+    joint_names: tuple[str, ...]
+    joint_lower: FloatArray
+    joint_upper: FloatArray
+    joint_velocity: FloatArray
+
+
+@dataclass(frozen=True)
+class SceneSample:
+    """The moving cell at one time.
+
+    Attributes:
+        time: cell time [s].
+        link_poses: link name -> (4, 4) pose in Σ_W [m].
+        tcp: (3,) TCP position in Σ_W [m].
+        cloth_nodes: cloth label -> (N, 3) node positions in Σ_W [m].
+    """
+
+    time: float
+    link_poses: Mapping[str, FloatArray]
+    tcp: FloatArray
+    cloth_nodes: Mapping[str, FloatArray] = field(default_factory=dict)
+
+
+class EpisodeRecorder:
+    """One Rerun recording written to `path` (give an `atomic_path` temporary).
+
+    Args:
+        path: the .rrd file to write.
+        name: the recording's name in the viewer.
+        jpeg_quality: camera images are stored as JPEG of this quality (1-100).
+
+    Raises:
+        InputError: rerun-sdk is not installed.
+    """
+
+    def __init__(self, path: str | Path, *, name: str = "pick-place episode", jpeg_quality: int = 90) -> None:
+        if not 1 <= jpeg_quality <= 100:
+            raise ValueError(f"jpeg_quality must be within 1-100, got {jpeg_quality}")
+        self.rr = rr = require_rerun()
+        from robot_app.experiments.recording_blueprint import default_blueprint
+
+        self.path = Path(path)
+        self.jpeg_quality = jpeg_quality
+        self.cycles = 0
+        self._rec = rr.RecordingStream("robot_app", recording_id=str(uuid.uuid4()))
+        self._rec.set_log_tick_enabled(False)
+        self._rec.set_log_time_enabled(False)  # the timelines are cell_time and vision_cycle only
+        self._rec.save(str(self.path), default_blueprint=default_blueprint(rr))
+        self._rec.send_recording_name(name)
+        self._rec.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
+        self._layout: CellLayout | None = None
+        self._times: list[float] = []
+        self._q: list[FloatArray] = []
+        self._dq: list[FloatArray] = []
+        self._scene_times: list[float] = []
+        self._link_poses: dict[str, list[FloatArray]] = {}
+        self._tcp_path: list[FloatArray] = []
+        self._tcp_sent = 0
+        self._closed = False
+
+    # ------------------------------------------------------------------ static
+    def log_layout(self, layout: CellLayout) -> None:
+        """Logs the fixed cell, the link primitives, the cloths' prints and the cameras (static)."""
+        rr, rec = self.rr, self._rec
+        self._layout = layout
+        for name, shapes in layout.fixed.items():
+            self._log_shapes(f"cell/{name}", shapes)
+        for link, shapes in layout.links.items():
+            self._log_shapes(f"cell/robot/{link}", shapes)
+            self._link_poses[link] = []
+        for cloth in layout.cloths:
+            texture = cv2.cvtColor(cloth.texture_bgr, cv2.COLOR_BGR2RGB)
+            rec.log(
+                f"cell/cloths/{cloth.label}",
+                rr.Mesh3D.from_fields(
+                    triangle_indices=np.asarray(cloth.triangles, dtype=np.uint32),
+                    vertex_texcoords=np.asarray(cloth.uvs, dtype=np.float32),
+                    albedo_texture_buffer=texture.tobytes(),
+                    albedo_texture_format=rr.components.ImageFormat(
+                        width=texture.shape[1],
+                        height=texture.shape[0],
+                        color_model="RGB",
+                        channel_datatype="U8",
+                    ),
+                ),
+                static=True,
+            )
+        for side, camera in zip(("left", "right"), layout.cameras, strict=True):
+            rec.log(
+                f"cameras/{side}",
+                rr.Pinhole(
+                    image_from_camera=camera.camera_matrix,
+                    resolution=camera.image_size,
+                    image_plane_distance=0.08,
+                ),
+                static=True,
+            )
+        rec.log("cell/tcp", rr.Points3D.from_fields(colors=[TCP_RGB], radii=[0.008]), static=True)
+        lower, upper = layout.joint_lower, layout.joint_upper
+        if not (len(layout.joint_names) == len(lower) == len(upper) == len(layout.joint_velocity)):
+            raise ValueError("a layout needs one position and velocity limit per joint name")
+        self._series("signals/joints/limit_high", "limit", (255, 80, 80))
+        self._series("signals/joints/limit_low", "limit", (255, 80, 80))
+
+    def log_target(self, outline_model: tuple[FloatArray, ...], grasp_radius: float = 0.006) -> None:
+        """Logs the target model's S_in outline in Σ_M under each `cloth/*` pose (static)."""
+        rr, rec = self.rr, self._rec
+        strips = [np.vstack([p, p[:1]]) for p in outline_model]
+        for name, rgb in (("recognised", RECOGNISED_RGB), ("filtered", FILTERED_RGB), ("true", TRUE_RGB)):
+            rec.log(f"cloth/{name}", rr.TransformAxes3D(0.05), static=True)
+            rec.log(
+                f"cloth/{name}/outline", rr.LineStrips3D(strips, colors=[rgb], radii=[0.0015]), static=True
+            )
+        rec.log(
+            "cloth/grasp_point",
+            rr.Points3D.from_fields(colors=[GRASP_RGB], radii=[grasp_radius]),
+            static=True,
+        )
+        for side in ("left", "right"):
+            for name, rgb in (("recognised", RECOGNISED_RGB), ("true", TRUE_RGB)):
+                rec.log(
+                    f"cameras/{side}/outline/{name}",
+                    rr.LineStrips2D.from_fields(colors=[rgb], radii=[1.0]),
+                    static=True,
+                )
+        self._series("signals/recognition/fitness", "fitness", RECOGNISED_RGB)
+        self._series("signals/recognition/confidence", "confidence", (120, 220, 120))
+        self._series("signals/recognition/visible_fraction", "visible fraction", (150, 150, 255))
+        for axis, rgb in (("x_mm", (255, 90, 90)), ("y_mm", (90, 255, 90)), ("z_mm", (90, 140, 255))):
+            self._series(f"signals/error/{axis}", axis, rgb)
+        self._series("signals/error_yaw_deg", "yaw error [deg]", (255, 200, 0))
+
+    # ------------------------------------------------------------------ temporal
+    def log_joints(self, time: float, q: npt.ArrayLike, dq: npt.ArrayLike) -> None:
+        """Buffers one joint sample: positions [rad] and velocities [rad/s] at cell time [s]."""
+        self._times.append(float(time))
+        self._q.append(np.asarray(q, dtype=float))
+        self._dq.append(np.asarray(dq, dtype=float))
+
+    def log_scene(self, sample: SceneSample) -> None:
+        """Buffers the link poses and the TCP; logs the cloths' nodes now."""
+        rr, rec = self.rr, self._rec
+        self._scene_times.append(sample.time)
+        for link, poses in self._link_poses.items():
+            poses.append(np.asarray(sample.link_poses[link], dtype=float))
+        self._tcp_path.append(np.asarray(sample.tcp, dtype=float))
+        rec.set_time("cell_time", duration=sample.time)
+        for label, nodes in sample.cloth_nodes.items():
+            positions = np.asarray(nodes, dtype=np.float32)
+            rec.log(f"cell/cloths/{label}", rr.Mesh3D.from_fields(vertex_positions=positions))
+
+    def log_phase(self, record: PhaseRecord) -> None:
+        """A finished phase: a text entry at its end; buffered samples are sent."""
+        rr, rec = self.rr, self._rec
+        self.flush()
+        rec.set_time("cell_time", duration=record.end_time)
+        note = f": {record.note}" if record.note else ""
+        text = f"{record.phase} {record.start_time:.2f}-{record.end_time:.2f} s{note}"
+        rec.log("log/phases", rr.TextLog(text, level=rr.TextLogLevel.INFO))
+
+    def log_vision_cycle(
+        self,
+        cycle: VisionCycle,
+        transform_left_camera_to_world: FloatArray,
+        recognised: ProjectedOutline,
+        true: ProjectedOutline | None = None,
+        transform_true_to_world: FloatArray | None = None,
+    ) -> None:
+        """One vision cycle on both timelines: images, outlines, poses, signals, a text entry.
+
+        Args:
+            cycle: what the loop saw and concluded.
+            transform_left_camera_to_world: (4, 4) ^W T_CL at capture [m].
+            recognised: S_in's outline in both images under the recognised pose [px].
+            true: the same under the true pose (simulation), or None.
+            transform_true_to_world: (4, 4) true ^W T_M at capture (simulation), or None.
+        """
+        rr, rec = self.rr, self._rec
+        capture, record, recognition = cycle.capture, cycle.record, cycle.recognition
+        rec.set_time("cell_time", duration=capture.time)
+        rec.set_time("vision_cycle", sequence=self.cycles)
+        true_left, true_right = (true.left, true.right) if true is not None else (None, None)
+        cameras = (
+            ("left", capture.left_bgr, transform_left_camera_to_world, recognised.left, true_left),
+            (
+                "right",
+                capture.right_bgr,
+                capture.transform_right_camera_to_world,
+                recognised.right,
+                true_right,
+            ),
+        )
+        for side, image, pose, outline, truth in cameras:
+            ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, self.jpeg_quality])
+            if not ok:
+                raise RuntimeError("OpenCV could not encode a camera image as JPEG")
+            rec.log(f"cameras/{side}", self._transform(pose))
+            rec.log(f"cameras/{side}", rr.EncodedImage(contents=jpeg.tobytes(), media_type="image/jpeg"))
+            rec.log(
+                f"cameras/{side}/outline/recognised", rr.LineStrips2D.from_fields(strips=_closed(outline))
+            )
+            if truth is not None:
+                rec.log(f"cameras/{side}/outline/true", rr.LineStrips2D.from_fields(strips=_closed(truth)))
+        rec.log("cloth/recognised", self._transform(cycle.transform_model_to_world))
+        if transform_true_to_world is not None:
+            rec.log("cloth/true", self._transform(transform_true_to_world))
+        grasp_frame = cycle.transform_model_to_world
+        if cycle.filtered is not None:
+            grasp_frame = cycle.filtered.as_transform()
+            rec.log("cloth/filtered", self._transform(grasp_frame))
+            residual = np.linalg.norm(cycle.transform_model_to_world[:3, 3] - cycle.filtered.position)
+            rec.log("signals/filter/residual_mm", rr.Scalars(1e3 * residual))
+        grasp = grasp_frame[:3, :3] @ cycle.grasp_point_model + grasp_frame[:3, 3]
+        rec.log("cloth/grasp_point", rr.Points3D.from_fields(positions=[grasp]))
+        if math.isfinite(cycle.nis):
+            rec.log("signals/filter/nis", rr.Scalars(cycle.nis))
+        rec.log("signals/recognition/fitness", rr.Scalars(recognition.fitness))
+        rec.log("signals/recognition/confidence", rr.Scalars(recognition.confidence))
+        rec.log("signals/recognition/visible_fraction", rr.Scalars(recognition.visible_fraction))
+        for axis in ("x_mm", "y_mm", "z_mm"):
+            value = getattr(record, f"error_{axis}")
+            if value is not None:
+                rec.log(f"signals/error/{axis}", rr.Scalars(value))
+        if record.error_yaw_deg is not None:
+            rec.log("signals/error_yaw_deg", rr.Scalars(record.error_yaw_deg))
+        verdict = "accepted" if record.accepted else "rejected"
+        text = (
+            f"#{self.cycles} {record.mode}: fitness {recognition.fitness:.3f}, "
+            f"confidence {recognition.confidence:.2f}, {'found' if record.found else 'not found'}, "
+            f"{verdict} ({record.reason})"
+        )
+        level = rr.TextLogLevel.INFO if record.accepted else rr.TextLogLevel.WARN
+        rec.log("log/recognitions", rr.TextLog(text, level=level))
+        rec.disable_timeline("vision_cycle")
+        self.cycles += 1
+
+    def log_outcome(self, time: float, text: str, success: bool) -> None:
+        """The episode's (or a task's) outcome as a text entry at cell time [s]."""
+        rr, rec = self.rr, self._rec
+        self.flush()
+        rec.set_time("cell_time", duration=time)
+        level = rr.TextLogLevel.INFO if success else rr.TextLogLevel.ERROR
+        rec.log("log/outcome", rr.TextLog(text, level=level))
+
+    # ------------------------------------------------------------------ buffers
+    def flush(self) -> None:
+        """Sends the buffered joint samples, link poses and the TCP path so far."""
+        rr, rec = self.rr, self._rec
+        if self._times and self._layout is not None:
+            self._send_joints(self._layout)
+        if self._scene_times:
+            index = [rr.TimeColumn("cell_time", duration=np.asarray(self._scene_times))]
+            for link, poses in self._link_poses.items():
+                if poses:
+                    stack = np.asarray(poses)
+                    quaternions = np.array([quaternion_xyzw_from_matrix(T[:3, :3]) for T in stack])
+                    columns = rr.Transform3D.columns(translation=stack[:, :3, 3], quaternion=quaternions)
+                    rec.send_columns(f"cell/robot/{link}", indexes=index, columns=columns)
+                    poses.clear()
+            tcp = np.asarray(self._tcp_path[self._tcp_sent :])
+            rec.send_columns("cell/tcp", indexes=index, columns=rr.Points3D.columns(positions=tcp))
+            rec.set_time("cell_time", duration=self._scene_times[-1])
+            rec.log(
+                "cell/tcp_path",
+                rr.LineStrips3D([np.asarray(self._tcp_path)], colors=[TCP_RGB], radii=[0.002]),
+            )
+            self._tcp_sent = len(self._tcp_path)
+            self._scene_times.clear()
+
+    def close(self) -> None:
+        """Sends what is buffered and finalises the file (idempotent)."""
+        if self._closed:
+            return
+        try:
+            self.flush()
+        finally:
+            self._closed = True
+            self._rec.flush()
+            self._rec.disconnect()
+
+    def __enter__(self) -> EpisodeRecorder:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ helpers
+    def _send_joints(self, layout: CellLayout) -> None:
+        rr, rec = self.rr, self._rec
+        times = np.asarray(self._times)
+        index = [rr.TimeColumn("cell_time", duration=times)]
+        q, dq = np.asarray(self._q), np.asarray(self._dq)
+        mid = (layout.joint_upper + layout.joint_lower) / 2
+        half = (layout.joint_upper - layout.joint_lower) / 2
+        shares = {
+            "position": q,
+            "velocity": dq,
+            "position_of_range": (q - mid) / half,  # -1 and 1 are the limits
+            "velocity_of_limit": dq / layout.joint_velocity,
+        }
+        for kind, values in shares.items():
+            for j, name in enumerate(layout.joint_names):
+                columns = rr.Scalars.columns(scalars=values[:, j])
+                rec.send_columns(f"signals/joints/{kind}/{name}", indexes=index, columns=columns)
+        edges = [rr.TimeColumn("cell_time", duration=times[[0, -1]])]
+        for name, value in (("limit_high", 1.0), ("limit_low", -1.0)):
+            rec.send_columns(
+                f"signals/joints/{name}", indexes=edges, columns=rr.Scalars.columns(scalars=[value] * 2)
+            )
+        self._times.clear()
+        self._q.clear()
+        self._dq.clear()
+
+    def _log_shapes(self, entity: str, shapes: tuple[Shape, ...]) -> None:
+        rr, rec = self.rr, self._rec
+        for kind in ("box", "cylinder", "sphere"):
+            group = [s for s in shapes if s.kind == kind]
+            if not group:
+                continue
+            centres = [s.pose[:3, 3] for s in group]
+            quaternions = [rr.Quaternion(xyzw=quaternion_xyzw_from_matrix(s.pose[:3, :3])) for s in group]
+            colours = [s.rgba for s in group]
+            solid = rr.components.FillMode.Solid
+            archetype: Any
+            if kind == "box":
+                archetype = rr.Boxes3D(
+                    sizes=[s.size for s in group],
+                    centers=centres,
+                    quaternions=quaternions,
+                    colors=colours,
+                    fill_mode=solid,
+                )
+            elif kind == "cylinder":
+                archetype = rr.Cylinders3D(
+                    lengths=[s.size[2] for s in group],
+                    radii=[s.size[0] for s in group],
+                    centers=centres,
+                    quaternions=quaternions,
+                    colors=colours,
+                    fill_mode=solid,
+                )
+            else:
+                archetype = rr.Ellipsoids3D(
+                    half_sizes=[[s.size[0]] * 3 for s in group],
+                    centers=centres,
+                    colors=colours,
+                    fill_mode=solid,
+                )
+            rec.log(f"{entity}/{PLURAL[kind]}", archetype, static=True)
+
+    def _series(self, entity: str, name: str, rgb: tuple[int, int, int]) -> None:
+        self._rec.log(entity, self.rr.SeriesLines(names=name, colors=[rgb]), static=True)
+
+    def _transform(self, pose: FloatArray) -> Any:
+        T = np.asarray(pose, dtype=float)
+        quaternion = self.rr.Quaternion(xyzw=quaternion_xyzw_from_matrix(T[:3, :3]))
+        return self.rr.Transform3D(translation=T[:3, 3], quaternion=quaternion)
+
+
+def _closed(polygons: tuple[FloatArray, ...]) -> list[FloatArray]:
+    return [np.vstack([p, p[:1]]) for p in polygons if len(p)]
+
+
+__all__ = [
+    "INSTALL_HINT",
+    "RERUN_RANGE",
+    "CellLayout",
+    "ClothSurface",
+    "EpisodeRecorder",
+    "SceneSample",
+    "Shape",
+    "require_rerun",
+]
