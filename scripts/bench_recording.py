@@ -33,10 +33,11 @@ TARGET = 0.15
 
 def _episode(
     config: PickPlaceConfig, record_path: Path | None = None, video_path: Path | None = None
-) -> tuple[float, EpisodeResult]:
-    start = time.perf_counter()
+) -> tuple[float, float, EpisodeResult]:
+    """Wall time [s], CPU time of this process's threads [s], the result."""
+    start, cpu = time.perf_counter(), time.process_time()
     episode = run_episode(config, record_path=record_path, video_path=video_path)
-    return time.perf_counter() - start, episode.result
+    return time.perf_counter() - start, time.process_time() - cpu, episode.result
 
 
 def _same(a: EpisodeResult, b: EpisodeResult) -> bool:
@@ -67,31 +68,36 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         _episode(warm, record_path=Path(folder) / "warm.rrd")  # JIT compilation, caches
         plain, recorded, video, sizes = [], [], [], []
+        cpu_plain, cpu_recorded = [], []
         for seed in args.seeds:
             config = base.model_copy(update={"seed": seed})
             for repeat in range(args.repeats):
                 target = Path(folder) / f"seed{seed}-{repeat}.rrd"
                 order = ("plain", "record") if repeat % 2 == 0 else ("record", "plain")
                 times: dict[str, float] = {}
+                cpu: dict[str, float] = {}
                 results: dict[str, EpisodeResult] = {}
                 for kind in order:
-                    times[kind], results[kind] = _episode(
-                        config, record_path=target if kind == "record" else None
-                    )
+                    path = target if kind == "record" else None
+                    times[kind], cpu[kind], results[kind] = _episode(config, record_path=path)
                 if not _same(results["plain"], results["record"]):
                     raise SystemExit(f"seed {seed}: the recorded episode differs from the plain one")
                 plain.append(times["plain"])
                 recorded.append(times["record"])
+                cpu_plain.append(cpu["plain"])
+                cpu_recorded.append(cpu["record"])
                 sizes.append(target.stat().st_size / 1e6)
                 r = results["plain"]
                 print(
                     f"seed {seed} #{repeat}: plain {times['plain']:.2f} s, recorded {times['record']:.2f} s "
-                    f"({times['record'] / times['plain'] - 1:+.1%}); {r.outcome.value}, "
+                    f"({times['record'] / times['plain'] - 1:+.1%}; "
+                    f"CPU {cpu['plain']:.2f} -> {cpu['record']:.2f} s); "
+                    f"{r.outcome.value}, "
                     f"{len(r.recognitions)} recognitions, {r.sim_time:.1f} s simulated; "
                     f"{sizes[-1]:.1f} MB; load {os.getloadavg()[0]:.2f}"
                 )
             if args.video:
-                seconds, result = _episode(config, video_path=Path(folder) / f"seed{seed}.mp4")
+                seconds, _, result = _episode(config, video_path=Path(folder) / f"seed{seed}.mp4")
                 frames = round(result.sim_time * 20)
                 video.append((seconds, frames))
                 print(f"seed {seed}: with --video {seconds:.2f} s, ~{frames} frames")
@@ -102,6 +108,11 @@ def main() -> None:
         f"median wall time of an episode: plain {mp:.2f} s, recorded {mr:.2f} s: {extra:+.1%} "
         f"(median of the pairs' ratios {ratio:+.1%}); target <= {TARGET:.0%}: "
         f"{'met' if extra <= TARGET else 'NOT met'}"
+    )
+    cp, cr = statistics.median(cpu_plain), statistics.median(cpu_recorded)
+    print(
+        f"median CPU time (all threads of this process): plain {cp:.2f} s, recorded {cr:.2f} s: "
+        f"{cr / cp - 1:+.1%}"
     )
     print(
         f"recording size: median {statistics.median(sizes):.1f} MB; load average now {os.getloadavg()[0]:.2f}"

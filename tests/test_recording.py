@@ -158,12 +158,13 @@ def test_an_episode_recording_holds_what_the_robot_saw_and_did(tmp_path, capsys)
     data = _read(record)
 
     expected = {
-        "/cameras/left", "/cameras/right", "/cameras/left/outline/recognised", "/cameras/right/outline/true",
+        "/cameras/left", "/cameras/right", "/cameras/left/image", "/cameras/right/image",
+        "/cameras/left/outline/recognised", "/cameras/right/outline/true",
         "/cloth/recognised", "/cloth/filtered", "/cloth/true", "/cloth/grasp_point",
         "/cell/table", "/cell/sheet", "/cell/box", "/cell/tcp", "/cell/tcp_path", "/cell/cloths/No.3",
         "/cell/robot/link_s1", "/cell/robot/finger_left", "/signals/recognition/fitness",
         "/signals/recognition/confidence", "/signals/filter/nis", "/signals/error/x_mm",
-        "/signals/joints/position/S1", "/signals/joints/velocity_of_limit/W2",
+        "/signals/joints/position", "/signals/joints/velocity_of_limit",
         "/log/phases", "/log/recognitions", "/log/outcome",
     }  # fmt: skip
     assert expected <= set(data) | {p.rsplit("/", 1)[0] for p in data}
@@ -171,14 +172,14 @@ def test_an_episode_recording_holds_what_the_robot_saw_and_did(tmp_path, capsys)
     # one image and one recognised pose per row of recognitions.csv, on both timelines
     csv_times = [float(r["time"]) for r in recognitions]
     for side in ("left", "right"):
-        images = data[f"/cameras/{side}"]["EncodedImage:blob"]
+        images = data[f"/cameras/{side}/image"]["EncodedImage:blob"]
         assert len(images.values) == n
         assert images.cycles == list(range(n))  # the n-th image is the n-th row
         assert images.times * 1e-9 == pytest.approx(csv_times, abs=1e-6)
         jpeg = np.frombuffer(bytes(images.values[-1][0]), np.uint8)
         assert cv2.imdecode(jpeg, cv2.IMREAD_COLOR).shape == (240, 320, 3)
-    for name in ("recognised", "true"):
-        poses = data[f"/cloth/{name}"]["Transform3D:translation"]
+    for name in ("cloth/recognised", "cloth/true", "cameras/left", "cameras/right"):
+        poses = data[f"/{name}"]["Transform3D:translation"]
         assert len(poses.values) == n and poses.cycles == list(range(n))
     poses = data["/cloth/recognised"]["Transform3D:translation"]
     # the timelines are monotonic: cell time never goes back (two searches can look at one
@@ -194,11 +195,12 @@ def test_an_episode_recording_holds_what_the_robot_saw_and_did(tmp_path, capsys)
     assert strip.shape[1] == 2 and np.all((strip >= -1) & (strip <= [321, 241]))
 
     # joints: one sample per commanded control step, in time order, shares within the limits
-    joint = data["/signals/joints/position_of_range/S2"]["Scalars:scalars"]
+    joint = data["/signals/joints/position_of_range"]["Scalars:scalars"]
     assert len(joint.values) == summary["commanded_samples"]
     assert np.all(np.diff(joint.times) > 0)
-    shares = np.array([v[0] for v in joint.values])
-    assert np.all(np.abs(shares) <= 1.0 + 1e-3) and np.ptp(shares) > 0.05  # it moved, within its range
+    shares = np.array(joint.values)  # (samples, 7): one series per joint, -1 and 1 its limits
+    assert shares.shape == (summary["commanded_samples"], 7)
+    assert np.all(np.abs(shares) <= 1.0 + 1e-3) and np.ptp(shares[:, 1]) > 0.05  # S2 moved, within range
     # phases and the outcome as text
     assert len(data["/log/phases"]["TextLog:text"].values) == len(phases)
     outcome = data["/log/outcome"]["TextLog:text"].values
@@ -237,3 +239,30 @@ def test_a_trial_keeps_the_recordings_of_its_failures(tmp_path, capsys) -> None:
     assert kept.is_file() and kept.suffix == ".rrd"
     assert sorted(p.name for p in (tmp_path / "out" / "recordings").iterdir()) == [kept.name]
     assert "/log/outcome" in _read(kept)
+
+
+def test_recorded_bodies_are_where_pybullet_has_the_links() -> None:
+    from robot_app.control.limits import JointLimits
+    from robot_app.experiments.recording_scene import cell_layout, robot_bodies
+    from robot_app.sim import World
+
+    rng = np.random.default_rng(7)
+    with World() as world:
+        bodies = robot_bodies(world)
+        layout = cell_layout(world, JointLimits.from_urdf(world.config.robot.urdf), bodies)
+        # links on fixed joints ride on their body: the last link carries flange, cameras and palm
+        arm = {f"link_{j}" for j in ("s1", "s2", "s3", "e1", "e2", "w1", "w2")}
+        assert set(layout.links) == {"base_link", *arm, "finger_left", "finger_right"}
+        assert len(layout.links["link_w2"]) >= 5
+        robot = world.robot
+        for opening in (0.0, 0.05, 0.08):
+            robot.reset_joints(rng.uniform(robot.lower_limits, robot.upper_limits))
+            robot.set_gripper(opening)
+            world.step(240)  # the fingers move to the opening (the arm is held where it is)
+            poses, tcp = bodies.poses(robot.q(), robot.gripper_opening())
+            assert poses.pop("base_link") == pytest.approx(np.eye(4))  # (pybullet's base pose is its COM)
+            assert tcp == pytest.approx(robot.frame_pose("tcp")[:3, 3], abs=2e-4)
+            for link, pose in poses.items():
+                truth = robot.frame_pose(link)
+                assert pose[:3, 3] == pytest.approx(truth[:3, 3], abs=2e-4), link
+                assert pose[:3, :3] == pytest.approx(truth[:3, :3], abs=1e-3), link

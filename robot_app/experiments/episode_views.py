@@ -16,7 +16,7 @@ from robot_app.arrays import FloatArray
 from robot_app.control.episode import EpisodeResult, PhaseRecord, VisionCycle
 from robot_app.control.limits import JointLimits
 from robot_app.experiments.recording import EpisodeRecorder
-from robot_app.experiments.recording_scene import SceneSampler, cell_layout
+from robot_app.experiments.recording_scene import SceneSampler, cell_layout, robot_bodies
 from robot_app.geometry import invert_transform
 from robot_app.sim import EpisodeVideo, SimCell, VisionOverlay, World
 from robot_app.vision import ClothModel, ProjectedOutline, model_outline, project_outline
@@ -57,10 +57,10 @@ class EpisodeViews:
         self.sampler: SceneSampler | None = None
         if record_file is not None:
             self.recorder = EpisodeRecorder(record_file, name=name)
-            layout = cell_layout(world, limits)
-            self.recorder.log_layout(layout)
+            bodies = robot_bodies(world)
+            self.recorder.log_layout(cell_layout(world, limits, bodies))
             self.recorder.log_target(self.outline)
-            self.sampler = SceneSampler(world, self.recorder, tuple(layout.links))
+            self.sampler = SceneSampler(world, self.recorder, bodies)
 
     @property
     def active(self) -> bool:

@@ -7,9 +7,9 @@ for what each vision cycle saw):
 - `cell/robot/<link>`: each link's pose, its URDF primitives below it (scene samples);
 - `cell/tcp`, `cell/tcp_path`: the TCP now, and its path so far (at each phase end);
 - `cell/cloths/<No.n>`: every cloth's soft-body mesh with its print (scene samples);
-- `cameras/left`, `cameras/right`: the camera's pose, pinhole and image (JPEG), with
-  `cameras/<side>/outline/recognised` and `.../true`: S_in's outline under the
-  recognised and the true pose (vision cycles);
+- `cameras/left`, `cameras/right`: the camera's pose and pinhole (its frustum in 3D),
+  with `cameras/<side>/image` (JPEG) and `cameras/<side>/outline/recognised` and
+  `.../true`: S_in's outline under the recognised and the true pose (vision cycles);
 - `cloth/recognised`, `cloth/filtered`, `cloth/true`: Σ_M's pose, its axes and S_in's
   outline below; `cloth/grasp_point`: where the loop means to grasp (vision cycles);
 - `signals/recognition/*` (fitness, confidence, visible fraction), `signals/filter/*`
@@ -19,10 +19,10 @@ for what each vision cycle saw):
 - `log/phases`, `log/recognitions`, `log/outcome`: text entries.
 
 rerun-sdk is an optional extra (`robot_app[viewer]`) imported only when a recording is
-made; `require_rerun` turns its absence into a one-line input error. High-rate data
-(joints, link poses) is buffered and sent in columns at each phase end, so recording costs
-little per control step. The caller gives the file name (an `atomic_path` temporary);
-`close` finalises the file.
+made; `require_rerun` turns its absence into a one-line input error. Every temporal row
+is buffered (`TimedColumns`) and sent in columns at each phase end, so recording costs
+little per control step and per vision cycle. The caller gives the file name (an
+`atomic_path` temporary); `close` finalises the file.
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ import numpy.typing as npt
 from robot_app.arrays import FloatArray
 from robot_app.control.episode import PhaseRecord, VisionCycle
 from robot_app.errors import InputError
+from robot_app.experiments.recording_columns import Kind, TimedColumns
 from robot_app.geometry import quaternion_xyzw_from_matrix
 from robot_app.vision import PinholeCamera, ProjectedOutline
 
@@ -50,6 +51,8 @@ INSTALL_HINT = "pip install 'robot_app[viewer]'"
 RECOGNISED_RGB, TRUE_RGB, FILTERED_RGB = (255, 215, 0), (255, 0, 255), (0, 200, 255)
 GRASP_RGB, TCP_RGB = (255, 60, 60), (240, 240, 240)
 PLURAL = {"box": "boxes", "cylinder": "cylinders", "sphere": "spheres"}
+FLUSH_ROWS = 20_000  # buffered rows (and joint samples) that trigger a send before `close`
+JOINT_SERIES = ("position", "velocity", "position_of_range", "velocity_of_limit")
 
 
 def require_rerun(key: str = "--record") -> ModuleType:
@@ -171,13 +174,12 @@ class EpisodeRecorder:
         self._rec.send_recording_name(name)
         self._rec.log("/", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._layout: CellLayout | None = None
-        self._times: list[float] = []
+        self._columns = TimedColumns(rr, self._rec)
+        self._joint_times: list[float] = []
         self._q: list[FloatArray] = []
         self._dq: list[FloatArray] = []
-        self._scene_times: list[float] = []
-        self._link_poses: dict[str, list[FloatArray]] = {}
         self._tcp_path: list[FloatArray] = []
-        self._tcp_sent = 0
+        self._last_time = 0.0
         self._closed = False
 
     # ------------------------------------------------------------------ static
@@ -189,7 +191,6 @@ class EpisodeRecorder:
             self._log_shapes(f"cell/{name}", shapes)
         for link, shapes in layout.links.items():
             self._log_shapes(f"cell/robot/{link}", shapes)
-            self._link_poses[link] = []
         for cloth in layout.cloths:
             texture = cv2.cvtColor(cloth.texture_bgr, cv2.COLOR_BGR2RGB)
             rec.log(
@@ -218,9 +219,14 @@ class EpisodeRecorder:
                 static=True,
             )
         rec.log("cell/tcp", rr.Points3D.from_fields(colors=[TCP_RGB], radii=[0.008]), static=True)
+        rec.log("cell/tcp_path", rr.LineStrips3D.from_fields(colors=[TCP_RGB], radii=[0.002]), static=True)
         lower, upper = layout.joint_lower, layout.joint_upper
         if not (len(layout.joint_names) == len(lower) == len(upper) == len(layout.joint_velocity)):
             raise ValueError("a layout needs one position and velocity limit per joint name")
+        for kind in JOINT_SERIES:
+            self._rec.log(
+                f"signals/joints/{kind}", rr.SeriesLines(names=list(layout.joint_names)), static=True
+            )
         self._series("signals/joints/limit_high", "limit", (255, 80, 80))
         self._series("signals/joints/limit_low", "limit", (255, 80, 80))
 
@@ -255,30 +261,31 @@ class EpisodeRecorder:
     # ------------------------------------------------------------------ temporal
     def log_joints(self, time: float, q: npt.ArrayLike, dq: npt.ArrayLike) -> None:
         """Buffers one joint sample: positions [rad] and velocities [rad/s] at cell time [s]."""
-        self._times.append(float(time))
+        self._joint_times.append(float(time))
         self._q.append(np.asarray(q, dtype=float))
         self._dq.append(np.asarray(dq, dtype=float))
 
     def log_scene(self, sample: SceneSample) -> None:
-        """Buffers the link poses and the TCP; logs the cloths' nodes now."""
-        rr, rec = self.rr, self._rec
-        self._scene_times.append(sample.time)
-        for link, poses in self._link_poses.items():
-            poses.append(np.asarray(sample.link_poses[link], dtype=float))
+        """Buffers the link poses, the TCP and the cloths' nodes of one scene sample."""
+        columns, time = self._columns, sample.time
+        for link, pose in sample.link_poses.items():
+            columns.add(f"cell/robot/{link}", "pose", time, pose)
+        columns.add("cell/tcp", "point", time, sample.tcp)
         self._tcp_path.append(np.asarray(sample.tcp, dtype=float))
-        rec.set_time("cell_time", duration=sample.time)
         for label, nodes in sample.cloth_nodes.items():
-            positions = np.asarray(nodes, dtype=np.float32)
-            rec.log(f"cell/cloths/{label}", rr.Mesh3D.from_fields(vertex_positions=positions))
+            columns.add(f"cell/cloths/{label}", "mesh", time, np.asarray(nodes, dtype=np.float32))
+        self._last_time = max(self._last_time, time)
+        self._flush_if_full()
 
     def log_phase(self, record: PhaseRecord) -> None:
-        """A finished phase: a text entry at its end; buffered samples are sent."""
-        rr, rec = self.rr, self._rec
-        self.flush()
-        rec.set_time("cell_time", duration=record.end_time)
+        """A finished phase as a text entry at its end."""
         note = f": {record.note}" if record.note else ""
         text = f"{record.phase} {record.start_time:.2f}-{record.end_time:.2f} s{note}"
-        rec.log("log/phases", rr.TextLog(text, level=rr.TextLogLevel.INFO))
+        self._columns.add("log/phases", "text", record.end_time, (text, "INFO"))
+        if self._tcp_path:  # the path so far, growing phase by phase
+            self._columns.add("cell/tcp_path", "path", record.end_time, np.asarray(self._tcp_path))
+        self._last_time = max(self._last_time, record.end_time)
+        self._flush_if_full()
 
     def log_vision_cycle(
         self,
@@ -297,10 +304,12 @@ class EpisodeRecorder:
             true: the same under the true pose (simulation), or None.
             transform_true_to_world: (4, 4) true ^W T_M at capture (simulation), or None.
         """
-        rr, rec = self.rr, self._rec
         capture, record, recognition = cycle.capture, cycle.record, cycle.recognition
-        rec.set_time("cell_time", duration=capture.time)
-        rec.set_time("vision_cycle", sequence=self.cycles)
+        t, n = capture.time, self.cycles
+
+        def add(entity: str, kind: Kind, value: object) -> None:
+            self._columns.add(entity, kind, t, value, cycle=n)
+
         true_left, true_right = (true.left, true.right) if true is not None else (None, None)
         cameras = (
             ("left", capture.left_bgr, transform_left_camera_to_world, recognised.left, true_left),
@@ -316,78 +325,54 @@ class EpisodeRecorder:
             ok, jpeg = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, self.jpeg_quality])
             if not ok:
                 raise RuntimeError("OpenCV could not encode a camera image as JPEG")
-            rec.log(f"cameras/{side}", self._transform(pose))
-            rec.log(f"cameras/{side}", rr.EncodedImage(contents=jpeg.tobytes(), media_type="image/jpeg"))
-            rec.log(
-                f"cameras/{side}/outline/recognised", rr.LineStrips2D.from_fields(strips=_closed(outline))
-            )
+            add(f"cameras/{side}", "pose", pose)
+            add(f"cameras/{side}/image", "image", jpeg.tobytes())
+            add(f"cameras/{side}/outline/recognised", "strips", _closed(outline))
             if truth is not None:
-                rec.log(f"cameras/{side}/outline/true", rr.LineStrips2D.from_fields(strips=_closed(truth)))
-        rec.log("cloth/recognised", self._transform(cycle.transform_model_to_world))
+                add(f"cameras/{side}/outline/true", "strips", _closed(truth))
+        add("cloth/recognised", "pose", cycle.transform_model_to_world)
         if transform_true_to_world is not None:
-            rec.log("cloth/true", self._transform(transform_true_to_world))
+            add("cloth/true", "pose", transform_true_to_world)
         grasp_frame = cycle.transform_model_to_world
         if cycle.filtered is not None:
             grasp_frame = cycle.filtered.as_transform()
-            rec.log("cloth/filtered", self._transform(grasp_frame))
+            add("cloth/filtered", "pose", grasp_frame)
             residual = np.linalg.norm(cycle.transform_model_to_world[:3, 3] - cycle.filtered.position)
-            rec.log("signals/filter/residual_mm", rr.Scalars(1e3 * residual))
-        grasp = grasp_frame[:3, :3] @ cycle.grasp_point_model + grasp_frame[:3, 3]
-        rec.log("cloth/grasp_point", rr.Points3D.from_fields(positions=[grasp]))
+            add("signals/filter/residual_mm", "scalar", 1e3 * residual)
+        add("cloth/grasp_point", "point", grasp_frame[:3, :3] @ cycle.grasp_point_model + grasp_frame[:3, 3])
         if math.isfinite(cycle.nis):
-            rec.log("signals/filter/nis", rr.Scalars(cycle.nis))
-        rec.log("signals/recognition/fitness", rr.Scalars(recognition.fitness))
-        rec.log("signals/recognition/confidence", rr.Scalars(recognition.confidence))
-        rec.log("signals/recognition/visible_fraction", rr.Scalars(recognition.visible_fraction))
-        for axis in ("x_mm", "y_mm", "z_mm"):
+            add("signals/filter/nis", "scalar", cycle.nis)
+        add("signals/recognition/fitness", "scalar", recognition.fitness)
+        add("signals/recognition/confidence", "scalar", recognition.confidence)
+        add("signals/recognition/visible_fraction", "scalar", recognition.visible_fraction)
+        for axis in ("x_mm", "y_mm", "z_mm", "yaw_deg"):
             value = getattr(record, f"error_{axis}")
             if value is not None:
-                rec.log(f"signals/error/{axis}", rr.Scalars(value))
-        if record.error_yaw_deg is not None:
-            rec.log("signals/error_yaw_deg", rr.Scalars(record.error_yaw_deg))
+                add(
+                    f"signals/error/{axis}" if axis != "yaw_deg" else "signals/error_yaw_deg", "scalar", value
+                )
         verdict = "accepted" if record.accepted else "rejected"
         text = (
-            f"#{self.cycles} {record.mode}: fitness {recognition.fitness:.3f}, "
+            f"#{n} {record.mode}: fitness {recognition.fitness:.3f}, "
             f"confidence {recognition.confidence:.2f}, {'found' if record.found else 'not found'}, "
             f"{verdict} ({record.reason})"
         )
-        level = rr.TextLogLevel.INFO if record.accepted else rr.TextLogLevel.WARN
-        rec.log("log/recognitions", rr.TextLog(text, level=level))
-        rec.disable_timeline("vision_cycle")
+        add("log/recognitions", "text", (text, "INFO" if record.accepted else "WARN"))
         self.cycles += 1
+        self._last_time = max(self._last_time, t)
+        self._flush_if_full()
 
     def log_outcome(self, time: float, text: str, success: bool) -> None:
         """The episode's (or a task's) outcome as a text entry at cell time [s]."""
-        rr, rec = self.rr, self._rec
-        self.flush()
-        rec.set_time("cell_time", duration=time)
-        level = rr.TextLogLevel.INFO if success else rr.TextLogLevel.ERROR
-        rec.log("log/outcome", rr.TextLog(text, level=level))
+        self._columns.add("log/outcome", "text", time, (text, "INFO" if success else "ERROR"))
+        self._last_time = max(self._last_time, time)
 
     # ------------------------------------------------------------------ buffers
     def flush(self) -> None:
-        """Sends the buffered joint samples, link poses and the TCP path so far."""
-        rr, rec = self.rr, self._rec
-        if self._times and self._layout is not None:
+        """Sends everything buffered: joint samples, scene samples, vision cycles, text."""
+        if self._joint_times and self._layout is not None:
             self._send_joints(self._layout)
-        if self._scene_times:
-            index = [rr.TimeColumn("cell_time", duration=np.asarray(self._scene_times))]
-            for link, poses in self._link_poses.items():
-                if poses:
-                    stack = np.asarray(poses)
-                    quaternions = np.array([quaternion_xyzw_from_matrix(T[:3, :3]) for T in stack])
-                    columns = rr.Transform3D.columns(translation=stack[:, :3, 3], quaternion=quaternions)
-                    rec.send_columns(f"cell/robot/{link}", indexes=index, columns=columns)
-                    poses.clear()
-            tcp = np.asarray(self._tcp_path[self._tcp_sent :])
-            rec.send_columns("cell/tcp", indexes=index, columns=rr.Points3D.columns(positions=tcp))
-            rec.set_time("cell_time", duration=self._scene_times[-1])
-            rec.log(
-                "cell/tcp_path",
-                rr.LineStrips3D([np.asarray(self._tcp_path)], colors=[TCP_RGB], radii=[0.002]),
-            )
-            self._tcp_sent = len(self._tcp_path)
-            self._scene_times.clear()
+        self._columns.flush()
 
     def close(self) -> None:
         """Sends what is buffered and finalises the file (idempotent)."""
@@ -409,29 +394,26 @@ class EpisodeRecorder:
         self.close()
 
     # ------------------------------------------------------------------ helpers
+    def _flush_if_full(self) -> None:
+        if self._columns.pending + len(self._joint_times) > FLUSH_ROWS:
+            self.flush()
+
     def _send_joints(self, layout: CellLayout) -> None:
-        rr, rec = self.rr, self._rec
-        times = np.asarray(self._times)
-        index = [rr.TimeColumn("cell_time", duration=times)]
+        times = np.asarray(self._joint_times)
         q, dq = np.asarray(self._q), np.asarray(self._dq)
         mid = (layout.joint_upper + layout.joint_lower) / 2
         half = (layout.joint_upper - layout.joint_lower) / 2
-        shares = {
+        series = {
             "position": q,
             "velocity": dq,
             "position_of_range": (q - mid) / half,  # -1 and 1 are the limits
             "velocity_of_limit": dq / layout.joint_velocity,
         }
-        for kind, values in shares.items():
-            for j, name in enumerate(layout.joint_names):
-                columns = rr.Scalars.columns(scalars=values[:, j])
-                rec.send_columns(f"signals/joints/{kind}/{name}", indexes=index, columns=columns)
-        edges = [rr.TimeColumn("cell_time", duration=times[[0, -1]])]
+        for kind in JOINT_SERIES:  # one entity per kind, one plot line per joint
+            self._columns.send_series(f"signals/joints/{kind}", times, series[kind])
         for name, value in (("limit_high", 1.0), ("limit_low", -1.0)):
-            rec.send_columns(
-                f"signals/joints/{name}", indexes=edges, columns=rr.Scalars.columns(scalars=[value] * 2)
-            )
-        self._times.clear()
+            self._columns.send_series(f"signals/joints/{name}", times[[0, -1]], [value, value])
+        self._joint_times.clear()
         self._q.clear()
         self._dq.clear()
 
@@ -474,11 +456,6 @@ class EpisodeRecorder:
 
     def _series(self, entity: str, name: str, rgb: tuple[int, int, int]) -> None:
         self._rec.log(entity, self.rr.SeriesLines(names=name, colors=[rgb]), static=True)
-
-    def _transform(self, pose: FloatArray) -> Any:
-        T = np.asarray(pose, dtype=float)
-        quaternion = self.rr.Quaternion(xyzw=quaternion_xyzw_from_matrix(T[:3, :3]))
-        return self.rr.Transform3D(translation=T[:3, 3], quaternion=quaternion)
 
 
 def _closed(polygons: tuple[FloatArray, ...]) -> list[FloatArray]:

@@ -41,12 +41,12 @@ def default_blueprint(rr: ModuleType) -> Any:
         ),
         rrb.TimeSeriesView(
             origin="/signals/joints",
-            contents=["+ /signals/joints/position_of_range/**", "+ /signals/joints/limit_*"],
+            contents=["+ /signals/joints/position_of_range", "+ /signals/joints/limit_*"],
             name="joint positions / limits",
         ),
         rrb.TimeSeriesView(
             origin="/signals/joints",
-            contents=["+ /signals/joints/velocity_of_limit/**", "+ /signals/joints/limit_*"],
+            contents=["+ /signals/joints/velocity_of_limit", "+ /signals/joints/limit_*"],
             name="joint velocities / limits",
         ),
     )
