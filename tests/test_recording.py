@@ -266,3 +266,24 @@ def test_recorded_bodies_are_where_pybullet_has_the_links() -> None:
                 truth = robot.frame_pose(link)
                 assert pose[:3, 3] == pytest.approx(truth[:3, 3], abs=2e-4), link
                 assert pose[:3, :3] == pytest.approx(truth[:3, :3], abs=1e-3), link
+
+
+def test_ctrl_c_keeps_a_whole_recording_of_the_episode_so_far(tmp_path) -> None:
+    pytest.importorskip("rerun")
+    import signal
+
+    from tests.test_interrupts import no_temporaries, start
+
+    record, folder = tmp_path / "episode.rrd", tmp_path / "run"
+    process = start("pick-place", "--out", folder, "--record", record, cwd=tmp_path)
+    process.wait_for(lambda line: line.lstrip().startswith("search"))  # the cloth was found
+    process.popen.send_signal(signal.SIGINT)
+    code, stderr = process.finish()
+    assert code == 130, stderr
+    assert f"recording (up to the stop): {record}" in stderr
+    assert no_temporaries(tmp_path)
+    data = _read(record)  # a whole file: rerun reads it to its end
+    recognitions = _csv(folder / "recognitions.csv")
+    assert len(data["/cameras/right/image"]["EncodedImage:blob"].values) == len(recognitions) >= 1
+    outcome = data["/log/outcome"]["TextLog:text"].values
+    assert len(outcome) == 1 and "interrupted" in outcome[0][0]
