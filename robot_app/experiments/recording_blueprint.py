@@ -9,8 +9,8 @@ from __future__ import annotations
 from types import ModuleType
 from typing import Any
 
-EYE_POSITION = (1.45, -1.25, 0.95)  # [m] in Σ_W: in front of the cell, right of the box
-EYE_TARGET = (0.35, -0.2, 0.25)
+EYE_POSITION = (1.15, -0.95, 0.75)  # [m] in Σ_W: in front of the cell, right of the box
+EYE_TARGET = (0.35, -0.2, 0.3)
 
 
 def default_blueprint(rr: ModuleType) -> Any:
