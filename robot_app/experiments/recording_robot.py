@@ -18,7 +18,7 @@ import pinocchio as pin
 
 from robot_app.arrays import FloatArray
 from robot_app.errors import InputError
-from robot_app.experiments.recording import Shape
+from robot_app.experiments.recording_layout import Shape
 from robot_app.geometry import make_transform, rotation_about_z, rotation_from_rpy
 
 TCP_FRAME = "tcp"

@@ -13,7 +13,8 @@ import cv2
 import numpy as np
 
 from robot_app.control.limits import JointLimits
-from robot_app.experiments.recording import CellLayout, ClothSurface, EpisodeRecorder, SceneSample, Shape
+from robot_app.experiments.recording import EpisodeRecorder
+from robot_app.experiments.recording_layout import CellLayout, ClothSurface, SceneSample, Shape
 from robot_app.experiments.recording_robot import RobotBodies, urdf_visuals
 from robot_app.geometry import make_transform, rotation_about_z
 from robot_app.sim import ClothBody, World, texture_image
