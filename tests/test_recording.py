@@ -287,3 +287,28 @@ def test_ctrl_c_keeps_a_whole_recording_of_the_episode_so_far(tmp_path) -> None:
     assert len(data["/cameras/right/image"]["EncodedImage:blob"].values) == len(recognitions) >= 1
     outcome = data["/log/outcome"]["TextLog:text"].values
     assert len(outcome) == 1 and "interrupted" in outcome[0][0]
+
+
+def test_buffered_rows_arrive_whole_and_in_order(tmp_path) -> None:
+    rr = pytest.importorskip("rerun")
+    from robot_app.experiments.recording_columns import TimedColumns
+
+    recording = rr.RecordingStream("robot_app_test", recording_id="columns")
+    recording.save(str(tmp_path / "columns.rrd"))
+    columns = TimedColumns(rr, recording)
+    strips = [[np.zeros((4, 2)), np.ones((3, 2))], [], [np.full((5, 2), 2.0)]]  # no outline in view at 1
+    for n, (time, rows) in enumerate(zip((0.5, 0.25, 0.75), strips, strict=True)):
+        columns.add("outline", "strips", time, rows, cycle=n)
+        columns.add("fitness", "scalar", time, 0.1 * n, cycle=n)
+        columns.add("mesh", "mesh", time, np.full((6, 3), float(n)))
+    with pytest.raises(ValueError, match="vision cycle"):
+        columns.add("fitness", "scalar", 1.0, 0.5)  # a row without a cycle among rows with one
+    assert columns.pending == 9
+    columns.flush()
+    recording.flush()
+    recording.disconnect()
+    data = _read(tmp_path / "columns.rrd")
+    assert data["/fitness"]["Scalars:scalars"].values == [[0.1], [0.0], [0.2]]  # in time order
+    assert data["/fitness"]["Scalars:scalars"].cycles == [1, 0, 2]
+    assert [len(v) for v in data["/outline"]["LineStrips2D:strips"].values] == [0, 2, 1]
+    assert [len(v) for v in data["/mesh"]["Mesh3D:vertex_positions"].values] == [6, 6, 6]

@@ -4,7 +4,8 @@ A recording holds, on the `cell_time` timeline [s] (and the `vision_cycle` seque
 for what each vision cycle saw):
 
 - `cell/table`, `cell/sheet`, `cell/box`: the fixed cell in Σ_W (static);
-- `cell/robot/<link>`: each link's pose, its URDF primitives below it (scene samples);
+- `cell/robot/<link>`: each rigid body's pose (named after its first link), its URDF
+  primitives below it (scene samples);
 - `cell/tcp`, `cell/tcp_path`: the TCP now, and its path so far (at each phase end);
 - `cell/cloths/<No.n>`: every cloth's soft-body mesh with its print (scene samples);
 - `cameras/left`, `cameras/right`: the camera's pose and pinhole (its frustum in 3D),
@@ -14,15 +15,18 @@ for what each vision cycle saw):
   outline below; `cloth/grasp_point`: where the loop means to grasp (vision cycles);
 - `signals/recognition/*` (fitness, confidence, visible fraction), `signals/filter/*`
   (NIS, residual), `signals/error/*` (against the truth) (vision cycles);
-- `signals/joints/<kind>/<joint>`: positions [rad], velocities [rad/s], and both as
-  shares of their limits (-1 and 1 are the limits) (control steps);
+- `signals/joints/<kind>`, one series per joint: `position` [rad], `velocity` [rad/s],
+  `position_of_range` and `velocity_of_limit` (-1 and 1 are the limits; drawn as
+  `signals/joints/limit_low|high`) (control steps);
 - `log/phases`, `log/recognitions`, `log/outcome`: text entries.
 
 rerun-sdk is an optional extra (`robot_app[viewer]`) imported only when a recording is
 made; `require_rerun` turns its absence into a one-line input error. Every temporal row
-is buffered (`TimedColumns`) and sent in columns at each phase end, so recording costs
-little per control step and per vision cycle. The caller gives the file name (an
-`atomic_path` temporary); `close` finalises the file.
+is buffered (`TimedColumns`) and sent in columns when many are pending and at `close`,
+so recording costs little per control step and per vision cycle. The caller gives the
+file name (an `atomic_path` temporary); `close` finalises the file. Nothing here is
+specific to one episode of one cloth: a longer job (several cloths, a conveyor) logs
+its cycles, phases and outcomes into the same recorder.
 """
 
 from __future__ import annotations
