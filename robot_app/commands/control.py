@@ -46,7 +46,7 @@ def pick_place(
         typer.Option(
             "--record",
             help="Write a Rerun recording (.rrd) of the episode; open it with `rerun FILE.rrd` "
-            "(needs the viewer extra: pip install 'robot_app[viewer]').",
+            "(needs the viewer extra: pip install 'robot_app\\[viewer]').",
         ),
     ] = None,
     gui: Annotated[bool, typer.Option("--gui", help="Show pybullet's GUI (needs a display).")] = False,
