@@ -4,12 +4,18 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from robot_app.arrays import FloatArray
 from robot_app.control.limits import LimitReport
 from robot_app.errors import RobotAppError
+
+if TYPE_CHECKING:
+    from robot_app.control.cell import StereoCapture
+    from robot_app.control.pose_filter import PoseEstimate
+    from robot_app.vision import Recognition
 
 
 class Phase(StrEnum):
@@ -97,6 +103,35 @@ class RecognitionRecord:
 
 
 @dataclass(frozen=True)
+class VisionCycle:
+    """One vision cycle as the loop lived it, handed to observers (recordings, videos, live views).
+
+    The loop calls `on_recognition(cycle)` once per row of `EpisodeResult.recognitions`, in
+    order, right after the row is made: the n-th call is the n-th row. Observers must not
+    keep mutable state of the loop; everything here is a value or a read-only array.
+
+    Attributes:
+        record: the row this cycle adds to the episode's recognitions.
+        capture: the stereo pair the recogniser looked at, with the right camera's pose at
+            capture time.
+        recognition: the recogniser's full result (fitness, confidence, ^CR T_M, ...).
+        transform_model_to_world: (4, 4) the recognised pose of Σ_M in Σ_W [m].
+        filtered: the pose filter's estimate after this cycle; None before its first fix.
+        nis: normalised innovation squared of this cycle's filter update [-]; NaN when the
+            filter computed none (a search, a (re)initialisation, a too low fitness).
+        grasp_point_model: (3,) the point the loop means to grasp, in Σ_M [m].
+    """
+
+    record: RecognitionRecord
+    capture: StereoCapture
+    recognition: Recognition
+    transform_model_to_world: FloatArray
+    filtered: PoseEstimate | None
+    nis: float
+    grasp_point_model: FloatArray
+
+
+@dataclass(frozen=True)
 class EpisodeResult:
     """Everything one episode measured.
 
@@ -164,4 +199,12 @@ def _limit_dict(report: LimitReport) -> dict[str, Any]:
     }
 
 
-__all__ = ["EpisodeAbortError", "EpisodeResult", "Outcome", "Phase", "PhaseRecord", "RecognitionRecord"]
+__all__ = [
+    "EpisodeAbortError",
+    "EpisodeResult",
+    "Outcome",
+    "Phase",
+    "PhaseRecord",
+    "RecognitionRecord",
+    "VisionCycle",
+]

@@ -13,6 +13,7 @@ against the position, velocity, acceleration and jerk limits at the end.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,6 +33,7 @@ from robot_app.control.episode import (
     Phase,
     PhaseRecord,
     RecognitionRecord,
+    VisionCycle,
 )
 from robot_app.control.grasp_point import visible_grasp_point
 from robot_app.control.kinematics import Kinematics
@@ -97,6 +99,7 @@ class _Command:
 
 PhaseCallback = Callable[[PhaseRecord], None]
 StepCallback = Callable[[Cell, StereoCapture | None], None]
+RecognitionCallback = Callable[[VisionCycle], None]
 
 
 class PickPlaceLoop:
@@ -114,6 +117,8 @@ class PickPlaceLoop:
         filter_settings: Kalman filter settings.
         on_phase: called with each finished phase (progress lines).
         on_step: called after every control step with the last capture (video).
+        on_recognition: called once per recognition, in order, with what the vision cycle
+            saw and concluded (`VisionCycle`: recordings, video overlays).
         ground_truth: returns the cloth's true 4x4 pose in Σ_W (simulation only), for the log.
     """
 
@@ -131,6 +136,7 @@ class PickPlaceLoop:
         *,
         on_phase: PhaseCallback | None = None,
         on_step: StepCallback | None = None,
+        on_recognition: RecognitionCallback | None = None,
         ground_truth: Callable[[], FloatArray] | None = None,
     ) -> None:
         self.cell = cell
@@ -147,6 +153,7 @@ class PickPlaceLoop:
         self.filter = PoseFilter(filter_settings, tuple(self.model.symmetry_angles))
         self.on_phase = on_phase
         self.on_step = on_step
+        self.on_recognition = on_recognition
         self.ground_truth = ground_truth
         # the hand keeps the observation orientation: cameras look straight down throughout
         self.tcp_rotation = kinematics.frame_pose(self.observation_joints, "tcp")[:3, :3].copy()
@@ -302,7 +309,7 @@ class PickPlaceLoop:
                 pose = capture.transform_right_camera_to_world @ recognition.transform_model_to_camera
                 update = self.filter.update(pose, recognition.fitness, capture.time)
                 self._log_recognition(
-                    capture, recognition, pose, "track", update.accepted, str(update.reason)
+                    capture, recognition, pose, "track", update.accepted, str(update.reason), update.nis
                 )
                 if self.filter.lost:
                     self._note = f"lost after {self.filter.consecutive_rejections} rejected recognitions"
@@ -498,6 +505,7 @@ class PickPlaceLoop:
         mode: str,
         accepted: bool,
         reason: str,
+        nis: float = math.nan,
     ) -> None:
         self._last_capture = capture
         if mode == "search" and recognition.found:
@@ -517,24 +525,31 @@ class PickPlaceLoop:
                 "error_z_mm": error.z_mm,
                 "error_yaw_deg": error.yaw_deg,
             }
-        self.recognitions.append(
-            RecognitionRecord(
-                time=capture.time,
-                phase=self._current.value,
-                mode=mode,
-                found=recognition.found,
-                fitness=recognition.fitness,
-                accepted=accepted,
-                reason=reason,
-                x=float(pose[0, 3]),
-                y=float(pose[1, 3]),
-                z=float(pose[2, 3]),
-                yaw=yaw_of(pose[:3, :3]),
-                evaluations=recognition.evaluations,
-                recognition_s=recognition.time_s,
-                **errors,
-            )
+        record = RecognitionRecord(
+            time=capture.time,
+            phase=self._current.value,
+            mode=mode,
+            found=recognition.found,
+            fitness=recognition.fitness,
+            accepted=accepted,
+            reason=reason,
+            x=float(pose[0, 3]),
+            y=float(pose[1, 3]),
+            z=float(pose[2, 3]),
+            yaw=yaw_of(pose[:3, :3]),
+            evaluations=recognition.evaluations,
+            recognition_s=recognition.time_s,
+            **errors,
         )
+        self.recognitions.append(record)
+        if self.on_recognition is not None:
+            grasp_point = self._grasp_point_model.copy()
+            grasp_point.setflags(write=False)
+            world_pose = np.array(pose, dtype=float)
+            world_pose.setflags(write=False)
+            self.on_recognition(
+                VisionCycle(record, capture, recognition, world_pose, self.filter.estimate, nis, grasp_point)
+            )
 
     def _result(self, outcome: Outcome, reason: str, start_time: float, wall_start: float) -> EpisodeResult:
         n = len(self._times)

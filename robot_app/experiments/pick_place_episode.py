@@ -26,11 +26,14 @@ from robot_app.control.limits import JointLimits, TrajectorySettings
 from robot_app.control.pick_place import LoopSettings, PickPlaceLoop
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.errors import ConfigError
+from robot_app.experiments.episode_views import EpisodeViews
+from robot_app.experiments.recording import require_rerun
 from robot_app.geometry import yaw_of
 from robot_app.outputs import atomic_path, atomic_write_text, output_folder
 from robot_app.sim import (
-    EpisodeVideo,
+    ClothBody,
     ModelStation,
+    Scene,
     SceneSettings,
     SimCell,
     World,
@@ -114,6 +117,7 @@ def run_episode(
     on_phase: Callable[[PhaseRecord], None] | None = None,
     video_path: str | Path | None = None,
     stop: Callable[[], None] | None = None,
+    record_path: str | Path | None = None,
 ) -> Episode:
     """Runs one pick-and-place episode in a fresh simulated cell.
 
@@ -126,14 +130,20 @@ def run_episode(
             that fails with an error, or ends before its first frame, leaves no file.
         stop: called after every control step; raising `InterruptError` there ends the
             episode at that step with outcome INTERRUPTED (see `stop_at_safe_points`).
+        record_path: write a Rerun recording (.rrd) of the episode there (needs the
+            `viewer` extra, rerun-sdk). Like the video it is written under a temporary
+            name: whole, or absent if the episode fails with an error.
     """
     w = config.world
     if any(abs(v) > 1e-12 for v in (*w.robot.base_xyz, w.robot.base_yaw)):
         raise ConfigError("world.robot.base_xyz/base_yaw: the loop needs the robot base at the world origin")
+    if record_path is not None:
+        require_rerun()  # before the model and the cell: a missing extra never costs an episode
     model = _make_target_model(config)
     with ExitStack() as stack:
         video_file = stack.enter_context(atomic_path(video_path)) if video_path is not None else None
-        return _run_in_cell(config, model, gui, on_phase, video_file, stop)
+        record_file = stack.enter_context(atomic_path(record_path)) if record_path is not None else None
+        return _run_in_cell(config, model, gui, on_phase, video_file, record_file, stop)
 
 
 def _run_in_cell(
@@ -142,6 +152,7 @@ def _run_in_cell(
     gui: bool,
     on_phase: Callable[[PhaseRecord], None] | None,
     video_file: Path | None,
+    record_file: Path | None,
     stop: Callable[[], None] | None,
 ) -> Episode:
     w = config.world
@@ -153,16 +164,29 @@ def _run_in_cell(
         kinematics = Kinematics.from_urdf(w.robot.urdf, "base_link", "tcp")
         limits = JointLimits.from_urdf(w.robot.urdf, config.trajectory)
         recognizer = Recognizer(model, world.stereo.rig, _recognition_settings(config))
-        video = EpisodeVideo(world, cell, video_file) if video_file is not None else None
+        views = EpisodeViews(
+            world,
+            cell,
+            model,
+            limits,
+            video_file=video_file,
+            record_file=record_file,
+            ground_truth=wanted_body.pose if wanted_body is not None else None,
+            name=f"pick-place No.{config.wanted}, seed {config.seed}",
+        )
         nudge = _Nudger(world, scene.target, config.nudge) if config.nudge is not None else None
 
         def on_step(_cell: object, _capture: object) -> None:
             if nudge is not None:
                 nudge.tick(loop.current_phase)
-            if video is not None:
-                video.tick()
+            views.on_step(loop.current_phase.value)
             if stop is not None:
                 stop()  # a safe point: between two control steps, the video frame written
+
+        def on_phase_ended(record: PhaseRecord) -> None:
+            views.on_phase(record)
+            if on_phase is not None:
+                on_phase(record)
 
         loop = PickPlaceLoop(
             cell,
@@ -174,28 +198,35 @@ def _run_in_cell(
             w.table.top_z,
             config.loop,
             config.filter,
-            on_phase=on_phase,
-            on_step=on_step if (video is not None or nudge is not None or stop is not None) else None,
+            on_phase=on_phase_ended,
+            on_step=on_step if (views.active or nudge is not None or stop is not None) else None,
+            on_recognition=views.on_recognition if views.active else None,
             ground_truth=wanted_body.pose if wanted_body is not None else None,
         )
         try:
-            result = loop.run()
+            result = _judged(loop.run(), world, scene, wanted_body, present)
+            views.finish(result, world.time)
         finally:
-            if video is not None:
-                video.close()
-        if video is not None and video_file is not None and video.frames == 0:
+            views.close()
+        if video_file is not None and views.video_frames == 0:
             video_file.unlink(missing_ok=True)  # no frame, no playable video: leave none
-        judged = wanted_body if wanted_body is not None else scene.target
-        placed = world.cloth_in_box(judged)
-        pose = judged.pose()
-        final = (float(pose[0, 3]), float(pose[1, 3]), float(pose[2, 3]), yaw_of(pose[:3, :3]))
-        if present:
-            success = result.success and placed >= SUCCESS_FRACTION and result.collisions == 0
-        else:  # nothing to pick: success is saying so without touching anything
-            success = result.outcome is Outcome.NOT_PRESENT and result.grasp_attempts == 0
-        result = replace(result, placed_fraction=placed, final_pose=final, success=success)
         bx, by, bz = (float(v) for v in world.box.centre)
         return Episode(result, config.wanted, present, (bx, by, bz))
+
+
+def _judged(
+    result: EpisodeResult, world: World, scene: Scene, wanted_body: ClothBody | None, present: bool
+) -> EpisodeResult:
+    """The loop's result with the simulator's verdict: placed fraction, final pose, success."""
+    judged = wanted_body if wanted_body is not None else scene.target
+    placed = world.cloth_in_box(judged)
+    pose = judged.pose()
+    final = (float(pose[0, 3]), float(pose[1, 3]), float(pose[2, 3]), yaw_of(pose[:3, :3]))
+    if present:
+        success = result.success and placed >= SUCCESS_FRACTION and result.collisions == 0
+    else:  # nothing to pick: success is saying so without touching anything
+        success = result.outcome is Outcome.NOT_PRESENT and result.grasp_attempts == 0
+    return replace(result, placed_fraction=placed, final_pose=final, success=success)
 
 
 def _recognition_settings(config: PickPlaceConfig) -> RecognitionSettings:

@@ -36,7 +36,7 @@ from robot_app.sim.robot import Contact, SimRobot
 from robot_app.sim.scene import Scene, make_scene
 from robot_app.sim.station import ModelStation, StationPhoto
 from robot_app.sim.stereo import StereoCamera
-from robot_app.sim.video import EpisodeVideo
+from robot_app.sim.video import EpisodeVideo, VisionOverlay
 from robot_app.sim.world import BoxGeometry, World
 
 __all__ = [
@@ -66,6 +66,7 @@ __all__ = [
     "StationSettings",
     "StereoCamera",
     "StereoFrame",
+    "VisionOverlay",
     "World",
     "WorldConfig",
     "build_cloth_mesh",

@@ -24,6 +24,7 @@ from robot_app.vision.hue import (
     to_hsv,
     to_hue,
 )
+from robot_app.vision.outline import ProjectedOutline, draw_outline, model_outline, project_outline
 from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
 from robot_app.vision.plots import plot_full_search, save_preview
 from robot_app.vision.poses import AvoidedPoses, PoseLimits
@@ -66,6 +67,7 @@ __all__ = [
     "Peak",
     "PinholeCamera",
     "PoseLimits",
+    "ProjectedOutline",
     "Proposal",
     "ProposalSettings",
     "Proposer",
@@ -89,6 +91,7 @@ __all__ = [
     "compass_search",
     "confidence",
     "decide",
+    "draw_outline",
     "find_peaks",
     "full_search",
     "hue_distance",
@@ -96,9 +99,11 @@ __all__ = [
     "load_photo",
     "load_rig",
     "make_model",
+    "model_outline",
     "model_photo_transform",
     "occluder_covering",
     "plot_full_search",
+    "project_outline",
     "render_model_photo",
     "render_stereo_pair",
     "sample_model",
