@@ -17,10 +17,10 @@ import numpy.typing as npt
 import pybullet as pb
 
 from robot_app.arrays import FloatArray
-from robot_app.errors import CalibrationError
+from robot_app.errors import CalibrationError, ConfigError, RobotAppError
 from robot_app.geometry import invert_transform
 from robot_app.sim.config import CameraSettings
-from robot_app.vision.camera import PinholeCamera, StereoRig, save_rig
+from robot_app.vision.camera import PinholeCamera, StereoRig, load_rig, save_rig
 
 if TYPE_CHECKING:
     from robot_app.sim.robot import SimRobot
@@ -134,8 +134,11 @@ class _Clock(Protocol):
 class StereoCamera:
     """The two hand cameras, rendered at the robot's `camera_*_optical` frames.
 
-    The rig (intrinsics from the config, extrinsics from the URDF) is what a calibration
-    would give; `save_rig` writes the file the recogniser reads.
+    `true_rig` (intrinsics from the config, extrinsics from the URDF) is what the
+    renderer draws and `save_rig` writes. `rig` is what the recogniser and the loop are
+    given: the truth, or the rig of `config.rig_file` (a calibration); with a rig file,
+    a capture's camera pose is the measured flange pose times its camera-to-hand
+    transform, as a real controller would compute it.
     """
 
     def __init__(self, client: int, robot: SimRobot, config: CameraSettings, clock: _Clock) -> None:
@@ -148,27 +151,58 @@ class StereoCamera:
         left = robot.frame_pose(LEFT_FRAME)
         right = robot.frame_pose(RIGHT_FRAME)
         hand = robot.frame_pose(HAND_FRAME)
-        self.rig = StereoRig(
+        self.true_rig = StereoRig(
             camera,
             camera,
             invert_transform(right) @ left,
             invert_transform(hand) @ right,
         )
+        self.rig = (
+            self.true_rig if config.rig_file is None else _calibrated_rig(config.rig_file, config.image_size)
+        )
         self.lighting = Lighting(config.ambient, config.diffuse)
 
     def render(self) -> StereoFrame:
-        """Renders both cameras at the robot's current pose."""
+        """Renders both (true) cameras at the robot's current pose."""
         left_pose = self._robot.frame_pose(LEFT_FRAME)
         right_pose = self._robot.frame_pose(RIGHT_FRAME)
         near, far = self._config.near, self._config.far
-        left = render_bgr(self._client, self.rig.left, left_pose, near, far, self.lighting)
-        right = render_bgr(self._client, self.rig.right, right_pose, near, far, self.lighting)
+        left = render_bgr(self._client, self.true_rig.left, left_pose, near, far, self.lighting)
+        right = render_bgr(self._client, self.true_rig.right, right_pose, near, far, self.lighting)
+        if self.rig is not self.true_rig and self.rig.transform_right_camera_to_hand is not None:
+            right_pose = self._robot.frame_pose(HAND_FRAME) @ self.rig.transform_right_camera_to_hand
         return StereoFrame(left, right, self._clock.time, right_pose)
 
     def save_rig(self, path: str | Path) -> Path:
-        """Writes the rig YAML (docs/architecture.md format) and returns its path."""
-        save_rig(self.rig, path)
+        """Writes the true rig YAML (docs/architecture.md format) and returns its path."""
+        save_rig(self.true_rig, path)
         return Path(path)
+
+
+def _calibrated_rig(path: Path, image_size: tuple[int, int]) -> StereoRig:
+    """The rig of a `rig_file` setting, checked against the cameras it stands for."""
+    key, value = "world.cameras.rig_file", str(path)
+    try:
+        rig = load_rig(path)
+    except RobotAppError as err:
+        raise ConfigError(f"{key}: {err}", key=key, value=value, path=path) from err
+    if rig.image_size != tuple(image_size):
+        raise ConfigError(
+            f"{key}: {path} is a rig for {list(rig.image_size)} px images but the cameras are "
+            f"{list(image_size)} px (calibrate at the resolution the cameras run at)",
+            key=key,
+            value=value,
+            path=path,
+            expected=f"a rig with image_size {list(image_size)}",
+        )
+    if rig.transform_right_camera_to_hand is None:
+        raise ConfigError(
+            f"{key}: {path} has no transform_right_camera_to_hand (run robot-app calibrate hand-eye)",
+            key=key,
+            value=value,
+            path=path,
+        )
+    return rig
 
 
 __all__ = [
