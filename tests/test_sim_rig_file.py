@@ -31,7 +31,9 @@ def _perturbed(rig: StereoRig) -> StereoRig:
     K[0, 0] *= 1.004
     camera = PinholeCamera(K, rig.image_size, [0.01, 0.0, 0.0, 0.0, 0.0])
     nudge = make_transform(rotation_about_z(np.deg2rad(0.3)), [0.002, -0.001, 0.003])
-    return replace(rig, right=camera, transform_right_camera_to_hand=rig.transform_right_camera_to_hand @ nudge)
+    return replace(
+        rig, right=camera, transform_right_camera_to_hand=rig.transform_right_camera_to_hand @ nudge
+    )
 
 
 def test_recogniser_gets_the_file_rig_and_rendering_stays_true(truth) -> None:
