@@ -330,6 +330,10 @@ class PickPlaceLoop:
     def _grasp(self) -> None:
         self.grasp_attempts += 1
         self.cell.set_gripper(0.0)
+        if self.ground_truth is not None:  # where the fingers close against where they were meant to
+            tcp = self.kinematics.frame_pose(self.cell.joint_positions(), "tcp")[:3, 3]
+            meant = transform_points(self.ground_truth(), self._grasp_point_model[None])[0]
+            self.grasp_offsets.append((float(tcp[0] - meant[0]), float(tcp[1] - meant[1])))
         self._hold(self.settings.close_time)
         held = self.cell.grasp()
         self._note = f"attempt {self.grasp_attempts}: {held} hold points"
@@ -476,6 +480,7 @@ class PickPlaceLoop:
         self._A: list[FloatArray] = []
         self.collisions = 0
         self.grasp_attempts = 0
+        self.grasp_offsets: list[tuple[float, float]] = []
         self.observe_returns = 0
         self._note = ""
         self._current = Phase.OBSERVE
@@ -551,6 +556,7 @@ class PickPlaceLoop:
             commanded_samples=n,
             collisions=self.collisions,
             grasp_attempts=self.grasp_attempts,
+            grasp_offsets=tuple(self.grasp_offsets),
             observe_returns=self.observe_returns,
             filter_accepted=self.filter.accepted_count,
             filter_rejected=self.filter.rejected_count,
