@@ -20,7 +20,9 @@ calibrate_app = typer.Typer(
 ImagesOption = Annotated[
     Path, typer.Option("--images", help="Folder of left_<n>.png / right_<n>.png board images.")
 ]
-BoardOption = Annotated[Path, typer.Option("--board", help="Board YAML (type, rows, cols, square_size [m]).")]
+BoardOption = Annotated[
+    Path, typer.Option("--board", help="Board YAML (type, rows, cols, square_size in metres).")
+]
 ReportOption = Annotated[
     Path | None,
     typer.Option("--report", help="Folder for views.csv, summary.json (default: next to the rig)."),
@@ -40,7 +42,9 @@ def stereo(
     max_edge_width: MaxBlurOption = 4.0,
     max_view_error: Annotated[
         float,
-        typer.Option("--max-view-error", help="Refuse views with a larger RMS error [px] (and 3x median)."),
+        typer.Option(
+            "--max-view-error", help="Refuse views with a larger RMS error in px (and 3x the median)."
+        ),
     ] = 1.0,
     fit_k3: Annotated[bool, typer.Option("--fit-k3", help="Also fit k3 (wide-angle lenses).")] = False,
 ) -> None:
