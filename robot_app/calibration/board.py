@@ -25,9 +25,11 @@ from typing import Literal
 import cv2
 import numpy as np
 import numpy.typing as npt
+import yaml
 from pydantic import Field, model_validator
 
 from robot_app.arrays import FloatArray
+from robot_app.calibration.files import write_atomic
 from robot_app.config import StrictModel, load_config
 
 BoardType = Literal["checkerboard", "charuco"]
@@ -113,16 +115,12 @@ def load_board(path: str | Path) -> BoardConfig:
 
 
 def save_board(board: BoardConfig, path: str | Path) -> Path:
-    """Writes the board YAML (only the keys its type uses)."""
-    import yaml
-
+    """Writes the board YAML atomically (only the keys its type uses)."""
     data = board.model_dump()
     if board.type == "checkerboard":
         data.pop("marker_size")
         data.pop("dictionary")
-    file = Path(path)
-    file.write_text(yaml.safe_dump(data, sort_keys=False))
-    return file
+    return write_atomic(path, yaml.safe_dump(data, sort_keys=False))
 
 
 def board_image(

@@ -23,6 +23,7 @@ from pydantic import Field
 from robot_app.arrays import FloatArray
 from robot_app.calibration.board import BoardConfig, save_board
 from robot_app.calibration.files import robot_poses_csv, write_atomic, write_image_atomic
+from robot_app.calibration.rig_file import write_rig
 from robot_app.config import StrictModel
 from robot_app.errors import IKError, OutputError, SimulationError
 from robot_app.geometry import invert_transform, make_transform, rotation_about_z, transform_points
@@ -30,7 +31,7 @@ from robot_app.robot_description import PA10_FLANGE
 from robot_app.sim.cameras import RIGHT_FRAME
 from robot_app.sim.config import WorldConfig
 from robot_app.sim.world import World
-from robot_app.vision.camera import StereoRig, save_rig
+from robot_app.vision.camera import StereoRig
 
 FACE_UP = np.diag([1.0, -1.0, -1.0])  # Σ_B of a board lying face up: z into the table
 BLACK, WHITE = (0.04, 0.04, 0.04), (0.92, 0.92, 0.92)
@@ -210,7 +211,9 @@ def capture_calibration_views(
                 progress(len(images), settings.views)
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "truth").mkdir(exist_ok=True)
-        save_rig(rig, folder / "truth" / "rig.yaml")
+        write_rig(
+            rig, folder / "truth" / "rig.yaml", ("the URDF's rig: the truth a calibration is compared with",)
+        )
     for n, (left, right) in enumerate(images):
         write_image_atomic(folder / f"left_{n:03d}.png", left)
         write_image_atomic(folder / f"right_{n:03d}.png", right)
