@@ -199,6 +199,9 @@ def run_episode_row(job: tuple[int, int, str | None]) -> dict[str, object]:
         "success": result.success,
         "outcome": result.outcome.value,
         "reason": result.reason,
+        "placed_fraction": result.placed_fraction,
+        "collisions": result.collisions,
+        "limit_violations": result.limit_report.violations,
         "grasp_offsets_mm": [[1000 * x, 1000 * y] for x, y in result.grasp_offsets],
         "first_grasp_offset_mm": offsets[0] if offsets else None,
         "recognition_xy_mm": [float(np.hypot(r.error_x_mm, r.error_y_mm)) for r in tracked],  # type: ignore[arg-type]
