@@ -22,8 +22,6 @@ from robot_app.calibration.hand_eye import (
     HandEyeCalibration,
     HandEyeMethod,
     HandEyeSettings,
-    MethodResult,
-    ViewResidual,
     calibrate_hand_eye,
     match_robot_poses,
 )
@@ -34,6 +32,7 @@ from robot_app.calibration.hand_eye_methods import (
     hand_eye_tsai,
     motion_pairs,
 )
+from robot_app.calibration.hand_eye_residuals import BoardObservations, MethodResult, ViewResidual
 from robot_app.calibration.report import (
     coverage_fraction,
     coverage_picture,
@@ -56,6 +55,7 @@ __all__ = [
     "POSE_COLUMNS",
     "BoardConfig",
     "BoardDetection",
+    "BoardObservations",
     "BoardType",
     "CameraFit",
     "DetectedView",

@@ -21,9 +21,9 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from itertools import combinations
 from typing import Literal
 
-import cv2
 import numpy as np
 from pydantic import Field
 
@@ -32,11 +32,16 @@ from robot_app.calibration.board import BoardConfig
 from robot_app.calibration.detection import DetectionSettings
 from robot_app.calibration.files import ImagePair
 from robot_app.calibration.hand_eye_methods import HAND_EYE_METHODS, motion_pairs, rotation_log
+from robot_app.calibration.hand_eye_residuals import (
+    BoardObservations,
+    MethodResult,
+    ViewResidual,
+    board_in_camera,
+)
 from robot_app.calibration.views import DetectedView, require_views
 from robot_app.config import StrictModel
 from robot_app.errors import CalibrationError, InputError
-from robot_app.geometry import invert_transform, make_transform, rotation_angle_between
-from robot_app.vision.camera import PinholeCamera, StereoRig
+from robot_app.vision.camera import StereoRig
 
 HandEyeMethod = Literal["auto", "tsai", "park", "daniilidis"]
 MAX_ROUNDS = 3
@@ -58,35 +63,6 @@ class HandEyeSettings(StrictModel):
     max_view_error_px: float = Field(
         1.0, gt=0.0, description="leave out images whose RMS error is above this and 5x the median [px]"
     )
-
-
-@dataclass(frozen=True)
-class MethodResult:
-    """One way of solving for X and how well its X explains the images.
-
-    Attributes:
-        name: 'tsai', 'park', 'daniilidis' or 'refined'.
-        transform_right_camera_to_hand: its X (4x4) [m].
-        reprojection_rms_px: RMS pixel error of the board's corners over all views.
-        board_spread_mm, board_spread_deg: RMS of the per-view board poses H_i X C_i
-            around their mean (0 for perfect data) [mm, deg].
-    """
-
-    name: str
-    transform_right_camera_to_hand: FloatArray
-    reprojection_rms_px: float
-    board_spread_mm: float
-    board_spread_deg: float
-
-
-@dataclass(frozen=True)
-class ViewResidual:
-    """A used view under the final X: its pixel error and its board pose's offset."""
-
-    index: int
-    reprojection_px: float
-    board_offset_mm: float
-    board_angle_deg: float
 
 
 @dataclass(frozen=True)
@@ -165,12 +141,20 @@ def calibrate_hand_eye(
     usable = require_views(views, board, s.min_views, "a hand-eye calibration", sides=("right",))
     refused = [(v.pair.index, v.reason(("right",))) for v in views if v not in usable]
     objects = board.object_points()
+    turn = _second_turn_deg([transforms_hand_to_base[v.pair.index] for v in usable])
+    if turn < s.min_turn_deg:
+        raise CalibrationError(
+            f"the hand turns only {turn:.1f} deg about a second axis over the views (need "
+            f"{s.min_turn_deg:.0f}): tilt and roll the hand in different directions between views",
+            key="--robot-poses",
+            value=round(turn, 2),
+        )
     skip_left: set[int] = set()
     for _ in range(MAX_ROUNDS):
         H = [np.asarray(transforms_hand_to_base[v.pair.index], dtype=float) for v in usable]
-        C = [_board_in_camera(objects[v.right.corner_ids], v.right.image_points, rig.right) for v in usable]
+        C = [board_in_camera(objects[v.right.corner_ids], v.right.image_points, rig.right) for v in usable]
         A, B = motion_pairs(H, C)
-        observations = _Observations(usable, objects, rig, H, skip_left)
+        observations = BoardObservations(usable, objects, rig, H, skip_left)
         candidates = _closed_forms(A, B, s.method, observations)
         best = min(candidates, key=lambda m: m.reprojection_rms_px)
         X = best.transform_right_camera_to_hand
@@ -189,14 +173,6 @@ def calibrate_hand_eye(
                 key="--images",
                 value=len(usable),
             )
-    turn = _second_turn_deg(A)
-    if turn < s.min_turn_deg:
-        raise CalibrationError(
-            f"the hand turns only {turn:.1f} deg about a second axis over the views (need "
-            f"{s.min_turn_deg:.0f}): tilt and roll the hand in different directions between views",
-            key="--robot-poses",
-            value=round(turn, 2),
-        )
     scale = 1.0 / _translation_scale(A, B, best.transform_right_camera_to_hand[:3, :3])
     if abs(scale - 1.0) > s.max_scale_error:
         raise CalibrationError(
@@ -230,7 +206,7 @@ def calibrate_hand_eye(
 
 
 def _closed_forms(
-    A: FloatArray, B: FloatArray, method: HandEyeMethod, observations: _Observations
+    A: FloatArray, B: FloatArray, method: HandEyeMethod, observations: BoardObservations
 ) -> list[MethodResult]:
     """Every asked closed form's X with its residuals."""
     candidates = []
@@ -246,19 +222,10 @@ def _closed_forms(
     return candidates
 
 
-def _board_in_camera(objects: FloatArray, pixels: FloatArray, camera: PinholeCamera) -> FloatArray:
-    """The board's pose in the camera (4x4) from its corners, by PnP."""
-    K, dist = np.array(camera.camera_matrix), np.array(camera.dist_coeffs)
-    ok, rvec, tvec = cv2.solvePnP(objects, pixels, K, dist, flags=cv2.SOLVEPNP_IPPE)
-    if not ok:
-        raise CalibrationError("solvePnP found no board pose in a view")
-    rvec, tvec = cv2.solvePnPRefineLM(objects, pixels, K, dist, rvec, tvec)
-    return make_transform(cv2.Rodrigues(rvec)[0], tvec.reshape(3))
-
-
-def _second_turn_deg(A: FloatArray) -> float:
-    """The hand's rotation about its second principal axis over all motions (RMS) [deg]."""
-    axes = np.array([rotation_log(a[:3, :3]) for a in A])
+def _second_turn_deg(transforms_hand_to_base: Sequence[FloatArray]) -> float:
+    """How far the hand turned about its second principal axis between views (RMS) [deg]."""
+    H = [np.asarray(T, dtype=float) for T in transforms_hand_to_base]
+    axes = np.array([rotation_log(H[j][:3, :3].T @ H[i][:3, :3]) for i, j in combinations(range(len(H)), 2)])
     eigenvalues = np.linalg.eigvalsh(axes.T @ axes / len(axes))
     return float(np.degrees(np.sqrt(max(eigenvalues[-2], 0.0))))
 
@@ -272,157 +239,10 @@ def _translation_scale(A: FloatArray, B: FloatArray, R_X: FloatArray) -> float:
     return float(np.linalg.lstsq(M, rhs, rcond=None)[0][3])
 
 
-class _Observations:
-    """The used views' corners and flange poses; scores and refines an X against them."""
-
-    def __init__(
-        self,
-        views: list[DetectedView],
-        objects: FloatArray,
-        rig: StereoRig,
-        H: list[FloatArray],
-        skip_left: set[int],
-    ) -> None:
-        self.indices = [v.pair.index for v in views]
-        self.H = H
-        self.rig = rig
-        self.right_to_left = rig.transform_right_to_left
-        self.sides: list[list[tuple[FloatArray, FloatArray, PinholeCamera, bool]]] = []
-        for view in views:
-            sides = [(objects[view.right.corner_ids], view.right.image_points, rig.right, False)]
-            if view.left.usable and view.pair.index not in skip_left:
-                sides.append((objects[view.left.corner_ids], view.left.image_points, rig.left, True))
-            self.sides.append(sides)
-
-    def board_pose(self, X: FloatArray) -> FloatArray:
-        """W: the mean of the per-view board poses H_i X C_i (C_i from the right image's PnP)."""
-        poses = self._board_poses(X)
-        R = np.sum([p[:3, :3] for p in poses], axis=0)
-        U, _, Vt = np.linalg.svd(R)
-        R_mean = U @ np.diag([1.0, 1.0, np.linalg.det(U @ Vt)]) @ Vt
-        return make_transform(R_mean, np.mean([p[:3, 3] for p in poses], axis=0))
-
-    def _board_poses(self, X: FloatArray) -> list[FloatArray]:
-        poses = []
-        for H, sides in zip(self.H, self.sides, strict=True):
-            objects, pixels, camera, _ = sides[0]
-            poses.append(H @ X @ _board_in_camera(objects, pixels, camera))
-        return poses
-
-    def errors(self, X: FloatArray, W: FloatArray) -> list[FloatArray]:
-        """Per view, the (N, 2) pixel errors of all its corners (right, then left)."""
-        return [np.concatenate(sides) for sides in self.side_errors(X, W)]
-
-    def side_errors(self, X: FloatArray, W: FloatArray) -> list[list[FloatArray]]:
-        """Per view, the (N, 2) pixel errors in the right image and (if used) the left one."""
-        X_inverse = invert_transform(X)
-        out = []
-        for H, sides in zip(self.H, self.sides, strict=True):
-            board_in_right = X_inverse @ invert_transform(H) @ W
-            parts = []
-            for objects, pixels, camera, is_left in sides:
-                T = self.right_to_left @ board_in_right if is_left else board_in_right
-                rvec = cv2.Rodrigues(T[:3, :3])[0]
-                projected, _ = cv2.projectPoints(
-                    objects, rvec, T[:3, 3], np.array(camera.camera_matrix), np.array(camera.dist_coeffs)
-                )
-                parts.append(projected.reshape(-1, 2) - pixels)
-            out.append(parts)
-        return out
-
-    def outliers(
-        self, X: FloatArray, W: FloatArray, max_error_px: float
-    ) -> tuple[dict[int, float], set[int], float]:
-        """Views whose right image, and views whose left image, do not fit X and W.
-
-        An image fits when its corners' RMS error is within max(max_error_px, 5 x the
-        median over all images) [px]. Returns (right misfits by view with their error,
-        left misfits, the limit).
-        """
-        rms = [
-            [float(np.sqrt(np.mean(np.sum(e**2, axis=1)))) for e in sides] for sides in self.side_errors(X, W)
-        ]
-        limit = max(max_error_px, 5.0 * float(np.median([e for sides in rms for e in sides])))
-        right = {i: sides[0] for i, sides in zip(self.indices, rms, strict=True) if sides[0] > limit}
-        left = {i for i, sides in zip(self.indices, rms, strict=True) if len(sides) > 1 and sides[1] > limit}
-        return right, left, limit
-
-    def score(self, name: str, X: FloatArray, W: FloatArray | None = None) -> MethodResult:
-        """X's residuals; W defaults to the mean board pose under X."""
-        W = self.board_pose(X) if W is None else W
-        errors = np.concatenate(self.errors(X, W))
-        poses = self._board_poses(X)
-        offsets = [1000.0 * np.linalg.norm(p[:3, 3] - W[:3, 3]) for p in poses]
-        angles = [np.degrees(rotation_angle_between(p[:3, :3], W[:3, :3])) for p in poses]
-        return MethodResult(
-            name,
-            X,
-            float(np.sqrt(np.mean(np.sum(errors**2, axis=1)))),
-            float(np.sqrt(np.mean(np.square(offsets)))),
-            float(np.sqrt(np.mean(np.square(angles)))),
-        )
-
-    def residuals(self, X: FloatArray, W: FloatArray) -> tuple[ViewResidual, ...]:
-        poses = self._board_poses(X)
-        out = []
-        for index, error, pose in zip(self.indices, self.errors(X, W), poses, strict=True):
-            out.append(
-                ViewResidual(
-                    index,
-                    float(np.sqrt(np.mean(np.sum(error**2, axis=1)))),
-                    float(1000.0 * np.linalg.norm(pose[:3, 3] - W[:3, 3])),
-                    float(np.degrees(rotation_angle_between(pose[:3, :3], W[:3, :3]))),
-                )
-            )
-        return tuple(out)
-
-    def refine(self, X0: FloatArray, iterations: int = 50) -> tuple[MethodResult, FloatArray]:
-        """Levenberg-Marquardt on (X, W), 12 parameters, over every corner's pixel error."""
-        W0 = self.board_pose(X0)
-        p = np.r_[_vector(X0), _vector(W0)]
-
-        def residual(q: FloatArray) -> FloatArray:
-            return np.concatenate(self.errors(_transform(q[:6]), _transform(q[6:]))).ravel()
-
-        r = residual(p)
-        damping = 1e-3
-        for _ in range(iterations):
-            J = np.empty((r.size, p.size))
-            for k in range(p.size):
-                step = 1e-6 if k % 6 < 3 else 1e-7  # rotation [rad], translation [m]
-                dp = np.zeros_like(p)
-                dp[k] = step
-                J[:, k] = (residual(p + dp) - residual(p - dp)) / (2 * step)
-            g, N = J.T @ r, J.T @ J
-            while True:
-                delta = -np.linalg.solve(N + damping * np.diag(np.diag(N)), g)
-                candidate = residual(p + delta)
-                if candidate @ candidate < r @ r:
-                    p, r, damping = p + delta, candidate, max(damping / 10, 1e-9)
-                    break
-                damping *= 10
-                if damping > 1e6:
-                    break
-            if damping > 1e6 or np.linalg.norm(delta) < 1e-12:
-                break
-        X, W = _transform(p[:6]), _transform(p[6:])
-        return self.score("refined", X, W), W
-
-
-def _vector(T: FloatArray) -> FloatArray:
-    return np.r_[cv2.Rodrigues(np.ascontiguousarray(T[:3, :3]))[0].reshape(3), T[:3, 3]]
-
-
-def _transform(v: FloatArray) -> FloatArray:
-    return make_transform(cv2.Rodrigues(np.asarray(v[:3], dtype=float))[0], v[3:])
-
-
 __all__ = [
     "HandEyeCalibration",
     "HandEyeMethod",
     "HandEyeSettings",
-    "MethodResult",
-    "ViewResidual",
     "calibrate_hand_eye",
     "match_robot_poses",
 ]
