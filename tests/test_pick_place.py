@@ -37,6 +37,16 @@ def test_plain_pick_and_place_puts_the_cloth_in_the_box() -> None:
     tracked = [r for r in result.recognitions if r.accepted]
     assert tracked and max(abs(r.error_x_mm) for r in tracked) < 10
     assert max(abs(r.error_y_mm) for r in tracked) < 10
+    # the fingers closed where the loop meant them to, on the true cloth
+    assert len(result.grasp_offsets) == 1 and np.hypot(*result.grasp_offsets[0]) < 0.005
+
+
+def test_pick_and_place_with_the_calibrated_rig_file() -> None:
+    # configs/rig_calibrated_320x240.yaml came from `robot-app sim calibration-views` and
+    # `robot-app calibrate stereo | hand-eye` (README): the loop sees only what they measured
+    result = episode("seed=1", "scene.target=3", "world.cameras.rig_file=configs/rig_calibrated_320x240.yaml")
+    assert_placed(result)
+    assert np.hypot(*result.grasp_offsets[0]) < 0.005
 
 
 def test_pick_and_place_with_45_percent_occluded_cloth() -> None:

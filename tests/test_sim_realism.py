@@ -14,11 +14,22 @@ import pytest
 from robot_app.cli import main
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform
-from robot_app.sim import Lighting, ModelStation, SceneSettings, World, cloth_spec, make_scene, render_bgr
+from robot_app.sim import (
+    Lighting,
+    ModelStation,
+    SceneSettings,
+    World,
+    cameras,
+    cloth_spec,
+    make_scene,
+    render_bgr,
+)
+from robot_app.sim.cameras import gl_projection_matrix
 from robot_app.sim.cloth_visual import ClothLook, Fold, Ridge
 from robot_app.sim.config import StationSettings, WorldConfig, load_world_config
 from robot_app.sim.lighting import direction_from_angles
 from robot_app.sim.realism import PRESETS
+from robot_app.vision.camera import PinholeCamera
 
 DATA = Path(__file__).parent / "data"
 SMALL = {"cameras": {"image_size": (160, 120)}}
@@ -76,8 +87,20 @@ def test_cli_rejects_an_unknown_preset_with_exit_2(tmp_path: Path) -> None:
 # --- clean: the old images, bit for bit -----------------------------------------------
 
 
-def test_clean_reproduces_the_old_images_bit_for_bit() -> None:
-    # tests/data holds images rendered by the simulator before the realism settings existed
+def _pre_fix_projection(camera: PinholeCamera, near: float, far: float) -> list[float]:
+    """The renderer's projection before the principal-point fix (cx + 0.5, cy + 0.5 where the
+    fix has cx, cy + 1): the images in tests/data were rendered with it."""
+    K = camera.camera_matrix.copy()
+    K[0, 2] += 0.5
+    K[1, 2] -= 0.5
+    return gl_projection_matrix(PinholeCamera(K, camera.image_size, camera.dist_coeffs), near, far)
+
+
+def test_clean_reproduces_the_old_images_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`clean` adds nothing to the renderer: with the projection the old simulator had (its
+    principal point was later corrected by half a pixel, measured on rendered board
+    corners), a clean capture and station photo are the pre-realism images bit for bit."""
+    monkeypatch.setattr(cameras, "gl_projection_matrix", _pre_fix_projection)
     config = _config("clean", station=StationSettings(image_size=(160, 120)))
     with World(config) as world:
         make_scene(world, SceneSettings(target=3, distractor=4, occluder=True), seed=1)
@@ -258,12 +281,12 @@ def test_a_folded_corner_shows_the_darker_back_side_on_top() -> None:
             (np.linalg.inv(camera) @ np.c_[nodes, np.ones(len(nodes))].T).T[:, :3]
         )
         values = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY).astype(float)
-        flap_grey = np.mean([values[int(v), int(u)] for u, v in pixels[flap]])
+        flap_grey = np.mean([values[round(v), round(u)] for u, v in pixels[flap]])
         # front nodes beyond the part the flap covers stay visible
         along, line = fold.along(rest), fold.line(rest)
         far_front = along < 2 * line - along.max() - 0.01
         assert far_front.sum() >= 5
-        front_grey = np.mean([values[int(v), int(u)] for u, v in pixels[far_front]])
+        front_grey = np.mean([values[round(v), round(u)] for u, v in pixels[far_front]])
         assert flap_grey < 0.85 * front_grey
 
 

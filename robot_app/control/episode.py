@@ -141,6 +141,8 @@ class EpisodeResult:
         placed_fraction: fraction of the cloth's nodes inside the box at the end (sim).
         limit_report: limit check over every commanded sample.
         sim_time: simulated duration [s]; wall_s: wall-clock duration [s].
+        grasp_offsets: per grasp, the TCP minus the true position of the cloth point
+            the loop meant to grasp, (x, y) in Σ_W [m] (simulation only: needs the truth).
     """
 
     outcome: Outcome
@@ -161,6 +163,7 @@ class EpisodeResult:
     ruckig_times_us: tuple[float, ...] = field(repr=False, default=())  # every offline plan and online replan
     ik_times_ms: tuple[float, ...] = field(repr=False, default=())
     final_pose: tuple[float, ...] | None = None  # (x, y, z, yaw) of the cloth at the end
+    grasp_offsets: tuple[tuple[float, float], ...] = ()
 
     def summary(self) -> dict[str, Any]:
         """JSON-friendly summary (no per-sample data)."""
@@ -182,6 +185,7 @@ class EpisodeResult:
             "limits": _limit_dict(self.limit_report),
             "collisions": self.collisions,
             "grasp_attempts": self.grasp_attempts,
+            "grasp_offsets_mm": [[1000 * x, 1000 * y] for x, y in self.grasp_offsets],
             "observe_returns": self.observe_returns,
             "filter_accepted": self.filter_accepted,
             "filter_rejected": self.filter_rejected,

@@ -45,6 +45,7 @@ from robot_app.geometry import (
     invert_transform,
     make_transform,
     pose_error,
+    rotation_about_z,
     transform_points,
     yaw_of,
 )
@@ -343,9 +344,22 @@ class PickPlaceLoop:
     def _grasp(self) -> None:
         self.grasp_attempts += 1
         self.cell.set_gripper(0.0)
+        if self.ground_truth is not None:  # where the fingers close against where they were meant to
+            self.grasp_offsets.append(self._grasp_offset(self.ground_truth()))
         self._hold(self.settings.close_time)
         held = self.cell.grasp()
         self._note = f"attempt {self.grasp_attempts}: {held} hold points"
+
+    def _grasp_offset(self, transform_model_to_world: FloatArray) -> tuple[float, float]:
+        """TCP minus the true grasp point, (x, y) [m]; for a symmetric cloth, the nearest of
+        the points its symmetric poses put there (the loop may have seen it half-turned)."""
+        tcp = self.kinematics.frame_pose(self.cell.joint_positions(), "tcp")[:3, 3]
+        offsets = []
+        for angle in (0.0, *self.model.symmetry_angles):
+            turned = transform_model_to_world @ make_transform(rotation_about_z(angle), np.zeros(3))
+            meant = transform_points(turned, self._grasp_point_model[None])[0]
+            offsets.append((float(tcp[0] - meant[0]), float(tcp[1] - meant[1])))
+        return min(offsets, key=lambda d: np.hypot(*d))
 
     def _lift(self, grasp_xyz: FloatArray) -> bool:
         lifted = np.array([grasp_xyz[0], grasp_xyz[1], self.table_z + self.settings.lift_height])
@@ -489,6 +503,7 @@ class PickPlaceLoop:
         self._A: list[FloatArray] = []
         self.collisions = 0
         self.grasp_attempts = 0
+        self.grasp_offsets: list[tuple[float, float]] = []
         self.observe_returns = 0
         self._note = ""
         self._current = Phase.OBSERVE
@@ -572,6 +587,7 @@ class PickPlaceLoop:
             commanded_samples=n,
             collisions=self.collisions,
             grasp_attempts=self.grasp_attempts,
+            grasp_offsets=tuple(self.grasp_offsets),
             observe_returns=self.observe_returns,
             filter_accepted=self.filter.accepted_count,
             filter_rejected=self.filter.rejected_count,
