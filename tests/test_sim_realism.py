@@ -12,6 +12,7 @@ import pybullet as pb
 import pytest
 
 from robot_app.cli import main
+from robot_app.console import InputWarning
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform
 from robot_app.sim import (
@@ -324,3 +325,30 @@ def test_same_scene_lays_identical_physics_in_every_realism() -> None:
             scene = make_scene(world, SceneSettings(target=5, distractor=9), seed=2)
             poses.append(make_transform(np.eye(3), scene.target.pose()[:3, 3]))
     np.testing.assert_allclose(poses[0], poses[1], atol=0.003)
+
+
+def test_realistic_presets_give_the_recogniser_a_calibrated_rig() -> None:
+    """realistic and harsh hand the recogniser the rig a simulated calibration measured;
+    clean and an explicit null keep the URDF truth; a size never calibrated warns."""
+    for realism in ("realistic", "harsh"):
+        config = load_world_config(None, (f"realism={realism}", "cameras.image_size=[320,240]"))
+        assert (
+            config.cameras.rig_file is not None
+            and config.cameras.rig_file.name == "rig_calibrated_320x240.yaml"
+        )
+    assert load_world_config(None, ("realism=clean",)).cameras.rig_file is None
+    assert load_world_config(None, ("realism=realistic", "cameras.rig_file=null")).cameras.rig_file is None
+    odd = load_world_config(None, ("realism=realistic", "cameras.image_size=[160,120]"))
+    assert odd.cameras.rig_file is None
+    with pytest.warns(InputWarning, match="no calibrated rig"), World(odd) as world:
+        assert world.stereo.rig is world.stereo.true_rig
+    config = load_world_config(None, ("realism=realistic", "cameras.image_size=[320,240]"))
+    with World(config) as world:
+        truth, used = world.stereo.true_rig, world.stereo.rig
+        assert used is not truth
+        # a calibration's errors, not the truth: focal lengths differ a little, not much
+        focal_error = abs(used.right.camera_matrix[0, 0] / truth.right.camera_matrix[0, 0] - 1.0)
+        assert 0.0 < focal_error < 0.005
+        assert used.transform_right_camera_to_hand is not None
+        offset = used.transform_right_camera_to_hand[:3, 3] - truth.transform_right_camera_to_hand[:3, 3]
+        assert 0.0 < np.linalg.norm(offset) < 0.002

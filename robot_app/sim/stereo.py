@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
+from robot_app.console import warn_input
 from robot_app.errors import ConfigError, RobotAppError
 from robot_app.geometry import invert_transform
 from robot_app.sim.cameras import (
@@ -29,6 +30,7 @@ from robot_app.sim.cameras import (
 from robot_app.sim.config import WorldConfig
 from robot_app.sim.imaging import CameraModel, FrameClock, image_motion
 from robot_app.sim.lighting import ShadowMap, draw_lighting, shade_shadows
+from robot_app.sim.realism import CALIBRATED_RIG_PRESETS, calibrated_rig_file
 from robot_app.vision.camera import PinholeCamera, StereoRig, load_rig, save_rig
 
 if TYPE_CHECKING:
@@ -81,6 +83,14 @@ class StereoCamera:
         )
         rig_file = config.cameras.rig_file
         self.rig = self.true_rig if rig_file is None else _calibrated_rig(rig_file, config.cameras.image_size)
+        size = config.cameras.image_size
+        uncalibrated = config.realism in CALIBRATED_RIG_PRESETS and calibrated_rig_file(size) is None
+        if rig_file is None and uncalibrated:
+            warn_input(
+                f"world.realism={config.realism}: no calibrated rig for {list(size)} px cameras "
+                "(configs/rig_calibrated_<w>x<h>.yaml); the recogniser gets the URDF's true cameras",
+                key="world.cameras.rig_file",
+            )
         self.lighting: Lighting = draw_lighting(config.lighting)
         white_point = config.lighting.key_rgb
         self._models = (
