@@ -28,7 +28,7 @@ from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.geometry import rotation_about_z, wrap_angle, yaw_of
 from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
-from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBounds
+from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBoundsSettings
 from robot_app.vision.poses import AvoidedPoses, PoseLimits, as_poses
 from robot_app.vision.refinement import Refiner
 
@@ -90,7 +90,7 @@ class ProposalSettings(StrictModel):
     """
 
     ga: GASettings = GASettings()
-    bounds: SearchBounds = SearchBounds()
+    bounds: SearchBoundsSettings = SearchBoundsSettings()
     coarse_generations: int = Field(default=60, ge=0)
     coarse_stride: int = Field(default=4, ge=1)
     fine_stride: int = Field(default=3, ge=1)
@@ -176,7 +176,7 @@ class Proposer:
             self.evaluator, stride=stride, search=True, subpixel=subpixel, avoid=self._avoided(centres)
         )
 
-    def limits(self, bounds: SearchBounds | None = None) -> PoseLimits:
+    def limits(self, bounds: SearchBoundsSettings | None = None) -> PoseLimits:
         """The allowed set of the local searches: position inside `bounds` (default: the
         search bounds), tilt within `max_tilt_deg` (a cone), yaw within `max_yaw_deg`."""
         b = self.settings.bounds if bounds is None else bounds
@@ -222,26 +222,12 @@ class Proposer:
         Raises:
             RuntimeError: nothing kept yet (propose first).
         """
-        if self._poses is None:
-            raise RuntimeError("nothing to track: propose() first")
         s, t = self.settings, self.settings.tracking
         count = t.ga.generations if generations is None else generations
         if count < 0:
             raise ValueError(f"generations must be >= 0, got {count}")
-        poses = self._poses
-        if transform_motion is not None:
-            motion = np.asarray(transform_motion, dtype=float)
-            if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
-                raise ValueError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
-            poses = motion @ poses
-        x, y, z = poses[0, :3, 3]
-        window = SearchBounds(
-            x=(x - t.window, x + t.window),
-            y=(y - t.window, y + t.window),
-            z=(max(z - t.depth_window, 1e-3), max(z + t.depth_window, 2e-3)),
-            max_tilt_deg=s.bounds.max_tilt_deg,
-            max_yaw_deg=s.bounds.max_yaw_deg,
-        )
+        poses = self._moved_poses(transform_motion)
+        window = self._window(poses[0])
         ga = GeneticAlgorithm(window, t.ga, self.rng)
         ga.seed(np.concatenate([poses, np.repeat(poses[-1:], t.ga.population - len(poses), axis=0)]))
         ga.evolve(self.fitness(s.fine_stride), count)
@@ -255,6 +241,68 @@ class Proposer:
         best = Candidate(pose, float(self.fitness()(pose)[0]))
         self.keep(pose, ga.ranked_poses(t.ga.population))
         return best, count
+
+    def tracking_window(self, transform_motion: FloatArray | None) -> SearchBoundsSettings:
+        """The window the next `track(transform_motion)` searches: around the best kept pose
+        moved by the motion, `tracking.window` in x-y and `tracking.depth_window` in depth.
+
+        Raises:
+            RuntimeError: nothing kept yet (propose first).
+            ValueError: a motion that is not a finite 4x4 transform.
+        """
+        return self._window(self._moved_poses(transform_motion)[0])
+
+    def tracking_regions(
+        self, transform_motion: FloatArray | None
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+        """Per image (left, right), the (u0, v0, u1, v1) box that the model can reach from
+        the next tracking window (any yaw and tilt), a few pixels to spare: the only pixels
+        a tracking frame needs colour codes of (`FitnessEvaluator.update(regions=...)`).
+
+        Raises:
+            RuntimeError: nothing kept yet (propose first).
+        """
+        window = self.tracking_window(transform_motion)
+        rig = self.evaluator.rig
+        model = self.evaluator.model
+        radius = float(np.max(np.linalg.norm(np.vstack([model.points_in, model.points_out]), axis=1)))
+        corners = np.array(np.meshgrid(window.x, window.y, window.z, indexing="ij")).reshape(3, -1).T
+        cube = np.array(np.meshgrid(*[(-radius, radius)] * 3, indexing="ij")).reshape(3, -1).T
+        points = (corners[:, None, :] + cube[None, :, :]).reshape(-1, 3)  # in Σ_CR
+        width, height = rig.image_size
+        boxes = []
+        for camera, to_camera in ((rig.left, rig.transform_right_to_left), (rig.right, np.eye(4))):
+            X = points @ to_camera[:3, :3].T + to_camera[:3, 3]
+            if np.any(X[:, 2] <= 1e-3):
+                boxes.append(np.array([0, 0, width - 1, height - 1], dtype=np.int64))
+                continue
+            uv = X[:, :2] / X[:, 2:] @ camera.camera_matrix[:2, :2].T + camera.camera_matrix[:2, 2]
+            box = np.array([uv[:, 0].min() - 3, uv[:, 1].min() - 3, uv[:, 0].max() + 4, uv[:, 1].max() + 4])
+            boxes.append(
+                np.clip(np.floor(box), 0, [width - 1, height - 1, width - 1, height - 1]).astype(np.int64)
+            )
+        return boxes[0], boxes[1]
+
+    def _moved_poses(self, transform_motion: FloatArray | None) -> FloatArray:
+        if self._poses is None:
+            raise RuntimeError("nothing to track: propose() first")
+        if transform_motion is None:
+            return self._poses
+        motion = np.asarray(transform_motion, dtype=float)
+        if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
+            raise ValueError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
+        return motion @ self._poses
+
+    def _window(self, pose: FloatArray) -> SearchBoundsSettings:
+        s, t = self.settings, self.settings.tracking
+        x, y, z = pose[:3, 3]
+        return SearchBoundsSettings(
+            x=(x - t.window, x + t.window),
+            y=(y - t.window, y + t.window),
+            z=(max(z - t.depth_window, 1e-3), max(z + t.depth_window, 2e-3)),
+            max_tilt_deg=s.bounds.max_tilt_deg,
+            max_yaw_deg=s.bounds.max_yaw_deg,
+        )
 
     # ------------------------------------------------------------------ one-shot internals
     def _runs(
