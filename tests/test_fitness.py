@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import cv2
 import numpy as np
 import pytest
@@ -207,6 +209,21 @@ def test_pixel_codes_by_colour_table_agree_with_the_conversion() -> None:
             expected,
         )
     assert not colour_table(40, 40, 128).flags.writeable
+
+
+def test_the_colour_table_is_kept_in_the_cache_folder_and_rebuilt_when_damaged(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("ROBOT_APP_CACHE", str(tmp_path))
+    build = colour_table.__wrapped__  # past the in-process cache
+    built = build(30, 50, 120)
+    files = list(tmp_path.glob("colour_table_s30_v50_split120_*.npy"))
+    assert len(files) == 1 and not list(tmp_path.glob(".*partial"))
+    read = build(30, 50, 120)
+    assert np.array_equal(read, built) and not read.flags.writeable
+    files[0].write_bytes(b"not a table")
+    assert np.array_equal(build(30, 50, 120), built)  # rebuilt and written again
+    assert np.array_equal(np.load(files[0]), built)
 
 
 def test_pixel_codes_only_inside_the_region_the_rest_off_the_image() -> None:

@@ -63,6 +63,9 @@ class ProposalSettings(StrictModel):
         coarse_stride: every n-th model point scored in the coarse generations.
         fine_stride: every n-th model point scored in the other generations and while
             tracking (the refinement and the reported fitness always use every point).
+            6 and 4 (before: 4 and 3) save about 3 ms a recognition; on 160 flat and 80
+            covered calibration scenes the errors did not grow (flat: 95th percentile
+            |x| 0.48 against 0.51 mm, no gross error; covered: gross errors 6 % against 8 %).
         candidates_per_island: distinct poses (x-y farther apart than `candidate_separation`
             or yaws farther apart than 20°) taken from each island's final population.
         candidate_separation: x-y distance that makes two candidates distinct [m].
@@ -92,8 +95,8 @@ class ProposalSettings(StrictModel):
     ga: GASettings = GASettings()
     bounds: SearchBoundsSettings = SearchBoundsSettings()
     coarse_generations: int = Field(default=60, ge=0)
-    coarse_stride: int = Field(default=4, ge=1)
-    fine_stride: int = Field(default=3, ge=1)
+    coarse_stride: int = Field(default=6, ge=1)
+    fine_stride: int = Field(default=4, ge=1)
     candidates_per_island: int = Field(default=2, ge=1)
     candidate_separation: float = Field(default=0.01, gt=0.0)
     candidate_depths: tuple[float, ...] = (-0.03, -0.015, 0.0, 0.015, 0.03)
