@@ -166,6 +166,7 @@ def test_settings_reach_the_parts() -> None:
             "propose": {"ga": {"population": 20, "generations": 5, "islands": 1}, "coarse_generations": 2,
                         "restarts": 0},
             "refine": {"enabled": False},
+            "depth": {"enabled": False},  # (it scores the poses it moves or searches again)
         }
     )  # fmt: skip
     left, right = render_stereo_pair(RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(6))

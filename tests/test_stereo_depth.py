@@ -11,6 +11,7 @@ from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.photo_model import make_model
+from robot_app.vision.plane_search import PlaneSearchSettings, onto_plane, poses_on_plane, search_in_plane
 from robot_app.vision.poses import moved
 from robot_app.vision.recognizer import RecognitionSettings, Recognizer
 from robot_app.vision.stereo_depth import DepthCheckSettings, StereoDepth
@@ -88,3 +89,45 @@ def test_settings_are_checked() -> None:
         validate(DepthCheckSettings, {"smoothing": 0})
     with pytest.raises(ConfigError, match="min_samples"):
         validate(DepthCheckSettings, {"min_samples": 3})
+
+
+def test_the_plane_fit_finds_depth_and_tilt_from_a_pose_far_off_both() -> None:
+    left, right = render_stereo_pair(
+        RIG, [(extended_cloth(0), POSE)], rng=np.random.default_rng(3), camera=CAMERA_REALISM
+    )
+    depth = StereoDepth(model(0), RIG, DepthCheckSettings())
+    depth.update(left, right)
+    wrong = along_ray(POSE, 0.04)
+    wrong[:3, :3] = rotation_from_rpy(0.25, 0.1, 0.7)  # tilted 15° more than the cloth
+    plane = depth.fit_plane(wrong)
+    assert plane is not None and plane.trusted and plane.correlation > plane.correlation_at_pose + 0.2
+    normal = POSE[:3, 2]
+    assert np.degrees(np.arccos(np.clip(plane.normal @ normal, -1, 1))) < 2.0
+    assert plane.distance == pytest.approx(normal @ POSE[:3, 3], abs=0.002)
+
+
+def test_poses_on_a_plane_stay_on_it_and_keep_its_normal() -> None:
+    normal = rotation_from_rpy(0.1, -0.05, 0.0)[:, 2]
+    base = onto_plane(POSE, normal, 0.57)
+    assert base[:3, 2] == pytest.approx(normal) and normal @ base[:3, 3] == pytest.approx(0.57)
+    # the origin stays on the right camera's ray through it
+    ray = POSE[:3, 3] / np.linalg.norm(POSE[:3, 3])
+    assert base[:3, 3] / np.linalg.norm(base[:3, 3]) == pytest.approx(ray)
+    moved_poses = poses_on_plane(base, np.array([[0.01, -0.02], [0.0, 0.0]]), np.array([0.3, np.pi]))
+    for T in moved_poses:
+        assert T[:3, 2] == pytest.approx(normal) and normal @ T[:3, 3] == pytest.approx(0.57)
+        np.testing.assert_allclose(T[:3, :3].T @ T[:3, :3], np.eye(3), atol=1e-12)
+
+
+def test_the_plane_search_finds_the_cloth_from_a_pose_on_its_plane_but_off_by_cm() -> None:
+    index = 16  # a photographic print
+    left, right = render_stereo_pair(RIG, [(extended_cloth(index), POSE)], rng=np.random.default_rng(4))
+    recognizer = Recognizer(model(index), RIG)
+    recognizer.recognize(left, right, seed=0)  # takes the pair
+    start = poses_on_plane(POSE, np.array([[0.02, -0.015]]), np.array([np.deg2rad(9.0)]))[0]
+    p = recognizer.proposer
+    found = search_in_plane(
+        start, p.fitness(4), p.fitness(), p.fitness(subpixel=True), PlaneSearchSettings(), recognizer._logits
+    )
+    error = pose_error(found[0], POSE, model(index).symmetry_angles)
+    assert max(abs(error.x_mm), abs(error.y_mm)) < 1.0 and abs(error.yaw_deg) < 1.0

@@ -23,7 +23,7 @@ from robot_app.vision.synthetic import (
     render_stereo_pair,
 )
 from robot_app.vision.synthetic_camera import CameraRealism
-from robot_app.vision.synthetic_prints import extended_cloth
+from robot_app.vision.synthetic_prints import extended_cloth, folded_corner
 from robot_app.vision.verify import VerificationSettings, Verifier
 
 CAMERA = PinholeCamera.from_fov((640, 480), np.deg2rad(48))
@@ -80,7 +80,18 @@ def test_another_print_of_the_same_hue_family_disagrees() -> None:
         RIG, [(extended_cloth(AMBER_ASTRONAUT), POSE)], rng=np.random.default_rng(3)
     )
     result = verifier_on(AMBER_COFFEE, left, right).verify(POSE)[0]
-    assert result.appearance < 0.3
+    assert result.appearance < 0.3 and result.agreeing < 0.4
+
+
+def test_a_folded_corner_disagrees_in_its_own_cells_only() -> None:
+    flat = render_stereo_pair(RIG, [(extended_cloth(RED_PLAIN), POSE)], rng=np.random.default_rng(8))
+    cloth = folded_corner(extended_cloth(RED_PLAIN), 0.12, 2.0)
+    folded = render_stereo_pair(RIG, [(cloth, POSE)], rng=np.random.default_rng(8))
+    whole = verifier_on(RED_PLAIN, *flat).verify(POSE)[0]
+    corner = verifier_on(RED_PLAIN, *folded).verify(POSE)[0]
+    assert whole.agreeing == pytest.approx(1.0) and whole.appearance > 0.95
+    # the corner folded away and the back side on top: about a quarter of the cells
+    assert 0.55 < corner.agreeing < 0.85 and corner.visible_fraction > 0.95
 
 
 def test_a_plain_model_on_a_cloth_with_another_colour_sees_only_its_own_colour() -> None:

@@ -55,6 +55,8 @@ class Recognition:
             into the reported pose) [m]; NaN: not measured.
         interleaved: the verification's share of the visible texture in partly hidden
             cells (`verify.Verification.interleaved`).
+        agreeing: the verification's share of compared cells that agree
+            (`verify.Verification.agreeing`).
     """
 
     found: bool
@@ -70,6 +72,7 @@ class Recognition:
     search_fitness: float = 0.0
     depth_offset: float = float("nan")
     interleaved: float = 0.0
+    agreeing: float = float("nan")
 
     @property
     def position(self) -> FloatArray:

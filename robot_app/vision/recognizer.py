@@ -42,6 +42,7 @@ from robot_app.vision.exposure import ExposureSettings, sheet_gains
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.fitness_scores import FitnessSettings
 from robot_app.vision.pixel_codes import checked_image
+from robot_app.vision.plane_search import onto_plane, search_in_plane
 from robot_app.vision.poses import moved
 from robot_app.vision.propose import HALF_TURN, Candidate, ProposalSettings, Proposer
 from robot_app.vision.recognition import Peak, Recognition
@@ -284,6 +285,7 @@ class Recognizer:
             search_fitness=chosen.search_fitness,
             depth_offset=depth_offset,
             interleaved=v.interleaved,
+            agreeing=v.agreeing,
         )
 
     def _most_confident(
@@ -315,17 +317,54 @@ class Recognizer:
         return chosen
 
     def _depth_checked(self, chosen: _Verified) -> tuple[_Verified, DepthMeasurement]:
-        """`chosen` at its stereo depth if the depth check trusts a small offset
-        (`depth.adopt_within`), else as it is; and the measurement."""
+        """`chosen` checked against the stereo pair (`stereo_depth.py`): moved to its stereo
+        depth if the check trusts a small offset (`depth.adopt_within`); searched again on
+        the stereo plane (`plane_search.py`) if its own plane is not the one the pair
+        shows; else as it is. Also the measurement of the pose the search ended on."""
         s = self.settings.depth
         if not s.enabled:
             return chosen, DepthMeasurement(float("nan"), float("nan"), float("nan"), 0, False)
         measurement = self.depth.measure(chosen.pose)
-        if not (measurement.trusted and abs(measurement.offset) <= s.adopt_within):
+        if measurement.trusted and abs(measurement.offset) <= s.adopt_within:
+            return self._at_depth(chosen.pose, measurement.offset), measurement
+        measured = measurement.samples >= s.min_samples
+        off_plane = (
+            abs(measurement.offset) > s.research_beyond or not measurement.correlation >= s.min_correlation
+        )
+        if not (s.research.enabled and measured and off_plane):
             return chosen, measurement
-        pose = moved(chosen.pose, [0.0, 0.0, measurement.offset, 0.0, 0.0, 0.0])
-        search_fitness = float(self.proposer.fitness()(pose)[0])
-        return self._verified(pose, search_fitness, self.verifier.verify(pose)[0]), measurement
+        plane = self.depth.fit_plane(chosen.pose)
+        if plane is None or not plane.trusted or plane.correlation - plane.correlation_at_pose < s.min_gain:
+            return chosen, measurement
+        start = onto_plane(chosen.pose, plane.normal, plane.distance)
+        p = self.proposer
+        poses = search_in_plane(
+            start,
+            p.fitness(s.research.stride),
+            p.fitness(),
+            p.fitness(subpixel=True),
+            s.research,
+            self._logits,
+        )
+        found = [self._at_depth(pose, 0.0) for pose in poses]
+        best = max(found, key=lambda item: item.score).pose  # the first (best by hue) on ties
+        again = self.depth.measure(best)
+        offset = again.offset if again.trusted and abs(again.offset) <= s.adopt_within else 0.0
+        return self._at_depth(best, offset), measurement
+
+    def _logits(self, poses: FloatArray) -> FloatArray:
+        """(P,) the decision's log-odds at each of (P, 4, 4) poses."""
+        fitness = self.proposer.fitness()(poses)
+        verified = self.verifier.verify(poses)
+        return np.array(
+            [self._verified(T, float(f), v).score for T, f, v in zip(poses, fitness, verified, strict=True)]
+        )
+
+    def _at_depth(self, pose: FloatArray, offset: float) -> _Verified:
+        """`pose` moved by `offset` along the ray through its origin, verified."""
+        moved_pose = moved(pose, [0.0, 0.0, offset, 0.0, 0.0, 0.0]) if offset else np.array(pose, dtype=float)
+        search_fitness = float(self.proposer.fitness()(moved_pose)[0])
+        return self._verified(moved_pose, search_fitness, self.verifier.verify(moved_pose)[0])
 
     def _verified(self, pose: FloatArray, search_fitness: float, verification: Verification) -> _Verified:
         score = logit(self.settings.decide, self._evidence(search_fitness, verification))

@@ -1,6 +1,6 @@
 """Compiled plane sweep of the stereo depth check: right-image pixels moved onto the left
-image through the plane of a pose at several depths, each depth scored by the zero-mean
-normalised cross-correlation of the two images' grey values."""
+image through each of several planes, each plane scored by the zero-mean normalised
+cross-correlation of the two images' colours."""
 
 from __future__ import annotations
 
@@ -41,59 +41,51 @@ def edge_samples(right, box, step, min_gradient):
 
 
 @_jit
-def sweep(pose, K_left, K_right, left_from_right, pixels, values, left, left_origin, offsets):
+def sweep(planes, K_left, K_right, left_from_right, pixels, values, left, left_origin):
     """Zero-mean normalised cross-correlation of the right-image samples with the left image
-    at each depth of the plane of `pose`, one per offset (the channels' centred sums pooled).
+    through each of several planes (the channels' centred sums pooled).
 
-    The plane is the model's (normal: the pose's z axis, through its origin). Offset dz
-    scales every point of it by k = (z + dz) / z about the right camera's centre, where z is
-    the depth of the model origin: the right-image pixels stay where they are, the left
-    ones move with the disparity of that depth (as the refinement's depth move does).
+    A right-image pixel's ray meets the plane n·X = d at X = d / (n·r) r; X's left-image
+    pixel is read (bilinear). Scaling a plane about the right camera's centre (d -> k d)
+    keeps every right pixel where it is and moves the left ones with the disparity of
+    the new depth, as the refinement's depth move does.
 
     Args:
-        pose: (4, 4) ^CR T_M.
+        planes: (D, 4) unit normal n and distance d [m] of each plane, n·X = d in Σ_CR.
         K_left, K_right: (3, 3) camera matrices.
         left_from_right: (4, 4) Σ_CR -> Σ_CL.
         pixels, values: right-image samples (`edge_samples`).
         left: (H, W, C) uint8 crop of the left image.
         left_origin: (2,) int64 full-image (u, v) of the crop's pixel (0, 0).
-        offsets: (D,) depth offsets of the model origin [m].
 
     Returns:
         (D,) correlations (-1 to 1; -2 where fewer than 16 samples land in the left crop).
     """
     height, width, channels = left.shape
-    n_offsets = offsets.shape[0]
-    out = np.full(n_offsets, -2.0)
-    z = pose[2, 3]
-    if z <= 1e-6 or pixels.shape[0] == 0:
-        return out
-    nx, ny, nz = pose[0, 2], pose[1, 2], pose[2, 2]
-    d = nx * pose[0, 3] + ny * pose[1, 3] + nz * pose[2, 3]
+    n_planes = planes.shape[0]
+    out = np.full(n_planes, -2.0)
     fx, fy, cx, cy = K_right[0, 0], K_right[1, 1], K_right[0, 2], K_right[1, 2]
     A = K_left @ np.ascontiguousarray(left_from_right[:3, :3])
     t = K_left @ np.ascontiguousarray(left_from_right[:3, 3])
-    scales = (z + offsets) / z
-    sums = np.zeros((n_offsets, 1 + 5 * channels))  # count; per channel l, r, l², r², l·r
+    sums = np.zeros((n_planes, 1 + 5 * channels))  # count; per channel l, r, l², r², l·r
     for i in range(pixels.shape[0]):
         rx = (pixels[i, 0] - cx) / fx
         ry = (pixels[i, 1] - cy) / fy
-        along = nx * rx + ny * ry + nz
-        if along <= 1e-9:
-            continue
-        s0 = d / along  # depth of the plane along this ray [m]
-        if s0 <= 0:
-            continue
-        a0 = s0 * (A[0, 0] * rx + A[0, 1] * ry + A[0, 2])
-        a1 = s0 * (A[1, 0] * rx + A[1, 1] * ry + A[1, 2])
-        a2 = s0 * (A[2, 0] * rx + A[2, 1] * ry + A[2, 2])
-        for j in range(n_offsets):
-            k = scales[j]
-            w = k * a2 + t[2]
+        a0 = A[0, 0] * rx + A[0, 1] * ry + A[0, 2]
+        a1 = A[1, 0] * rx + A[1, 1] * ry + A[1, 2]
+        a2 = A[2, 0] * rx + A[2, 1] * ry + A[2, 2]
+        for j in range(n_planes):
+            along = planes[j, 0] * rx + planes[j, 1] * ry + planes[j, 2]
+            if along <= 1e-9:
+                continue
+            s = planes[j, 3] / along  # depth of the plane along this ray [m]
+            if s <= 0:
+                continue
+            w = s * a2 + t[2]
             if w <= 1e-6:
                 continue
-            u = (k * a0 + t[0]) / w - left_origin[0]
-            v = (k * a1 + t[1]) / w - left_origin[1]
+            u = (s * a0 + t[0]) / w - left_origin[0]
+            v = (s * a1 + t[1]) / w - left_origin[1]
             if not (0.0 <= u < width - 1.0 and 0.0 <= v < height - 1.0):
                 continue
             iu, iv = np.int64(u), np.int64(v)
@@ -111,7 +103,7 @@ def sweep(pose, K_left, K_right, left_from_right, pixels, values, left, left_ori
                 sums[j, 3 + 5 * c] += seen * seen
                 sums[j, 4 + 5 * c] += r * r
                 sums[j, 5 + 5 * c] += seen * r
-    for j in range(n_offsets):
+    for j in range(n_planes):
         n = sums[j, 0]
         if n < 16:
             continue

@@ -58,6 +58,7 @@ class VerificationSettings(StrictModel):
             fitness is within this of the best are verified and the most confident kept.
         partial_low, partial_high: a cell in view whose hidden share (samples on a foreign
             colour) lies between these is partly hidden (see `Verification.interleaved`).
+        agree_level: a cell agrees from this score (see `Verification.agreeing`).
     """
 
     spacing: float = Field(default=0.003, gt=0.0005, le=0.02)
@@ -72,6 +73,7 @@ class VerificationSettings(StrictModel):
     ambiguity_margin: float = Field(default=0.1, ge=0.0, le=1.0)
     partial_low: float = Field(default=0.2, gt=0.0, lt=1.0)
     partial_high: float = Field(default=0.8, gt=0.0, lt=1.0)
+    agree_level: float = Field(default=0.5, ge=-1.0, le=1.0)
 
 
 @dataclass(frozen=True)
@@ -88,12 +90,17 @@ class Verification:
             over the cloth hides whole cells but those along its edge; a cloth of other
             colours whose stripes, checks or dots of a foreign colour the model takes as
             hidden hides parts of many cells.
+        agreeing: share of the compared weight on cells that agree at least
+            `agree_level`: a compact region that disagrees (a folded corner, a sheet of
+            the model's own hue) costs it only its own share, where it pulls the mean
+            `appearance` down by twice that (NaN: nothing compared).
     """
 
     appearance: float
     visible_fraction: float
     textured_share: float
     interleaved: float = 0.0
+    agreeing: float = float("nan")
 
 
 class Verifier:
@@ -159,23 +166,23 @@ class Verifier:
         poses = as_poses(transforms_model_to_camera)
         if self._samples is None:
             seen = self.evaluator.seen_fraction(poses)
-            return [Verification(float("nan"), float(v), 0.0, 0.0) for v in seen]
+            return [Verification(float("nan"), float(v), 0.0, 0.0, float("nan")) for v in seen]
         if self._images is None:
             raise RuntimeError("no stereo pair to verify on: call update(left, right) first")
         px, py, values, cells, n_cells = self._samples
         codes_left, codes_right = self.evaluator.codes
         rig = self.evaluator.rig
         s = self.settings
-        scores, visible, textured, interleaved = appearance(
+        scores, visible, textured, interleaved, agreeing = appearance(
             poses, rig.left.camera_matrix, rig.right.camera_matrix,
             np.ascontiguousarray(rig.transform_right_to_left), px, py, values, cells, n_cells,
             self._images[0], self._images[1], codes_left, codes_right, self._foreign,
             self._gains[0], self._gains[1], float(s.min_points), s.texture_min, s.flat_tolerance,
-            s.chroma_tolerance, s.brightness_tolerance, s.partial_low, s.partial_high,
+            s.chroma_tolerance, s.brightness_tolerance, s.partial_low, s.partial_high, s.agree_level,
         )  # fmt: skip
         return [
-            Verification(float(a), float(v), float(t), float(i))
-            for a, v, t, i in zip(scores, visible, textured, interleaved, strict=True)
+            Verification(float(a), float(v), float(t), float(i), float(g))
+            for a, v, t, i, g in zip(scores, visible, textured, interleaved, agreeing, strict=True)
         ]
 
 

@@ -113,12 +113,13 @@ def _cell_scores(sums, min_points, texture_min, flat_tolerance, chroma_tolerance
 def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cells, n_cells, image_left,
                image_right, codes_left, codes_right, foreign, gains_left, gains_right, min_points,
                texture_min, flat_tolerance, chroma_tolerance, brightness_tolerance, partial_low,
-               partial_high):  # fmt: skip
+               partial_high, agree_level):  # fmt: skip
     """For each pose: the cell-weighted agreement of the texture samples with both images
     (NaN if no cell is scored), the share of samples visible (mean of both images), the
     share of the scored weight on textured cells, and the share of the samples in view
     that lie in partly hidden cells (a hidden share between `partial_low` and
-    `partial_high`; cells with fewer than `min_points` samples in view left out).
+    `partial_high`; cells with fewer than `min_points` samples in view left out), and the
+    share of the scored weight on cells that agree at least `agree_level` (NaN if none).
 
     Args:
         transforms: (P, 4, 4) poses ^CR T_M.
@@ -139,6 +140,7 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     visible = np.empty(n_poses)
     textured = np.empty(n_poses)
     interleaved = np.empty(n_poses)
+    agreeing = np.empty(n_poses)
     P_right = np.zeros((3, 4))
     P_right[:, :3] = K_right
     P_left = K_left @ np.ascontiguousarray(left_from_right[:3, :])
@@ -148,7 +150,7 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     model_rms = np.zeros(n_cells)
     for p in range(n_poses):
         total, weight, textured_weight, seen = 0.0, 0.0, 0.0, 0
-        in_view, partial = 0.0, 0.0
+        in_view, partial, agreeing_weight = 0.0, 0.0, 0.0
         for side in range(2):
             sums = np.zeros((n_cells, 17))
             if side == 0:
@@ -177,13 +179,16 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
                     model_rms[c] = np.sqrt(var / 3.0)
                 total += cell_scores[c] * cell_weights[c]
                 weight += cell_weights[c]
+                if cell_scores[c] >= agree_level:
+                    agreeing_weight += cell_weights[c]
                 if model_rms[c] >= texture_min:
                     textured_weight += cell_weights[c]
         scores[p] = total / weight if weight > 0 else np.nan
         visible[p] = seen / (2.0 * px.shape[0])
         textured[p] = textured_weight / weight if weight > 0 else 0.0
         interleaved[p] = partial / in_view if in_view > 0 else 0.0
-    return scores, visible, textured, interleaved
+        agreeing[p] = agreeing_weight / weight if weight > 0 else np.nan
+    return scores, visible, textured, interleaved, agreeing
 
 
 __all__ = ["appearance"]
