@@ -167,6 +167,20 @@ def test_settings_are_validated_once() -> None:
         validate(VerificationSettings, {"spacing": 0.0})
 
 
+def test_the_reported_confidence_is_the_decision_on_the_reported_evidence() -> None:
+    left, right = render_stereo_pair(
+        RIG, [(extended_cloth(AMBER_COFFEE), POSE)], rng=np.random.default_rng(9), camera=DARK_TINTED
+    )
+    for index in (AMBER_COFFEE, AMBER_CAT):  # the cloth, and another of its hue family
+        result = Recognizer(model(index), RIG).recognize(left, right, seed=1)
+        evidence = Evidence(
+            result.search_fitness, result.appearance, result.visible_fraction, result.interleaved, True,
+            result.agreeing,
+        )  # fmt: skip
+        assert result.confidence == pytest.approx(confidence(DecisionSettings(), evidence))
+        assert result.found == (index == AMBER_COFFEE)
+
+
 @pytest.mark.parametrize("seed", range(3))
 def test_recognition_resolves_the_half_turn_of_a_one_hue_print(seed: int) -> None:
     rng = np.random.default_rng(seed)

@@ -29,7 +29,7 @@ from robot_app.vision.hue import (
 from robot_app.vision.photo_model import ModelSettings, load_photo, make_model
 from robot_app.vision.plots import plot_full_search, save_preview
 from robot_app.vision.poses import AvoidedPoses, PoseLimits
-from robot_app.vision.propose import Candidate, Proposal, ProposalSettings, Proposer, TrackingSettings
+from robot_app.vision.propose import Candidate, Proposal, ProposalSettings, Proposer
 from robot_app.vision.recognition import Peak, Recognition
 from robot_app.vision.recognizer import RecognitionSettings, Recognizer
 from robot_app.vision.refinement import Refinement, RefinementSettings, Refiner, cma_search, compass_search
@@ -43,6 +43,7 @@ from robot_app.vision.synthetic import (
     render_stereo_pair,
 )
 from robot_app.vision.synthetic_catalogue import CATALOGUE_SIZE, synthetic_cloth
+from robot_app.vision.tracking_window import TrackingSettings
 from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
 __all__ = [

@@ -31,26 +31,9 @@ from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
 from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBoundsSettings
 from robot_app.vision.poses import AvoidedPoses, PoseLimits, as_poses
 from robot_app.vision.refinement import Refiner
+from robot_app.vision.tracking_window import TrackingSettings, reachable_regions, window_around
 
 HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])  # about the model's z axis, through its origin
-
-
-class TrackingSettings(StrictModel):
-    """Multi-step proposal between frames.
-
-    Attributes:
-        ga: the tracking GA (its `generations` are per frame; 24 individuals, one island).
-        window: half-width of the x-y search window around the motion-predicted pose [m].
-        depth_window: half-width of the depth window [m]; the window moves with the
-            camera, so a descending camera keeps its cloth.
-        verify_every: verify (and decide) on every n-th tracking frame; between them the
-            last verification's appearance is carried over (1: every frame).
-    """
-
-    ga: GASettings = GASettings(population=24, generations=3, islands=1, elite=2)
-    window: float = Field(default=0.02, gt=0.0)
-    depth_window: float = Field(default=0.03, gt=0.0)
-    verify_every: int = Field(default=1, ge=1)
 
 
 class ProposalSettings(StrictModel):
@@ -230,7 +213,7 @@ class Proposer:
         if count < 0:
             raise ValueError(f"generations must be >= 0, got {count}")
         poses = self._moved_poses(transform_motion)
-        window = self._window(poses[0])
+        window = window_around(poses[0], t, s.bounds)
         ga = GeneticAlgorithm(window, t.ga, self.rng)
         ga.seed(np.concatenate([poses, np.repeat(poses[-1:], t.ga.population - len(poses), axis=0)]))
         ga.evolve(self.fitness(s.fine_stride), count)
@@ -253,38 +236,22 @@ class Proposer:
             RuntimeError: nothing kept yet (propose first).
             ValueError: a motion that is not a finite 4x4 transform.
         """
-        return self._window(self._moved_poses(transform_motion)[0])
+        return window_around(
+            self._moved_poses(transform_motion)[0], self.settings.tracking, self.settings.bounds
+        )
 
     def tracking_regions(
         self, transform_motion: FloatArray | None
     ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
-        """Per image (left, right), the (u0, v0, u1, v1) box that the model can reach from
-        the next tracking window (any yaw and tilt), a few pixels to spare: the only pixels
-        a tracking frame needs colour codes of (`FitnessEvaluator.update(regions=...)`).
+        """Per image (left, right), the box the model can reach from the next tracking
+        window (`tracking_window.reachable_regions`): the only pixels a tracking frame
+        needs colour codes of (`FitnessEvaluator.update(regions=...)`).
 
         Raises:
             RuntimeError: nothing kept yet (propose first).
         """
         window = self.tracking_window(transform_motion)
-        rig = self.evaluator.rig
-        model = self.evaluator.model
-        radius = float(np.max(np.linalg.norm(np.vstack([model.points_in, model.points_out]), axis=1)))
-        corners = np.array(np.meshgrid(window.x, window.y, window.z, indexing="ij")).reshape(3, -1).T
-        cube = np.array(np.meshgrid(*[(-radius, radius)] * 3, indexing="ij")).reshape(3, -1).T
-        points = (corners[:, None, :] + cube[None, :, :]).reshape(-1, 3)  # in Σ_CR
-        width, height = rig.image_size
-        boxes = []
-        for camera, to_camera in ((rig.left, rig.transform_right_to_left), (rig.right, np.eye(4))):
-            X = points @ to_camera[:3, :3].T + to_camera[:3, 3]
-            if np.any(X[:, 2] <= 1e-3):
-                boxes.append(np.array([0, 0, width - 1, height - 1], dtype=np.int64))
-                continue
-            uv = X[:, :2] / X[:, 2:] @ camera.camera_matrix[:2, :2].T + camera.camera_matrix[:2, 2]
-            box = np.array([uv[:, 0].min() - 3, uv[:, 1].min() - 3, uv[:, 0].max() + 4, uv[:, 1].max() + 4])
-            boxes.append(
-                np.clip(np.floor(box), 0, [width - 1, height - 1, width - 1, height - 1]).astype(np.int64)
-            )
-        return boxes[0], boxes[1]
+        return reachable_regions(window, self.evaluator.model, self.evaluator.rig)
 
     def _moved_poses(self, transform_motion: FloatArray | None) -> FloatArray:
         if self._poses is None:
@@ -295,17 +262,6 @@ class Proposer:
         if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
             raise ValueError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
         return motion @ self._poses
-
-    def _window(self, pose: FloatArray) -> SearchBoundsSettings:
-        s, t = self.settings, self.settings.tracking
-        x, y, z = pose[:3, 3]
-        return SearchBoundsSettings(
-            x=(x - t.window, x + t.window),
-            y=(y - t.window, y + t.window),
-            z=(max(z - t.depth_window, 1e-3), max(z + t.depth_window, 2e-3)),
-            max_tilt_deg=s.bounds.max_tilt_deg,
-            max_yaw_deg=s.bounds.max_yaw_deg,
-        )
 
     # ------------------------------------------------------------------ one-shot internals
     def _runs(
@@ -423,6 +379,5 @@ __all__ = [
     "Proposal",
     "ProposalSettings",
     "Proposer",
-    "TrackingSettings",
     "untilted",
 ]

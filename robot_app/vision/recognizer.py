@@ -11,12 +11,17 @@ The recogniser composes the stages and holds no search logic of its own:
    pose, its half and quarter turns and the other runs' ends whose search fitness is
    within `verify.ambiguity_margin`; the most confident is kept (and polished if it was
    not the polished one);
-5. decide (`decide.decide`): `found` = confidence >= `decide.threshold`, the one
+5. stereo depth (`stereo_depth.StereoDepth`): the plane the pair shows around the pose,
+   without the model's size; a small depth offset is taken, and a pose whose plane is
+   not the pair's is searched again on the stereo plane (`plane_search.search_in_plane`,
+   its shortlist ranked by the decision);
+6. decide (`decide.decide`): `found` = confidence >= `decide.threshold`, the one
    acceptance threshold.
 
 Multi-step recognition (`Recognizer.track`) proposes from the kept poses moved by the
-camera motion (Sec. II-E), then verifies (every `propose.tracking.verify_every`-th frame)
-and decides the same way.
+camera motion (Sec. II-E), with colour codes only where the tracking window reaches
+(`tracking_window.py`), then verifies (every `propose.tracking.verify_every`-th frame)
+and decides the same way; it has no depth check.
 """
 
 from __future__ import annotations
@@ -373,7 +378,12 @@ class Recognizer:
     def _evidence(self, search_fitness: float, verification: Verification) -> Evidence:
         v = verification
         return Evidence(
-            search_fitness, v.appearance, v.visible_fraction, v.interleaved, self.model.has_texture
+            search_fitness,
+            v.appearance,
+            v.visible_fraction,
+            v.interleaved,
+            self.model.has_texture,
+            v.agreeing,
         )
 
 

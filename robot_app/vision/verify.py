@@ -11,7 +11,10 @@ model and image: where the model is textured by the zero-mean normalised cross-c
 of each colour channel (invariant to a gain and offset per channel: exposure and white
 balance), where it is flat by whether the image is flat too and of the model's mean colour.
 The appearance score is the cells' mean agreement in [-1, 1], weighted by their visible
-samples; the visible fraction is the share of samples visible.
+samples; `agreeing` is the weighted share of cells that agree; the visible fraction is
+the share of samples visible; `interleaved` is the share of the samples in view that lie
+in partly hidden cells (a sheet hides whole cells, another cloth's stripes of a colour
+foreign to the model hide parts of many).
 
 A model without texture (a version 1-2 file) cannot be verified: `Verification.appearance`
 is NaN and the decision uses its stand-in (`DecisionSettings.appearance_without_texture`).
