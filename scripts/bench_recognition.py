@@ -14,7 +14,7 @@ weights and threshold on them and prints them) and reported on the test seeds (t
 
     taskset -c 0 python scripts/bench_recognition.py                   # the full run
     taskset -c 0 python scripts/bench_recognition.py --scenes 24 --quick
-    taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 120
+    taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 200   # the decision's fit
 """
 
 from __future__ import annotations
