@@ -13,12 +13,8 @@ from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.full_search import find_peaks, full_search
 from robot_app.vision.photo_model import make_model
 from robot_app.vision.plots import plot_full_search
-from robot_app.vision.synthetic import (
-    occluder_covering,
-    render_model_photo,
-    render_stereo_pair,
-    synthetic_cloth,
-)
+from robot_app.vision.synthetic import occluder_covering, render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
 CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))

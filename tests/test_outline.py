@@ -12,12 +12,8 @@ from robot_app.geometry import make_transform, rotation_about_z
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.outline import draw_outline, model_outline, project_outline
 from robot_app.vision.photo_model import make_model
-from robot_app.vision.synthetic import (
-    TABLE_GREEN_BGR,
-    render_model_photo,
-    render_stereo_pair,
-    synthetic_cloth,
-)
+from robot_app.vision.synthetic import TABLE_GREEN_BGR, render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
 MODEL_CAMERA = ModelCamera(PinholeCamera.from_fov((640, 480), np.deg2rad(48)), 0.40)
 CAMERA = PinholeCamera.from_fov((640, 480), np.deg2rad(48))

@@ -212,7 +212,8 @@ def test_the_full_search_estimate_bounds_what_it_allocates() -> None:
 def test_the_model_estimate_bounds_what_make_model_allocates() -> None:
     from robot_app.vision.camera import ModelCamera, PinholeCamera
     from robot_app.vision.photo_model import ModelSettings, make_model
-    from robot_app.vision.synthetic import render_model_photo, synthetic_cloth
+    from robot_app.vision.synthetic import render_model_photo
+    from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
     camera = ModelCamera(PinholeCamera.from_fov((480, 360), np.deg2rad(48)), 0.40)
     photo, background = render_model_photo(synthetic_cloth(3), camera, rng=np.random.default_rng(0))

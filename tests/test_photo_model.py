@@ -10,9 +10,11 @@ import pytest
 
 from robot_app.errors import InputError, ModelError
 from robot_app.vision.camera import ModelCamera, PinholeCamera
+from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.hue import DARK, LIGHT, colour_codes, hue_distance, to_hsv, to_hue
-from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
-from robot_app.vision.synthetic import TABLE_GREEN_BGR, SyntheticCloth, render_model_photo, synthetic_cloth
+from robot_app.vision.photo_model import ModelSettings, load_photo, make_model
+from robot_app.vision.synthetic import TABLE_GREEN_BGR, SyntheticCloth, render_model_photo
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
 
 def _handmade_model() -> ClothModel:

@@ -17,14 +17,11 @@ from robot_app.geometry import (
     yaw_of,
 )
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
-from robot_app.vision.photo_model import ClothModel, make_model
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.photo_model import make_model
 from robot_app.vision.recognizer import RecognitionSettings, Recognizer
-from robot_app.vision.synthetic import (
-    occluder_covering,
-    render_model_photo,
-    render_stereo_pair,
-    synthetic_cloth,
-)
+from robot_app.vision.synthetic import occluder_covering, render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
 CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
@@ -140,6 +137,26 @@ def test_tracking_follows_a_moving_camera_with_few_evaluations() -> None:
         assert result.evaluations < 1500 and result.generations == 3
 
 
+def test_tracking_codes_only_the_region_its_window_reaches_and_finds_the_same() -> None:
+    left, right = render_stereo_pair(RIG, [(synthetic_cloth(3), POSE)], rng=np.random.default_rng(6))
+    motion = invert_transform(make_transform(rotation_about_z(0.02), [0.003, -0.002, 0.0]))
+    moved_left, moved_right = render_stereo_pair(
+        RIG, [(synthetic_cloth(3), motion @ POSE)], rng=np.random.default_rng(7)
+    )
+    results = []
+    for whole_images in (False, True):
+        recognizer = Recognizer(model(3), RIG)
+        recognizer.recognize(left, right, seed=0)
+        regions = recognizer.proposer.tracking_regions(motion)
+        width, height = RIG.image_size
+        assert all((box[2] - box[0] + 1) * (box[3] - box[1] + 1) < 0.8 * width * height for box in regions)
+        if whole_images:
+            recognizer.proposer.tracking_regions = lambda _motion: None  # type: ignore[method-assign]
+        results.append(recognizer.track(moved_left, moved_right, motion))
+    np.testing.assert_allclose(results[0].transform_model_to_camera, results[1].transform_model_to_camera)
+    assert results[0].fitness == results[1].fitness
+
+
 def test_wrong_image_size_is_bad_input() -> None:
     image = np.zeros((100, 100, 3), np.uint8)
     with pytest.raises(InputError, match="320x240"):
@@ -152,6 +169,7 @@ def test_settings_reach_the_parts() -> None:
             "propose": {"ga": {"population": 20, "generations": 5, "islands": 1}, "coarse_generations": 2,
                         "restarts": 0},
             "refine": {"enabled": False},
+            "depth": {"enabled": False},  # (it scores the poses it moves or searches again)
         }
     )  # fmt: skip
     left, right = render_stereo_pair(RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(6))

@@ -16,7 +16,8 @@ from robot_app.vision.poses import AvoidedPoses, PoseLimits, moved
 from robot_app.vision.refinement import RefinementSettings, Refiner
 from robot_app.vision.refinement import cma_search as cma_search_compiled
 from robot_app.vision.refinement import compass_search as compass_search_compiled
-from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
+from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
 from tests.vision_oracles import cma_search, compass_search
 
 START = make_transform(rotation_from_rpy(0.05, -0.03, 0.7), [0.02, -0.01, 0.58])

@@ -10,15 +10,14 @@ from robot_app.geometry import make_transform, rotation_about_z, rotation_from_r
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.hue import hue_distance, to_hsv, to_hue
 from robot_app.vision.synthetic import (
-    CATALOGUE_SIZE,
     OCCLUDER_BLUE_BGR,
     TABLE_GREEN_BGR,
     SyntheticCloth,
     occluder_covering,
     render_model_photo,
     render_stereo_pair,
-    synthetic_cloth,
 )
+from robot_app.vision.synthetic_catalogue import CATALOGUE_SIZE, synthetic_cloth
 
 GREEN_HUE = int(to_hue(np.array([[TABLE_GREEN_BGR]], np.uint8))[0, 0])
 BLUE_HUE = int(to_hue(np.array([[OCCLUDER_BLUE_BGR]], np.uint8))[0, 0])

@@ -57,8 +57,12 @@ class LoopSettings(StrictModel):
 
     vision_rate_hz: float = Field(15.0, ge=10.0, le=30.0, description="vision cycles per second")
     search_attempts: int = Field(3, ge=1, description="one-shot GA runs before 'not present'")
-    candidate_fitness: float = Field(
-        0.3, ge=0.0, le=1.0, description="below 'found' but above this: centre the cameras on it, look again"
+    candidate_confidence: float = Field(
+        0.05,
+        ge=0.0,
+        le=1.0,
+        description="recognition confidence below 'found' (recognition.decide.threshold) but at least "
+        "this: centre the cameras on the candidate and look again",
     )
     max_observe_returns: int = Field(2, ge=0, description="returns to OBSERVE after losing the cloth")
     grasp_retries: int = Field(2, ge=0, description="new attempts after a missed grasp")
@@ -248,7 +252,7 @@ class PickPlaceLoop:
         s = self.settings
         for attempt in range(s.search_attempts):
             capture, recognition, pose = self._recognize_once(seed=attempt)
-            if not recognition.found and recognition.fitness >= s.candidate_fitness:
+            if not recognition.found and recognition.confidence >= s.candidate_confidence:
                 # A partial view (image border, occluder) scores low: look again with the
                 # cameras centred over the candidate before deciding.
                 self._log_recognition(
@@ -264,7 +268,10 @@ class PickPlaceLoop:
                 capture, recognition, pose, "search", accepted, "reset" if accepted else "not found"
             )
             if accepted:
-                self._note = f"found with fitness {recognition.fitness:.3f} (attempt {attempt + 1})"
+                self._note = (
+                    f"found with confidence {recognition.confidence:.3f}, fitness {recognition.fitness:.3f} "
+                    f"(attempt {attempt + 1})"
+                )
                 self._last_capture = capture
                 return True
             self._move_to_joints(self.observation_joints)

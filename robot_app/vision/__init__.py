@@ -9,11 +9,13 @@ from robot_app.vision.camera import (
     save_model_camera,
     save_rig,
 )
-from robot_app.vision.decide import Decision, DecisionSettings, confidence, decide
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.decide import Decision, DecisionSettings, Evidence, confidence, decide
 from robot_app.vision.exposure import ExposureSettings, sheet_gains
-from robot_app.vision.fitness import FitnessEvaluator, FitnessSettings, KernelFitness
+from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
+from robot_app.vision.fitness_scores import FitnessSettings
 from robot_app.vision.full_search import FitnessPeak, FullSearchResult, find_peaks, full_search
-from robot_app.vision.ga import GAResult, GASettings, GeneticAlgorithm, SearchBounds
+from robot_app.vision.ga import GAResult, GASettings, GeneticAlgorithm, SearchBoundsSettings
 from robot_app.vision.hue import (
     DARK,
     LIGHT,
@@ -25,22 +27,24 @@ from robot_app.vision.hue import (
     to_hue,
 )
 from robot_app.vision.outline import ProjectedOutline, draw_outline, model_outline, project_outline
-from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
+from robot_app.vision.photo_model import ModelSettings, load_photo, make_model
 from robot_app.vision.plots import plot_full_search, save_preview
 from robot_app.vision.poses import AvoidedPoses, PoseLimits
-from robot_app.vision.propose import Candidate, Proposal, ProposalSettings, Proposer, TrackingSettings
-from robot_app.vision.recognizer import Peak, Recognition, RecognitionSettings, Recognizer
+from robot_app.vision.propose import Candidate, Proposal, ProposalSettings, Proposer
+from robot_app.vision.recognition import Peak, Recognition
+from robot_app.vision.recognizer import RecognitionSettings, Recognizer
 from robot_app.vision.refinement import Refinement, RefinementSettings, Refiner, cma_search, compass_search
 from robot_app.vision.sampling import ModelSamples, sample_model
+from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
 from robot_app.vision.synthetic import (
-    CATALOGUE_SIZE,
     SyntheticCloth,
     model_photo_transform,
     occluder_covering,
     render_model_photo,
     render_stereo_pair,
-    synthetic_cloth,
 )
+from robot_app.vision.synthetic_catalogue import CATALOGUE_SIZE, synthetic_cloth
+from robot_app.vision.tracking_window import TrackingSettings
 from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
 __all__ = [
@@ -52,6 +56,9 @@ __all__ = [
     "ClothModel",
     "Decision",
     "DecisionSettings",
+    "DepthCheckSettings",
+    "DepthMeasurement",
+    "Evidence",
     "ExposureSettings",
     "FitnessEvaluator",
     "FitnessPeak",
@@ -77,7 +84,8 @@ __all__ = [
     "Refinement",
     "RefinementSettings",
     "Refiner",
-    "SearchBounds",
+    "SearchBoundsSettings",
+    "StereoDepth",
     "StereoRig",
     "SyntheticCloth",
     "TrackingSettings",

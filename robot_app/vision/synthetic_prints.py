@@ -23,7 +23,8 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.errors import InputError
-from robot_app.vision.synthetic import CATALOGUE_SIZE, CLOTH_TEXEL, SyntheticCloth, synthetic_cloth
+from robot_app.vision.synthetic import SyntheticCloth
+from robot_app.vision.synthetic_catalogue import CATALOGUE_SIZE, CLOTH_TEXEL, synthetic_cloth
 
 Image = npt.NDArray[np.uint8]
 GREEN_HUE = 86  # the sheet's hue (HSV_FULL, 0-255)
