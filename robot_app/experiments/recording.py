@@ -159,17 +159,21 @@ class EpisodeRecorder:
         self._series("signals/joints/limit_high", "limit", (255, 80, 80))
         self._series("signals/joints/limit_low", "limit", (255, 80, 80))
 
-    def log_target(self, outline_model: tuple[FloatArray, ...], grasp_radius: float = 0.006) -> None:
-        """Logs the target model's S_in outline in Σ_M under each `cloth/*` pose (static)."""
+    def log_target(
+        self, outline_model: tuple[FloatArray, ...], grasp_radius: float = 0.006, *, prefix: str = "cloth"
+    ) -> None:
+        """Logs the target model's S_in outline in Σ_M under each `<prefix>/*` pose (static).
+
+        A job with several targets gives each its own `prefix` (e.g. `cloths/No.3`)."""
         rr, rec = self.rr, self._rec
         strips = [np.vstack([p, p[:1]]) for p in outline_model]
         for name, rgb in (("recognised", RECOGNISED_RGB), ("filtered", FILTERED_RGB), ("true", TRUE_RGB)):
-            rec.log(f"cloth/{name}", rr.TransformAxes3D(0.05), static=True)
+            rec.log(f"{prefix}/{name}", rr.TransformAxes3D(0.05), static=True)
             rec.log(
-                f"cloth/{name}/outline", rr.LineStrips3D(strips, colors=[rgb], radii=[0.0015]), static=True
+                f"{prefix}/{name}/outline", rr.LineStrips3D(strips, colors=[rgb], radii=[0.0015]), static=True
             )
         rec.log(
-            "cloth/grasp_point",
+            f"{prefix}/grasp_point",
             rr.Points3D.from_fields(colors=[GRASP_RGB], radii=[grasp_radius]),
             static=True,
         )
@@ -223,6 +227,8 @@ class EpisodeRecorder:
         recognised: ProjectedOutline,
         true: ProjectedOutline | None = None,
         transform_true_to_world: FloatArray | None = None,
+        *,
+        prefix: str = "cloth",
     ) -> None:
         """One vision cycle on both timelines: images, outlines, poses, signals, a text entry.
 
@@ -232,6 +238,7 @@ class EpisodeRecorder:
             recognised: S_in's outline in both images under the recognised pose [px].
             true: the same under the true pose (simulation), or None.
             transform_true_to_world: (4, 4) true ^W T_M at capture (simulation), or None.
+            prefix: the target's entity (`log_target`'s prefix).
         """
         capture, record, recognition = cycle.capture, cycle.record, cycle.recognition
         t, n = capture.time, self.cycles
@@ -259,16 +266,20 @@ class EpisodeRecorder:
             add(f"cameras/{side}/outline/recognised", "strips", _closed(outline))
             if truth is not None:
                 add(f"cameras/{side}/outline/true", "strips", _closed(truth))
-        add("cloth/recognised", "pose", cycle.transform_model_to_world)
+        add(f"{prefix}/recognised", "pose", cycle.transform_model_to_world)
         if transform_true_to_world is not None:
-            add("cloth/true", "pose", transform_true_to_world)
+            add(f"{prefix}/true", "pose", transform_true_to_world)
         grasp_frame = cycle.transform_model_to_world
         if cycle.filtered is not None:
             grasp_frame = cycle.filtered.as_transform()
-            add("cloth/filtered", "pose", grasp_frame)
+            add(f"{prefix}/filtered", "pose", grasp_frame)
             residual = np.linalg.norm(cycle.transform_model_to_world[:3, 3] - cycle.filtered.position)
             add("signals/filter/residual_mm", "scalar", 1e3 * residual)
-        add("cloth/grasp_point", "point", grasp_frame[:3, :3] @ cycle.grasp_point_model + grasp_frame[:3, 3])
+        add(
+            f"{prefix}/grasp_point",
+            "point",
+            grasp_frame[:3, :3] @ cycle.grasp_point_model + grasp_frame[:3, 3],
+        )
         if math.isfinite(cycle.nis):
             add("signals/filter/nis", "scalar", cycle.nis)
         add("signals/recognition/fitness", "scalar", recognition.fitness)

@@ -53,21 +53,23 @@ def cell_layout(world: World, limits: JointLimits, bodies: RobotBodies) -> CellL
     sheet = Shape(
         "box", sheet_size, make_transform(np.eye(3), [*c.range.centre_xy, top - 0.0007]), sheet_rgba
     )
-    b = c.box
-    outer = b.inner_size + 2 * b.wall_thickness
-    offset = (b.inner_size + b.wall_thickness) / 2
-    walls = []
-    for dx, dy, size in (
-        (offset, 0.0, (b.wall_thickness, outer, b.wall_height)),
-        (-offset, 0.0, (b.wall_thickness, outer, b.wall_height)),
-        (0.0, offset, (outer, b.wall_thickness, b.wall_height)),
-        (0.0, -offset, (outer, b.wall_thickness, b.wall_height)),
-    ):
-        centre = [b.centre_xy[0] + dx, b.centre_xy[1] + dy, top + b.wall_height / 2]
-        walls.append(Shape("box", size, make_transform(rotation_about_z(0.0), centre), BOX_RGBA))
+    boxes: dict[str, tuple[Shape, ...]] = {}
+    for b in c.all_boxes:  # the main box is `box`; more boxes (clear-table) `box/<name>`
+        outer = b.inner_size + 2 * b.wall_thickness
+        offset = (b.inner_size + b.wall_thickness) / 2
+        walls = []
+        for dx, dy, size in (
+            (offset, 0.0, (b.wall_thickness, outer, b.wall_height)),
+            (-offset, 0.0, (b.wall_thickness, outer, b.wall_height)),
+            (0.0, offset, (outer, b.wall_thickness, b.wall_height)),
+            (0.0, -offset, (outer, b.wall_thickness, b.wall_height)),
+        ):
+            centre = [b.centre_xy[0] + dx, b.centre_xy[1] + dy, top + b.wall_height / 2]
+            walls.append(Shape("box", size, make_transform(rotation_about_z(0.0), centre), BOX_RGBA))
+        boxes["box" if c.boxes is None else f"box/{b.name}"] = tuple(walls)
     camera = world.stereo.rig
     return CellLayout(
-        fixed={"table": (table,), "sheet": (sheet,), "box": tuple(walls)},
+        fixed={"table": (table,), "sheet": (sheet,), **boxes},
         links=bodies.visuals(urdf_visuals(c.robot.urdf)),
         cloths=tuple(_surface(cloth) for cloth in world.cloths),
         cameras=(camera.left, camera.right),

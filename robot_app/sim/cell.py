@@ -15,7 +15,7 @@ import numpy.typing as npt
 from robot_app.arrays import FloatArray
 from robot_app.errors import GraspError
 from robot_app.sim.cameras import StereoFrame
-from robot_app.sim.cloth_body import ClothBody
+from robot_app.sim.cloth_body import NODE_MASS, ClothBody
 from robot_app.sim.world import World
 
 HOLD_HEIGHT = 0.05  # a held cloth's median node is at least this far above the table [m]
@@ -78,6 +78,19 @@ class SimCell:
     def holding(self) -> bool:
         table = self.world.config.table.top_z
         return any(float(np.median(c.nodes()[:, 2])) > table + HOLD_HEIGHT for c in self.held_cloths())
+
+    def held_mass(self, reach: float = 0.3) -> float:
+        """What a load cell in the wrist would weigh [kg]: every cloth node off the table by
+        more than HOLD_HEIGHT within `reach` [m] (horizontally) of the TCP, anchored or
+        lying on what is (the simulated cloth's mass is its node count times NODE_MASS)."""
+        tcp = self.world.robot.frame_pose("tcp")[:3, 3]
+        table = self.world.config.table.top_z
+        count = 0
+        for cloth in self.world.cloths:
+            nodes = cloth.nodes()
+            near = np.hypot(nodes[:, 0] - tcp[0], nodes[:, 1] - tcp[1]) <= reach
+            count += int(np.count_nonzero(near & (nodes[:, 2] > table + HOLD_HEIGHT)))
+        return count * NODE_MASS
 
     def collisions(self) -> int:
         contacts = self.world.robot.arm_collisions(self.world.static_obstacles)

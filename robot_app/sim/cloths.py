@@ -138,6 +138,21 @@ CATALOGUE: tuple[ClothSpec, ...] = (
 )  # fmt: skip
 
 
+# Cloths of one dominant hue (or of none), which the hue fitness alone hardly tells apart:
+# scenes put them together to test identification; the robot never reads this table.
+HUE_FAMILIES: dict[str, tuple[int, ...]] = {
+    "blue": (13, 14, 15),
+    "red": (1, 11, 12, 16),
+    "white": (6, 17, 18),
+    "no_hue": (19, 20),
+}
+
+
+def hue_family(number: int) -> str | None:
+    """The name of cloth No.`number`'s hue family (`HUE_FAMILIES`), or None."""
+    return next((name for name, members in HUE_FAMILIES.items() if number in members), None)
+
+
 def cloth_spec(number: int) -> ClothSpec:
     """The catalogue cloth No.`number` (1-20)."""
     if not 1 <= int(number) <= len(CATALOGUE):
@@ -296,6 +311,7 @@ def _spec_tag(spec: ClothSpec) -> str:
 
 __all__ = [
     "CATALOGUE",
+    "HUE_FAMILIES",
     "MAX_SIZE",
     "OUTLINES",
     "PATTERNS",
@@ -305,6 +321,7 @@ __all__ = [
     "cloth_spec",
     "fabric_atlas_image",
     "fabric_texture_image",
+    "hue_family",
     "outline_polygon",
     "polygon_area",
     "polygon_centroid",

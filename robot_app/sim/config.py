@@ -50,8 +50,12 @@ class RangeSettings(StrictModel):
 
 
 class BoxSettings(StrictModel):
-    """The collection box: open top, four walls standing on the table."""
+    """A collection box: open top, four walls standing on the table.
 
+    `name` is what a sort rule (`robot-app clear-table`'s `sort`) calls the box.
+    """
+
+    name: str = Field("box", min_length=1, max_length=40, pattern=r"^[A-Za-z0-9_.-]+$")
     centre_xy: Vec2 = (0.30, -0.56)
     inner_size: float = Field(0.22, gt=0.0)
     wall_height: float = Field(0.10, gt=0.0)
@@ -175,6 +179,10 @@ class WorldConfig(StrictModel):
     table: TableSettings = TableSettings()
     range: RangeSettings = RangeSettings()
     box: BoxSettings = BoxSettings()
+    boxes: tuple[BoxSettings, ...] | None = Field(
+        None,
+        description="the cell's collection boxes, first = `box` (pick-place's); null: one box, `box`",
+    )
     robot: RobotSettings = RobotSettings()
     observation: ObservationSettings = ObservationSettings()
     cameras: CameraSettings = CameraSettings()
@@ -187,6 +195,26 @@ class WorldConfig(StrictModel):
     @classmethod
     def _preset_defaults(cls, data: Any) -> Any:
         return fill_preset_defaults(data)
+
+    @model_validator(mode="after")
+    def _first_box_is_box(self) -> WorldConfig:
+        """With `boxes`, `box` is their first (set one of the two, or both alike); names differ."""
+        if self.boxes is None:
+            return self
+        if not self.boxes:
+            raise ValueError("boxes: give at least one box, or null for the one box `box`")
+        if "box" in self.model_fields_set and self.box != self.boxes[0]:
+            raise ValueError("box and boxes[0] differ: set world.boxes alone (its first is the main box)")
+        names = [b.name for b in self.boxes]
+        if len(set(names)) != len(names):
+            raise ValueError(f"boxes need distinct names, got {names}")
+        object.__setattr__(self, "box", self.boxes[0])
+        return self
+
+    @property
+    def all_boxes(self) -> tuple[BoxSettings, ...]:
+        """Every collection box of the cell, the main one (`box`) first."""
+        return (self.box,) if self.boxes is None else self.boxes
 
 
 class SceneSettings(StrictModel):

@@ -28,7 +28,7 @@ from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloth_mesh import build_cloth_mesh, cache_dir
 from robot_app.sim.cloth_visual import ClothLook, build_render_mesh, render_obj_path
 from robot_app.sim.cloths import ClothSpec
-from robot_app.sim.config import WorldConfig, load_world_config
+from robot_app.sim.config import BoxSettings, WorldConfig, load_world_config
 from robot_app.sim.lighting import draw_lighting
 from robot_app.sim.robot import SimRobot
 from robot_app.sim.stereo import StereoCamera
@@ -46,11 +46,13 @@ class BoxGeometry:
         centre: (3,) centre of its floor (on the table top) [m].
         inner_size: inner side length [m] (paper: 0.22).
         wall_height: [m].
+        name: what sort rules call it (`BoxSettings.name`).
     """
 
     centre: FloatArray
     inner_size: float
     wall_height: float
+    name: str = "box"
 
     def contains(self, points: npt.ArrayLike) -> npt.NDArray[np.bool_]:
         """True for points inside the walls and below their top."""
@@ -110,19 +112,14 @@ class World:
         )
         self._tiles(_frame(table_box, sheet_box), top - 0.003, (0.8, 0.75, 0.65), 0.05)
         self.sheet_id = self._tiles([(*sheet_box[0], *sheet_box[1])], top - 0.0015, c.range.sheet_rgb, 0.04)
-        b = c.box
-        bx, by = b.centre_xy
-        wall = (0.85, 0.6, 0.3)
-        self.box = BoxGeometry(np.array([bx, by, top]), b.inner_size, b.wall_height)
-        outer = b.inner_size + 2 * b.wall_thickness
-        offset = (b.inner_size + b.wall_thickness) / 2
-        zc = top + b.wall_height / 2
-        self.box_ids = (
-            self._box((bx + offset, by, zc), (b.wall_thickness, outer, b.wall_height), wall),
-            self._box((bx - offset, by, zc), (b.wall_thickness, outer, b.wall_height), wall),
-            self._box((bx, by + offset, zc), (outer, b.wall_thickness, b.wall_height), wall),
-            self._box((bx, by - offset, zc), (outer, b.wall_thickness, b.wall_height), wall),
-        )
+        boxes: list[BoxGeometry] = []
+        walls: list[int] = []
+        for b in c.all_boxes:
+            boxes.append(BoxGeometry(np.array([*b.centre_xy, top]), b.inner_size, b.wall_height, b.name))
+            walls.extend(self._box_walls(b))
+        self.boxes: tuple[BoxGeometry, ...] = tuple(boxes)
+        self.box = self.boxes[0]  # the main box (pick-place's)
+        self.box_ids = tuple(walls)  # every box's four walls
         self.robot = SimRobot(self._client, c.robot)
         self.transform_observation_camera_to_world = self._observation_camera_pose()
         self.observation_joints = self.robot.solve_frame_ik(
@@ -268,9 +265,9 @@ class World:
         else:
             pb.removeBody(int(body), physicsClientId=self._client)
 
-    def cloth_in_box(self, cloth: ClothBody) -> float:
-        """Fraction of the cloth's nodes inside the collection box."""
-        return float(np.mean(self.box.contains(cloth.nodes())))
+    def cloth_in_box(self, cloth: ClothBody, box: BoxGeometry | None = None) -> float:
+        """Fraction of the cloth's nodes inside a collection box (default: the main box)."""
+        return float(np.mean((self.box if box is None else box).contains(cloth.nodes())))
 
     def transform_model_to_camera(self, cloth: ClothBody, frame: str = RIGHT_FRAME) -> FloatArray:
         """Ground truth ^C T_M of a cloth in a camera frame (default: the right camera)."""
@@ -301,6 +298,20 @@ class World:
         turn = rotation_about_z(c.observation.camera_yaw)
         axes = np.column_stack([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
         return make_transform(turn @ axes, [rx, ry, c.table.top_z + c.observation.height])
+
+    def _box_walls(self, b: BoxSettings) -> tuple[int, int, int, int]:
+        """The four walls of a collection box standing on the table (body ids)."""
+        bx, by = b.centre_xy
+        wall = (0.85, 0.6, 0.3)
+        outer = b.inner_size + 2 * b.wall_thickness
+        offset = (b.inner_size + b.wall_thickness) / 2
+        zc = self.config.table.top_z + b.wall_height / 2
+        return (
+            self._box((bx + offset, by, zc), (b.wall_thickness, outer, b.wall_height), wall),
+            self._box((bx - offset, by, zc), (b.wall_thickness, outer, b.wall_height), wall),
+            self._box((bx, by + offset, zc), (outer, b.wall_thickness, b.wall_height), wall),
+            self._box((bx, by - offset, zc), (outer, b.wall_thickness, b.wall_height), wall),
+        )
 
     def _tiles(
         self,

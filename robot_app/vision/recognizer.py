@@ -228,6 +228,48 @@ class Recognizer:
         return self._result(chosen, proposal.generations, before, start, peaks, measurement.offset)
 
     @_collector_paused
+    def check(
+        self,
+        image_left_bgr: npt.NDArray[np.uint8],
+        image_right_bgr: npt.NDArray[np.uint8],
+        transform_model_to_camera: FloatArray,
+        *,
+        seed: int | None = None,
+    ) -> Recognition:
+        """Is the cloth still where it was? Recognition near a known pose, without the GA.
+
+        The pose (e.g. from an earlier recognition, moved by the camera motion since) is
+        polished by the refine stage inside the search bounds (a cloth pushed a few
+        millimetres is followed), checked against the stereo pair's depth and decided like
+        a one-shot recognition. Nothing is kept for tracking.
+
+        Args:
+            image_left_bgr, image_right_bgr: the stereo pair.
+            transform_model_to_camera: (4, 4) ^CR T_M where the cloth is expected [m].
+            seed: seed of the polish (default: the recognizer's own generator).
+
+        Raises:
+            InputError: images of the wrong type or size.
+            ValueError: a pose that is not a finite 4x4 transform.
+        """
+        start = time.perf_counter()
+        pose = np.array(transform_model_to_camera, dtype=float)
+        if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
+            raise ValueError(f"check needs a finite (4, 4) pose, got shape {pose.shape}")
+        self._take(image_left_bgr, image_right_bgr)
+        before = self.evaluator.evaluations
+        rng = np.random.default_rng(seed) if seed is not None else self.proposer.rng
+        fitness = self.proposer.fitness()
+        if self.settings.refine.enabled:
+            fine = self.proposer.fitness(subpixel=True)
+            pose = self.refiner.polish(
+                pose, fitness, fine, self.proposer.limits(), rng
+            ).transform_model_to_camera
+        chosen = self._verified(pose, float(fitness(pose)[0]), self.verifier.verify(pose)[0])
+        chosen, measurement = self._depth_checked(chosen)
+        return self._result(chosen, 0, before, start, (), measurement.offset)
+
+    @_collector_paused
     def track(
         self,
         image_left_bgr: npt.NDArray[np.uint8],

@@ -1,0 +1,214 @@
+"""Settings and typed records of the clear-table job (`TableClearer`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import StrEnum
+
+import numpy as np
+from pydantic import Field
+
+from robot_app.arrays import FloatArray
+from robot_app.config import StrictModel
+from robot_app.control.box_check import BoxCheck
+from robot_app.control.episode import EpisodeResult
+from robot_app.control.limits import LimitReport
+
+
+class ClearTableSettings(StrictModel):
+    """How the table is cleared (the `clear` section). Lengths [m], times cell time [s].
+
+    Attributes:
+        max_picks: pick attempts in all before the job gives up.
+        max_attempts: pick attempts per cloth.
+        same_place: the loop's recognition must find the cloth this close to where the
+            survey saw it (else it found another cloth of that look, and stops).
+        pick_depth_window: the pick's recogniser searches the cloth this far nearer or
+            farther than the survey's depth, and tracks it this close to its one-shot
+            depth (`AnchoredRecognizer`) [m]; None: the recogniser as it is.
+        deeper_after_miss: after the fingers closed on nothing, the next attempt at that
+            cloth grasps this much deeper (`loop.grasp_height` less this per miss) [m].
+        weight_tolerance, weight_floor: after lifting, the wrist's load cell must read the
+            cloth's own weight within this share plus this [kg]; more is a double pick,
+            less a wrong cloth.
+        put_down_height: TCP above the table when a lift that took too much (or the
+            wrong cloth) is put back.
+        put_down_speed: limit scale of the lowering.
+        survey_latency: the arm waits this long for each survey and each check; None: the
+            measured computation time, as cell time.
+        look_at_boxes: look into every box once before the first pick (the reference the
+            checks after placing compare with).
+        box_view_height: camera above the box floor for that look.
+    """
+
+    max_picks: int = Field(15, ge=1)
+    max_attempts: int = Field(4, ge=1)
+    same_place: float = Field(0.05, gt=0.0)
+    pick_depth_window: float | None = Field(0.015, gt=0.0)
+    deeper_after_miss: float = Field(0.01, ge=0.0, le=0.05)
+    weight_tolerance: float = Field(0.3, ge=0.0, le=2.0)
+    weight_floor: float = Field(0.003, ge=0.0)
+    put_down_height: float = Field(0.12, gt=0.02)
+    put_down_speed: float = Field(0.5, gt=0.0, le=1.0)
+    survey_latency: float | None = Field(None, ge=0.0)
+    look_at_boxes: bool = True
+    box_view_height: float = Field(0.42, gt=0.1)
+
+
+@dataclass(frozen=True)
+class BoxPlace:
+    """A collection box as the job knows it.
+
+    Attributes:
+        name: what the sort rule calls it.
+        centre: (3,) centre of its floor in Σ_W [m].
+        inner_size: inner side [m].
+    """
+
+    name: str
+    centre: FloatArray
+    inner_size: float
+
+
+class ClothOutcome(StrEnum):
+    """What became of one cloth the robot identified."""
+
+    PLACED = "placed"  # put into its box and seen there
+    PLACED_UNSEEN = "placed_unseen"  # released over its box, the look inside did not confirm it
+    FAILED = "failed"  # attempts used up
+    LEFT = "left"  # identified, never picked (the job stopped first)
+
+
+@dataclass(frozen=True)
+class PickAttempt:
+    """One run of the pick-and-place loop for one cloth.
+
+    Attributes:
+        name: the cloth meant (model name).
+        box: the box it was meant for.
+        start_time, end_time: cell time [s].
+        result: the loop's result.
+        lift_check: the check after lifting: "" (no lift), "ok", "double" (heavier than
+            the cloth: another came along), "wrong" (lighter than it, or the meant cloth
+            still seen in its place).
+        weighed: the load cell's reading after lifting [kg] (None: not weighed).
+        expected_weight: the meant cloth's weight [kg] (None: unknown).
+        put_back: the lift was lowered back onto the table.
+        dropped: the cloth was found gone from the gripper at the end of the transfer.
+        box_check: the look into the box after releasing (None: not released).
+        check_wall_s: computation time of the checks [s].
+    """
+
+    name: str
+    box: str
+    start_time: float
+    end_time: float
+    result: EpisodeResult
+    lift_check: str = ""
+    weighed: float | None = None
+    expected_weight: float | None = None
+    put_back: bool = False
+    dropped: bool = False
+    box_check: BoxCheck | None = None
+    check_wall_s: float = 0.0
+
+    @property
+    def lift_rejected(self) -> bool:
+        """The robot found that more than, or other than, the meant cloth left the table."""
+        return self.lift_check in ("double", "wrong")
+
+
+@dataclass(frozen=True)
+class ClothRecord:
+    """One cloth the robot identified, as it ended.
+
+    Attributes:
+        name: model name; box: its box by the sort rule.
+        order: 1 for the first cloth put away, ... (None: not put away).
+        attempts: pick attempts; sim_time: cell time of those attempts [s].
+        outcome: see `ClothOutcome`; notes: what happened on the way.
+    """
+
+    name: str
+    box: str
+    order: int | None
+    attempts: int
+    sim_time: float
+    outcome: ClothOutcome
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class SurveyRecord:
+    """One survey: when, how long it computed, what it saw.
+
+    Attributes:
+        time: cell time of the capture [s]; wall_s: its computation [s].
+        detections: (name, confidence, x, y, z) of each detection, world frame [m].
+        dropped: (model, region's model) candidates of a region already taken.
+        above: (upper, lower) pairs.
+        unknown: (x, y) on the table of each unknown region's centre [m].
+        chosen: the cloth picked next (None: nothing left to pick).
+    """
+
+    time: float
+    wall_s: float
+    detections: tuple[tuple[str, float, float, float, float], ...]
+    dropped: tuple[tuple[str, str], ...]
+    above: tuple[tuple[str, str], ...]
+    unknown: tuple[tuple[float, float], ...]
+    chosen: str | None
+
+
+@dataclass(frozen=True)
+class TableResult:
+    """Everything the job did and measured (the robot's view; the simulator judges elsewhere).
+
+    Attributes:
+        cloths: one record per identified cloth, in the order first identified.
+        attempts: every pick attempt in order.
+        surveys: every survey in order.
+        stop_reason: why the job stopped.
+        cleared: the robot's own verdict: every cloth it identified is placed, and the
+            last survey found no known cloth.
+        unknown: (x, y) [m] of the regions the last survey could not identify (left alone).
+        limit_report: every commanded sample of the whole job.
+        collisions: arm contacts with the table or a box (checks of loop and job).
+        sim_time: cell time of the job [s]; wall_s: its wall time [s].
+        interrupted: the user stopped it.
+    """
+
+    cloths: tuple[ClothRecord, ...]
+    attempts: tuple[PickAttempt, ...]
+    surveys: tuple[SurveyRecord, ...]
+    stop_reason: str
+    cleared: bool
+    unknown: tuple[tuple[float, float], ...]
+    limit_report: LimitReport
+    collisions: int
+    sim_time: float
+    wall_s: float
+    interrupted: bool = False
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def placed(self) -> tuple[str, ...]:
+        return tuple(
+            c.name for c in self.cloths if c.outcome in (ClothOutcome.PLACED, ClothOutcome.PLACED_UNSEEN)
+        )
+
+    def median_time_per_cloth(self) -> float | None:
+        """Median cell time per put-away cloth over its attempts [s] (None: none put away)."""
+        times = [c.sim_time for c in self.cloths if c.order is not None]
+        return float(np.median(times)) if times else None
+
+
+__all__ = [
+    "BoxPlace",
+    "ClearTableSettings",
+    "ClothOutcome",
+    "ClothRecord",
+    "PickAttempt",
+    "SurveyRecord",
+    "TableResult",
+]

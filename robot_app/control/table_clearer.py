@@ -1,0 +1,580 @@
+"""Clearing a table of several known cloths, each into its box, every step verified.
+
+`TableClearer.run` repeats until no known cloth is left to pick:
+
+1. **survey** from the observation pose: every known model not yet seen in its box is
+   recognised in one stereo pair and the recognitions are compared region by region
+   (`vision.identify`): which cloths lie where, which lies on which, what no model
+   explains (unknown: left alone, reported);
+2. **order**: the most confident cloth nothing lies on (`Identification.preferred`);
+3. **pick** it with a `PickPlaceLoop` built for its model and its box (the sort rule).
+   The loop's own search must find it where the survey saw it (else it found a look-alike
+   elsewhere and stops). The job watches the loop through its callbacks and verifies:
+   - after LIFT: the meant cloth left its place (`Recognizer.check` at the surveyed pose
+     no longer finds it) and nothing else came with it: the wrist's load cell reads the
+     cloth's own weight (weighed when its model photo was taken). Heavier is a double
+     pick, lighter or still in its place a wrong one: the lift is lowered back onto the
+     table and the attempt ends (`Outcome.GRASP_FAILED`, reason "put back"). The hand
+     cameras cannot tell which other cloth hangs from the gripper (the bundle fills the
+     middle of both images), so a double pick is always put back;
+   - after TRANSFER: the gripper still carries it (else it was dropped: the attempt ends,
+     `Outcome.LOST`, and the next survey finds it again);
+   - after RELEASE: the box's inside, seen from the release pose, changed with the
+     cloth's colours since the last look (`box_check`);
+4. **re-survey** (the pile changed) and go on.
+
+The job acts on what the robot senses only; `ground_truth` (simulation) goes into the
+loop's logs of pose errors and nowhere else. The loop is used through its constructor,
+`run()` and its callbacks; an `EpisodeAbortError` raised in a callback ends its episode
+the way the loop's own aborts do (release, back to the observation pose).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from robot_app.arrays import FloatArray
+from robot_app.control.anchored_recognizer import AnchoredRecognizer
+from robot_app.control.arm_motion import ArmMotion
+from robot_app.control.box_check import BoxCheck, BoxCheckSettings, BoxView, box_view, check_box
+from robot_app.control.cell import Cell, StereoCapture
+from robot_app.control.clear_table_records import (
+    BoxPlace,
+    ClearTableSettings,
+    ClothOutcome,
+    ClothRecord,
+    PickAttempt,
+    SurveyRecord,
+    TableResult,
+)
+from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
+from robot_app.control.kinematics import Kinematics
+from robot_app.control.limits import JointLimits
+from robot_app.control.logged_cell import LoggedCell
+from robot_app.control.pick_place import LoopSettings, PickPlaceLoop
+from robot_app.control.pose_filter import PoseFilterSettings
+from robot_app.control.sort_rule import SortSettings
+from robot_app.errors import IKError, InterruptError, TrajectoryError
+from robot_app.geometry import invert_transform
+from robot_app.vision import Recognition, Recognizer
+from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
+
+PUT_BACK = "put back"  # in a GRASP_FAILED reason: the job lowered the lift back
+DROPPED = "dropped"  # in a LOST reason: the gripper came empty over the box
+
+
+@dataclass
+class _Attempt:
+    """What the job knows during one loop run."""
+
+    target: Detection
+    box: BoxPlace
+    transform_target_to_world: FloatArray
+    start_time: float
+    lift_check: str = ""
+    weighed: float | None = None
+    put_back: bool = False
+    dropped: bool = False
+    box_check: BoxCheck | None = None
+    check_wall_s: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+
+class TableClearer:
+    """The clear-table job on one cell.
+
+    Args:
+        cell: the robot cell (wrapped in a `LoggedCell` here).
+        kinematics: the arm, poses in Σ_W.
+        recognizers: model name -> recogniser, every cloth the robot knows.
+        limits: joint limits of every commanded sample.
+        observation_joints: the observation pose [rad].
+        boxes: the cell's collection boxes.
+        sort: cloth -> box name.
+        table_z: height of the table top [m].
+        settings, identify_settings, loop_settings, filter_settings, box_settings: see
+            each class.
+        on_phase: called with each loop phase and the cloth it is for.
+        on_step: called after every control step with the phase name ("survey", "put
+            back", a loop phase, ...) and the cloth meant (or None).
+        on_recognition: called with each of the loop's vision cycles and the cloth meant.
+        on_survey: called with each survey's record.
+        ground_truth: model name -> its true pose in Σ_W now (simulation; for the loop's
+            error logs only), or None.
+        weigh: the wrist load cell: what the gripper carries now [kg] (None: no weight check).
+        weights: model name -> the cloth's weight [kg], weighed with its model photo.
+    """
+
+    def __init__(
+        self,
+        cell: Cell,
+        kinematics: Kinematics,
+        recognizers: Mapping[str, Recognizer],
+        limits: JointLimits,
+        observation_joints: npt.ArrayLike,
+        boxes: tuple[BoxPlace, ...],
+        sort: SortSettings,
+        table_z: float,
+        settings: ClearTableSettings | None = None,
+        identify_settings: IdentifySettings | None = None,
+        loop_settings: LoopSettings | None = None,
+        filter_settings: PoseFilterSettings | None = None,
+        box_settings: BoxCheckSettings | None = None,
+        *,
+        on_phase: Callable[[PhaseRecord, str], None] | None = None,
+        on_step: Callable[[str, str | None], None] | None = None,
+        on_recognition: Callable[[VisionCycle, str], None] | None = None,
+        on_survey: Callable[[SurveyRecord], None] | None = None,
+        ground_truth: Callable[[str], Callable[[], FloatArray] | None] | None = None,
+        weigh: Callable[[], float] | None = None,
+        weights: Mapping[str, float] | None = None,
+    ) -> None:
+        if not recognizers:
+            raise ValueError("the job needs at least one known cloth")
+        sort.check_boxes(tuple(b.name for b in boxes))
+        self.cell = LoggedCell(cell)
+        self.kinematics = kinematics
+        self.recognizers = dict(recognizers)
+        self.limits = limits
+        self.observation_joints = np.array(observation_joints, dtype=float)
+        self.boxes = {b.name: b for b in boxes}
+        self.sort = sort
+        self.table_z = float(table_z)
+        self.settings = settings or ClearTableSettings()
+        self.identify_settings = identify_settings or IdentifySettings()
+        self.loop_settings = loop_settings or LoopSettings()
+        self.filter_settings = filter_settings
+        self.box_settings = box_settings or BoxCheckSettings()
+        self.on_phase = on_phase
+        self.on_step = on_step
+        self.on_recognition = on_recognition
+        self.on_survey = on_survey
+        self.ground_truth = ground_truth
+        self.weigh = weigh
+        self.weights = dict(weights or {})
+        self.rig = next(iter(self.recognizers.values())).rig
+        self._phase: str = "survey"
+        self._meant: str | None = None
+        self.motion = ArmMotion(
+            self.cell,
+            kinematics,
+            limits,
+            self.observation_joints,
+            on_step=lambda: self._step(),
+            ik_time_budget=5 * self.loop_settings.ik_time_budget,
+        )
+
+    # ------------------------------------------------------------------ job
+    def run(self) -> TableResult:
+        """Clears the table; never raises for a failed pick. A stop the user asked for
+        (`InterruptError` from `on_step`) ends the job where it is, `interrupted`."""
+        wall_start, start = time.perf_counter(), self.cell.time
+        self._records: dict[str, dict[str, object]] = {}
+        self._attempts: list[PickAttempt] = []
+        self._surveys: list[SurveyRecord] = []
+        self._views: dict[str, BoxView | None] = dict.fromkeys(self.boxes)
+        self._seen_in_box: set[str] = set()
+        self._placed_order: list[str] = []
+        self._collisions = 0
+        interrupted, stop_reason = False, ""
+        last: Identification | None = None
+        try:
+            self.cell.set_gripper(self.loop_settings.gripper_open)
+            if self.settings.look_at_boxes:
+                self._look_at_boxes()
+            while True:
+                last = self._survey()
+                target = self._choose(last)
+                self._record_survey(last, target)
+                if target is None:
+                    stop_reason = (
+                        "no known cloth left to pick"
+                        if not last.detections
+                        else ("every cloth still seen has used its attempts")
+                    )
+                    break
+                if len(self._attempts) >= self.settings.max_picks:
+                    stop_reason = f"{self.settings.max_picks} pick attempts used"
+                    break
+                if self._pick(target, last):
+                    interrupted, stop_reason = True, "interrupted"
+                    break
+        except InterruptError:
+            interrupted, stop_reason = True, "interrupted"
+        except (IKError, TrajectoryError) as err:
+            stop_reason = f"the job's own motion failed: {err}"
+        return self._result(last, stop_reason, interrupted, start, wall_start)
+
+    # ------------------------------------------------------------------ survey
+    def _survey(self) -> Identification:
+        self._phase, self._meant = "survey", None
+        capture = self.cell.capture()
+        names = [n for n in self.recognizers if n not in self._seen_in_box]
+        wall = time.perf_counter()
+        ident = (
+            identify(
+                {n: self.recognizers[n] for n in names},
+                capture.left_bgr,
+                capture.right_bgr,
+                self.identify_settings,
+                seed=len(self._surveys),
+            )
+            if names
+            else Identification((), (), (), (), {})
+        )
+        spent = time.perf_counter() - wall
+        self._wait(spent)
+        self._survey_capture, self._survey_wall = capture, spent
+        return ident
+
+    def _choose(self, ident: Identification) -> Detection | None:
+        def eligible(d: Detection) -> bool:
+            tried = int(self._records.get(d.name, {}).get("attempts", 0))  # type: ignore[call-overload]
+            if tried >= self.settings.max_attempts:
+                return False
+            # a candidate below the recogniser's threshold gets one closer look by the loop
+            unconfirmed = bool(self._records.get(d.name, {}).get("unconfirmed", False))
+            return d.found or not unconfirmed
+
+        free = [d for d in ident.free() if eligible(d)]
+        if free:
+            return free[0]
+        rest = [d for d in ident.detections if eligible(d)]
+        return max(rest, key=lambda d: d.recognition.visible_fraction) if rest else None
+
+    def _record_survey(self, ident: Identification, chosen: Detection | None) -> None:
+        capture = self._survey_capture
+        detections = []
+        for d in ident.detections:
+            pose = self._to_world(capture, d.transform_model_to_camera)
+            detections.append((d.name, float(d.confidence), *(float(v) for v in pose[:3, 3])))
+            self._records.setdefault(d.name, {"attempts": 0, "sim_time": 0.0, "notes": []})
+        record = SurveyRecord(
+            capture.time,
+            self._survey_wall,
+            tuple(detections),  # type: ignore[arg-type]
+            ident.dropped,
+            ident.above,
+            tuple(self._on_table(capture, region.centroid) for region in ident.unknown),
+            None if chosen is None else chosen.name,
+        )
+        self._surveys.append(record)
+        if self.on_survey is not None:
+            self.on_survey(record)
+
+    # ------------------------------------------------------------------ pick
+    def _pick(self, target: Detection, ident: Identification) -> bool:
+        """One loop run for `target`; True if the user stopped it."""
+        capture = self._survey_capture
+        box = self.boxes[self.sort.box_for(target.name)]
+        pose = self._to_world(capture, target.transform_model_to_camera)
+        attempt = _Attempt(target, box, pose, self.cell.time)
+        recognizer = self._pick_recognizer(target)
+        truth = self.ground_truth(target.name) if self.ground_truth is not None else None
+        loop = PickPlaceLoop(
+            self.cell,
+            self.kinematics,
+            recognizer,
+            self.limits,
+            self.observation_joints,
+            box.centre,
+            self.table_z,
+            self._loop_settings(target.name),
+            self.filter_settings,
+            on_phase=lambda record: self._loop_phase(record, attempt),
+            on_step=lambda _cell, _capture: self._loop_step(loop, target.name),
+            on_recognition=lambda cycle: self._loop_vision(cycle, attempt),
+            ground_truth=truth,
+        )
+        self._phase, self._meant = "observe", target.name
+        result = loop.run()
+        self._collisions += result.collisions
+        entry = self._records.setdefault(target.name, {"attempts": 0, "sim_time": 0.0, "notes": []})
+        entry["attempts"] = int(entry["attempts"]) + 1  # type: ignore[call-overload]
+        entry["sim_time"] = float(entry["sim_time"]) + (self.cell.time - attempt.start_time)  # type: ignore[arg-type]
+        notes: list[str] = entry["notes"]  # type: ignore[assignment]
+        notes.extend(attempt.notes)
+        if result.outcome is not Outcome.PLACED:
+            notes.append(f"{result.outcome.value}: {result.reason}")
+        if result.outcome is Outcome.NOT_PRESENT:
+            entry["unconfirmed"] = True
+        if result.outcome is Outcome.GRASP_FAILED and not attempt.put_back:
+            entry["misses"] = int(entry.get("misses", 0)) + 1  # type: ignore[call-overload]
+        self._attempts.append(
+            PickAttempt(
+                target.name,
+                box.name,
+                attempt.start_time,
+                self.cell.time,
+                result,
+                attempt.lift_check,
+                attempt.weighed,
+                self.weights.get(target.name),
+                attempt.put_back,
+                attempt.dropped,
+                attempt.box_check,
+                attempt.check_wall_s,
+            )
+        )
+        if result.outcome is Outcome.PLACED:
+            self._placed(target.name, attempt.box_check is not None and attempt.box_check.confirmed)
+        return result.outcome is Outcome.INTERRUPTED
+
+    def _pick_recognizer(self, target: Detection) -> Recognizer:
+        """The target's recogniser, held near the survey's depth (`AnchoredRecognizer`)."""
+        base = self.recognizers[target.name]
+        window = self.settings.pick_depth_window
+        if window is None:
+            return base
+        return AnchoredRecognizer(base, float(target.transform_model_to_camera[2, 3]), window)
+
+    def _loop_settings(self, name: str) -> LoopSettings:
+        """The loop's settings for the next attempt at `name`: deeper after empty grasps."""
+        misses = int(self._records.get(name, {}).get("misses", 0))  # type: ignore[call-overload]
+        if misses == 0 or self.settings.deeper_after_miss == 0:
+            return self.loop_settings
+        height = max(0.0, self.loop_settings.grasp_height - misses * self.settings.deeper_after_miss)
+        return self.loop_settings.model_copy(update={"grasp_height": height})
+
+    def _placed(self, name: str, confirmed: bool) -> None:
+        entry = self._records.setdefault(name, {"attempts": 0, "sim_time": 0.0, "notes": []})
+        entry["confirmed"] = confirmed
+        if name not in self._placed_order:
+            self._placed_order.append(name)
+        if confirmed:
+            self._seen_in_box.add(name)
+
+    def _loop_step(self, loop: PickPlaceLoop, name: str) -> None:
+        self._phase, self._meant = loop.current_phase.value, name
+        self._step()
+
+    def _loop_vision(self, cycle: VisionCycle, attempt: _Attempt) -> None:
+        if self.on_recognition is not None:
+            self.on_recognition(cycle, attempt.target.name)
+        record = cycle.record
+        if record.mode == "search" and record.accepted:
+            distance = float(
+                np.hypot(
+                    record.x - attempt.transform_target_to_world[0, 3],
+                    record.y - attempt.transform_target_to_world[1, 3],
+                )
+            )
+            if distance > self.settings.same_place:
+                raise EpisodeAbortError(
+                    Outcome.NOT_PRESENT,
+                    f"{attempt.target.name} found {distance * 1000:.0f} mm from where the survey saw it "
+                    "(another cloth of its look?)",
+                )
+
+    def _loop_phase(self, record: PhaseRecord, attempt: _Attempt) -> None:
+        if self.on_phase is not None:
+            self.on_phase(record, attempt.target.name)
+        if record.phase == "lift" and record.note == "cloth lifted":
+            self._after_lift(attempt)
+        elif record.phase == "transfer" and not self.cell.holding():
+            attempt.dropped = True
+            attempt.notes.append("dropped during the transfer (gripper empty over the box)")
+            raise EpisodeAbortError(
+                Outcome.LOST, f"{DROPPED} during the transfer: the gripper came empty over the box"
+            )
+        elif record.phase == "release":
+            self._after_release(attempt)
+
+    # ------------------------------------------------------------------ checks
+    def _after_lift(self, attempt: _Attempt) -> None:
+        """Did the meant cloth, and only it, leave the table? Else put it back."""
+        self._phase = "lift check"
+        capture = self.cell.capture()
+        wall = time.perf_counter()
+        name = attempt.target.name
+        stayed = self._still_there(capture, name, attempt.transform_target_to_world, self._threshold(name))
+        spent = time.perf_counter() - wall
+        attempt.check_wall_s += spent
+        self._wait(spent)
+        expected = self.weights.get(name)
+        verdict, what = "ok", ""
+        if self.weigh is not None and expected is not None:
+            attempt.weighed = weighed = float(self.weigh())
+            s = self.settings
+            if weighed > expected * (1 + s.weight_tolerance) + s.weight_floor:
+                verdict, what = (
+                    "double",
+                    f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g",
+                )
+            elif weighed < expected * (1 - s.weight_tolerance) - s.weight_floor:
+                verdict, what = (
+                    "wrong",
+                    f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g",
+                )
+        if stayed:
+            verdict, what = "wrong", f"{name} still in its place" + (f"; {what}" if what else "")
+        attempt.lift_check = verdict
+        if verdict == "ok":
+            return
+        attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
+        self._put_back()
+        attempt.put_back = True
+        raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
+
+    def _still_there(
+        self, capture: StereoCapture, name: str, pose_world: FloatArray, threshold: float
+    ) -> bool:
+        """Does the cloth's recogniser still find it where the survey saw it?"""
+        expected = invert_transform(capture.transform_right_camera_to_world) @ pose_world
+        checked = self.recognizers[name].check(capture.left_bgr, capture.right_bgr, expected, seed=0)
+        return self._agrees(checked, capture, pose_world, threshold)
+
+    def _agrees(
+        self, recognition: Recognition, capture: StereoCapture, pose_world: FloatArray, threshold: float
+    ) -> bool:
+        if recognition.confidence < threshold:
+            return False
+        where = self._to_world(capture, recognition.transform_model_to_camera)
+        return bool(np.hypot(*(where[:2, 3] - pose_world[:2, 3])) <= self.settings.same_place)
+
+    def _threshold(self, name: str) -> float:
+        return self.recognizers[name].settings.decide.threshold
+
+    def _put_back(self) -> None:
+        """Lowers what the gripper holds onto the table below, lets go, and returns to the lift pose."""
+        self._phase = "put back"
+        lifted = self.motion.q
+        above = self.motion.tcp_position()
+        above[2] = self.table_z + self.settings.put_down_height
+        self.motion.move_tcp(above, speed=self.settings.put_down_speed)
+        self.cell.release()
+        self.motion.hold(self.loop_settings.release_wait)
+        self.cell.set_gripper(self.loop_settings.gripper_open)
+        self.motion.hold(self.loop_settings.close_time)
+        self.motion.move_to_joints(lifted)
+
+    def _after_release(self, attempt: _Attempt) -> None:
+        self._phase = "box check"
+        capture = self.cell.capture()
+        view = box_view(capture, self.rig, attempt.box.centre, attempt.box.inner_size, self.box_settings)
+        model = self.recognizers[attempt.target.name].model
+        fitness = self.recognizers[attempt.target.name].settings.fitness
+        attempt.box_check = check_box(self._views[attempt.box.name], view, model, fitness, self.box_settings)
+        if attempt.box_check.in_view >= self.box_settings.min_in_view:
+            self._views[attempt.box.name] = view
+        if not attempt.box_check.confirmed:
+            c = attempt.box_check
+            attempt.notes.append(
+                f"box check: not confirmed (changed {c.changed:.0%}, model colours {c.model_share:.0%}, "
+                f"seen {c.in_view:.0%})"
+            )
+
+    def _look_at_boxes(self) -> None:
+        """Looks into every box once (the reference of the checks after placing)."""
+        camera_offset = self._camera_offset()
+        for box in self.boxes.values():
+            self._phase = f"look into {box.name}"
+            camera_height = self.table_z + self.settings.box_view_height
+            tcp = np.array(
+                [
+                    box.centre[0] - camera_offset[0],
+                    box.centre[1] - camera_offset[1],
+                    camera_height - camera_offset[2],
+                ]
+            )
+            self.motion.move_tcp(tcp)
+            capture = self.cell.capture()
+            view = box_view(capture, self.rig, box.centre, box.inner_size, self.box_settings)
+            self._views[box.name] = (
+                view if float(np.mean(view.in_view)) >= self.box_settings.min_in_view else None
+            )
+        self._phase = "observe"
+        self.motion.move_to_joints(self.observation_joints)
+
+    # ------------------------------------------------------------------ helpers
+    def _camera_offset(self) -> FloatArray:
+        """Right camera minus TCP in Σ_W at the observation pose [m] (the hand keeps its orientation)."""
+        q = self.observation_joints
+        return (
+            self.kinematics.frame_pose(q, "camera_right_optical")[:3, 3]
+            - self.kinematics.frame_pose(q, "tcp")[:3, 3]
+        )
+
+    def _wait(self, seconds: float) -> None:
+        latency = self.settings.survey_latency
+        self.motion.hold(seconds if latency is None else latency)
+
+    def _step(self) -> None:
+        if self.on_step is not None:
+            self.on_step(self._phase, self._meant)
+
+    @staticmethod
+    def _to_world(capture: StereoCapture, transform_model_to_camera: FloatArray) -> FloatArray:
+        return np.asarray(capture.transform_right_camera_to_world @ transform_model_to_camera, dtype=float)
+
+    def _on_table(self, capture: StereoCapture, pixel: tuple[float, float]) -> tuple[float, float]:
+        """Where the ray through a right-image pixel meets the table plane, (x, y) [m]."""
+        K = self.rig.right.camera_matrix
+        ray = np.linalg.solve(K, np.array([pixel[0], pixel[1], 1.0]))
+        T = capture.transform_right_camera_to_world
+        direction = T[:3, :3] @ ray
+        origin = T[:3, 3]
+        scale = (self.table_z - origin[2]) / direction[2] if abs(direction[2]) > 1e-9 else 0.0
+        point = origin + scale * direction
+        return float(point[0]), float(point[1])
+
+    def _result(
+        self,
+        last: Identification | None,
+        stop_reason: str,
+        interrupted: bool,
+        start: float,
+        wall_start: float,
+    ) -> TableResult:
+        records = []
+        still_seen = {d.name for d in last.detections} if last is not None else set()
+        for name, entry in self._records.items():
+            order = self._placed_order.index(name) + 1 if name in self._placed_order else None
+            if order is not None and name not in still_seen:
+                outcome = ClothOutcome.PLACED if entry.get("confirmed") else ClothOutcome.PLACED_UNSEEN
+            elif int(entry["attempts"]) >= self.settings.max_attempts:  # type: ignore[call-overload]
+                outcome = ClothOutcome.FAILED
+            else:
+                outcome = ClothOutcome.LEFT
+            if order is not None and name in still_seen:
+                order = None  # released over its box, yet seen on the table again
+            records.append(
+                ClothRecord(
+                    name,
+                    self.sort.box_for(name),
+                    order,
+                    int(entry["attempts"]),  # type: ignore[call-overload]
+                    float(entry["sim_time"]),  # type: ignore[arg-type]
+                    outcome,
+                    tuple(entry["notes"]),  # type: ignore[arg-type]
+                )
+            )
+        unknown = self._surveys[-1].unknown if self._surveys else ()
+        cleared = (
+            not interrupted
+            and bool(self._surveys)
+            and self._surveys[-1].chosen is None
+            and not (last.detections if last is not None else ())
+            and all(r.outcome in (ClothOutcome.PLACED, ClothOutcome.PLACED_UNSEEN) for r in records)
+        )
+        return TableResult(
+            cloths=tuple(records),
+            attempts=tuple(self._attempts),
+            surveys=tuple(self._surveys),
+            stop_reason=stop_reason,
+            cleared=cleared,
+            unknown=unknown,
+            limit_report=self.cell.limit_report(self.limits),
+            collisions=self._collisions + self.motion.collisions,
+            sim_time=self.cell.time - start,
+            wall_s=time.perf_counter() - wall_start,
+            interrupted=interrupted,
+        )
+
+
+__all__ = ["TableClearer"]

@@ -1,0 +1,275 @@
+"""The clear-table job in the simulated cell: config, world, pile, models, run, verdict.
+
+`run_clear_table` builds the cell with its boxes, lays the seeded pile
+(`sim.make_pile`), photographs every cloth the robot knows at the Fig. 7 station and
+makes its model (through `make_model`, as a real photo would go), runs `TableClearer`
+and has the simulator judge the end (`clear_table_judge.judge`): where each cloth of
+the pile really is.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from contextlib import ExitStack
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pydantic import Field, model_validator
+
+from robot_app.config import StrictModel
+from robot_app.control.box_check import BoxCheckSettings
+from robot_app.control.clear_table_records import BoxPlace, ClearTableSettings, SurveyRecord, TableResult
+from robot_app.control.episode import PhaseRecord
+from robot_app.control.kinematics import Kinematics
+from robot_app.control.limits import JointLimits, TrajectorySettings
+from robot_app.control.pick_place import LoopSettings
+from robot_app.control.pose_filter import PoseFilterSettings
+from robot_app.control.sort_rule import SortSettings, cloth_name
+from robot_app.control.table_clearer import TableClearer
+from robot_app.errors import ConfigError
+from robot_app.experiments.clear_table_faults import FaultSettings, PickWitness, ScaleSettings, WristScale
+from robot_app.experiments.clear_table_judge import TableVerdict, judge
+from robot_app.experiments.clear_table_views import TableViews
+from robot_app.experiments.recording import require_rerun
+from robot_app.outputs import atomic_path
+from robot_app.sim import ModelStation, SimCell, World, WorldConfig, cloth_spec
+from robot_app.sim.config import CATALOGUE_SIZE
+from robot_app.sim.pile import Pile, PileSettings, make_pile
+from robot_app.vision import ClothModel, ModelSettings, RecognitionSettings, Recognizer, make_model
+from robot_app.vision.identify import IdentifySettings
+
+WORLD_DEFAULTS: dict[str, Any] = {  # what the job's world differs in from pick-place's
+    "boxes": [
+        {"name": "colours", "centre_xy": (0.30, -0.56)},
+        {"name": "whites", "centre_xy": (0.30, 0.56)},
+    ],
+    "cloth": {"collision_margin": 0.008},  # cloths lie on cloths (sim/pile.py)
+    "cameras": {"image_size": (320, 240)},
+}
+
+
+class ClearTableConfig(StrictModel):
+    """The clear-table job's config (`configs/clear_table.yaml`).
+
+    Attributes:
+        known: catalogue numbers the robot has photo models of (None: the whole catalogue).
+        pile_height: highest cloth above the table the search looks for [m] (the
+            recognition's depth range is the table's depth minus this, plus `depth_below`).
+        depth_below: ... and this below the table's depth [m].
+        tracking_depth_window: the loop's depth window while tracking [m].
+        table_tilt_deg: largest tilt of a cloth searched for.
+        grasp_radius: nodes anchored around the TCP [m] (the simulated grasp).
+    """
+
+    seed: int = Field(0, ge=0)
+    world: WorldConfig = WorldConfig.model_validate(WORLD_DEFAULTS)
+    pile: PileSettings = PileSettings()
+    known: tuple[int, ...] | None = None
+    sort: SortSettings = SortSettings(default="colours", boxes={"whites": (6, 17, 18)})
+    model: ModelSettings = ModelSettings()
+    recognition: RecognitionSettings = RecognitionSettings()
+    identify: IdentifySettings = IdentifySettings()
+    filter: PoseFilterSettings = PoseFilterSettings()
+    trajectory: TrajectorySettings = TrajectorySettings()
+    loop: LoopSettings = LoopSettings(
+        grasp_retries=0
+    )  # the job retries, reaching deeper (clear.deeper_after_miss)
+    clear: ClearTableSettings = ClearTableSettings()
+    box_check: BoxCheckSettings = BoxCheckSettings()
+    faults: FaultSettings | None = None
+    scale: ScaleSettings = ScaleSettings()
+    pile_height: float = Field(0.06, gt=0.0, le=0.2)
+    depth_below: float = Field(0.015, ge=0.0, le=0.1)
+    tracking_depth_window: float = Field(0.02, gt=0.0, le=0.1)
+    table_tilt_deg: float = Field(5.0, gt=0.0, le=90.0)
+    grasp_radius: float = Field(0.035, gt=0.0, le=0.1)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _world_defaults(cls, data: Any) -> Any:
+        """Keys of `world` a config leaves out take the job's defaults (`WORLD_DEFAULTS`)."""
+        if not isinstance(data, dict) or not isinstance(data.get("world", {}), dict):
+            return data
+        world = dict(data.get("world", {}))
+        if "boxes" not in world and "box" not in world:
+            world["boxes"] = WORLD_DEFAULTS["boxes"]
+        for section in ("cloth", "cameras"):
+            given = world.get(section, {})
+            if isinstance(given, dict):
+                world[section] = {**WORLD_DEFAULTS[section], **given}
+        return {**data, "world": world}
+
+    @model_validator(mode="after")
+    def _consistent(self) -> ClearTableConfig:
+        names = tuple(b.name for b in self.world.all_boxes)
+        self.sort.check_boxes(names, key="sort")
+        if self.known is not None and any(not 1 <= n <= CATALOGUE_SIZE for n in self.known):
+            raise ValueError(f"known: catalogue numbers are 1-{CATALOGUE_SIZE}, got {list(self.known)}")
+        if any(abs(v) > 1e-12 for v in (*self.world.robot.base_xyz, self.world.robot.base_yaw)):
+            raise ValueError(
+                "world.robot.base_xyz/base_yaw: the loop needs the robot base at the world origin"
+            )
+        return self
+
+    @property
+    def known_numbers(self) -> tuple[int, ...]:
+        return tuple(range(1, CATALOGUE_SIZE + 1)) if self.known is None else tuple(sorted(set(self.known)))
+
+
+@dataclass(frozen=True)
+class ClearTableEpisode:
+    """A finished job with the simulator's verdict.
+
+    Attributes:
+        result: what the robot did and measured.
+        verdict: where the cloths really ended, and what the robot missed.
+        pile: catalogue numbers in the pile, drop order; max_overlap, same_family: its layout.
+    """
+
+    result: TableResult
+    verdict: TableVerdict
+    pile: tuple[int, ...]
+    max_overlap: float
+    same_family: bool
+
+
+def run_clear_table(
+    config: ClearTableConfig,
+    *,
+    on_phase: Callable[[PhaseRecord, str], None] | None = None,
+    on_survey: Callable[[SurveyRecord], None] | None = None,
+    video_path: str | Path | None = None,
+    record_path: str | Path | None = None,
+    stop: Callable[[], None] | None = None,
+) -> ClearTableEpisode:
+    """Runs the job once in a fresh simulated cell.
+
+    Args:
+        config: the job's settings; `config.seed` fixes the pile and the searches.
+        on_phase: called after every loop phase with the cloth meant (progress output).
+        on_survey: called after every survey.
+        video_path, record_path: write an MP4 / a Rerun recording there (whole or absent,
+            as for pick-place).
+        stop: called after every control step; raising `InterruptError` there ends the
+            job at that step (`interrupted`).
+    """
+    if record_path is not None:
+        require_rerun()
+    models = {cloth_name(n): _model(config.world, config.model, n) for n in config.known_numbers}
+    with ExitStack() as stack:
+        video_file = stack.enter_context(atomic_path(video_path)) if video_path is not None else None
+        record_file = stack.enter_context(atomic_path(record_path)) if record_path is not None else None
+        with World(config.world) as world:
+            pile = make_pile(world, config.pile, seed=config.seed)
+            return _run_in_cell(
+                config, world, pile, models, on_phase, on_survey, video_file, record_file, stop
+            )
+
+
+def _run_in_cell(
+    config: ClearTableConfig,
+    world: World,
+    pile: Pile,
+    models: dict[str, ClothModel],
+    on_phase: Callable[[PhaseRecord, str], None] | None,
+    on_survey: Callable[[SurveyRecord], None] | None,
+    video_file: Path | None,
+    record_file: Path | None,
+    stop: Callable[[], None] | None,
+) -> ClearTableEpisode:
+    w = config.world
+    cell = SimCell(world, grasp_radius=config.grasp_radius)
+    kinematics = Kinematics.from_urdf(w.robot.urdf, "base_link", "tcp")
+    limits = JointLimits.from_urdf(w.robot.urdf, config.trajectory)
+    settings = _recognition_settings(config)
+    recognizers = {name: Recognizer(model, world.stereo.rig, settings) for name, model in models.items()}
+    witness = PickWitness(world, pile, config.faults)
+    scale = WristScale(cell, config.scale, config.seed)
+    truth = {cloth_name(c.number): c.body for c in pile.cloths}
+    views = TableViews(
+        world, cell, models, limits, video_file, record_file, truth, f"clear-table, seed {config.seed}"
+    )
+
+    def phase(record: PhaseRecord, meant: str) -> None:
+        witness.on_phase(record, meant)
+        views.on_phase(record)
+        if on_phase is not None:
+            on_phase(record, meant)
+
+    def step(phase_name: str, meant: str | None) -> None:
+        witness.on_step(phase_name, meant)
+        views.on_step(phase_name, meant)
+        if stop is not None:
+            stop()
+
+    boxes = tuple(BoxPlace(b.name, b.centre.copy(), b.inner_size) for b in world.boxes)
+    clearer = TableClearer(
+        cell,
+        kinematics,
+        recognizers,
+        limits,
+        world.observation_joints,
+        boxes,
+        config.sort,
+        w.table.top_z,
+        config.clear,
+        config.identify,
+        config.loop,
+        config.filter,
+        config.box_check,
+        on_phase=phase,
+        on_step=step,
+        on_recognition=views.on_recognition if views.active else None,
+        on_survey=on_survey,
+        ground_truth=lambda name: truth[name].pose if name in truth else None,
+        weigh=scale.read,
+        weights={
+            name: scale.weigh_model(n) for name, n in ((cloth_name(n), n) for n in config.known_numbers)
+        },
+    )
+    try:
+        result = clearer.run()
+        verdict = judge(world, pile, result, witness.lifts, config.sort, set(models))
+        views.finish(result, verdict, world.time)
+    finally:
+        views.close()
+    if video_file is not None and views.video_frames == 0:
+        video_file.unlink(missing_ok=True)
+    return ClearTableEpisode(
+        result, verdict, tuple(c.number for c in pile.cloths), pile.max_overlap, pile.same_family
+    )
+
+
+def _recognition_settings(config: ClearTableConfig) -> RecognitionSettings:
+    """The recogniser's settings with the depth narrowed to the table and the pile on it."""
+    height = config.world.observation.height
+    data = config.recognition.model_dump()
+    data["propose"]["bounds"].update(
+        z=(height - config.pile_height, height + config.depth_below), max_tilt_deg=config.table_tilt_deg
+    )
+    data["propose"]["tracking"]["depth_window"] = config.tracking_depth_window
+    try:
+        return RecognitionSettings.model_validate(data)
+    except ValueError as err:  # pragma: no cover - the bounds are validated above
+        raise ConfigError(f"recognition bounds from pile_height/depth_below: {err}") from err
+
+
+@functools.lru_cache(maxsize=64)
+def _cached_model(world_json: str, model_json: str, number: int) -> ClothModel:
+    world = WorldConfig.model_validate_json(world_json)
+    settings = ModelSettings.model_validate_json(model_json)
+    with ModelStation.for_world(world) as station:
+        photo = station.photograph(cloth_spec(number))
+    return make_model(
+        photo.photo_bgr, photo.model_camera, photo.background_bgr, settings, name=cloth_name(number)
+    )
+
+
+def _model(world: WorldConfig, settings: ModelSettings, number: int) -> ClothModel:
+    """Cloth No.`number`'s photo model (made once per process and settings)."""
+    return _cached_model(world.model_dump_json(), settings.model_dump_json(), number)
+
+
+__all__ = ["ClearTableConfig", "ClearTableEpisode", "run_clear_table"]

@@ -1,0 +1,186 @@
+"""Mishaps made to happen in the simulated cell, and what really happened at each pick.
+
+The simulator's grasp holds a cloth by anchors that never slip, and stacked cloths lie
+about 16 mm apart, so on their own cloths are seldom dropped or lifted two at a time.
+`FaultSettings` makes it happen at chosen picks, to test the job's checks: a cloth falls
+out of the gripper during the transfer (`drop_transfers`), or the nearest other cloth is
+caught by the fingers too (`double_grasps`: its nodes near the fingers are anchored, as
+if pinched or entangled). `PickWitness` notes, from the simulator's ground truth, which
+cloths each lift really took and which transfer really lost its cloth: the judge compares
+that with what the robot noticed. Neither tells the robot anything.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydantic import Field
+
+from robot_app.config import StrictModel
+from robot_app.control.episode import PhaseRecord
+from robot_app.sim import ClothBody, SimCell, World, build_cloth_mesh, cloth_spec
+from robot_app.sim.cell import HOLD_HEIGHT
+from robot_app.sim.cloth_body import NODE_MASS
+from robot_app.sim.pile import Pile
+
+CATCH_REACH = 0.12  # the other cloth must come this close to the fingers to be caught [m]
+
+
+class ScaleSettings(StrictModel):
+    """The wrist's load cell (and the scale the cloths were weighed on at the model station).
+
+    Attributes:
+        relative_noise: standard deviation of the reading's error, as a share of it [-].
+        noise: standard deviation of the reading's offset error [kg].
+    """
+
+    relative_noise: float = Field(0.03, ge=0.0, le=0.5)
+    noise: float = Field(0.001, ge=0.0, le=0.05)
+
+
+class WristScale:
+    """The load cell between the flange and the gripper, in the simulated cell.
+
+    It weighs what hangs from the gripper (`SimCell.held_mass`) with a gain and an offset
+    error drawn per reading; `weigh_model` is the same cloth weighed flat at the model
+    station (its whole simulated mass, with the station scale's error).
+
+    Args:
+        cell: the simulated cell; settings: its noise; seed: of the errors.
+    """
+
+    def __init__(self, cell: SimCell, settings: ScaleSettings, seed: int) -> None:
+        self.cell, self.settings = cell, settings
+        self.rng = np.random.default_rng((seed, 31))
+
+    def read(self) -> float:
+        """The gripper's load now [kg]."""
+        return self._noisy(self.cell.held_mass())
+
+    def weigh_model(self, number: int) -> float:
+        """Cloth No.`number` weighed at the model station [kg]."""
+        spec = cloth_spec(number)
+        mesh = build_cloth_mesh(
+            spec, self.cell.world.config.cloth.node_spacing, self.cell.world.config.cloth.boundary_spacing
+        )
+        return self._noisy(len(mesh.vertices) * NODE_MASS)
+
+    def _noisy(self, mass: float) -> float:
+        s = self.settings
+        return float(
+            mass * (1.0 + s.relative_noise * self.rng.standard_normal())
+            + s.noise * self.rng.standard_normal()
+        )
+
+
+class FaultSettings(StrictModel):
+    """Mishaps at chosen picks (counted from 1 over the whole job).
+
+    Attributes:
+        drop_transfers: the cloth falls out of the gripper during these transfers.
+        drop_after: ... this long after the transfer started [s].
+        double_grasps: at these grasps the nearest other cloth on the table is caught too.
+    """
+
+    drop_transfers: tuple[int, ...] = ()
+    drop_after: float = Field(0.3, ge=0.0, le=5.0)
+    double_grasps: tuple[int, ...] = ()
+
+
+@dataclass
+class LiftTruth:
+    """What one lift really took, and whether its transfer really lost it.
+
+    Attributes:
+        grasp: the grasp's number (1 = the job's first).
+        time: cell time when the fingers had closed [s].
+        meant: the cloth the robot meant (model name).
+        lifted: catalogue numbers of the cloths hanging from the gripper after the lift.
+        injected_double: a second cloth was caught on purpose.
+        dropped: the cloth fell during the transfer (injected).
+    """
+
+    grasp: int
+    time: float
+    meant: str
+    lifted: tuple[int, ...] = ()
+    injected_double: bool = False
+    dropped: bool = False
+
+
+@dataclass
+class PickWitness:
+    """Follows the job's phases in the simulated cell: makes the faults, notes the truth.
+
+    Args:
+        world: the cell; pile: its cloths; faults: what to make happen (None: nothing).
+    """
+
+    world: World
+    pile: Pile
+    faults: FaultSettings | None = None
+    lifts: list[LiftTruth] = field(default_factory=list)
+    _grasps: int = 0
+    _transfers: int = 0
+    _transfer_start: float | None = None
+    _dropped_this_transfer: bool = False
+
+    def on_phase(self, record: PhaseRecord, meant: str) -> None:
+        """After each loop phase (the job's `on_phase`)."""
+        if record.phase == "grasp":
+            self._grasps += 1
+            self.lifts.append(LiftTruth(self._grasps, self.world.time, meant))
+            if self.faults is not None and self._grasps in self.faults.double_grasps:
+                self.lifts[-1].injected_double = self._catch_another()
+        elif record.phase == "lift" and self.lifts:
+            self.lifts[-1].lifted = self._hanging()
+
+    def on_step(self, phase: str, _meant: str | None) -> None:
+        """After each control step (the job's `on_step`)."""
+        if phase != "transfer":
+            self._transfer_start = None
+            return
+        if self._transfer_start is None:
+            self._transfer_start = self.world.time
+            self._transfers += 1
+            self._dropped_this_transfer = False
+        if (
+            self.faults is not None
+            and self._transfers in self.faults.drop_transfers
+            and not self._dropped_this_transfer
+            and self.world.time - self._transfer_start >= self.faults.drop_after
+        ):
+            self._dropped_this_transfer = True
+            if any(c.body.is_grasped for c in self.pile.cloths) and self.lifts:
+                self.lifts[-1].dropped = True
+            for cloth in self.pile.cloths:
+                cloth.body.release()
+
+    def _hanging(self) -> tuple[int, ...]:
+        table = self.world.config.table.top_z
+        return tuple(
+            c.number
+            for c in self.pile.cloths
+            if c.body.is_grasped and float(np.median(c.body.nodes()[:, 2])) > table + HOLD_HEIGHT
+        )
+
+    def _catch_another(self) -> bool:
+        """Anchors the nodes of the nearest cloth not held within reach of the fingers."""
+        tcp = self.world.robot.frame_pose("tcp")[:3, 3]
+        best: tuple[float, ClothBody] | None = None
+        for cloth in self.pile.cloths:
+            if cloth.body.is_grasped or any(
+                box.contains(cloth.body.nodes()).mean() > 0.5 for box in self.world.boxes
+            ):
+                continue
+            distance = float(np.min(np.linalg.norm(cloth.body.nodes() - tcp, axis=1)))
+            if best is None or distance < best[0]:
+                best = (distance, cloth.body)
+        if best is None or best[0] > CATCH_REACH:
+            return False
+        best[1].grasp(self.world.robot, radius=best[0] + 0.02)
+        return True
+
+
+__all__ = ["FaultSettings", "LiftTruth", "PickWitness", "ScaleSettings", "WristScale"]

@@ -1,0 +1,176 @@
+"""The clear-table results folder: config.yaml, cloths.csv, picks.csv, surveys.csv, summary.json.
+
+`cloths.csv` has one row per cloth: every cloth of the pile (with where the simulator
+found it at the end) and every cloth the robot identified that was not in the pile (a
+misidentification). `summary.json` holds `cleared` (every known cloth in its box, judged
+by the simulator), the `cause` when not, and what the robot did and noticed.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from robot_app.config import dump_config
+from robot_app.experiments.clear_table import ClearTableConfig, ClearTableEpisode
+from robot_app.outputs import atomic_write_text, output_folder
+
+
+def cloth_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
+    """One row per cloth (see the module docstring), in drop order, then the others."""
+    records = {r.name: r for r in episode.result.cloths}
+    rows: list[dict[str, object]] = []
+    for v in episode.verdict.cloths:
+        r = records.pop(v.name, None)
+        rows.append(
+            {
+                "identity": v.name,
+                "known": v.known,
+                "in_pile": True,
+                "order": r.order if r is not None else None,
+                "attempts": r.attempts if r is not None else 0,
+                "box": v.expected,
+                "sim_time_s": round(r.sim_time, 3) if r is not None else 0.0,
+                "outcome": r.outcome.value if r is not None else "never identified",
+                "final_place": v.final,
+                "correct": v.correct,
+                "notes": " | ".join(r.notes) if r is not None else "",
+            }
+        )
+    for r in records.values():  # identified by the robot, yet not in the pile
+        rows.append(
+            {
+                "identity": r.name,
+                "known": True,
+                "in_pile": False,
+                "order": r.order,
+                "attempts": r.attempts,
+                "box": r.box,
+                "sim_time_s": round(r.sim_time, 3),
+                "outcome": r.outcome.value,
+                "final_place": "",
+                "correct": r.order is None,
+                "notes": " | ".join(r.notes),
+            }
+        )
+    return rows
+
+
+def pick_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
+    """One row per pick attempt."""
+    rows = []
+    for k, a in enumerate(episode.result.attempts, start=1):
+        check = a.box_check
+        rows.append(
+            {
+                "attempt": k,
+                "identity": a.name,
+                "box": a.box,
+                "start_time": round(a.start_time, 3),
+                "end_time": round(a.end_time, 3),
+                "outcome": a.result.outcome.value,
+                "reason": a.result.reason,
+                "lift_check": a.lift_check,
+                "weighed_g": None if a.weighed is None else round(1000 * a.weighed, 1),
+                "expected_g": None if a.expected_weight is None else round(1000 * a.expected_weight, 1),
+                "put_back": a.put_back,
+                "dropped": a.dropped,
+                "box_confirmed": None if check is None else check.confirmed,
+                "box_changed": None if check is None else round(check.changed, 3),
+                "box_model_share": None if check is None else round(check.model_share, 3),
+                "limit_violations": a.result.limit_report.violations,
+                "collisions": a.result.collisions,
+            }
+        )
+    return rows
+
+
+def survey_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
+    """One row per survey."""
+    return [
+        {
+            "survey": k,
+            "time": round(s.time, 3),
+            "wall_s": round(s.wall_s, 3),
+            "detections": " ".join(
+                f"{name}:{conf:.2f}@({x:.3f},{y:.3f},{z:.3f})" for name, conf, x, y, z in s.detections
+            ),
+            "above": " ".join(f"{up}>{low}" for up, low in s.above),
+            "unknown_regions": " ".join(f"({x:.3f},{y:.3f})" for x, y in s.unknown),
+            "chosen": s.chosen or "",
+        }
+        for k, s in enumerate(episode.result.surveys, start=1)
+    ]
+
+
+def summary(config: ClearTableConfig, episode: ClearTableEpisode) -> dict[str, Any]:
+    """The episode's summary (JSON-friendly)."""
+    r, v = episode.result, episode.verdict
+    placed = [c for c in r.cloths if c.order is not None]
+    per_cloth = [c.sim_time for c in placed]
+    known = sum(1 for c in v.cloths if c.known)
+    return {
+        "status": "interrupted" if r.interrupted else "finished",
+        "cleared": v.cleared,
+        "cause": v.cause,
+        "robot_cleared": r.cleared,
+        "stop_reason": r.stop_reason,
+        "seed": config.seed,
+        "pile": [f"No.{n}" for n in episode.pile],
+        "max_overlap": episode.max_overlap,
+        "same_family": episode.same_family,
+        "known_cloths_in_pile": known,
+        "in_right_box": sum(1 for c in v.cloths if c.known and c.correct),
+        "wrong_box": v.wrong_box,
+        "unknown_cloths_in_pile": v.unknown_cloths,
+        "unknown_regions_reported": [list(xy) for xy in r.unknown],
+        "double_picks": v.double_picks,
+        "double_picks_detected": v.double_picks_detected,
+        "wrong_lifts": v.wrong_lifts,
+        "wrong_lifts_detected": v.wrong_lifts_detected,
+        "false_alarms": v.false_alarms,
+        "drops": v.drops,
+        "drops_detected": v.drops_detected,
+        "pick_attempts": len(r.attempts),
+        "surveys": len(r.surveys),
+        "survey_wall_s": sum(s.wall_s for s in r.surveys),
+        "sim_time_s": r.sim_time,
+        "sim_time_per_known_cloth_s": r.sim_time / max(known, 1),
+        "attempt_time_per_placed_cloth_s": {"median": float(np.median(per_cloth)) if per_cloth else None},
+        "wall_s": r.wall_s,
+        "limit_violations": r.limit_report.violations,
+        "commanded_samples": r.limit_report.samples,
+        "limits": {k: float(x) if isinstance(x, float) else x for k, x in r.limit_report._asdict().items()},
+        "collisions": r.collisions,
+    }
+
+
+def write_clear_table(out_dir: str | Path, config: ClearTableConfig, episode: ClearTableEpisode) -> Path:
+    """Writes the results folder (each file whole: temporary name, then renamed)."""
+    folder = Path(out_dir)
+    with output_folder(folder):
+        dump_config(config, folder / "config.yaml")
+        _write_csv(folder / "cloths.csv", cloth_rows(episode))
+        _write_csv(folder / "picks.csv", pick_rows(episode))
+        _write_csv(folder / "surveys.csv", survey_rows(episode))
+        atomic_write_text(
+            folder / "summary.json", json.dumps(summary(config, episode), indent=2, default=str)
+        )
+    return folder
+
+
+def _write_csv(path: Path, rows: list[dict[str, object]]) -> None:
+    buffer = io.StringIO(newline="")
+    if rows:
+        writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    atomic_write_text(path, buffer.getvalue())
+
+
+__all__ = ["cloth_rows", "pick_rows", "summary", "survey_rows", "write_clear_table"]

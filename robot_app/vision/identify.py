@@ -1,0 +1,272 @@
+"""Identification: which of many known cloths lie in a stereo pair, where, and which on top.
+
+One model's decision alone is not enough among many models: a plain or patterned model
+lying on part of another cloth whose rest is one foreign colour can look like an
+occluded cloth of its own (the identification matrix's false accepts), and a cloth of
+the same hue family fits nearly as well as the right one. So every model is recognised
+in the pair, and the recognitions are compared region by region (`regions.py`):
+
+1. each recognition at least `candidate_confidence` confident is a candidate, with its
+   footprint and the pixels it explains;
+2. candidates are taken most confident first; one whose explained pixels are more than
+   `shared_limit` explained by a candidate taken before describes the same cloth region
+   and is dropped (the best model per region);
+3. foreground pixels (not the green sheet) that no kept detection explains form, where
+   they gather into large enough regions, *unknown* regions: a cloth that matches no
+   model, or one not recognised (too hidden), or a part of a cloth its model does not
+   show (a folded corner's back);
+4. of two kept detections whose footprints overlap, the one explaining more of the
+   overlap lies on top (equal: the nearer to the camera); a detection that nothing lies
+   on and that no unknown region covers more than `unknown_cover` of is *free*, and the
+   preferred pick is the most confident free one.
+
+Kept detections below the recogniser's own threshold are still candidates for a closer
+look (the pick loop searches again and decides); `Detection.found` says which.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+from pydantic import Field
+
+from robot_app.arrays import FloatArray
+from robot_app.config import StrictModel
+from robot_app.vision.exposure import sheet_gains
+from robot_app.vision.recognition import Recognition
+from robot_app.vision.recognizer import Recognizer
+from robot_app.vision.regions import Mask, explained, image_codes, sheet_mask, undistorted
+
+
+class IdentifySettings(StrictModel):
+    """How recognitions of many models become detections.
+
+    Attributes:
+        candidate_confidence: recognitions from this confidence are candidates [0-1].
+        shared_limit: a candidate whose explained pixels are more than this share
+            explained by a more confident detection describes the same cloth [-].
+        sheet_tolerance: sheet pixels are within this of the sheet's hue [HSV_FULL steps].
+        sheet_min_saturation: ... and at least this saturated [0-255].
+        min_unknown_area: foreground not covered by any detection counts as an unknown
+            region from this share of the image's pixels [-].
+        explained_margin: a detection's explained pixels are widened by this [px] before
+            the foreground they leave is looked at (edges, blur).
+        unknown_cover: a detection an unknown region covers more than this share of is not
+            free (something unrecognised may lie on it) [-].
+    """
+
+    candidate_confidence: float = Field(0.15, ge=0.0, le=1.0)
+    shared_limit: float = Field(0.5, gt=0.0, le=1.0)
+    sheet_tolerance: int = Field(25, ge=1, le=64)
+    sheet_min_saturation: int = Field(40, ge=0, le=255)
+    min_unknown_area: float = Field(0.01, gt=0.0, le=1.0)
+    explained_margin: int = Field(2, ge=0, le=20)
+    unknown_cover: float = Field(0.1, ge=0.0, le=1.0)
+
+
+@dataclass(frozen=True)
+class Detection:
+    """One known cloth recognised in a pair.
+
+    Attributes:
+        name: the model's name (e.g. "No.3").
+        recognition: the model's recognition (pose ^CR T_M, confidence, visible fraction).
+        footprint: (H, W) where the cloth would cover the right image, fully visible.
+        explained: (H, W) its footprint pixels that agree with the model.
+    """
+
+    name: str
+    recognition: Recognition
+    footprint: Mask
+    explained: Mask
+
+    @property
+    def found(self) -> bool:
+        """The recogniser's own decision."""
+        return self.recognition.found
+
+    @property
+    def confidence(self) -> float:
+        return self.recognition.confidence
+
+    @property
+    def transform_model_to_camera(self) -> FloatArray:
+        return self.recognition.transform_model_to_camera
+
+
+@dataclass(frozen=True)
+class UnknownRegion:
+    """Foreground that no detection covers.
+
+    Attributes:
+        centroid: (u, v) in the right image [px].
+        area: pixels.
+        mask: (H, W) its pixels.
+    """
+
+    centroid: tuple[float, float]
+    area: int
+    mask: Mask
+
+
+@dataclass(frozen=True)
+class Identification:
+    """What `identify` made of a pair.
+
+    Attributes:
+        detections: one per cloth region, most confident first.
+        dropped: (model, detection it lost to) for candidates of an already taken region.
+        above: (upper, lower) names of detections lying on others.
+        unknown: foreground regions no detection explains, largest first.
+        covered: names of detections an unknown region covers more than `unknown_cover` of.
+        recognitions: every model's recognition, by name.
+    """
+
+    detections: tuple[Detection, ...]
+    dropped: tuple[tuple[str, str], ...]
+    above: tuple[tuple[str, str], ...]
+    unknown: tuple[UnknownRegion, ...]
+    recognitions: Mapping[str, Recognition]
+    covered: tuple[str, ...] = ()
+
+    def free(self) -> tuple[Detection, ...]:
+        """Detections nothing lies on (known or unknown), most confident first."""
+        lower = {low for _, low in self.above} | set(self.covered)
+        return tuple(d for d in self.detections if d.name not in lower)
+
+    def lying_on(self, name: str) -> tuple[str, ...]:
+        """Names of the detections lying on `name`."""
+        return tuple(up for up, low in self.above if low == name)
+
+    def preferred(self) -> Detection | None:
+        """The cloth to pick first: the most confident free detection; without one (a
+        ring of overlaps), the most visible."""
+        free = self.free()
+        if free:
+            return free[0]
+        if not self.detections:
+            return None
+        return max(self.detections, key=lambda d: d.recognition.visible_fraction)
+
+    def get(self, name: str) -> Detection | None:
+        return next((d for d in self.detections if d.name == name), None)
+
+
+def identify(
+    recognizers: Mapping[str, Recognizer],
+    image_left_bgr: npt.NDArray[np.uint8],
+    image_right_bgr: npt.NDArray[np.uint8],
+    settings: IdentifySettings | None = None,
+    *,
+    seed: int = 0,
+    on_recognition: Callable[[str, Recognition], None] | None = None,
+) -> Identification:
+    """Recognises every model in the pair and keeps the best model per cloth region.
+
+    Args:
+        recognizers: model name -> its recogniser (all on the same rig).
+        image_left_bgr, image_right_bgr: the stereo pair.
+        settings: see `IdentifySettings`.
+        seed: seed of every model's one-shot recognition.
+        on_recognition: called after each model's recognition (progress, safe points).
+
+    Raises:
+        InputError: images of the wrong type or size.
+        ValueError: no recogniser.
+    """
+    if not recognizers:
+        raise ValueError("identify needs at least one recogniser")
+    recognitions: dict[str, Recognition] = {}
+    for name, recognizer in recognizers.items():
+        recognitions[name] = recognizer.recognize(image_left_bgr, image_right_bgr, seed=seed)
+        if on_recognition is not None:
+            on_recognition(name, recognitions[name])
+    return resolve(recognizers, recognitions, image_right_bgr, settings)
+
+
+def resolve(
+    recognizers: Mapping[str, Recognizer],
+    recognitions: Mapping[str, Recognition],
+    image_right_bgr: npt.NDArray[np.uint8],
+    settings: IdentifySettings | None = None,
+) -> Identification:
+    """Steps 1-4 of the module docstring on recognitions already made (of the same pair)."""
+    s = settings or IdentifySettings()
+    first = next(iter(recognizers.values()))
+    camera = first.rig.right
+    image = undistorted(image_right_bgr, camera)
+    fitness = first.settings.fitness
+    codes = image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness)
+    candidates = sorted(
+        (name for name, r in recognitions.items() if r.confidence >= s.candidate_confidence),
+        key=lambda name: -recognitions[name].confidence,
+    )
+    kept: list[Detection] = []
+    dropped: list[tuple[str, str]] = []
+    for name in candidates:
+        model = recognizers[name].model
+        if model.texture_mask is None:
+            continue  # a model without its photo cannot say which pixels it explains
+        r = recognitions[name]
+        area, agree = explained(model, camera, r.transform_model_to_camera, codes, fitness)
+        own = max(int(np.count_nonzero(agree)), 1)
+        rival = next((d for d in kept if np.count_nonzero(agree & d.explained) / own > s.shared_limit), None)
+        if rival is not None:
+            dropped.append((name, rival.name))
+            continue
+        kept.append(Detection(name, r, area, agree))
+    above = tuple(
+        pair for i, a in enumerate(kept) for b in kept[i + 1 :] if (pair := _upper(a, b)) is not None
+    )
+    sheet = sheet_mask(image, first.model.background_hue, s.sheet_tolerance, s.sheet_min_saturation)
+    unknown = _unknown(sheet, kept, s)
+    covered = tuple(
+        d.name
+        for d in kept
+        if sum(np.count_nonzero(u.mask & d.footprint) for u in unknown)
+        > s.unknown_cover * max(int(np.count_nonzero(d.footprint)), 1)
+    )
+    return Identification(tuple(kept), tuple(dropped), above, unknown, dict(recognitions), covered)
+
+
+def _upper(a: Detection, b: Detection) -> tuple[str, str] | None:
+    """(upper, lower) if the footprints of a and b overlap; None if they do not."""
+    overlap = a.footprint & b.footprint
+    if not np.any(overlap):
+        return None
+    shown_a = np.count_nonzero(a.explained & overlap)
+    shown_b = np.count_nonzero(b.explained & overlap)
+    if shown_a == shown_b:  # both look alike there: the nearer one lies on top
+        a_nearer = a.transform_model_to_camera[2, 3] <= b.transform_model_to_camera[2, 3]
+        return (a.name, b.name) if a_nearer else (b.name, a.name)
+    return (a.name, b.name) if shown_a > shown_b else (b.name, a.name)
+
+
+def _unknown(sheet: Mask, kept: list[Detection], s: IdentifySettings) -> tuple[UnknownRegion, ...]:
+    foreground = np.asarray(~sheet, dtype=np.uint8)
+    union = np.zeros(sheet.shape, np.uint8)
+    for d in kept:
+        union |= d.explained.astype(np.uint8)
+    size = 2 * s.explained_margin + 1
+    explained_any = np.asarray(cv2.dilate(union, np.ones((size, size), np.uint8)), dtype=np.uint8)
+    unexplained = (foreground & (1 - explained_any)).astype(np.uint8)
+    rest = np.asarray(
+        cv2.morphologyEx(unexplained, cv2.MORPH_OPEN, np.ones((5, 5), np.uint8)), dtype=np.uint8
+    )
+    count, labels, stats, centroids = cv2.connectedComponentsWithStats(rest, connectivity=8)
+    smallest = s.min_unknown_area * sheet.size
+    regions = [
+        UnknownRegion(
+            (float(centroids[k][0]), float(centroids[k][1])), int(stats[k, cv2.CC_STAT_AREA]), labels == k
+        )
+        for k in range(1, count)
+        if stats[k, cv2.CC_STAT_AREA] >= smallest
+    ]
+    return tuple(sorted(regions, key=lambda region: -region.area))
+
+
+__all__ = ["Detection", "Identification", "IdentifySettings", "UnknownRegion", "identify", "resolve"]

@@ -1,0 +1,133 @@
+"""Where in an image a recognised cloth lies, and which of its pixels it explains.
+
+Identification among many models compares recognitions region by region: two models
+whose recognitions explain mostly the same pixels describe one cloth, and the more
+confident one names it. This module draws those regions in the right image of a stereo
+pair (undistorted, as the fitness sees it):
+
+- the *footprint* of a recognition: the model photo's cloth mask mapped into the image by
+  the plane homography of Σ_M's z = 0 plane (where the cloth would be, fully visible);
+- the *explained* pixels: footprint pixels whose colour code (hue, or tone without one)
+  agrees with the model photo's at that place (`hue.colours_match`, the fitness's hue
+  threshold): the part of the cloth the image shows as the model says;
+- the *sheet*: pixels of the green sheet's hue; everything else is foreground (cloths,
+  and what lies on them).
+
+All masks are (H, W) bool arrays of the right camera's image size.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from robot_app.arrays import FloatArray
+from robot_app.vision.camera import PinholeCamera
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.fitness_scores import FitnessSettings
+from robot_app.vision.hue import colour_codes, colours_match, hue_distance, to_hsv
+
+Mask = npt.NDArray[np.bool_]
+Codes = npt.NDArray[np.uint16]
+
+
+def undistorted(image_bgr: npt.NDArray[np.uint8], camera: PinholeCamera) -> npt.NDArray[np.uint8]:
+    """The image as an ideal pinhole with the camera's matrix would see it."""
+    if not camera.has_distortion:
+        return np.ascontiguousarray(image_bgr)
+    K = camera.camera_matrix
+    return np.asarray(cv2.undistort(image_bgr, K, camera.dist_coeffs, None, K), dtype=np.uint8)
+
+
+def image_codes(
+    image_bgr: npt.NDArray[np.uint8], gains: FloatArray, fitness: FitnessSettings, blur_px: float = 1.0
+) -> Codes:
+    """(H, W) colour codes of an (undistorted) image after the exposure gains (b, g, r)."""
+    scaled = np.asarray(image_bgr, dtype=np.float32) * np.asarray(gains, dtype=np.float32)
+    blurred = cv2.GaussianBlur(scaled, (0, 0), blur_px) if blur_px > 0 else scaled
+    image8 = np.clip(blurred, 0, 255).astype(np.uint8)
+    return colour_codes(to_hsv(image8), fitness.min_saturation, fitness.min_value, fitness.value_split)
+
+
+def sheet_mask(
+    image_bgr: npt.NDArray[np.uint8], sheet_hue: float, tolerance: int, min_saturation: int
+) -> Mask:
+    """Pixels of the green sheet: within `tolerance` of its hue and at least this saturated
+    (a shadow on the sheet keeps its hue)."""
+    hsv = to_hsv(np.ascontiguousarray(image_bgr))
+    near = hue_distance(hsv[..., 0], sheet_hue) <= tolerance
+    return np.asarray(near & (hsv[..., 1] >= min_saturation), dtype=bool)
+
+
+def homography_model_to_image(
+    model: ClothModel, camera: PinholeCamera, transform_model_to_camera: FloatArray
+) -> FloatArray:
+    """(3, 3) map of model-photo texture pixels (u, v, 1) to image pixels, through Σ_M's plane z = 0."""
+    if model.texture_from_model is None:
+        raise ValueError(f"model {model.name!r} has no texture (a version 1-2 file)")
+    T = np.asarray(transform_model_to_camera, dtype=float)
+    plane_to_image = camera.camera_matrix @ np.column_stack([T[:3, 0], T[:3, 1], T[:3, 3]])
+    texture_from_model = np.vstack([model.texture_from_model, [0.0, 0.0, 1.0]])
+    return np.asarray(plane_to_image @ np.linalg.inv(texture_from_model), dtype=float)
+
+
+def footprint(model: ClothModel, camera: PinholeCamera, transform_model_to_camera: FloatArray) -> Mask:
+    """Where the cloth would cover the image if nothing hid it (the photo's cloth mask, mapped)."""
+    H = homography_model_to_image(model, camera, transform_model_to_camera)
+    mask = np.asarray(model.texture_mask, dtype=np.uint8)
+    width, height = camera.image_size
+    warped = cv2.warpPerspective(mask, H, (width, height), flags=cv2.INTER_NEAREST, borderValue=0)
+    return np.asarray(warped > 0, dtype=bool)
+
+
+def explained(
+    model: ClothModel,
+    camera: PinholeCamera,
+    transform_model_to_camera: FloatArray,
+    codes: Codes,
+    fitness: FitnessSettings,
+) -> tuple[Mask, Mask]:
+    """(footprint, explained): the footprint and its pixels whose colour code agrees with
+    the model photo's there.
+
+    Args:
+        model: the cloth model (with its photo's texture).
+        camera: the (undistorted) camera the codes are of.
+        transform_model_to_camera: (4, 4) the recognised pose in that camera [m].
+        codes: (H, W) the image's colour codes (`image_codes`).
+        fitness: hue threshold and tone settings (the recogniser's reported fitness).
+    """
+    H = homography_model_to_image(model, camera, transform_model_to_camera)
+    width, height = camera.image_size
+    photo = np.asarray(model.texture_bgr, dtype=np.uint8)
+    scale = _texture_pixels_per_image_pixel(H, (photo.shape[0], photo.shape[1]))
+    # the photo is finer than the image: blur it to about an image pixel first
+    texture = (
+        np.asarray(cv2.GaussianBlur(photo, (0, 0), 0.5 * scale), dtype=np.uint8) if scale > 1.5 else photo
+    )
+    warped = np.asarray(
+        cv2.warpPerspective(texture, H, (width, height), flags=cv2.INTER_LINEAR, borderValue=(0, 0, 0)),
+        dtype=np.uint8,
+    )
+    mask = cv2.warpPerspective(
+        np.asarray(model.texture_mask, dtype=np.uint8), H, (width, height), flags=cv2.INTER_NEAREST
+    )
+    inside = np.asarray(mask > 0, dtype=bool)
+    model_codes = colour_codes(to_hsv(warped), fitness.min_saturation, fitness.min_value, fitness.value_split)
+    agree = np.zeros_like(inside)
+    agree[inside] = colours_match(model_codes[inside], codes[inside], fitness.hue_threshold_in)
+    return inside, agree
+
+
+def _texture_pixels_per_image_pixel(H: FloatArray, shape: tuple[int, int]) -> float:
+    """About how many texture pixels one image pixel spans (at the texture's centre)."""
+    v, u = shape[0] / 2.0, shape[1] / 2.0
+    points = np.array([[u, v, 1.0], [u + 10.0, v, 1.0], [u, v + 10.0, 1.0]]).T
+    mapped = H @ points
+    mapped = mapped[:2] / mapped[2]
+    step = 0.5 * (np.linalg.norm(mapped[:, 1] - mapped[:, 0]) + np.linalg.norm(mapped[:, 2] - mapped[:, 0]))
+    return float(10.0 / max(float(step), 1e-9))
+
+
+__all__ = ["explained", "footprint", "homography_model_to_image", "image_codes", "sheet_mask", "undistorted"]
