@@ -6,7 +6,9 @@ different hand poses comparable. A cloth counts as put into the box when, agains
 box's previous top view, enough of the floor changed (`min_changed`) and enough of what
 changed has the model's colours (`min_model_share`: colour codes of the model's S_in, the
 fitness's hue threshold). The same cloth put onto a cloth of the same colour still
-changes the view (shading, outline, texture), if less.
+changes the view (shading, outline, texture), if less. Before the first cloth, the box
+is the table's colour inside (its floor is the table top): the empty box is taken to look
+like the table seen around it (`BoxView.surround_bgr`, a ring `surround` outside).
 """
 
 from __future__ import annotations
@@ -18,10 +20,12 @@ import numpy as np
 import numpy.typing as npt
 from pydantic import Field
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.control.cell import StereoCapture
 from robot_app.geometry import invert_transform
 from robot_app.vision import ClothModel, FitnessSettings, StereoRig, colour_codes, colours_match, to_hsv
+from robot_app.vision.regions import main_codes
 
 ImageBGR = npt.NDArray[np.uint8]
 
@@ -36,6 +40,8 @@ class BoxCheckSettings(StrictModel):
         min_changed: share of the floor that must change [-].
         min_model_share: share of the changed pixels with the model's colours [-].
         min_in_view: share of the floor the camera must see for a verdict [-].
+        surround: distance of the ring around the box, from its centre, where the table's
+            colour is read, as a share of the inner side [-].
     """
 
     view_px: int = Field(96, ge=16, le=512)
@@ -44,6 +50,7 @@ class BoxCheckSettings(StrictModel):
     min_changed: float = Field(0.08, ge=0.0, le=1.0)
     min_model_share: float = Field(0.3, ge=0.0, le=1.0)
     min_in_view: float = Field(0.5, gt=0.0, le=1.0)
+    surround: float = Field(0.75, gt=0.55, le=2.0)
 
 
 @dataclass(frozen=True)
@@ -52,10 +59,12 @@ class BoxView:
 
     Attributes:
         image: (n, n, 3) uint8 BGR; in_view: (n, n) bool, pixels the camera saw.
+        surround_bgr: (3,) median colour of the table around the box (None: not seen).
     """
 
     image: ImageBGR
     in_view: npt.NDArray[np.bool_]
+    surround_bgr: FloatArray | None = None
 
 
 @dataclass(frozen=True)
@@ -104,7 +113,30 @@ def box_view(
     H = cv2.getPerspectiveTransform(np.asarray(pixels, dtype=np.float32), target)
     view = cv2.warpPerspective(image, H, (n, n), flags=cv2.INTER_AREA, borderValue=(0, 0, 0))
     seen = cv2.warpPerspective(np.full(image.shape[:2], 255, np.uint8), H, (n, n), flags=cv2.INTER_NEAREST)
-    return BoxView(np.asarray(view, dtype=np.uint8), np.asarray(seen > 0, dtype=bool))
+    surround = _surround(image, rig, to_camera, c, inner_size * settings.surround)
+    return BoxView(np.asarray(view, dtype=np.uint8), np.asarray(seen > 0, dtype=bool), surround)
+
+
+def _surround(
+    image: ImageBGR, rig: StereoRig, to_camera: FloatArray, centre: FloatArray, distance: float
+) -> FloatArray | None:
+    """Median colour of the image along a square ring at `distance` [m] around the box centre."""
+    t = np.linspace(-distance, distance, 24)
+    ring = np.vstack(
+        [np.column_stack([t, np.full_like(t, s * distance)]) for s in (-1, 1)]
+        + [np.column_stack([np.full_like(t, s * distance), t]) for s in (-1, 1)]
+    )
+    world = np.column_stack([ring + centre[:2], np.full(len(ring), centre[2])])
+    points = world @ to_camera[:3, :3].T + to_camera[:3, 3]
+    front = points[:, 2] > 0
+    if not np.any(front):
+        return None
+    pixels = np.rint(rig.right.project(points[front])).astype(int)
+    height, width = image.shape[:2]
+    inside = (pixels[:, 0] >= 0) & (pixels[:, 0] < width) & (pixels[:, 1] >= 0) & (pixels[:, 1] < height)
+    if np.count_nonzero(inside) < 8:
+        return None
+    return np.median(image[pixels[inside, 1], pixels[inside, 0]].astype(float), axis=0)
 
 
 def check_box(
@@ -116,9 +148,14 @@ def check_box(
 ) -> BoxCheck:
     """Did the cloth of `model` land in the box between the looks `before` and `after`?
 
-    `before` None: the box as the job first saw it was not looked at; every seen pixel
-    counts as changed (only the model's colours decide).
+    `before` None: the box was not looked into before; it is taken to have been empty, of
+    the table's colour around it (`after.surround_bgr`), or, without that, every seen
+    pixel counts as changed (the model's colours alone decide).
     """
+    if before is None and after.surround_bgr is not None:
+        empty = np.empty_like(after.image)
+        empty[:] = np.clip(np.rint(after.surround_bgr), 0, 255).astype(np.uint8)
+        before = BoxView(empty, np.ones(after.in_view.shape, bool), after.surround_bgr)
     seen = after.in_view & (before.in_view if before is not None else True)
     in_view = float(np.mean(seen))
     if in_view < settings.min_in_view:
@@ -130,21 +167,13 @@ def check_box(
         changed = seen & (difference >= settings.change_threshold)
     changed_share = float(np.count_nonzero(changed) / max(int(np.count_nonzero(seen)), 1))
     codes = colour_codes(to_hsv(after.image), fitness.min_saturation, fitness.min_value, fitness.value_split)
-    palette = _palette(model)
+    palette = main_codes(model, 0.9)
     matches = np.zeros(codes.shape, bool)
     for code in palette:
         matches |= colours_match(codes, code, fitness.hue_threshold_in)
     model_share = float(np.count_nonzero(matches & changed) / max(int(np.count_nonzero(changed)), 1))
     confirmed = changed_share >= settings.min_changed and model_share >= settings.min_model_share
     return BoxCheck(bool(confirmed), changed_share, model_share, in_view)
-
-
-def _palette(model: ClothModel, coverage: float = 0.9) -> npt.NDArray[np.uint16]:
-    """The model's colour codes that cover `coverage` of its S_in points, most frequent first."""
-    codes, counts = np.unique(np.asarray(model.hues_in), return_counts=True)
-    order = np.argsort(-counts)
-    cumulative = np.cumsum(counts[order]) / counts.sum()
-    return codes[order][: int(np.searchsorted(cumulative, coverage)) + 1]
 
 
 __all__ = ["BoxCheck", "BoxCheckSettings", "BoxView", "box_view", "check_box"]

@@ -31,13 +31,21 @@ class ClearTableSettings(StrictModel):
         weight_tolerance, weight_floor: after lifting, the wrist's load cell must read the
             cloth's own weight within this share plus this [kg]; more is a double pick,
             less a wrong cloth.
+        companion_reach_px: a double pick's other cloth is looked for among the surveyed
+            cloths whose footprint comes this close to the grasp point in the survey's
+            image [px]; if exactly one weighs what the load cell read too much and it goes
+            into the same box, both are placed.
         put_down_height: TCP above the table when a lift that took too much (or the
             wrong cloth) is put back.
         put_down_speed: limit scale of the lowering.
+        put_down_slide: ... which moves this far away from the middle of the view, to lay
+            the cloths out rather than drop them in a heap [m].
         survey_latency: the arm waits this long for each survey and each check; None: the
-            measured computation time, as cell time.
+            measured computation (the process's CPU time, which a loaded machine does not
+            inflate), as cell time.
         look_at_boxes: look into every box once before the first pick (the reference the
-            checks after placing compare with).
+            checks after placing compare with; without it the first check takes the box to
+            be empty, of the table's colour around it).
         box_view_height: camera above the box floor for that look.
     """
 
@@ -48,10 +56,12 @@ class ClearTableSettings(StrictModel):
     deeper_after_miss: float = Field(0.01, ge=0.0, le=0.05)
     weight_tolerance: float = Field(0.3, ge=0.0, le=2.0)
     weight_floor: float = Field(0.003, ge=0.0)
-    put_down_height: float = Field(0.12, gt=0.02)
-    put_down_speed: float = Field(0.5, gt=0.0, le=1.0)
+    put_down_height: float = Field(0.05, gt=0.02)
+    put_down_speed: float = Field(0.3, gt=0.0, le=1.0)
+    put_down_slide: float = Field(0.06, ge=0.0, le=0.2)
+    companion_reach_px: float = Field(20.0, ge=0.0)
     survey_latency: float | None = Field(None, ge=0.0)
-    look_at_boxes: bool = True
+    look_at_boxes: bool = False
     box_view_height: float = Field(0.42, gt=0.1)
 
 
@@ -91,6 +101,7 @@ class PickAttempt:
         lift_check: the check after lifting: "" (no lift), "ok", "double" (heavier than
             the cloth: another came along), "wrong" (lighter than it, or the meant cloth
             still seen in its place).
+        came_along: the other cloth of a double pick placed with it (same box).
         weighed: the load cell's reading after lifting [kg] (None: not weighed).
         expected_weight: the meant cloth's weight [kg] (None: unknown).
         put_back: the lift was lowered back onto the table.
@@ -104,6 +115,7 @@ class PickAttempt:
     start_time: float
     end_time: float
     result: EpisodeResult
+    came_along: tuple[str, ...] = ()
     lift_check: str = ""
     weighed: float | None = None
     expected_weight: float | None = None

@@ -76,6 +76,8 @@ class _Attempt:
     box: BoxPlace
     transform_target_to_world: FloatArray
     start_time: float
+    others: tuple[Detection, ...] = ()  # the survey's other detections
+    came_along: tuple[str, ...] = ()
     lift_check: str = ""
     weighed: float | None = None
     put_back: bool = False
@@ -215,7 +217,7 @@ class TableClearer:
         self._phase, self._meant = "survey", None
         capture = self.cell.capture()
         names = [n for n in self.recognizers if n not in self._seen_in_box]
-        wall = time.perf_counter()
+        wall, cpu = time.perf_counter(), time.process_time()
         ident = (
             identify(
                 {n: self.recognizers[n] for n in names},
@@ -227,9 +229,8 @@ class TableClearer:
             if names
             else Identification((), (), (), (), {})
         )
-        spent = time.perf_counter() - wall
-        self._wait(spent)
-        self._survey_capture, self._survey_wall = capture, spent
+        self._wait(time.process_time() - cpu)
+        self._survey_capture, self._survey_wall = capture, time.perf_counter() - wall
         return ident
 
     def _choose(self, ident: Identification) -> Detection | None:
@@ -273,7 +274,8 @@ class TableClearer:
         capture = self._survey_capture
         box = self.boxes[self.sort.box_for(target.name)]
         pose = self._to_world(capture, target.transform_model_to_camera)
-        attempt = _Attempt(target, box, pose, self.cell.time)
+        others = tuple(d for d in ident.detections if d.name != target.name)
+        attempt = _Attempt(target, box, pose, self.cell.time, others)
         recognizer = self._pick_recognizer(target)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
         loop = PickPlaceLoop(
@@ -312,6 +314,7 @@ class TableClearer:
                 attempt.start_time,
                 self.cell.time,
                 result,
+                attempt.came_along,
                 attempt.lift_check,
                 attempt.weighed,
                 self.weights.get(target.name),
@@ -322,7 +325,10 @@ class TableClearer:
             )
         )
         if result.outcome is Outcome.PLACED:
-            self._placed(target.name, attempt.box_check is not None and attempt.box_check.confirmed)
+            confirmed = attempt.box_check is not None and attempt.box_check.confirmed
+            self._placed(target.name, confirmed)
+            for name in attempt.came_along:  # placed too, but looked for again until seen gone
+                self._placed(name, False)
         return result.outcome is Outcome.INTERRUPTED
 
     def _pick_recognizer(self, target: Detection) -> Recognizer:
@@ -390,12 +396,11 @@ class TableClearer:
         """Did the meant cloth, and only it, leave the table? Else put it back."""
         self._phase = "lift check"
         capture = self.cell.capture()
-        wall = time.perf_counter()
+        wall, cpu = time.perf_counter(), time.process_time()
         name = attempt.target.name
         stayed = self._still_there(capture, name, attempt.transform_target_to_world, self._threshold(name))
-        spent = time.perf_counter() - wall
-        attempt.check_wall_s += spent
-        self._wait(spent)
+        attempt.check_wall_s += time.perf_counter() - wall
+        self._wait(time.process_time() - cpu)
         expected = self.weights.get(name)
         verdict, what = "ok", ""
         if self.weigh is not None and expected is not None:
@@ -416,10 +421,38 @@ class TableClearer:
         attempt.lift_check = verdict
         if verdict == "ok":
             return
+        if verdict == "double" and attempt.weighed is not None and expected is not None:
+            companion = self._companion(attempt, attempt.weighed - expected)
+            if companion is not None and self.sort.box_for(companion) == attempt.box.name:
+                attempt.came_along = (companion,)
+                attempt.notes.append(f"double pick ({what}): {companion} came along, same box: both placed")
+                return
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
         self._put_back()
         attempt.put_back = True
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
+
+    def _companion(self, attempt: _Attempt, extra: float) -> str | None:
+        """The one surveyed cloth under the grasp point whose weight is the `extra` [kg]
+        the load cell read, or None (none, or more than one, fits)."""
+        survey = self._survey_capture
+        grasp = self.motion.tcp_position()
+        grasp[2] = self.table_z
+        to_camera = invert_transform(survey.transform_right_camera_to_world)
+        u, v = self.rig.right.project((to_camera[:3, :3] @ grasp + to_camera[:3, 3])[None])[0]
+        s = self.settings
+        fits = []
+        for d in attempt.others:
+            height, width = d.footprint.shape
+            reach = int(s.companion_reach_px)
+            u0, u1 = max(0, round(u) - reach), min(width, round(u) + reach + 1)
+            v0, v1 = max(0, round(v) - reach), min(height, round(v) + reach + 1)
+            if u0 >= u1 or v0 >= v1 or not np.any(d.footprint[v0:v1, u0:u1]):
+                continue
+            weight = self.weights.get(d.name)
+            if weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor:
+                fits.append(d.name)
+        return fits[0] if len(fits) == 1 else None
 
     def _still_there(
         self, capture: StereoCapture, name: str, pose_world: FloatArray, threshold: float
@@ -441,12 +474,18 @@ class TableClearer:
         return self.recognizers[name].settings.decide.threshold
 
     def _put_back(self) -> None:
-        """Lowers what the gripper holds onto the table below, lets go, and returns to the lift pose."""
+        """Lays what the gripper holds back onto the table (lowering while moving away from
+        the pile's middle, so that it lies out rather than in a heap), lets go, and returns
+        to the lift pose."""
         self._phase = "put back"
         lifted = self.motion.q
         above = self.motion.tcp_position()
-        above[2] = self.table_z + self.settings.put_down_height
-        self.motion.move_tcp(above, speed=self.settings.put_down_speed)
+        outward = above[:2] - self._survey_capture.transform_right_camera_to_world[:2, 3]
+        outward = outward / max(float(np.linalg.norm(outward)), 1e-9)
+        down = above.copy()
+        down[:2] += self.settings.put_down_slide * outward
+        down[2] = self.table_z + self.settings.put_down_height
+        self.motion.move_tcp(down, speed=self.settings.put_down_speed)
         self.cell.release()
         self.motion.hold(self.loop_settings.release_wait)
         self.cell.set_gripper(self.loop_settings.gripper_open)

@@ -45,7 +45,8 @@ WORLD_DEFAULTS: dict[str, Any] = {  # what the job's world differs in from pick-
         {"name": "colours", "centre_xy": (0.30, -0.56)},
         {"name": "whites", "centre_xy": (0.30, 0.56)},
     ],
-    "cloth": {"collision_margin": 0.008},  # cloths lie on cloths (sim/pile.py)
+    # cloths lie on cloths (sim/pile.py), and one pressed by another stays on the table
+    "cloth": {"collision_margin": 0.008, "sdf_voxel_size": 0.05},
     "cameras": {"image_size": (320, 240)},
 }
 

@@ -96,7 +96,8 @@ class LiftTruth:
         grasp: the grasp's number (1 = the job's first).
         time: cell time when the fingers had closed [s].
         meant: the cloth the robot meant (model name).
-        lifted: catalogue numbers of the cloths hanging from the gripper after the lift.
+        lifted: catalogue numbers of the cloths that left the table with the gripper
+            (anchored or dragged along), after the lift.
         injected_double: a second cloth was caught on purpose.
         dropped: the cloth fell during the transfer (injected).
     """
@@ -158,12 +159,17 @@ class PickWitness:
                 cloth.body.release()
 
     def _hanging(self) -> tuple[int, ...]:
+        """Cloths that left the table with the gripper: held, or dragged along (a third of
+        their nodes above HOLD_HEIGHT within reach of the TCP)."""
         table = self.world.config.table.top_z
-        return tuple(
-            c.number
-            for c in self.pile.cloths
-            if c.body.is_grasped and float(np.median(c.body.nodes()[:, 2])) > table + HOLD_HEIGHT
-        )
+        tcp = self.world.robot.frame_pose("tcp")[:3, 3]
+        lifted = []
+        for c in self.pile.cloths:
+            nodes = c.body.nodes()
+            near = np.hypot(nodes[:, 0] - tcp[0], nodes[:, 1] - tcp[1]) <= 0.3
+            if np.mean(near & (nodes[:, 2] > table + HOLD_HEIGHT)) > 1 / 3:
+                lifted.append(c.number)
+        return tuple(lifted)
 
     def _catch_another(self) -> bool:
         """Anchors the nodes of the nearest cloth not held within reach of the fingers."""

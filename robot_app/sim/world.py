@@ -88,7 +88,7 @@ class World:
         pb.setGravity(0, 0, -c.gravity, physicsClientId=client)
         self.dt = 1.0 / c.physics_hz
         pb.setTimeStep(self.dt, physicsClientId=client)
-        pb.setPhysicsEngineParameter(sparseSdfVoxelSize=0.25, physicsClientId=client)
+        pb.setPhysicsEngineParameter(sparseSdfVoxelSize=c.cloth.sdf_voxel_size, physicsClientId=client)
         self.time = 0.0
         self._cache = cache_dir()
         top = c.table.top_z

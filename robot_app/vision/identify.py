@@ -6,6 +6,9 @@ occluded cloth of its own (the identification matrix's false accepts), and a clo
 the same hue family fits nearly as well as the right one. So every model is recognised
 in the pair, and the recognitions are compared region by region (`regions.py`):
 
+0. a model whose main colours (those of 80 % of its S_in points) cover less of the
+   image's foreground than `prefilter` of the model's own area at the search depth is not
+   looked for (it cannot be there but for a sliver; when what lies on it is gone, it is);
 1. each recognition at least `candidate_confidence` confident is a candidate, with its
    footprint and the pixels it explains;
 2. candidates are taken most confident first; one whose explained pixels are more than
@@ -27,7 +30,7 @@ look (the pick loop searches again and decides); `Detection.found` says which.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -37,9 +40,18 @@ from pydantic import Field
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.vision.exposure import sheet_gains
+from robot_app.vision.hue import COLOUR_CODES, colours_match
 from robot_app.vision.recognition import Recognition
 from robot_app.vision.recognizer import Recognizer
-from robot_app.vision.regions import Mask, explained, image_codes, sheet_mask, undistorted
+from robot_app.vision.regions import (
+    Mask,
+    explained,
+    image_codes,
+    main_codes,
+    model_area,
+    sheet_mask,
+    undistorted,
+)
 
 
 class IdentifySettings(StrictModel):
@@ -57,6 +69,8 @@ class IdentifySettings(StrictModel):
             the foreground they leave is looked at (edges, blur).
         unknown_cover: a detection an unknown region covers more than this share of is not
             free (something unrecognised may lie on it) [-].
+        prefilter: share of a model's area its main colours must cover in the foreground
+            for it to be searched (0: search every model) [-].
     """
 
     candidate_confidence: float = Field(0.15, ge=0.0, le=1.0)
@@ -66,6 +80,7 @@ class IdentifySettings(StrictModel):
     min_unknown_area: float = Field(0.01, gt=0.0, le=1.0)
     explained_margin: int = Field(2, ge=0, le=20)
     unknown_cover: float = Field(0.1, ge=0.0, le=1.0)
+    prefilter: float = Field(0.15, ge=0.0, le=1.0)
 
 
 @dataclass(frozen=True)
@@ -123,6 +138,7 @@ class Identification:
         above: (upper, lower) names of detections lying on others.
         unknown: foreground regions no detection explains, largest first.
         covered: names of detections an unknown region covers more than `unknown_cover` of.
+        skipped: models not searched (step 0).
         recognitions: every model's recognition, by name.
     """
 
@@ -132,6 +148,7 @@ class Identification:
     unknown: tuple[UnknownRegion, ...]
     recognitions: Mapping[str, Recognition]
     covered: tuple[str, ...] = ()
+    skipped: tuple[str, ...] = ()
 
     def free(self) -> tuple[Detection, ...]:
         """Detections nothing lies on (known or unknown), most confident first."""
@@ -180,12 +197,45 @@ def identify(
     """
     if not recognizers:
         raise ValueError("identify needs at least one recogniser")
+    s = settings or IdentifySettings()
+    searched = _worth_searching(recognizers, image_right_bgr, s)
     recognitions: dict[str, Recognition] = {}
-    for name, recognizer in recognizers.items():
-        recognitions[name] = recognizer.recognize(image_left_bgr, image_right_bgr, seed=seed)
+    for name in searched:
+        recognitions[name] = recognizers[name].recognize(image_left_bgr, image_right_bgr, seed=seed)
         if on_recognition is not None:
             on_recognition(name, recognitions[name])
-    return resolve(recognizers, recognitions, image_right_bgr, settings)
+    skipped = tuple(name for name in recognizers if name not in searched)
+    return replace(resolve(recognizers, recognitions, image_right_bgr, s), skipped=skipped)
+
+
+def _worth_searching(
+    recognizers: Mapping[str, Recognizer], image_right_bgr: npt.NDArray[np.uint8], s: IdentifySettings
+) -> list[str]:
+    """The models whose main colours cover at least `prefilter` of their area in the
+    image's foreground (step 0)."""
+    names = list(recognizers)
+    if s.prefilter <= 0:
+        return names
+    first = recognizers[names[0]]
+    camera = first.rig.right
+    image = undistorted(image_right_bgr, camera)
+    fitness = first.settings.fitness
+    codes = image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness)
+    foreground = ~sheet_mask(image, first.model.background_hue, s.sheet_tolerance, s.sheet_min_saturation)
+    seen = codes[foreground]
+    present = np.bincount(seen.astype(np.int64), minlength=COLOUR_CODES)
+    kept = []
+    for name in names:
+        recognizer = recognizers[name]
+        model = recognizer.model
+        depth = float(np.mean(recognizer.settings.propose.bounds.z))
+        area = model_area(model) * (camera.camera_matrix[0, 0] / depth) ** 2  # [px]
+        palette = main_codes(model)
+        matching = colours_match(np.arange(COLOUR_CODES)[:, None], palette[None, :], fitness.hue_threshold_in)
+        covered = int(present[np.any(matching, axis=1)].sum())
+        if covered >= s.prefilter * area:
+            kept.append(name)
+    return kept
 
 
 def resolve(

@@ -120,6 +120,22 @@ def explained(
     return inside, agree
 
 
+def model_area(model: ClothModel) -> float:
+    """The cloth's area [m²]: its photo's cloth mask (else the area `make_model` recorded)."""
+    if model.texture_mask is not None and model.texture_from_model is not None:
+        pixels_per_metre = float(np.sqrt(abs(np.linalg.det(np.asarray(model.texture_from_model)[:, :2]))))
+        return float(np.count_nonzero(model.texture_mask)) / pixels_per_metre**2
+    return float(model.metadata.get("area_m2", model.extent[0] * model.extent[1]))
+
+
+def main_codes(model: ClothModel, coverage: float = 0.8) -> npt.NDArray[np.uint16]:
+    """The model's colour codes that cover `coverage` of its S_in points, most frequent first."""
+    codes, counts = np.unique(np.asarray(model.hues_in), return_counts=True)
+    order = np.argsort(-counts)
+    cumulative = np.cumsum(counts[order]) / counts.sum()
+    return np.asarray(codes[order][: int(np.searchsorted(cumulative, coverage)) + 1], dtype=np.uint16)
+
+
 def _texture_pixels_per_image_pixel(H: FloatArray, shape: tuple[int, int]) -> float:
     """About how many texture pixels one image pixel spans (at the texture's centre)."""
     v, u = shape[0] / 2.0, shape[1] / 2.0
@@ -130,4 +146,13 @@ def _texture_pixels_per_image_pixel(H: FloatArray, shape: tuple[int, int]) -> fl
     return float(10.0 / max(float(step), 1e-9))
 
 
-__all__ = ["explained", "footprint", "homography_model_to_image", "image_codes", "sheet_mask", "undistorted"]
+__all__ = [
+    "explained",
+    "footprint",
+    "homography_model_to_image",
+    "image_codes",
+    "main_codes",
+    "model_area",
+    "sheet_mask",
+    "undistorted",
+]
