@@ -8,6 +8,12 @@ only if its fitness reaches `min_fitness` and it is close to the prediction (pos
 and yaw jumps, and the innovation's Mahalanobis distance); others are rejected and
 counted. After `max_consecutive_rejections` in a row the filter is *lost* and the next
 recognition with enough fitness re-initialises it (the cloth was moved, e.g. grasped).
+A cloth pushed by a few centimetres, or turned, is followed sooner: `relocate_after`
+trusted measurements in a row that the Mahalanobis or the yaw gate rejected (each within
+`max_position_jump`) and that agree with each other (within `relocation_tolerance` and
+`RELOCATION_YAW`, after the predicted motion between them) move the estimate onto the
+newest of them, keeping its velocity (a belt under a pushed cloth runs on). A plain
+square cloth recognised a quarter turn round is the same case: its yaw is relocated.
 
 Yaw is an angle: the state's yaw is kept in [-pi, pi) and the measured yaw is moved to
 the branch nearest the prediction before fusing, so a cloth at 179 deg measured at
@@ -32,6 +38,7 @@ from robot_app.config import StrictModel
 from robot_app.geometry import is_rotation, make_transform, rotation_about_z, wrap_angle, yaw_of
 
 _YAW = 3  # index of yaw in the state and the measurement
+RELOCATION_YAW = math.radians(10.0)  # rejected measurements agreeing in yaw to relocate onto them
 _Z_DOWN = np.diag([1.0, -1.0, -1.0])  # Σ_M's z points into the table (docs/architecture.md)
 
 
@@ -56,6 +63,9 @@ class PoseFilterSettings(StrictModel):
         min_fitness: recognitions with a lower normalised fitness are rejected [-];
             the paper's clean, occluded and two-cloth scenes scored 0.85, 0.32, 0.79.
         max_consecutive_rejections: rejections in a row after which the filter is lost.
+        relocate_after: trusted Mahalanobis or yaw rejections in a row, agreeing with each
+            other, that move the estimate onto the newest (0: never).
+        relocation_tolerance: how close [m] consecutive rejected measurements must agree.
     """
 
     position_process_psd: Annotated[float, Field(gt=0.0)] = 1e-4
@@ -70,6 +80,8 @@ class PoseFilterSettings(StrictModel):
     max_yaw_jump: Annotated[float, Field(gt=0.0, le=math.pi)] = math.radians(20.0)
     min_fitness: float = 0.3
     max_consecutive_rejections: Annotated[int, Field(ge=1)] = 5
+    relocate_after: Annotated[int, Field(ge=0)] = 2
+    relocation_tolerance: Annotated[float, Field(gt=0.0)] = 0.008
 
 
 class PoseXYZYaw(NamedTuple):
@@ -130,6 +142,7 @@ class UpdateReason(enum.StrEnum):
     POSITION_JUMP = "position jump beyond max_position_jump"
     YAW_JUMP = "yaw jump beyond max_yaw_jump"
     MAHALANOBIS = "Mahalanobis distance beyond gate_chi2"
+    RELOCATED = "relocated onto agreeing rejected measurements"
 
 
 @dataclass(frozen=True)
@@ -177,6 +190,7 @@ class PoseFilter:
         self.accepted_count = 0
         self.rejected_count = 0
         self.consecutive_rejections = 0
+        self._jumps: list[tuple[FloatArray, float]] = []  # agreeing Mahalanobis rejections (z, t)
 
     @property
     def lost(self) -> bool:
@@ -214,6 +228,7 @@ class PoseFilter:
         self._time = _finite_time(t)
         self.initialised = True
         self.consecutive_rejections = 0
+        self._jumps.clear()
         return self._estimate(self._kf.x, self._kf.P, self._time)
 
     def predict(self, t: float) -> PoseEstimate:
@@ -239,13 +254,17 @@ class PoseFilter:
         x[_YAW, 0] = wrap_angle(x[_YAW, 0])
         return self._estimate(x, F @ self._kf.P @ F.T + Q, float(t) if dt > 0.0 else self._time)
 
-    def update(self, measurement: PoseXYZYaw | npt.ArrayLike, fitness: float, t: float) -> FilterUpdate:
+    def update(
+        self, measurement: PoseXYZYaw | npt.ArrayLike, fitness: float, t: float, *, trusted: bool = True
+    ) -> FilterUpdate:
         """Predicts to `t` [s] and fuses a recognised pose unless a gate rejects it.
 
         Args:
             measurement: (x, y, z, yaw) [m, rad] or the 4x4 pose of Σ_M in Σ_W.
             fitness: the recognition's normalised fitness [-].
             t: capture time of the recognised images [s].
+            trusted: the recogniser decided the cloth is there (`found`); only trusted
+                measurements can relocate the estimate.
 
         Raises:
             InputError: malformed measurement, non-finite fitness or a time going back.
@@ -271,22 +290,60 @@ class PoseFilter:
         nis = float(innovation @ np.linalg.solve(S, innovation))
         if np.linalg.norm(innovation[:3]) > self.settings.max_position_jump:
             return self._reject(UpdateReason.POSITION_JUMP, nis)
+        jump = None
         if abs(innovation[_YAW]) > self.settings.max_yaw_jump:
-            return self._reject(UpdateReason.YAW_JUMP, nis)
-        if nis > self.settings.gate_chi2:
-            return self._reject(UpdateReason.MAHALANOBIS, nis)
+            jump = UpdateReason.YAW_JUMP
+        elif nis > self.settings.gate_chi2:
+            jump = UpdateReason.MAHALANOBIS
+        if jump is not None:
+            if not trusted:
+                self._jumps.clear()
+            elif self._relocates(z, float(t)):
+                return self._relocate(z, nis)
+            return self._reject(jump, nis)
         kf.update(z)
         kf.x[_YAW, 0] = wrap_angle(kf.x[_YAW, 0])
         return self._accept(UpdateReason.ACCEPTED, nis)
 
+    def _relocates(self, z: FloatArray, t: float) -> bool:
+        """Keeps the run of agreeing rejected measurements; True once it is long enough."""
+        s = self.settings
+        if s.relocate_after == 0:
+            return False
+        velocity = self._kf.x[4:7, 0]
+        if self._jumps:
+            previous, t_previous = self._jumps[-1]
+            expected = previous[:3] + velocity * (t - t_previous)
+            turned = abs(float(wrap_angle(z[_YAW] - previous[_YAW])))
+            if np.linalg.norm(z[:3] - expected) > s.relocation_tolerance or turned > RELOCATION_YAW:
+                self._jumps.clear()
+        self._jumps.append((z.copy(), t))
+        return len(self._jumps) >= s.relocate_after
+
+    def _relocate(self, z: FloatArray, nis: float) -> FilterUpdate:
+        """Moves position and yaw onto `z` with the measurement's covariance; velocity kept."""
+        kf = self._kf
+        kf.x[:4, 0] = z
+        P = np.array(kf.P, dtype=float)
+        P[:4, :] = 0.0
+        P[:, :4] = 0.0
+        P[:4, :4] = kf.R
+        kf.P = P
+        self._jumps.clear()
+        return self._accept(UpdateReason.RELOCATED, nis)
+
     def _accept(self, reason: UpdateReason, nis: float) -> FilterUpdate:
         self.accepted_count += 1
         self.consecutive_rejections = 0
+        if reason is not UpdateReason.RELOCATED:
+            self._jumps.clear()
         return FilterUpdate(True, reason, nis, self.estimate)
 
     def _reject(self, reason: UpdateReason, nis: float) -> FilterUpdate:
         self.rejected_count += 1
         self.consecutive_rejections += 1
+        if reason not in (UpdateReason.MAHALANOBIS, UpdateReason.YAW_JUMP):
+            self._jumps.clear()
         return FilterUpdate(False, reason, nis, self.estimate)
 
     def _elapsed(self, t: float) -> float:
