@@ -36,6 +36,7 @@ from robot_app.geometry import make_transform, pose_error, rotation_about_z, wra
 from robot_app.vision import Recognizer
 
 RESEED = (UpdateReason.YAW_JUMP, UpdateReason.POSITION_JUMP)
+MAX_LOOK_SPEED = 0.5  # [m/s] a cloth seen to move faster between two looks was not the same find
 QUARTER_TURNS = (np.pi / 2, np.pi, 3 * np.pi / 2)
 BRANCH_TOLERANCE = np.deg2rad(10.0)  # a trusted yaw this close to a quarter turn off is that turn
 
@@ -119,6 +120,34 @@ class ClothTracker:
         reason = "candidate: looking closer" if candidate else ("reset" if found else "not found")
         self._record(result, found, reason)
         return found
+
+    def take_second_look(self, first: VisionResult, second: VisionResult) -> bool:
+        """Starts the filter from two one-shot recognitions at the observation pose, with
+        the velocity between them (a moving cloth's first tracking frame is then predicted
+        where it is, not where the search saw it a latency ago).
+
+        The second look is used if the decision trusts it, it is on the first's yaw branch
+        (within the filter's yaw gate) and it moved no faster than MAX_LOOK_SPEED; else the
+        filter keeps the first. Returns whether it was used.
+        """
+        recognition = second.recognition
+        self.last_capture = second.capture
+        pose = self._on_branch(second.transform_model_to_world, second.capture.time, recognition.found)
+        dt = second.capture.time - first.capture.time
+        moved = float(np.linalg.norm(pose[:2, 3] - first.transform_model_to_world[:2, 3]))
+        turned = abs(float(wrap_angle(yaw_of(pose[:3, :3]) - yaw_of(first.transform_model_to_world[:3, :3]))))
+        used = (
+            bool(recognition.found)
+            and dt > 0.0
+            and moved <= MAX_LOOK_SPEED * dt
+            and turned <= self.filter.settings.max_yaw_jump
+        )
+        if used:
+            self.filter.reset_from_two(
+                first.transform_model_to_world, first.capture.time, pose, second.capture.time
+            )
+        self._record(second, used, "second look: velocity" if used else "second look: not used", pose=pose)
+        return used
 
     # ------------------------------------------------------------------ tracking
     def start_tracking(self) -> None:

@@ -160,7 +160,8 @@ class JointFollower:
         rotation: (3, 3) orientation the followed frame keeps in Σ_W.
         lower, upper: joint position limits [rad] (default: the kinematics').
         frame: the followed frame ("tcp").
-        tolerance: residual [m] above which the IK is called [m].
+        tolerance: residual above which the IK is called [m] (the orientation error counts as
+            the offset it makes 0.1 m from the frame: a held joint must not tilt the hand).
     """
 
     def __init__(
@@ -209,11 +210,11 @@ class JointFollower:
         if q is not None:
             for _ in range(NEWTON_STEPS):
                 error = self._error(q, p)
-                residual = float(np.linalg.norm(error[:3]))
+                residual = self._residual(error)
                 if residual <= self.tolerance * 0.1:
                     break
                 q = self._step(q, error)
-            residual = float(np.linalg.norm(self._error(q, p)[:3]))
+            residual = self._residual(self._error(q, p))
         if q is None or residual > self.tolerance:
             q = np.clip(np.asarray(self.solve(p, q), dtype=float), self.lower, self.upper)
             self.ik_calls += 1
@@ -247,6 +248,11 @@ class JointFollower:
             (q >= self.upper - LIMIT_EPSILON) & (direction > 0.0)
         )
         return np.asarray(~held, dtype=bool)
+
+    @staticmethod
+    def _residual(error: FloatArray) -> float:
+        """Position error [m], or the orientation error as the offset it makes 0.1 m out."""
+        return max(float(np.linalg.norm(error[:3])), 0.1 * float(np.linalg.norm(error[3:])))
 
     def _error(self, q: FloatArray, position: FloatArray) -> FloatArray:
         """6-D error (position [m]; rotation vector [rad]) from the frame at q to the target."""

@@ -1,8 +1,9 @@
 """The visual-servoing pick-and-place loop and its state machine (paper Sec. I, Fig. 1).
 
 OBSERVE -> SEARCH (one-shot GA on a frame whose result arrives after the camera's and
-the recogniser's latency) -> APPROACH -> DESCEND -> GRASP -> LIFT -> TRANSFER -> RELEASE
--> HOME. APPROACH to LIFT belong to the strategy (`loop.strategy`): `servo`
+the recogniser's latency; the servo looks twice, for the cloth's velocity) -> APPROACH
+-> DESCEND -> GRASP -> LIFT -> TRANSFER -> RELEASE -> HOME. APPROACH to LIFT belong to
+the strategy (`loop.strategy`): `servo`
 (`servo.py`: predict the cloth to when the command acts, intercept, track down, grasp it
 moving, lift it off the belt) or `look_then_move` (`look_then_move.py`, the baseline).
 
@@ -250,6 +251,11 @@ class PickPlaceLoop:
                     f"found with fitness {result.recognition.fitness:.3f} (attempt {attempt + 1}), "
                     f"result {result.age * 1e3:.0f} ms after the exposure"
                 )
+                if s.strategy is Strategy.SERVO:  # a second look gives the cloth's velocity
+                    second = self._searched(seed=attempt + 2 * s.search_attempts)
+                    if self.tracker.take_second_look(result, second):
+                        speed = np.linalg.norm(self.tracker.estimate_at(self.cell.time).velocity[:2])
+                        self._note += f", moving at {speed * 1e3:.0f} mm/s"
                 return True
             self.arm.move_to_joints(self.observation_joints)
         self._note = "not found"

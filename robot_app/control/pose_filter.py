@@ -8,6 +8,9 @@ only if its fitness reaches `min_fitness` and it is close to the prediction (pos
 and yaw jumps, and the innovation's Mahalanobis distance); others are rejected and
 counted. After `max_consecutive_rejections` in a row the filter is *lost* and the next
 recognition with enough fitness re-initialises it (the cloth was moved, e.g. grasped).
+A recognition below `min_fitness` that passes the gates is not fused either, but does not
+count toward being lost: a poor view of the cloth where it should be (the arm's shadow on
+it, the cloth past the image's edge) is not a lost cloth.
 A cloth pushed by a few centimetres, or turned, is followed sooner: `relocate_after`
 trusted measurements in a row that the Mahalanobis or the yaw gate rejected (each within
 `max_position_jump`) and that agree with each other (within `relocation_tolerance` and
@@ -139,6 +142,7 @@ class UpdateReason(enum.StrEnum):
     INITIALISED = "initialised"
     REINITIALISED = "reinitialised after being lost"
     LOW_FITNESS = "fitness below min_fitness"
+    LOW_FITNESS_CONSISTENT = "fitness below min_fitness, where the prediction is"
     POSITION_JUMP = "position jump beyond max_position_jump"
     YAW_JUMP = "yaw jump beyond max_yaw_jump"
     MAHALANOBIS = "Mahalanobis distance beyond gate_chi2"
@@ -231,6 +235,35 @@ class PoseFilter:
         self._jumps.clear()
         return self._estimate(self._kf.x, self._kf.P, self._time)
 
+    def reset_from_two(
+        self,
+        first: PoseXYZYaw | npt.ArrayLike,
+        t_first: float,
+        second: PoseXYZYaw | npt.ArrayLike,
+        t_second: float,
+    ) -> PoseEstimate:
+        """(Re)starts the filter at `second` with the velocity the two measurements give
+        ((second - first) / (t_second - t_first), yaw on the nearest branch) and that
+        difference's covariance (2 R / dt^2 for the velocity, R / dt for the cross terms).
+
+        Raises:
+            ValueError: the times are not increasing.
+        """
+        dt = _finite_time(t_second) - _finite_time(t_first)
+        if not dt > 0.0:
+            raise ValueError(f"two measurements need increasing times, got {t_first} s and {t_second} s")
+        a, b = _measurement_vector(first), _measurement_vector(second)
+        change = b - a
+        change[_YAW] = wrap_angle(change[_YAW])
+        R = np.asarray(self._kf.R, dtype=float)
+        self._kf.x = np.concatenate([b, change / dt]).reshape(8, 1)
+        self._kf.P = np.block([[R, R / dt], [R / dt, 2.0 * R / dt**2]])
+        self._time = float(t_second)
+        self.initialised = True
+        self.consecutive_rejections = 0
+        self._jumps.clear()
+        return self._estimate(self._kf.x, self._kf.P, self._time)
+
     def predict(self, t: float) -> PoseEstimate:
         """Propagates the state to time `t` [s] and returns the prediction.
 
@@ -273,8 +306,12 @@ class PoseFilter:
         if not math.isfinite(fitness):
             raise ValueError(f"recognition fitness must be finite, got {fitness}")
         if fitness < self.settings.min_fitness:
-            if self.initialised:
-                self.predict(t)
+            if not self.initialised:
+                return self._reject(UpdateReason.LOW_FITNESS, math.nan)
+            self.predict(t)
+            if not self.lost and self._consistent(z):  # a poor view of the cloth where it should be
+                self.rejected_count += 1
+                return FilterUpdate(False, UpdateReason.LOW_FITNESS_CONSISTENT, math.nan, self.estimate)
             return self._reject(UpdateReason.LOW_FITNESS, math.nan)
         if not self.initialised or self.lost:
             reason = UpdateReason.REINITIALISED if self.initialised else UpdateReason.INITIALISED
@@ -304,6 +341,21 @@ class PoseFilter:
         kf.update(z)
         kf.x[_YAW, 0] = wrap_angle(kf.x[_YAW, 0])
         return self._accept(UpdateReason.ACCEPTED, nis)
+
+    def _consistent(self, z: FloatArray) -> bool:
+        """True if a measurement passes the position, yaw and Mahalanobis gates (not fused)."""
+        kf = self._kf
+        z = z.copy()
+        z[_YAW] = kf.x[_YAW, 0] + wrap_angle(z[_YAW] - kf.x[_YAW, 0])
+        innovation = z - (kf.H @ kf.x).ravel()
+        S = kf.H @ kf.P @ kf.H.T + kf.R
+        nis = float(innovation @ np.linalg.solve(S, innovation))
+        s = self.settings
+        return bool(
+            np.linalg.norm(innovation[:3]) <= s.max_position_jump
+            and abs(innovation[_YAW]) <= s.max_yaw_jump
+            and nis <= s.gate_chi2
+        )
 
     def _relocates(self, z: FloatArray, t: float) -> bool:
         """Keeps the run of agreeing rejected measurements; True once it is long enough."""

@@ -178,7 +178,12 @@ class ServoStrategy:
         now = self.arm.cell.time
         stop = self.arm.tcp_position()
         stop[2] = lift_z
-        q, dq, _ = self._joint_target(stop, np.zeros(3))
+        try:
+            q, dq, _ = self._joint_target(stop, np.zeros(3))
+        except EpisodeAbortError as abort:
+            if abort.outcome is not Outcome.IK_UNREACHABLE:
+                raise
+            q, dq = self.arm.command.q, np.zeros_like(self.arm.command.q)  # too far out to rise: stop here
         online.set_target(q, dq, synchronized=False)
         while not online.finished:
             self.arm.step_online(online)
