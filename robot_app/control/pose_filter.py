@@ -14,9 +14,10 @@ it, the cloth past the image's edge) is not a lost cloth.
 A cloth pushed by a few centimetres, or turned, is followed sooner: `relocate_after`
 trusted measurements in a row that the Mahalanobis or the yaw gate rejected (each within
 `max_position_jump`) and that agree with each other (within `relocation_tolerance` and
-`RELOCATION_YAW`, after the predicted motion between them) move the estimate onto the
-newest of them, keeping its velocity (a belt under a pushed cloth runs on). A plain
-square cloth recognised a quarter turn round is the same case: its yaw is relocated.
+`RELOCATION_YAW`, after the predicted motion between them) restart the estimate at the
+newest of them with the velocity between the first and the newest (a pushed cloth on a
+running belt moves on; one stopped at the belt's end does not). A plain square cloth
+recognised a quarter turn round is the same case: its yaw is relocated.
 
 Yaw is an angle: the state's yaw is kept in [-pi, pi) and the measured yaw is moved to
 the branch nearest the prediction before fusing, so a cloth at 179 deg measured at
@@ -69,6 +70,8 @@ class PoseFilterSettings(StrictModel):
         relocate_after: trusted Mahalanobis or yaw rejections in a row, agreeing with each
             other, that move the estimate onto the newest (0: never).
         relocation_tolerance: how close [m] consecutive rejected measurements must agree.
+        untrusted_std_scale: a recognition the decision does not trust (`trusted=False`:
+            not `found`) is fused with its measurement standard deviations times this.
     """
 
     position_process_psd: Annotated[float, Field(gt=0.0)] = 1e-4
@@ -84,6 +87,7 @@ class PoseFilterSettings(StrictModel):
     min_fitness: float = 0.3
     max_consecutive_rejections: Annotated[int, Field(ge=1)] = 5
     relocate_after: Annotated[int, Field(ge=0)] = 2
+    untrusted_std_scale: Annotated[float, Field(ge=1.0)] = 3.0
     relocation_tolerance: Annotated[float, Field(gt=0.0)] = 0.008
 
 
@@ -297,7 +301,8 @@ class PoseFilter:
             fitness: the recognition's normalised fitness [-].
             t: capture time of the recognised images [s].
             trusted: the recogniser decided the cloth is there (`found`); only trusted
-                measurements can relocate the estimate.
+                measurements can relocate the estimate, and untrusted ones count for less
+                (`untrusted_std_scale`).
 
         Raises:
             InputError: malformed measurement, non-finite fitness or a time going back.
@@ -323,7 +328,8 @@ class PoseFilter:
         kf = self._kf
         z[_YAW] = kf.x[_YAW, 0] + wrap_angle(z[_YAW] - kf.x[_YAW, 0])  # nearest branch
         innovation = z - (kf.H @ kf.x).ravel()
-        S = kf.H @ kf.P @ kf.H.T + kf.R
+        R = kf.R if trusted else kf.R * self.settings.untrusted_std_scale**2
+        S = kf.H @ kf.P @ kf.H.T + R
         nis = float(innovation @ np.linalg.solve(S, innovation))
         if np.linalg.norm(innovation[:3]) > self.settings.max_position_jump:
             return self._reject(UpdateReason.POSITION_JUMP, nis)
@@ -338,7 +344,7 @@ class PoseFilter:
             elif self._relocates(z, float(t)):
                 return self._relocate(z, nis)
             return self._reject(jump, nis)
-        kf.update(z)
+        kf.update(z, R=R)
         kf.x[_YAW, 0] = wrap_angle(kf.x[_YAW, 0])
         return self._accept(UpdateReason.ACCEPTED, nis)
 
@@ -373,15 +379,16 @@ class PoseFilter:
         return len(self._jumps) >= s.relocate_after
 
     def _relocate(self, z: FloatArray, nis: float) -> FilterUpdate:
-        """Moves position and yaw onto `z` with the measurement's covariance; velocity kept."""
-        kf = self._kf
-        kf.x[:4, 0] = z
-        P = np.array(kf.P, dtype=float)
-        P[:4, :] = 0.0
-        P[:, :4] = 0.0
-        P[:4, :4] = kf.R
-        kf.P = P
-        self._jumps.clear()
+        """Restarts from the run of agreeing rejected measurements: at the newest, with the
+        velocity between the first and the newest (a push leaves the belt running; a belt
+        that stopped, or a cloth stopped at the belt's end, no longer moves)."""
+        (first, t_first), (_, t_last) = self._jumps[0], self._jumps[-1]
+        if t_last > t_first:
+            self.reset_from_two(first, t_first, z, t_last)
+        else:  # a run of one (relocate_after=1): the position only, the velocity kept
+            velocity = self._kf.x[4:8, 0].copy()
+            self.reset(z, t_last)
+            self._kf.x[4:8, 0] = velocity
         return self._accept(UpdateReason.RELOCATED, nis)
 
     def _accept(self, reason: UpdateReason, nis: float) -> FilterUpdate:

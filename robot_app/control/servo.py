@@ -176,14 +176,7 @@ class ServoStrategy:
                     raise
                 break  # the belt would take the hand out of reach: up from here (the cloth hangs on)
         now = self.arm.cell.time
-        stop = self.arm.tcp_position()
-        stop[2] = lift_z
-        try:
-            q, dq, _ = self._joint_target(stop, np.zeros(3))
-        except EpisodeAbortError as abort:
-            if abort.outcome is not Outcome.IK_UNREACHABLE:
-                raise
-            q, dq = self.arm.command.q, np.zeros_like(self.arm.command.q)  # too far out to rise: stop here
+        q, dq = self._lift_goal(lift_z)
         online.set_target(q, dq, synchronized=False)
         while not online.finished:
             self.arm.step_online(online)
@@ -289,6 +282,24 @@ class ServoStrategy:
         if self._online is not None:
             self.arm.end_online(self._online, to_rest=to_rest)
             self._online = None
+
+    def _lift_goal(self, lift_z: float) -> tuple[FloatArray, FloatArray]:
+        """Joints [rad] (at rest) with the TCP at `lift_z` [m] over where the hand is or, far
+        out where the arm cannot raise the hand that high, as little toward the observation
+        pose as it takes (the cloth must hang clear of the table to count as lifted)."""
+        here = self.arm.tcp_position()
+        home = self.arm.tcp_position(self.arm.preferred_posture)
+        for share in (0.0, 0.25, 0.5, 0.75, 1.0):
+            goal = here + share * (home - here)
+            goal[2] = lift_z
+            try:
+                q, _, _ = self._joint_target(goal, np.zeros(3))
+            except EpisodeAbortError as abort:
+                if abort.outcome is not Outcome.IK_UNREACHABLE:
+                    raise
+                continue
+            return q, np.zeros_like(q)
+        return self.arm.command.q, np.zeros_like(self.arm.command.q)
 
     def _hold_here(self, online: OnlineTrajectory) -> None:
         """Brings the online motion to rest where the hand is (jerk-limited), then ends it."""
