@@ -23,6 +23,9 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+import numpy as np
+import numpy.typing as npt
+
 from robot_app.errors import OutputError
 
 
@@ -295,9 +298,25 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def atomic_write_image(path: str | Path, image: npt.NDArray[np.uint8]) -> Path:
+    """Encodes an image by its file suffix (default PNG) and writes it atomically.
+
+    Raises:
+        OutputError: OpenCV cannot encode an image of that suffix.
+    """
+    import cv2  # here, not at the top: the base modules load without OpenCV
+
+    file = Path(path)
+    ok, encoded = cv2.imencode(file.suffix or ".png", image)
+    if not ok:
+        raise OutputError(f"cannot encode an image as {file.suffix or '.png'}", path=file)
+    return atomic_write_bytes(file, encoded.tobytes())
+
+
 __all__ = [
     "atomic_path",
     "atomic_write_bytes",
+    "atomic_write_image",
     "atomic_write_text",
     "check_output_file",
     "check_output_folder",

@@ -14,7 +14,7 @@ weights and threshold on them and prints them) and reported on the test seeds (t
 
     taskset -c 0 python scripts/bench_recognition.py                   # the full run
     taskset -c 0 python scripts/bench_recognition.py --scenes 24 --quick
-    taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 120
+    taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 200   # the decision's fit
 """
 
 from __future__ import annotations
@@ -196,8 +196,14 @@ def collect(scenes: Scenes, recognizers: list[Recognizer], args, calibration: bo
     return out
 
 
+FEATURES = ("fitness", "appearance", "visible", "interleaved", "agreeing")
+
+
 def features(rows: list) -> np.ndarray:
-    return np.array([[r.search_fitness, r.appearance, r.visible_fraction] for _, r, _ in rows])
+    """(N, 5) the decision's evidence of each row's recognition (`decide.Evidence`)."""
+    return np.array(
+        [[r.search_fitness, r.appearance, r.visible_fraction, r.interleaved, r.agreeing] for _, r, _ in rows]
+    )
 
 
 def correct(models: list[ClothModel], row: tuple) -> bool:
@@ -209,15 +215,17 @@ def correct(models: list[ClothModel], row: tuple) -> bool:
 
 def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list[ClothModel]) -> None:
     """Logistic regression of present at the right pose (1) against absent (0) on (fitness,
-    appearance, visible) by Newton's method with a weak ridge (present scenes recognised at a
-    wrong pose are left out: neither a right answer to accept nor an absent cloth); prints the
-    weights and the threshold that best separates the calibration scenes."""
+    appearance, visible, interleaved, agreeing) by Newton's method with a weak ridge
+    (present scenes recognised at a wrong pose are left out: neither a right answer to
+    accept nor an absent cloth); prints the weights and the threshold that best separates
+    the calibration scenes."""
     kinds = ("flat", "wrinkled", "folded", "covered")
     wrong = sum(not correct(models, r) for kind in kinds for r in data[kind])
     present = [r for kind in kinds for r in data[kind] if correct(models, r)]
     absent = [r for kind in ("absent_family", "absent_other") for r in data[kind]]
     X = np.vstack([features(present), features(absent)])
     X[:, 1] = np.where(np.isnan(X[:, 1]), settings.decide.appearance_nothing_seen, X[:, 1])
+    X[:, 4] = np.where(np.isnan(X[:, 4]), (X[:, 1] + 1.0) / 2.0, X[:, 4])
     y = np.concatenate([np.ones(len(present)), np.zeros(len(absent))])
     A = np.column_stack([np.ones(len(X)), X])
     w = np.zeros(A.shape[1])
@@ -236,7 +244,8 @@ def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list
     print(f"calibration: {len(present)} present at the right pose, {len(absent)} absent scenes "
           f"({wrong} present scenes recognised at a wrong pose left out)")  # fmt: skip
     print(f"  decide.bias={w[0]:.3f} decide.weight_fitness={w[1]:.3f} decide.weight_appearance={w[2]:.3f} "
-          f"decide.weight_visible={w[3]:.3f}")  # fmt: skip
+          f"decide.weight_visible={w[3]:.3f} decide.weight_interleaved={w[4]:.3f} "
+          f"decide.weight_agreeing={w[5]:.3f}")  # fmt: skip
     print(f"  logit of present: min {z[y == 1].min():+.2f}; of absent: max {z[y == 0].max():+.2f}; "
           f"threshold logit {threshold_z:+.2f} = confidence "
           f"{1 / (1 + np.exp(-threshold_z)):.3f}")  # fmt: skip
@@ -244,7 +253,8 @@ def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list
         f = features(rows)
         low, high = np.nanmin(f, axis=0), np.nanmax(f, axis=0)
         print(f"  {kind:14s} fitness {low[0]:.3f}-{high[0]:.3f}, appearance {low[1]:+.2f}-{high[1]:+.2f}, "
-              f"visible {low[2]:.2f}-{high[2]:.2f}")  # fmt: skip
+              f"visible {low[2]:.2f}-{high[2]:.2f}, interleaved {low[3]:.2f}-{high[3]:.2f}, "
+              f"agreeing {low[4]:.2f}-{high[4]:.2f}")  # fmt: skip
 
 
 def half_turn_symmetric(model: ClothModel) -> bool:

@@ -21,7 +21,8 @@ from robot_app.cli import main
 from robot_app.geometry import make_transform, rotation_about_z
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig, save_model_camera, save_rig
 from robot_app.vision.photo_model import make_model
-from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
+from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
 FAST_GA = [
     "--set",

@@ -28,9 +28,10 @@ BASE = {
 }
 ALLOWED = {
     "vision": BASE,
+    "calibration": BASE | {"vision"},
     "control": BASE | {"vision"},
-    "sim": BASE | {"vision"},
-    "experiments": BASE | {"vision", "control", "sim"},
+    "sim": BASE | {"vision", "calibration"},
+    "experiments": BASE | {"vision", "calibration", "control", "sim"},
 }
 
 

@@ -10,8 +10,9 @@ import pytest
 
 from robot_app.cli import main
 from robot_app.vision.camera import ModelCamera, PinholeCamera, save_model_camera
-from robot_app.vision.photo_model import ClothModel
-from robot_app.vision.synthetic import render_model_photo, synthetic_cloth
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.synthetic import render_model_photo
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
 
 @pytest.fixture

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import cv2
 import numpy as np
 import pytest
@@ -10,21 +12,17 @@ from robot_app.config import validate
 from robot_app.errors import ConfigError, InputError
 from robot_app.geometry import make_transform, rotation_about_z, rotation_from_rpy
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
-from robot_app.vision.fitness import (
-    OFF_IMAGE,
-    OUTSIDE_ROW,
-    FitnessEvaluator,
-    FitnessSettings,
-    colour_table,
-    score_table,
-    seen_table,
-)
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.fitness_kernels import bgr_codes, gain_levels, hsv_codes
+from robot_app.vision.fitness_scores import OFF_IMAGE, OUTSIDE_ROW, FitnessSettings, score_table, seen_table
 from robot_app.vision.hue import DARK, LIGHT, colour_codes, hue_distance, to_hsv
-from robot_app.vision.photo_model import ClothModel, ModelSettings, make_model
+from robot_app.vision.photo_model import ModelSettings, make_model
+from robot_app.vision.pixel_codes import colour_table
 from robot_app.vision.poses import AvoidedPoses
 from robot_app.vision.recognizer import RecognitionSettings
-from robot_app.vision.synthetic import SyntheticCloth, render_model_photo, render_stereo_pair, synthetic_cloth
+from robot_app.vision.synthetic import SyntheticCloth, render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
 
 def make_rig(size: tuple[int, int] = (320, 240)) -> StereoRig:
@@ -201,9 +199,43 @@ def test_pixel_codes_by_colour_table_agree_with_the_conversion() -> None:
     for thresholds in ((40, 40, 128), (0, 0, 128), (25, 60, 100)):
         expected = hsv_codes(to_hsv(bgr), *thresholds, DARK, LIGHT, OFF_IMAGE)
         assert np.array_equal(
-            bgr_codes(bgr, colour_table(*thresholds), OFF_IMAGE, gain_levels(np.ones(3))), expected
+            bgr_codes(
+                bgr,
+                colour_table(*thresholds),
+                OFF_IMAGE,
+                gain_levels(np.ones(3)),
+                np.array([0, 0, 10**6, 10**6]),
+            ),
+            expected,
         )
     assert not colour_table(40, 40, 128).flags.writeable
+
+
+def test_the_colour_table_is_kept_in_the_cache_folder_and_rebuilt_when_damaged(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("ROBOT_APP_CACHE", str(tmp_path))
+    build = colour_table.__wrapped__  # past the in-process cache
+    built = build(30, 50, 120)
+    files = list(tmp_path.glob("colour_table_s30_v50_split120_*.npy"))
+    assert len(files) == 1 and not list(tmp_path.glob(".*partial"))
+    read = build(30, 50, 120)
+    assert np.array_equal(read, built) and not read.flags.writeable
+    files[0].write_bytes(b"not a table")
+    assert np.array_equal(build(30, 50, 120), built)  # rebuilt and written again
+    assert np.array_equal(np.load(files[0]), built)
+
+
+def test_pixel_codes_only_inside_the_region_the_rest_off_the_image() -> None:
+    bgr = np.random.default_rng(5).integers(0, 256, (30, 40, 3)).astype(np.uint8)
+    table = colour_table(40, 40, 128)
+    full = bgr_codes(bgr, table, OFF_IMAGE, gain_levels(np.ones(3)), np.array([0, 0, 39, 29]))
+    part = bgr_codes(bgr, table, OFF_IMAGE, gain_levels(np.ones(3)), np.array([5, 7, 20, 11]))
+    framed = full.reshape(33, 43)  # one frame pixel left and top, two right and bottom
+    inside = np.zeros_like(framed, dtype=bool)
+    inside[8:13, 6:22] = True
+    np.testing.assert_array_equal(part.reshape(33, 43)[inside], framed[inside])
+    assert np.all(part.reshape(33, 43)[~inside] == OFF_IMAGE)
 
 
 def test_low_saturation_pixels_have_no_hue() -> None:
@@ -272,10 +304,12 @@ def test_counts_evaluations_and_validates_input(scene) -> None:
     evaluator = FitnessEvaluator(model, rig)
     with pytest.raises(RuntimeError, match="update"):
         evaluator.evaluate(pose)
-    with pytest.raises(InputError, match="320x240"):
-        evaluator.update(left[:, :200], right)
-    with pytest.raises(InputError, match="uint8"):
+    with pytest.raises(InputError) as size:
+        evaluator.update(left, right[:, :200])
+    assert (size.value.key, size.value.value) == ("right", (200, 240))  # (width, height) [px]
+    with pytest.raises(InputError) as dtype:
         evaluator.update(left.astype(float), right)
+    assert (dtype.value.key, dtype.value.value) == ("left", ((240, 320, 3), "float64"))
     evaluator.update(left, right)
     with pytest.raises(ValueError, match="shape"):
         evaluator.evaluate(np.eye(3))
@@ -285,12 +319,18 @@ def test_counts_evaluations_and_validates_input(scene) -> None:
 
 
 def test_params_are_validated() -> None:
-    with pytest.raises(ConfigError, match="hue_threshold_in"):
-        validate(FitnessSettings, {"hue_threshold_in": 200})
-    with pytest.raises(ConfigError, match="score_in_match"):
-        validate(FitnessSettings, {"score_in_match": -1.0})
-    with pytest.raises(ConfigError, match="bogus"):
+    for data, key, value in (
+        ({"hue_threshold_in": 200}, "hue_threshold_in", 200),
+        ({"score_in_match": -1.0}, "score_in_match", -1.0),
+        ({"score_in_match": 0.5, "score_in_other": 1.0}, "score_in_match", 0.5),  # not the largest
+        ({"hidden_foreign": True, "normalisation": "model"}, "normalisation", "model"),
+    ):
+        with pytest.raises(ConfigError) as bad:
+            validate(FitnessSettings, data)
+        assert (bad.value.key, bad.value.value) == (key, value)
+    with pytest.raises(ConfigError) as unknown:
         validate(FitnessSettings, {"bogus": 1})
+    assert unknown.value.key == "bogus" and unknown.value.problems[0].problem == "unknown key"
 
 
 def test_avoided_poses_are_those_near_a_centre_at_its_yaw_or_at_any_yaw() -> None:

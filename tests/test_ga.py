@@ -11,14 +11,14 @@ from robot_app.geometry import is_rotation, make_transform, rotation_about_z, ro
 from robot_app.vision.ga import (
     GASettings,
     GeneticAlgorithm,
-    SearchBounds,
+    SearchBoundsSettings,
     decode,
     encode,
 )
 from robot_app.vision.poses import parameters_from_transforms, transforms_from_parameters
 from tests.vision_oracles import ga_evolve, ga_run
 
-BOUNDS = SearchBounds()
+BOUNDS = SearchBoundsSettings()
 
 
 def random_parameters(rng: np.random.Generator, n: int) -> np.ndarray:
@@ -67,7 +67,7 @@ def test_parameters_and_transforms_are_inverse_and_repair_long_epsilon() -> None
 
 
 def test_tilt_bound_is_respected_along_the_axes() -> None:
-    ranges = SearchBounds(max_tilt_deg=20).gene_ranges()
+    ranges = SearchBoundsSettings(max_tilt_deg=20).gene_ranges()
     T = transforms_from_parameters([[0, 0, 0.6, ranges[3, 1], 0, 0]])[0]
     assert np.rad2deg(np.arccos(T[2, 2])) == pytest.approx(20.0)
 
@@ -127,14 +127,18 @@ def test_seed_makes_poses_the_population_clipped_into_the_bounds() -> None:
 
 
 def test_settings_are_validated() -> None:
-    with pytest.raises(ConfigError, match="elite"):
-        validate(GASettings, {"population": 10, "elite": 10})
-    with pytest.raises(ConfigError, match="mutation_rate"):
-        validate(GASettings, {"mutation_rate": 2})
-    with pytest.raises(ConfigError, match="low < high"):
-        validate(SearchBounds, {"x": [0.1, -0.1]})
-    with pytest.raises(ConfigError, match="z > 0"):
-        validate(SearchBounds, {"z": [-0.1, 0.5]})
+    cases = [
+        (GASettings, {"population": 16, "islands": 4, "elite": 4}, "elite", 4),  # 4 per island
+        (GASettings, {"population": 12, "islands": 4}, "population", 12),
+        (GASettings, {"mutation_rate": 2}, "mutation_rate", 2),
+        (SearchBoundsSettings, {"x": [0.1, -0.1]}, "x", [0.1, -0.1]),
+        (SearchBoundsSettings, {"z": [-0.1, 0.5]}, "z", [-0.1, 0.5]),
+    ]
+    for settings, data, key, value in cases:
+        with pytest.raises(ConfigError) as bad:
+            validate(settings, data)
+        assert (bad.value.key, bad.value.value) == (key, value)
+    validate(GASettings, {"population": 16, "islands": 4, "elite": 3})
 
 
 def test_islands_breed_only_among_themselves() -> None:
@@ -189,7 +193,8 @@ def test_compiled_generations_equal_the_python_loop_bit_for_bit(avoiding: bool) 
     from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
     from robot_app.vision.photo_model import make_model
     from robot_app.vision.poses import AvoidedPoses
-    from robot_app.vision.synthetic import render_model_photo, render_stereo_pair, synthetic_cloth
+    from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
+    from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
     camera = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
     rig = StereoRig(camera, camera, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))

@@ -94,6 +94,25 @@ def test_yaw_residual_is_taken_on_the_circle() -> None:
     assert update.estimate.yaw_rate > 0.0
 
 
+@pytest.mark.parametrize("turn_deg", [180.0, 90.0, -90.0])
+def test_a_symmetric_cloth_turned_by_its_symmetry_is_the_same_pose(turn_deg: float) -> None:
+    """A plain rectangle recognised half turned (or a square quarter turned) is no yaw jump
+    for a filter that knows the cloth's symmetry; it is one for a filter that does not."""
+    symmetry = (math.pi,) if abs(turn_deg) == 180.0 else (math.pi / 2, math.pi, -math.pi / 2)
+    knowing, unaware = PoseFilter(symmetry_angles=symmetry), PoseFilter()
+    start = PoseXYZYaw(0.4, 0.1, 0.0, math.radians(30.0))
+    for pose_filter in (knowing, unaware):
+        pose_filter.reset(start, t=0.0)
+    turned = PoseXYZYaw(0.4, 0.1, 0.0, math.radians(30.5 + turn_deg))
+    update = knowing.update(turned, fitness=0.9, t=0.1)
+    assert update.accepted and update.estimate is not None
+    assert 0.0 < wrap_angle(update.estimate.yaw - math.radians(30.0)) < math.radians(0.5)  # kept its branch
+    assert unaware.update(turned, fitness=0.9, t=0.1).reason is UpdateReason.YAW_JUMP
+    # a real 60 deg jump stays a jump for the knowing filter too
+    jumped = PoseXYZYaw(0.4, 0.1, 0.0, math.radians(90.0 + (turn_deg if abs(turn_deg) == 180.0 else 0.0)))
+    assert knowing.update(jumped, fitness=0.9, t=0.2).reason is UpdateReason.YAW_JUMP
+
+
 def test_outliers_and_low_fitness_are_rejected_and_counted() -> None:
     rng = np.random.default_rng(3)
     truth = np.array([0.0, 0.1, 0.01, -0.5])

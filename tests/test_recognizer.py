@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -12,16 +14,14 @@ from robot_app.geometry import (
     rotation_about_z,
     rotation_from_rpy,
     wrap_angle,
+    yaw_of,
 )
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
-from robot_app.vision.photo_model import ClothModel, make_model
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.photo_model import make_model
 from robot_app.vision.recognizer import RecognitionSettings, Recognizer
-from robot_app.vision.synthetic import (
-    occluder_covering,
-    render_model_photo,
-    render_stereo_pair,
-    synthetic_cloth,
-)
+from robot_app.vision.synthetic import occluder_covering, render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
 CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
@@ -137,10 +137,31 @@ def test_tracking_follows_a_moving_camera_with_few_evaluations() -> None:
         assert result.evaluations < 1500 and result.generations == 3
 
 
+def test_tracking_codes_only_the_region_its_window_reaches_and_finds_the_same() -> None:
+    left, right = render_stereo_pair(RIG, [(synthetic_cloth(3), POSE)], rng=np.random.default_rng(6))
+    motion = invert_transform(make_transform(rotation_about_z(0.02), [0.003, -0.002, 0.0]))
+    moved_left, moved_right = render_stereo_pair(
+        RIG, [(synthetic_cloth(3), motion @ POSE)], rng=np.random.default_rng(7)
+    )
+    results = []
+    for whole_images in (False, True):
+        recognizer = Recognizer(model(3), RIG)
+        recognizer.recognize(left, right, seed=0)
+        regions = recognizer.proposer.tracking_regions(motion)
+        width, height = RIG.image_size
+        assert all((box[2] - box[0] + 1) * (box[3] - box[1] + 1) < 0.8 * width * height for box in regions)
+        if whole_images:
+            recognizer.proposer.tracking_regions = lambda _motion: None  # type: ignore[method-assign]
+        results.append(recognizer.track(moved_left, moved_right, motion))
+    np.testing.assert_allclose(results[0].transform_model_to_camera, results[1].transform_model_to_camera)
+    assert results[0].fitness == results[1].fitness
+
+
 def test_wrong_image_size_is_bad_input() -> None:
     image = np.zeros((100, 100, 3), np.uint8)
-    with pytest.raises(InputError, match="320x240"):
+    with pytest.raises(InputError) as size:
         Recognizer(model(0), RIG).recognize(image, image)
+    assert (size.value.key, size.value.value) == ("left", (100, 100))
 
 
 def test_settings_reach_the_parts() -> None:
@@ -149,6 +170,7 @@ def test_settings_reach_the_parts() -> None:
             "propose": {"ga": {"population": 20, "generations": 5, "islands": 1}, "coarse_generations": 2,
                         "restarts": 0},
             "refine": {"enabled": False},
+            "depth": {"enabled": False},  # (it scores the poses it moves or searches again)
         }
     )  # fmt: skip
     left, right = render_stereo_pair(RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(6))
@@ -174,3 +196,44 @@ def test_garbage_collector_runs_again_after_a_recognition() -> None:
         assert not gc.isenabled()
     finally:
         gc.enable()
+
+
+def test_tracking_keeps_the_yaw_branch_of_the_predicted_pose() -> None:
+    """A plain rectangle scores the same half turned; tracking must not flip to the half
+    turn even when most of the poses it kept are half turned (they came from the one-shot
+    search, which explored both)."""
+    recognizer = Recognizer(model(0), RIG)
+    left, right = render_stereo_pair(RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(7))
+    recognizer.recognize(left, right, seed=0)
+    half_turn = np.diag([-1.0, -1.0, 1.0, 1.0])
+    kept = recognizer.proposer.kept_poses
+    predicted = make_transform(rotation_about_z(0.06), [0.002, -0.002, 0.0]) @ POSE  # a little off
+    recognizer.proposer.keep(predicted, np.repeat((POSE @ half_turn)[None], len(kept), axis=0))
+    for frame in range(3):
+        left, right = render_stereo_pair(
+            RIG, [(synthetic_cloth(0), POSE)], rng=np.random.default_rng(20 + frame)
+        )
+        result = recognizer.track(left, right, np.eye(4))
+        turned = abs(wrap_angle(yaw_of(result.transform_model_to_camera[:3, :3]) - yaw_of(POSE[:3, :3])))
+        assert turned < np.deg2rad(5.0), (
+            f"frame {frame}: tracking turned the cloth by {np.rad2deg(turned):.0f} deg"
+        )
+
+
+def test_tracking_starts_from_the_verified_pose_not_the_proposal(monkeypatch: pytest.MonkeyPatch) -> None:
+    """When verification prefers another pose than the GA's best (e.g. its half turn), the
+    next tracking frame starts from the verified pose."""
+    recognizer = Recognizer(model(2), RIG)
+    left, right = render_stereo_pair(RIG, [(synthetic_cloth(2), POSE)], rng=np.random.default_rng(8))
+    half_turn = np.diag([-1.0, -1.0, 1.0, 1.0])
+    choose = recognizer._most_confident
+
+    def prefer_the_half_turn(best, candidates, rng):  # what verification does on a flipped proposal
+        verified = choose(best, candidates, rng)
+        return dataclasses.replace(verified, pose=verified.pose @ half_turn)
+
+    monkeypatch.setattr(recognizer, "_most_confident", prefer_the_half_turn)
+    result = recognizer.recognize(left, right, seed=0)
+    kept = recognizer.proposer.kept_poses
+    assert kept is not None
+    np.testing.assert_allclose(kept[0], result.transform_model_to_camera, atol=1e-12)

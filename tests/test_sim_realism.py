@@ -12,13 +12,25 @@ import pybullet as pb
 import pytest
 
 from robot_app.cli import main
+from robot_app.console import InputWarning
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform
-from robot_app.sim import Lighting, ModelStation, SceneSettings, World, cloth_spec, make_scene, render_bgr
+from robot_app.sim import (
+    Lighting,
+    ModelStation,
+    SceneSettings,
+    World,
+    cameras,
+    cloth_spec,
+    make_scene,
+    render_bgr,
+)
+from robot_app.sim.cameras import gl_projection_matrix
 from robot_app.sim.cloth_visual import ClothLook, Fold, Ridge
 from robot_app.sim.config import StationSettings, WorldConfig, load_world_config
 from robot_app.sim.lighting import direction_from_angles
 from robot_app.sim.realism import PRESETS
+from robot_app.vision.camera import PinholeCamera
 
 DATA = Path(__file__).parent / "data"
 SMALL = {"cameras": {"image_size": (160, 120)}}
@@ -76,8 +88,20 @@ def test_cli_rejects_an_unknown_preset_with_exit_2(tmp_path: Path) -> None:
 # --- clean: the old images, bit for bit -----------------------------------------------
 
 
-def test_clean_reproduces_the_old_images_bit_for_bit() -> None:
-    # tests/data holds images rendered by the simulator before the realism settings existed
+def _pre_fix_projection(camera: PinholeCamera, near: float, far: float) -> list[float]:
+    """The renderer's projection before the principal-point fix (cx + 0.5, cy + 0.5 where the
+    fix has cx, cy + 1): the images in tests/data were rendered with it."""
+    K = camera.camera_matrix.copy()
+    K[0, 2] += 0.5
+    K[1, 2] -= 0.5
+    return gl_projection_matrix(PinholeCamera(K, camera.image_size, camera.dist_coeffs), near, far)
+
+
+def test_clean_reproduces_the_old_images_bit_for_bit(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`clean` adds nothing to the renderer: with the projection the old simulator had (its
+    principal point was later corrected by half a pixel, measured on rendered board
+    corners), a clean capture and station photo are the pre-realism images bit for bit."""
+    monkeypatch.setattr(cameras, "gl_projection_matrix", _pre_fix_projection)
     config = _config("clean", station=StationSettings(image_size=(160, 120)))
     with World(config) as world:
         make_scene(world, SceneSettings(target=3, distractor=4, occluder=True), seed=1)
@@ -258,12 +282,12 @@ def test_a_folded_corner_shows_the_darker_back_side_on_top() -> None:
             (np.linalg.inv(camera) @ np.c_[nodes, np.ones(len(nodes))].T).T[:, :3]
         )
         values = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY).astype(float)
-        flap_grey = np.mean([values[int(v), int(u)] for u, v in pixels[flap]])
+        flap_grey = np.mean([values[round(v), round(u)] for u, v in pixels[flap]])
         # front nodes beyond the part the flap covers stay visible
         along, line = fold.along(rest), fold.line(rest)
         far_front = along < 2 * line - along.max() - 0.01
         assert far_front.sum() >= 5
-        front_grey = np.mean([values[int(v), int(u)] for u, v in pixels[far_front]])
+        front_grey = np.mean([values[round(v), round(u)] for u, v in pixels[far_front]])
         assert flap_grey < 0.85 * front_grey
 
 
@@ -301,3 +325,30 @@ def test_same_scene_lays_identical_physics_in_every_realism() -> None:
             scene = make_scene(world, SceneSettings(target=5, distractor=9), seed=2)
             poses.append(make_transform(np.eye(3), scene.target.pose()[:3, 3]))
     np.testing.assert_allclose(poses[0], poses[1], atol=0.003)
+
+
+def test_realistic_presets_give_the_recogniser_a_calibrated_rig() -> None:
+    """realistic and harsh hand the recogniser the rig a simulated calibration measured;
+    clean and an explicit null keep the URDF truth; a size never calibrated warns."""
+    for realism in ("realistic", "harsh"):
+        config = load_world_config(None, (f"realism={realism}", "cameras.image_size=[320,240]"))
+        assert (
+            config.cameras.rig_file is not None
+            and config.cameras.rig_file.name == "rig_calibrated_320x240.yaml"
+        )
+    assert load_world_config(None, ("realism=clean",)).cameras.rig_file is None
+    assert load_world_config(None, ("realism=realistic", "cameras.rig_file=null")).cameras.rig_file is None
+    odd = load_world_config(None, ("realism=realistic", "cameras.image_size=[160,120]"))
+    assert odd.cameras.rig_file is None
+    with pytest.warns(InputWarning, match="no calibrated rig"), World(odd) as world:
+        assert world.stereo.rig is world.stereo.true_rig
+    config = load_world_config(None, ("realism=realistic", "cameras.image_size=[320,240]"))
+    with World(config) as world:
+        truth, used = world.stereo.true_rig, world.stereo.rig
+        assert used is not truth
+        # a calibration's errors, not the truth: focal lengths differ a little, not much
+        focal_error = abs(used.right.camera_matrix[0, 0] / truth.right.camera_matrix[0, 0] - 1.0)
+        assert 0.0 < focal_error < 0.005
+        assert used.transform_right_camera_to_hand is not None
+        offset = used.transform_right_camera_to_hand[:3, 3] - truth.transform_right_camera_to_hand[:3, 3]
+        assert 0.0 < np.linalg.norm(offset) < 0.002

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import typer
 
-from robot_app.commands import control, demo, experiments, model, sim, vision
+from robot_app.commands import calibrate, control, demo, experiments, model, sim, vision
 from robot_app.interrupts import interruptible
 
 
@@ -24,7 +24,7 @@ def register_all(app: typer.Typer) -> None:
     Every command is wrapped so that Ctrl-C or SIGTERM in its body exits with 128 +
     the signal (130, 143) and a one-line message.
     """
-    for module in (demo, model, vision, sim, control, experiments):
+    for module in (demo, model, vision, calibrate, sim, control, experiments):
         module.register(app)
     _make_interruptible(app)
 

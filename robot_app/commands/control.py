@@ -41,6 +41,14 @@ def pick_place(
         Path | None, typer.Option("--out", help="Results folder (default: results/pick_place-<time>).")
     ] = None,
     video: Annotated[Path | None, typer.Option("--video", help="Write an MP4 of the episode.")] = None,
+    record: Annotated[
+        Path | None,
+        typer.Option(
+            "--record",
+            help="Write a Rerun recording (.rrd) of the episode; open it with `rerun FILE.rrd` "
+            "(needs the viewer extra: pip install 'robot_app\\[viewer]').",
+        ),
+    ] = None,
     gui: Annotated[bool, typer.Option("--gui", help="Show pybullet's GUI (needs a display).")] = False,
     force: ForceOption = False,
     max_memory_gb: MaxMemoryOption = None,
@@ -52,11 +60,12 @@ def pick_place(
 
     Ctrl-C (or SIGTERM) stops it after the current control step: the results folder is
     written with outcome 'interrupted' and the phases so far, the video is closed
-    playable, and the exit code is 130 (143).
+    playable, the recording holds the episode up to the stop, and the exit code is 130 (143).
     """
     # here, not at the top: every `robot-app` command imports this module (pybullet, Pinocchio)
     from robot_app.control.episode import Outcome
     from robot_app.experiments.pick_place_episode import PickPlaceConfig, run_episode, write_episode
+    from robot_app.experiments.recording import require_rerun
 
     path = config if config is not None else (DEFAULT_CONFIG if DEFAULT_CONFIG.is_file() else None)
     settings = load_config(
@@ -65,6 +74,9 @@ def pick_place(
     # every output and resource checked before the cell is built: a bad path never costs an episode
     if video is not None:
         check_output_file(video, key="--video", suffixes=(".mp4",))
+    if record is not None:
+        require_rerun("--record")  # the optional extra: one line saying how to install it
+        check_output_file(record, key="--record", suffixes=(".rrd",))
     folder = (
         out if out is not None else unique_folder(Path("results") / time.strftime("pick_place-%Y%m%d-%H%M%S"))
     )
@@ -83,11 +95,14 @@ def pick_place(
             + "".join(f", {e}" for e in extras if e)
             + f"; {settings.world.cameras.image_size[0]}x{settings.world.cameras.image_size[1]} cameras"
         )
-        episode = run_episode(settings, gui=gui, on_phase=_print_phase, video_path=video, stop=stop.check)
+        episode = run_episode(
+            settings, gui=gui, on_phase=_print_phase, video_path=video, stop=stop.check, record_path=record
+        )
     write_episode(folder, settings, episode)
     r = episode.result
     if r.outcome is Outcome.INTERRUPTED:
         shown = f"; video (up to the stop): {video}" if video is not None and video.exists() else ""
+        shown += f"; recording (up to the stop): {record}" if record is not None and record.exists() else ""
         raise InterruptError(
             f"{r.reason}, {r.sim_time:.2f} s into the episode; results (outcome 'interrupted', "
             f"{len(r.phases)} phases) in {folder}{shown}",
@@ -104,7 +119,11 @@ def pick_place(
         f"limit violations {r.limit_report.violations} in {r.commanded_samples} commanded samples; "
         f"collisions {r.collisions}"
     )
-    typer.echo(f"results: {folder}" + (f", video: {video}" if video is not None else ""))
+    typer.echo(
+        f"results: {folder}"
+        + (f", video: {video}" if video is not None else "")
+        + (f", recording: {record} (open it with: rerun {record})" if record is not None else "")
+    )
     if not r.success:
         raise typer.Exit(1)
 

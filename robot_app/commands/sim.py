@@ -7,6 +7,7 @@ built.
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -31,7 +32,9 @@ def _overrides(realism: str | None, set_: list[str] | None) -> tuple[str, ...]:
 
 # The commands import pybullet and the simulator in their bodies: every `robot-app`
 # command imports this module to register them.
-sim_app = typer.Typer(help="The pybullet simulation: pictures, model photos, rig file.", no_args_is_help=True)
+sim_app = typer.Typer(
+    help="The pybullet simulation: pictures, model photos, rig file, calibration views.", no_args_is_help=True
+)
 
 
 @sim_app.command("show")
@@ -106,6 +109,40 @@ def rig(
     with World(world_config) as world, atomic_path(out) as rig_file:
         world.save_rig(rig_file)
     typer.echo(str(out))
+
+
+@sim_app.command("calibration-views")
+def calibration_views(
+    out: Annotated[Path, typer.Option("--out", help="New or empty folder for the views.")],
+    views: Annotated[int, typer.Option("--views", help="Image pairs to capture.")] = 40,
+    seed: Annotated[int, typer.Option("--seed", help="Seed of the camera poses.")] = 0,
+    config: ConfigOption = None,
+    set_: SetOption = None,
+) -> None:
+    """Board views for `robot-app calibrate`: a checkerboard on the table, the arm over it.
+
+    Writes left_<n>.png, right_<n>.png, robot_poses.csv (flange in base), board.yaml and
+    truth/rig.yaml (the URDF's rig, to compare a calibration with). The cameras are the
+    world config's (set world.cameras.image_size to the resolution you will run at).
+    """
+    from robot_app.sim import load_world_config
+    from robot_app.sim.calibration_views import CalibrationViewSettings, capture_calibration_views
+
+    world = load_world_config(config, tuple(set_ or ()))
+    settings = CalibrationViewSettings(views=views, seed=seed)
+    with typer.progressbar(length=views, label="capturing", file=sys.stderr) as bar:
+        result = capture_calibration_views(world, settings, out, progress=lambda done, total: bar.update(1))
+    typer.echo(
+        f"{result.count} views ({result.tried} camera poses tried) of a {settings.board.describe()} "
+        f"in {result.folder}"
+    )
+    typer.echo(
+        f"next: robot-app calibrate stereo --images {out} --board {out}/board.yaml --out {out}/rig.yaml"
+    )
+    typer.echo(
+        f"then: robot-app calibrate hand-eye --images {out} --robot-poses {out}/robot_poses.csv "
+        f"--rig {out}/rig.yaml --board {out}/board.yaml"
+    )
 
 
 def register(app: typer.Typer) -> None:

@@ -21,7 +21,7 @@ import numpy as np
 
 from robot_app.arrays import FloatArray
 from robot_app.control.cell import Cell, StereoCapture
-from robot_app.control.episode import RecognitionRecord, TrackingRecord
+from robot_app.control.episode import RecognitionRecord, TrackingRecord, VisionCycle
 from robot_app.control.grasp_point import visible_grasp_point
 from robot_app.control.intercept import GraspPath
 from robot_app.control.pose_filter import (
@@ -59,6 +59,8 @@ class ClothTracker:
             offsets 9 mm median, 57 mm p95 in a pilot run, against 1.5 / 3 with it).
         phase: returns the loop's current phase name (for the records).
         ground_truth: the cloth's true 4x4 pose in Σ_W now (simulation only).
+        on_recognition: called with each recognition's `VisionCycle` right after its row is
+            recorded (recordings, video overlays).
     """
 
     def __init__(
@@ -71,12 +73,14 @@ class ClothTracker:
         predict_motion: bool,
         phase: Callable[[], str],
         ground_truth: Callable[[], FloatArray] | None = None,
+        on_recognition: Callable[[VisionCycle], None] | None = None,
     ) -> None:
         self.cell = cell
         self.recognizer = recognizer
         self.model = recognizer.model
         self.pipeline = pipeline
-        self.filter = PoseFilter(filter_settings)
+        self.filter = PoseFilter(filter_settings, tuple(self.model.symmetry_angles))
+        self.on_recognition = on_recognition
         self.predict_motion = predict_motion
         self.phase = phase
         self.ground_truth = ground_truth
@@ -283,26 +287,35 @@ class ClothTracker:
                 "error_z_mm": error.z_mm,
                 "error_yaw_deg": error.yaw_deg,
             }
-        self.recognitions.append(
-            RecognitionRecord(
-                time=result.capture.time,
-                phase=self.phase(),
-                mode=result.mode,
-                found=bool(recognition.found),
-                fitness=float(recognition.fitness),
-                accepted=accepted,
-                reason=reason,
-                x=float(pose[0, 3]),
-                y=float(pose[1, 3]),
-                z=float(pose[2, 3]),
-                yaw=yaw_of(pose[:3, :3]),
-                evaluations=int(recognition.evaluations),
-                recognition_s=float(result.compute_s),
-                available_time=float(result.available_time),
-                dropped=bool(result.capture.dropped),
-                **errors,
-            )
+        record = RecognitionRecord(
+            time=result.capture.time,
+            phase=self.phase(),
+            mode=result.mode,
+            found=bool(recognition.found),
+            fitness=float(recognition.fitness),
+            accepted=accepted,
+            reason=reason,
+            x=float(pose[0, 3]),
+            y=float(pose[1, 3]),
+            z=float(pose[2, 3]),
+            yaw=yaw_of(pose[:3, :3]),
+            evaluations=int(recognition.evaluations),
+            recognition_s=float(result.compute_s),
+            available_time=float(result.available_time),
+            dropped=bool(result.capture.dropped),
+            **errors,
         )
+        self.recognitions.append(record)
+        if self.on_recognition is not None:
+            grasp_point = self.grasp_point_model.copy()
+            grasp_point.setflags(write=False)
+            world_pose = np.array(pose, dtype=float)
+            world_pose.setflags(write=False)
+            self.on_recognition(
+                VisionCycle(
+                    record, result.capture, recognition, world_pose, self.filter.estimate, nis, grasp_point
+                )
+            )
 
     def _note_exposure(self, capture: StereoCapture) -> None:
         """Keeps the true pose at an exposure (simulation): a recognition's error is against

@@ -7,12 +7,18 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from robot_app.arrays import FloatArray
 from robot_app.control.limits import LimitReport
 from robot_app.errors import RobotAppError
+
+if TYPE_CHECKING:
+    from robot_app.control.cell import StereoCapture
+    from robot_app.control.pose_filter import PoseEstimate
+    from robot_app.vision import Recognition
 
 
 class Phase(StrEnum):
@@ -151,7 +157,9 @@ class GraspRecord:
         held: hold measure the cell reported (nodes anchored; 0 = nothing).
         tcp_speed: commanded TCP speed at closure [m/s] (a moving cloth: about the belt's).
         offset_mm: TCP to the intended grasp point on the true cloth, in the cloth's plane
-            [mm] (None without ground truth).
+            [mm] (None without ground truth); for a symmetric cloth, the nearest of the
+            points its symmetric poses put there (the loop may have seen it turned).
+        offset_xy: the same offset as TCP minus that point, (x, y) in Σ_W [m].
     """
 
     attempt: int
@@ -159,6 +167,37 @@ class GraspRecord:
     held: int
     tcp_speed: float
     offset_mm: float | None = None
+    offset_xy: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
+class VisionCycle:
+    """One vision cycle as the loop lived it, handed to observers (recordings, videos, live views).
+
+    The loop calls `on_recognition(cycle)` once per row of `EpisodeResult.recognitions`, in
+    order, right after the row is made: the n-th call is the n-th row. Observers must not
+    keep mutable state of the loop; everything here is a value or a read-only array.
+
+    Attributes:
+        record: the row this cycle adds to the episode's recognitions.
+        capture: the stereo pair the recogniser looked at, with the right camera's pose at
+            capture (exposure) time.
+        recognition: the recogniser's full result (fitness, confidence, ^CR T_M, ...).
+        transform_model_to_world: (4, 4) the recognised pose of Σ_M in Σ_W [m] (turned onto
+            the filter's symmetry branch when tracking).
+        filtered: the pose filter's estimate after this cycle; None before its first fix.
+        nis: normalised innovation squared of this cycle's filter update [-]; NaN when the
+            filter computed none (a search, a (re)initialisation, a too low fitness).
+        grasp_point_model: (3,) the point the loop means to grasp, in Σ_M [m].
+    """
+
+    record: RecognitionRecord
+    capture: StereoCapture
+    recognition: Recognition
+    transform_model_to_world: FloatArray
+    filtered: PoseEstimate | None
+    nis: float
+    grasp_point_model: FloatArray
 
 
 @dataclass(frozen=True)
@@ -174,6 +213,7 @@ class EpisodeResult:
         strategy: the loop's strategy ("servo", "look_then_move").
         tracking: filtered-pose errors against the truth during APPROACH and DESCEND (sim).
         grasps: one record per closure of the gripper.
+        grasp_offsets: per grasp with ground truth, its `GraspRecord.offset_xy` [m].
     """
 
     outcome: Outcome
@@ -197,6 +237,10 @@ class EpisodeResult:
     strategy: str = Strategy.SERVO.value
     tracking: tuple[TrackingRecord, ...] = field(repr=False, default=())
     grasps: tuple[GraspRecord, ...] = ()
+
+    @property
+    def grasp_offsets(self) -> tuple[tuple[float, float], ...]:
+        return tuple(g.offset_xy for g in self.grasps if g.offset_xy is not None)
 
     @classmethod
     def not_started(cls, outcome: Outcome, reason: str, strategy: str) -> EpisodeResult:
@@ -302,5 +346,6 @@ __all__ = [
     "RecognitionRecord",
     "Strategy",
     "TrackingRecord",
+    "VisionCycle",
     "judge_success",
 ]

@@ -26,8 +26,12 @@ class LoopSettings(StrictModel):
         "null: each recognition's measured wall time",
     )
     search_attempts: int = Field(3, ge=1, description="one-shot GA runs before 'not present'")
-    candidate_fitness: float = Field(
-        0.3, ge=0.0, le=1.0, description="below 'found' but above this: centre the cameras on it, look again"
+    candidate_confidence: float = Field(
+        0.05,
+        ge=0.0,
+        le=1.0,
+        description="recognition confidence below 'found' (recognition.decide.threshold) but at least "
+        "this: centre the cameras on the candidate and look again",
     )
     max_observe_returns: int = Field(2, ge=0, description="returns to OBSERVE after losing the cloth")
     grasp_retries: int = Field(2, ge=0, description="new attempts after a missed grasp")

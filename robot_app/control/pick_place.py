@@ -35,6 +35,7 @@ from robot_app.control.episode import (
     Phase,
     PhaseRecord,
     Strategy,
+    VisionCycle,
     judge_success,
 )
 from robot_app.control.intercept import hanging_reach
@@ -46,11 +47,12 @@ from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.servo import CAMERA_FRAME, ServoStrategy
 from robot_app.control.vision_pipeline import VisionPipeline, VisionResult
 from robot_app.errors import IKError, InterruptError, TrajectoryError
-from robot_app.geometry import transform_points, yaw_of
+from robot_app.geometry import make_transform, rotation_about_z, transform_points, yaw_of
 from robot_app.vision import Recognizer
 
 PhaseCallback = Callable[[PhaseRecord], None]
 StepCallback = Callable[[Cell, StereoCapture | None], None]
+RecognitionCallback = Callable[[VisionCycle], None]
 
 
 class PickPlaceLoop:
@@ -70,6 +72,8 @@ class PickPlaceLoop:
         posture_seed: joints [rad] the observation IK starts from (e.g. the arm's home).
         on_phase: called with each finished phase (progress lines).
         on_step: called after every control step with the last capture (video).
+        on_recognition: called once per recognition, in order, with what the vision cycle
+            saw and concluded (`VisionCycle`: recordings, video overlays).
         ground_truth: returns the cloth's true 4x4 pose in Σ_W (simulation only), for the log.
         placed_fraction: returns the fraction of the cloth in the box at the end (simulation
             only); part of the success decision.
@@ -94,6 +98,7 @@ class PickPlaceLoop:
         posture_seed: npt.ArrayLike | None = None,
         on_phase: PhaseCallback | None = None,
         on_step: StepCallback | None = None,
+        on_recognition: RecognitionCallback | None = None,
         ground_truth: Callable[[], FloatArray] | None = None,
         placed_fraction: Callable[[], float] | None = None,
         target_present: bool = True,
@@ -129,6 +134,7 @@ class PickPlaceLoop:
             predict_motion=s.strategy is Strategy.SERVO,
             phase=lambda: self._current.value,
             ground_truth=ground_truth,
+            on_recognition=on_recognition,
         )
         self.strategy: ServoStrategy | LookThenMoveStrategy = (
             ServoStrategy(self.arm, self.tracker, s, self.table_z)
@@ -239,7 +245,7 @@ class PickPlaceLoop:
         for attempt in range(s.search_attempts):
             result = self._searched(seed=attempt)
             recognition = result.recognition
-            if not recognition.found and recognition.fitness >= s.candidate_fitness:
+            if not recognition.found and recognition.confidence >= s.candidate_confidence:
                 # A partial view (image border, occluder) scores low: look again with the
                 # cameras centred over the candidate before deciding.
                 self.tracker.take_search(result, candidate=True)
@@ -248,7 +254,8 @@ class PickPlaceLoop:
                 result = self._searched(seed=attempt + s.search_attempts)
             if self.tracker.take_search(result):
                 self._note = (
-                    f"found with fitness {result.recognition.fitness:.3f} (attempt {attempt + 1}), "
+                    f"found with confidence {result.recognition.confidence:.3f}, "
+                    f"fitness {result.recognition.fitness:.3f} (attempt {attempt + 1}), "
                     f"result {result.age * 1e3:.0f} ms after the exposure"
                 )
                 if s.strategy is Strategy.SERVO:  # a second look gives the cloth's velocity
@@ -279,20 +286,28 @@ class PickPlaceLoop:
         offset = self._grasp_offset()
         tcp_speed = float(np.linalg.norm(self.arm.tcp_velocity()))
         held = self.cell.grasp()
-        self.grasps.append(GraspRecord(self.grasp_attempts, self.cell.time, held, tcp_speed, offset))
-        shown = "" if offset is None else f", {offset:.1f} mm from the intended point"
+        mm, xy = offset if offset is not None else (None, None)
+        self.grasps.append(GraspRecord(self.grasp_attempts, self.cell.time, held, tcp_speed, mm, xy))
+        shown = "" if mm is None else f", {mm:.1f} mm from the intended point"
         self._note = f"attempt {self.grasp_attempts}: {held} hold points{shown}"
 
-    def _grasp_offset(self) -> float | None:
-        """TCP (measured joints) to the intended grasp point on the true cloth, in its plane [mm]."""
+    def _grasp_offset(self) -> tuple[float, tuple[float, float]] | None:
+        """TCP (measured joints) to the intended grasp point on the true cloth: the distance in
+        the cloth's plane [mm] and (x, y) in Σ_W [m]. For a symmetric cloth, the nearest of the
+        points its symmetric poses put there (the loop may have seen it turned)."""
         if self.ground_truth is None:
             return None
         truth = self.ground_truth()
-        intended = transform_points(truth, self.tracker.grasp_point_model[None])[0]
         tcp = self.arm.tcp_position(self.cell.joint_positions())
-        d = tcp - intended
         normal = truth[:3, 2]
-        return float(np.linalg.norm(d - (d @ normal) * normal) * 1e3)
+        best: tuple[float, tuple[float, float]] | None = None
+        for angle in (0.0, *self.model.symmetry_angles):
+            turned = truth @ make_transform(rotation_about_z(angle), np.zeros(3))
+            d = tcp - transform_points(turned, self.tracker.grasp_point_model[None])[0]
+            in_plane = float(np.linalg.norm(d - (d @ normal) * normal) * 1e3)
+            if best is None or in_plane < best[0]:
+                best = (in_plane, (float(d[0]), float(d[1])))
+        return best
 
     def _lift(self) -> bool:
         self.strategy.lift()

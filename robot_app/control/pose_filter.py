@@ -176,6 +176,12 @@ class PoseFilter:
 
     Times are absolute [s] and must not decrease between calls.
 
+    Args:
+        settings: the noise model and gates.
+        symmetry_angles: yaws [rad] under which the tracked cloth looks the same
+            (`ClothModel.symmetry_angles`); a measurement turned by one of them is the
+            same pose, not a yaw jump.
+
     Attributes:
         settings: the noise model and gates.
         accepted_count: measurements fused or used to (re)initialise.
@@ -183,8 +189,13 @@ class PoseFilter:
         consecutive_rejections: rejections since the last accepted measurement.
     """
 
-    def __init__(self, settings: PoseFilterSettings | None = None) -> None:
+    def __init__(
+        self, settings: PoseFilterSettings | None = None, symmetry_angles: tuple[float, ...] = ()
+    ) -> None:
         self.settings = settings or PoseFilterSettings()
+        # a measured yaw and these turns of it are the same cloth pose (a plain rectangle
+        # looks the same half turned): the update takes the one nearest the prediction
+        self._yaw_turns = np.unique(np.round([0.0, *symmetry_angles, *(-a for a in symmetry_angles)], 12))
         s = self.settings
         self._kf = KalmanFilter(dim_x=8, dim_z=4)
         self._kf.H = np.hstack([np.eye(4), np.zeros((4, 4))])
@@ -326,7 +337,10 @@ class PoseFilter:
             return self._accept(reason, math.nan)
         self.predict(t)
         kf = self._kf
-        z[_YAW] = kf.x[_YAW, 0] + wrap_angle(z[_YAW] - kf.x[_YAW, 0])  # nearest branch
+        # the nearest branch, and the nearest of the cloth's symmetric yaws
+        z[_YAW] = kf.x[_YAW, 0] + min(
+            (float(wrap_angle(z[_YAW] + turn - kf.x[_YAW, 0])) for turn in self._yaw_turns), key=abs
+        )
         innovation = z - (kf.H @ kf.x).ravel()
         R = kf.R if trusted else kf.R * self.settings.untrusted_std_scale**2
         S = kf.H @ kf.P @ kf.H.T + R

@@ -26,6 +26,9 @@ CLOTH_COUNT = 12
 
 ClothId = Annotated[int, Field(ge=1, le=CLOTH_COUNT)]
 
+NOT_IN_HASH = ("trials", "record")
+"""Config keys that do not decide a trial's result (a sweep resumed with other values goes on)."""
+
 
 class TrialSceneSettings(StrictModel):
     """The static scene of one trial, drawn from the trial's seed.
@@ -138,7 +141,7 @@ class _TrialConfigBase(StrictModel):
         if self.sweep is None:
             return self
         if not 0 <= point < len(self.sweep.values):
-            raise ConfigError(f"sweep point {point} out of range [0, {len(self.sweep.values)})")
+            raise ValueError(f"sweep point {point} out of range [0, {len(self.sweep.values)})")
         data = self.model_dump(mode="json")
         data.pop("sweep")
         value = self.sweep.values[point]
@@ -154,10 +157,12 @@ class _TrialConfigBase(StrictModel):
     def config_hash(self) -> str:
         """Stable hash of everything that decides the trials' results, except `trials`.
 
-        Leaving `trials` out lets a finished sweep be extended by resuming with more.
+        Leaving `trials` out lets a finished sweep be extended by resuming with more;
+        `record` (which episodes keep a recording) does not change a result either.
         """
         data = self.model_dump(mode="json")
-        data.pop("trials")
+        for key in NOT_IN_HASH:
+            data.pop(key, None)
         text = json.dumps(data, sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -186,12 +191,17 @@ class PickPlaceTrialConfig(_TrialConfigBase):
     Attributes:
         recognition: overrides of the recogniser's settings.
         pick_place: overrides of the pick-and-place loop's settings.
+        record: which episodes keep a Rerun recording in the results folder's
+            `recordings/` (its `recording` column names the file): `none`, `failures`
+            (the default: every failed episode can be replayed) or `all`. Needs the
+            `viewer` extra; without it the default is skipped with a warning.
     """
 
     kind: Literal["pick_place"] = "pick_place"
     source: Literal["synthetic", "sim"] = "sim"
     recognition: dict[str, Any] = Field(default_factory=dict)
     pick_place: dict[str, Any] = Field(default_factory=dict)
+    record: Literal["none", "failures", "all"] = "failures"
 
 
 TrialConfig = Annotated[RecognitionTrialConfig | PickPlaceTrialConfig, Field(discriminator="kind")]
@@ -240,6 +250,7 @@ def load_trial_config(path: str | Path, overrides: list[str] | tuple[str, ...] =
 
 __all__ = [
     "CLOTH_COUNT",
+    "NOT_IN_HASH",
     "AnyTrialConfig",
     "PickPlaceTrialConfig",
     "RecognitionTrialConfig",

@@ -96,11 +96,12 @@ class SyntheticSource:
 
     def __init__(self) -> None:
         from robot_app.vision import synthetic
+        from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
         self._synthetic = synthetic
         self.rig = hand_rig()
         self._model_camera = model_camera()
-        self._cloths = {k: synthetic.synthetic_cloth(k - 1) for k in range(1, 13)}
+        self._cloths = {k: synthetic_cloth(k - 1) for k in range(1, 13)}
         self._models: dict[int, ClothModel] = {}
 
     def model(self, cloth_id: int) -> ClothModel:

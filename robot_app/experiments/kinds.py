@@ -2,10 +2,15 @@
 
 from __future__ import annotations
 
+from functools import partial
 from pathlib import Path
 from typing import Literal
 
-from robot_app.experiments.experiment_config import AnyTrialConfig, RecognitionTrialConfig
+from robot_app.experiments.experiment_config import (
+    AnyTrialConfig,
+    PickPlaceTrialConfig,
+    RecognitionTrialConfig,
+)
 from robot_app.experiments.trial_result import TrialFunction
 from robot_app.experiments.trials import SweepResult, run_sweep
 from robot_app.resources import ResourceLimits
@@ -62,6 +67,12 @@ def run_trials(
         limits: resource limits for the trial count and workers (default limits if None).
     """
     trial_fn, outcome_type = trial_kind(config)
+    if isinstance(config, PickPlaceTrialConfig):
+        from robot_app.experiments.pick_place_trial import recordings_folder, run_pick_place_trial
+
+        recordings = recordings_folder(config, out_dir)
+        if recordings is not None:  # a module-level function with a path: still picklable
+            trial_fn = partial(run_pick_place_trial, recordings=recordings)
     on_finished = None
     if plots:
         from robot_app.experiments.report import plot_trial_folder

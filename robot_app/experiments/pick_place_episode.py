@@ -39,9 +39,10 @@ from robot_app.control import (
 )
 from robot_app.errors import ConfigError
 from robot_app.experiments.conveyor_check import conveyor_problem
+from robot_app.experiments.episode_views import EpisodeViews
+from robot_app.experiments.recording import require_rerun
 from robot_app.outputs import atomic_path, atomic_write_text, output_folder
 from robot_app.sim import (
-    EpisodeVideo,
     ModelStation,
     SceneSettings,
     SimCell,
@@ -127,6 +128,7 @@ def run_episode(
     on_phase: Callable[[PhaseRecord], None] | None = None,
     video_path: str | Path | None = None,
     stop: Callable[[], None] | None = None,
+    record_path: str | Path | None = None,
 ) -> Episode:
     """Runs one pick-and-place episode in a fresh simulated cell.
 
@@ -139,10 +141,15 @@ def run_episode(
             that fails with an error, or ends before its first frame, leaves no file.
         stop: called after every control step; raising `InterruptError` there ends the
             episode at that step with outcome INTERRUPTED (see `stop_at_safe_points`).
+        record_path: write a Rerun recording (.rrd) of the episode there (needs the
+            `viewer` extra, rerun-sdk). Like the video it is written under a temporary
+            name: whole, or absent if the episode fails with an error.
     """
     w = config.world
     if any(abs(v) > 1e-12 for v in (*w.robot.base_xyz, w.robot.base_yaw)):
         raise ConfigError("world.robot.base_xyz/base_yaw: the loop needs the robot base at the world origin")
+    if record_path is not None:
+        require_rerun()  # before the model and the cell: a missing extra never costs an episode
     kinematics = Kinematics.from_urdf(w.robot.urdf, "base_link", "tcp")
     limits = JointLimits.from_urdf(w.robot.urdf, config.trajectory)
     observation = observation_posture(
@@ -156,7 +163,10 @@ def run_episode(
     model = _make_target_model(config)
     with ExitStack() as stack:
         video_file = stack.enter_context(atomic_path(video_path)) if video_path is not None else None
-        return _run_in_cell(config, model, kinematics, limits, observation, gui, on_phase, video_file, stop)
+        record_file = stack.enter_context(atomic_path(record_path)) if record_path is not None else None
+        return _run_in_cell(
+            config, model, kinematics, limits, observation, gui, on_phase, video_file, record_file, stop
+        )
 
 
 def _run_in_cell(
@@ -168,6 +178,7 @@ def _run_in_cell(
     gui: bool,
     on_phase: Callable[[PhaseRecord], None] | None,
     video_file: Path | None,
+    record_file: Path | None,
     stop: Callable[[], None] | None,
 ) -> Episode:
     w = config.world
@@ -178,16 +189,29 @@ def _run_in_cell(
         wanted_body = scene.target if config.wanted == config.scene.target else scene.distractor
         cell = SimCell(world, grasp_radius=config.grasp_radius)
         recognizer = Recognizer(model, world.stereo.rig, _recognition_settings(config))
-        video = EpisodeVideo(world, cell, video_file) if video_file is not None else None
+        views = EpisodeViews(
+            world,
+            cell,
+            model,
+            limits,
+            video_file=video_file,
+            record_file=record_file,
+            ground_truth=wanted_body.pose if wanted_body is not None else None,
+            name=f"pick-place No.{config.wanted}, seed {config.seed}",
+        )
         nudge = _Nudger(world, scene.target, config.nudge) if config.nudge is not None else None
 
         def on_step(_cell: object, _capture: object) -> None:
             if nudge is not None:
                 nudge.tick(loop.current_phase)
-            if video is not None:
-                video.tick()
+            views.on_step(loop.current_phase.value)
             if stop is not None:
                 stop()  # a safe point: between two control steps, the video frame written
+
+        def on_phase_ended(record: PhaseRecord) -> None:
+            views.on_phase(record)
+            if on_phase is not None:
+                on_phase(record)
 
         judged = wanted_body if wanted_body is not None else scene.target
         loop = PickPlaceLoop(
@@ -201,18 +225,19 @@ def _run_in_cell(
             config.loop,
             config.filter,
             posture_seed=w.robot.home_joints,
-            on_phase=on_phase,
-            on_step=on_step if (video is not None or nudge is not None or stop is not None) else None,
+            on_phase=on_phase_ended,
+            on_step=on_step if (views.active or nudge is not None or stop is not None) else None,
+            on_recognition=views.on_recognition if views.active else None,
             ground_truth=wanted_body.pose if wanted_body is not None else None,
             placed_fraction=lambda: world.cloth_in_box(judged),
             target_present=present,
         )
         try:
             result = loop.run()
+            views.finish(result, world.time)
         finally:
-            if video is not None:
-                video.close()
-        if video is not None and video_file is not None and video.frames == 0:
+            views.close()
+        if video_file is not None and views.video_frames == 0:
             video_file.unlink(missing_ok=True)  # no frame, no playable video: leave none
         bx, by, bz = (float(v) for v in world.box.centre)
         return Episode(result, config.wanted, present, (bx, by, bz))

@@ -6,18 +6,29 @@ the target (cloth_ids[k % n]), the blue paper, the distractor and the drop heigh
 `absent_target` asks for a cloth that is not on the table. The simulator places the
 cloths itself (inside the recognition range), so `x_range_m`, `y_range_m` and
 `yaw_range_deg` do not apply here. The trial's seed seeds the scene and the GA.
+
+With `record: failures` (the default) or `all`, each episode is recorded (Rerun, the
+`viewer` extra) into the results folder's `recordings/`; a successful episode's
+recording is deleted under `failures`, and the row's `recording` column names the file
+that was kept, so a failed trial of a thousand can be replayed (`rerun FILE.rrd`).
 """
 
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from robot_app.config import apply_overrides, validate
+from robot_app.console import warn_input
+from robot_app.errors import InputError
 from robot_app.experiments.experiment_config import CLOTH_COUNT, PickPlaceTrialConfig
+from robot_app.experiments.recording import require_rerun
+
+RECORDINGS_FOLDER = "recordings"
 
 NAN = float("nan")
 
@@ -42,6 +53,7 @@ class PickPlaceOutcome:
             against the simulator's truth (NaN if unknown).
         sim_time_s: simulated duration [s].
         episode_wall_s: wall time of the loop [s].
+        recording: the episode's recording, relative to the results folder ("" if none kept).
     """
 
     cloth_id: int
@@ -60,6 +72,7 @@ class PickPlaceOutcome:
     error_yaw_deg: float
     sim_time_s: float
     episode_wall_s: float
+    recording: str = ""
 
 
 def episode_config(config: PickPlaceTrialConfig, scene_index: int, seed: int) -> Any:
@@ -99,12 +112,49 @@ def check_pick_place_config(config: PickPlaceTrialConfig) -> None:
     episode_config(config, 0, 0)
 
 
-def run_pick_place_trial(config: PickPlaceTrialConfig, scene_index: int, seed: int) -> PickPlaceOutcome:
-    """One closed-loop episode in a fresh simulated cell; deterministic in its seed."""
+def recordings_folder(config: PickPlaceTrialConfig, out_dir: str | Path) -> Path | None:
+    """Where the trials of `config` keep their recordings, or None (`record: none`).
+
+    Raises:
+        InputError: `record` was set in the config but rerun-sdk is not installed. Left at
+            its default (`failures`) without the extra, a warning says no recordings are kept.
+    """
+    if config.record == "none":
+        return None
+    try:
+        require_rerun(key="record")
+    except InputError as err:
+        if "record" in config.model_fields_set:
+            raise
+        warn_input(f"no recordings of failed episodes: {err}", key="record")
+        return None
+    return Path(out_dir) / RECORDINGS_FOLDER
+
+
+def run_pick_place_trial(
+    config: PickPlaceTrialConfig, scene_index: int, seed: int, recordings: Path | None = None
+) -> PickPlaceOutcome:
+    """One closed-loop episode in a fresh simulated cell; deterministic in its seed.
+
+    Args:
+        config: the trial config at its sweep point.
+        scene_index: the trial's scene (its target is `scene.cloth_ids[scene_index % n]`).
+        seed: the trial's seed.
+        recordings: folder for the episode's recording (see `recordings_folder`), or None.
+    """
     from robot_app.experiments.pick_place_episode import run_episode
 
-    episode = run_episode(episode_config(config, scene_index, seed))
+    path = None
+    if recordings is not None and config.record != "none":
+        path = Path(recordings) / f"scene{scene_index:06d}-{config.config_hash()[:8]}.rrd"
+    episode = run_episode(episode_config(config, scene_index, seed), record_path=path)
     result = episode.result
+    kept = ""
+    if path is not None and path.is_file():
+        if config.record == "failures" and result.success:
+            path.unlink()
+        else:
+            kept = f"{RECORDINGS_FOLDER}/{path.name}"
     first = result.recognitions[0] if result.recognitions else None
 
     def error(name: str) -> float:
@@ -128,7 +178,15 @@ def run_pick_place_trial(config: PickPlaceTrialConfig, scene_index: int, seed: i
         error_yaw_deg=error("error_yaw_deg"),
         sim_time_s=float(result.sim_time),
         episode_wall_s=float(result.wall_s),
+        recording=kept,
     )
 
 
-__all__ = ["PickPlaceOutcome", "check_pick_place_config", "episode_config", "run_pick_place_trial"]
+__all__ = [
+    "RECORDINGS_FOLDER",
+    "PickPlaceOutcome",
+    "check_pick_place_config",
+    "episode_config",
+    "recordings_folder",
+    "run_pick_place_trial",
+]

@@ -37,7 +37,7 @@ from robot_app.sim.robot import Contact, SimRobot
 from robot_app.sim.scene import Scene, make_scene
 from robot_app.sim.station import ModelStation, StationPhoto
 from robot_app.sim.stereo import StereoCamera
-from robot_app.sim.video import EpisodeVideo
+from robot_app.sim.video import EpisodeVideo, VisionOverlay
 from robot_app.sim.world import BoxGeometry, World, observation_camera_pose
 
 __all__ = [
@@ -70,6 +70,7 @@ __all__ = [
     "StationSettings",
     "StereoCamera",
     "StereoFrame",
+    "VisionOverlay",
     "World",
     "WorldConfig",
     "build_cloth_mesh",

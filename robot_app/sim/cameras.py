@@ -55,14 +55,16 @@ def gl_view_matrix(transform_camera_to_world: npt.ArrayLike) -> list[float]:
 def gl_projection_matrix(camera: PinholeCamera, near: float, far: float) -> list[float]:
     """pybullet projection matrix (16 floats, column-major) reproducing `camera`'s intrinsics.
 
-    OpenCV pixel centres are at integer coordinates, GL's at half-integers: the principal
-    point is shifted by half a pixel so both agree.
+    pybullet's TinyRenderer samples pixel i at the integer window coordinate i, as OpenCV
+    does, but numbers rows from the bottom: image row r is window row H - 1 - r. So the
+    principal point keeps its x and moves one pixel in y (measured on rendered
+    checkerboard corners: the earlier +0.5, +0.5 put every pixel 0.5 px off in both axes).
     """
     if not 0 < near < far:
         raise CalibrationError(f"need 0 < near < far [m], got near={near}, far={far}")
     width, height = camera.image_size
     K = camera.camera_matrix
-    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2] + 0.5, K[1, 2] + 0.5
+    fx, fy, cx, cy = K[0, 0], K[1, 1], K[0, 2], K[1, 2] + 1.0
     P = np.array(
         [
             [2 * fx / width, 0.0, 1.0 - 2 * cx / width, 0.0],

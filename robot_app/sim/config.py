@@ -96,12 +96,28 @@ class ObservationSettings(StrictModel):
 
 
 class CameraSettings(StrictModel):
-    """Hand cameras: ideal pinholes from a resolution and a horizontal field of view."""
+    """Hand cameras: ideal pinholes from a resolution and a horizontal field of view.
+
+    `rig_file`: a stereo rig YAML (e.g. from `robot-app calibrate`) that the recogniser and
+    the loop use instead of the URDF's cameras; None uses the truth. Rendering always
+    uses the true cameras.
+    """
 
     image_size: tuple[int, int] = (640, 480)
     hfov_deg: float = Field(48.0, gt=1.0, lt=170.0)
     near: float = Field(0.02, gt=0.0)
     far: float = Field(3.0, gt=0.0)
+    rig_file: Path | None = Field(
+        None, description="calibrated rig YAML the recogniser and loop use; None = the URDF truth"
+    )
+
+    @field_validator("rig_file")
+    @classmethod
+    def _resolve_rig_file(cls, value: Path | None) -> Path | None:
+        """A relative path is taken from the current folder, else from the repository root."""
+        if value is None or value.is_absolute() or value.is_file():
+            return value
+        return REPO_ROOT / value
 
     @field_validator("image_size")
     @classmethod

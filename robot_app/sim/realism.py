@@ -22,6 +22,7 @@ Where the `realistic` and `harsh` numbers come from (typical values, not one pro
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import BaseModel, Field, field_validator
@@ -31,6 +32,8 @@ from robot_app.config import StrictModel
 Realism = Literal["clean", "realistic", "harsh"]
 REALISM_NAMES: tuple[str, ...] = ("clean", "realistic", "harsh")
 DEFAULT_REALISM: Realism = "realistic"
+CONFIGS = Path(__file__).resolve().parents[2] / "configs"
+DEFAULT_IMAGE_SIZE = (640, 480)  # CameraSettings.image_size's default
 
 Vec3 = tuple[float, float, float]
 AngleRange = tuple[float, float]
@@ -238,10 +241,30 @@ PRESETS: dict[str, dict[str, dict[str, Any]]] = {
 PRESET_SECTIONS = ("lighting", "imaging", "appearance")
 
 
+CALIBRATED_RIG_PRESETS = ("realistic", "harsh")
+"""Presets whose recogniser and loop get the rig a simulated calibration measured (through
+the preset's camera model: `robot-app sim calibration-views` then `robot-app calibrate`),
+not the URDF truth; `clean` keeps the truth."""
+
+
+def calibrated_rig_file(image_size: Any) -> Path | None:
+    """`configs/rig_calibrated_<w>x<h>.yaml` for cameras of that size, if it was made."""
+    try:
+        width, height = (int(v) for v in image_size)
+    except (TypeError, ValueError):
+        return None
+    path = CONFIGS / f"rig_calibrated_{width}x{height}.yaml"
+    return path if path.is_file() else None
+
+
 def fill_preset_defaults(data: Any) -> Any:
     """Returns the raw `world` mapping with the preset's values under the keys it leaves unset.
 
-    Unknown presets and non-mappings are returned unchanged, for validation to report.
+    Besides the `lighting`, `imaging` and `appearance` keys, the realistic and harsh
+    presets set `cameras.rig_file` (when it is not given, even as null) to the calibrated
+    rig of the cameras' size; a size that was never calibrated keeps the URDF truth (the
+    stereo camera warns when a cell is built). Unknown presets and non-mappings are
+    returned unchanged, for validation.
     """
     if not isinstance(data, dict):
         return data
@@ -256,6 +279,15 @@ def fill_preset_defaults(data: Any) -> Any:
         if given is not None and not isinstance(given, dict):
             continue
         filled[section] = _merge(PRESETS[name][section], given or {})
+    cameras = data.get("cameras")
+    if name in CALIBRATED_RIG_PRESETS and (cameras is None or isinstance(cameras, dict)):
+        cameras = dict(cameras or {})
+        if "rig_file" not in cameras:
+            size = cameras.get("image_size", DEFAULT_IMAGE_SIZE)
+            rig_file = calibrated_rig_file(size)
+            if rig_file is not None:  # else the truth (the cell warns when it is built)
+                cameras["rig_file"] = rig_file
+                filled["cameras"] = cameras
     return filled
 
 
@@ -276,6 +308,7 @@ def _merge(defaults: dict[str, Any], given: dict[str, Any]) -> dict[str, Any]:
 
 
 __all__ = [
+    "CALIBRATED_RIG_PRESETS",
     "DEFAULT_REALISM",
     "PRESETS",
     "REALISM_NAMES",
@@ -285,6 +318,7 @@ __all__ = [
     "Realism",
     "StationImagingSettings",
     "StationLightingSettings",
+    "calibrated_rig_file",
     "fill_preset_defaults",
     "scene_defaults",
 ]

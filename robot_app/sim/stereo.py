@@ -16,6 +16,8 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
+from robot_app.console import warn_input
+from robot_app.errors import ConfigError, RobotAppError
 from robot_app.geometry import invert_transform
 from robot_app.sim.cameras import (
     HAND_FRAME,
@@ -28,7 +30,8 @@ from robot_app.sim.cameras import (
 from robot_app.sim.config import WorldConfig
 from robot_app.sim.imaging import CameraModel, FrameClock, image_motion
 from robot_app.sim.lighting import ShadowMap, draw_lighting, shade_shadows
-from robot_app.vision.camera import PinholeCamera, StereoRig, save_rig
+from robot_app.sim.realism import CALIBRATED_RIG_PRESETS, calibrated_rig_file
+from robot_app.vision.camera import PinholeCamera, StereoRig, load_rig, save_rig
 
 if TYPE_CHECKING:
     from robot_app.sim.robot import SimRobot
@@ -46,8 +49,11 @@ class _Clock(Protocol):
 class StereoCamera:
     """The two hand cameras, rendered at the robot's `camera_*_optical` frames.
 
-    The rig (intrinsics from the config, extrinsics from the URDF) is what a calibration
-    would give; `save_rig` writes the file the recogniser reads.
+    `true_rig` (intrinsics from the config, extrinsics from the URDF) is what the
+    renderer draws and `save_rig` writes. `rig` is what the recogniser and the loop are
+    given: the truth, or the rig of `world.cameras.rig_file` (a calibration); with a rig
+    file, a capture's camera pose is the measured flange pose times its camera-to-hand
+    transform, as a real controller would compute it.
 
     Args:
         client: pybullet client id.
@@ -69,12 +75,22 @@ class StereoCamera:
         left = robot.frame_pose(LEFT_FRAME)
         right = robot.frame_pose(RIGHT_FRAME)
         hand = robot.frame_pose(HAND_FRAME)
-        self.rig = StereoRig(
+        self.true_rig = StereoRig(
             camera,
             camera,
             invert_transform(right) @ left,
             invert_transform(hand) @ right,
         )
+        rig_file = config.cameras.rig_file
+        self.rig = self.true_rig if rig_file is None else _calibrated_rig(rig_file, config.cameras.image_size)
+        size = config.cameras.image_size
+        uncalibrated = config.realism in CALIBRATED_RIG_PRESETS and calibrated_rig_file(size) is None
+        if rig_file is None and uncalibrated:
+            warn_input(
+                f"world.realism={config.realism}: no calibrated rig for {list(size)} px cameras "
+                "(configs/rig_calibrated_<w>x<h>.yaml); the recogniser gets the URDF's true cameras",
+                key="world.cameras.rig_file",
+            )
         self.lighting: Lighting = draw_lighting(config.lighting)
         white_point = config.lighting.key_rgb
         self._models = (
@@ -93,7 +109,7 @@ class StereoCamera:
         """Captures both cameras at the robot's current pose."""
         time = self._clock.time
         poses = (self._robot.frame_pose(LEFT_FRAME), self._robot.frame_pose(RIGHT_FRAME))
-        cameras = (self.rig.left, self.rig.right)
+        cameras = (self.true_rig.left, self.true_rig.right)
         shadow_map = self.shadow_map(cameras, poses) if self._config.lighting.shadows else None
         images = []
         frames = (LEFT_FRAME, RIGHT_FRAME)
@@ -107,11 +123,14 @@ class StereoCamera:
             image, _ = model.expose(image, time, blur)
             images.append(image)
         timing = self._frame_clock.timing(time)
-        return StereoFrame(images[0], images[1], time, poses[1], timing.available_time, timing.dropped)
+        right_pose = poses[1]
+        if self.rig is not self.true_rig and self.rig.transform_right_camera_to_hand is not None:
+            right_pose = self._robot.frame_pose(HAND_FRAME) @ self.rig.transform_right_camera_to_hand
+        return StereoFrame(images[0], images[1], time, right_pose, timing.available_time, timing.dropped)
 
     def save_rig(self, path: str | Path) -> Path:
-        """Writes the rig YAML (docs/architecture.md format) and returns its path."""
-        save_rig(self.rig, path)
+        """Writes the true rig YAML (docs/architecture.md format) and returns its path."""
+        save_rig(self.true_rig, path)
         return Path(path)
 
     def shadow_map(
@@ -162,6 +181,32 @@ def table_footprint(camera: PinholeCamera, pose: npt.ArrayLike, table_z: float) 
     hits = (reach > 0) & np.isfinite(reach)
     reach = np.where(hits, np.minimum(reach, MAX_FOOTPRINT_RANGE), MAX_FOOTPRINT_RANGE)
     return origin + rays * reach[:, None]
+
+
+def _calibrated_rig(path: Path, image_size: tuple[int, int]) -> StereoRig:
+    """The rig of a `rig_file` setting, checked against the cameras it stands for."""
+    key, value = "world.cameras.rig_file", str(path)
+    try:
+        rig = load_rig(path)
+    except RobotAppError as err:
+        raise ConfigError(f"{key}: {err}", key=key, value=value, path=path) from err
+    if rig.image_size != tuple(image_size):
+        raise ConfigError(
+            f"{key}: {path} is a rig for {list(rig.image_size)} px images but the cameras are "
+            f"{list(image_size)} px (calibrate at the resolution the cameras run at)",
+            key=key,
+            value=value,
+            path=path,
+            expected=f"a rig with image_size {list(image_size)}",
+        )
+    if rig.transform_right_camera_to_hand is None:
+        raise ConfigError(
+            f"{key}: {path} has no transform_right_camera_to_hand (run robot-app calibrate hand-eye)",
+            key=key,
+            value=value,
+            path=path,
+        )
+    return rig
 
 
 __all__ = ["StereoCamera", "table_footprint"]

@@ -9,11 +9,13 @@ from robot_app.vision.camera import (
     save_model_camera,
     save_rig,
 )
-from robot_app.vision.decide import Decision, DecisionSettings, confidence, decide
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.decide import Decision, DecisionSettings, Evidence, confidence, decide
 from robot_app.vision.exposure import ExposureSettings, sheet_gains
-from robot_app.vision.fitness import FitnessEvaluator, FitnessSettings, KernelFitness
+from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
+from robot_app.vision.fitness_scores import FitnessSettings
 from robot_app.vision.full_search import FitnessPeak, FullSearchResult, find_peaks, full_search
-from robot_app.vision.ga import GAResult, GASettings, GeneticAlgorithm, SearchBounds
+from robot_app.vision.ga import GAResult, GASettings, GeneticAlgorithm, SearchBoundsSettings
 from robot_app.vision.hue import (
     DARK,
     LIGHT,
@@ -24,22 +26,25 @@ from robot_app.vision.hue import (
     to_hsv,
     to_hue,
 )
-from robot_app.vision.photo_model import ClothModel, ModelSettings, load_photo, make_model
+from robot_app.vision.outline import ProjectedOutline, draw_outline, model_outline, project_outline
+from robot_app.vision.photo_model import ModelSettings, load_photo, make_model
 from robot_app.vision.plots import plot_full_search, save_preview
 from robot_app.vision.poses import AvoidedPoses, PoseLimits
-from robot_app.vision.propose import Candidate, Proposal, ProposalSettings, Proposer, TrackingSettings
-from robot_app.vision.recognizer import Peak, Recognition, RecognitionSettings, Recognizer
+from robot_app.vision.propose import Candidate, Proposal, ProposalSettings, Proposer
+from robot_app.vision.recognition import Peak, Recognition
+from robot_app.vision.recognizer import RecognitionSettings, Recognizer
 from robot_app.vision.refinement import Refinement, RefinementSettings, Refiner, cma_search, compass_search
 from robot_app.vision.sampling import ModelSamples, sample_model
+from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
 from robot_app.vision.synthetic import (
-    CATALOGUE_SIZE,
     SyntheticCloth,
     model_photo_transform,
     occluder_covering,
     render_model_photo,
     render_stereo_pair,
-    synthetic_cloth,
 )
+from robot_app.vision.synthetic_catalogue import CATALOGUE_SIZE, synthetic_cloth
+from robot_app.vision.tracking_window import TrackingSettings
 from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
 __all__ = [
@@ -51,6 +56,9 @@ __all__ = [
     "ClothModel",
     "Decision",
     "DecisionSettings",
+    "DepthCheckSettings",
+    "DepthMeasurement",
+    "Evidence",
     "ExposureSettings",
     "FitnessEvaluator",
     "FitnessPeak",
@@ -66,6 +74,7 @@ __all__ = [
     "Peak",
     "PinholeCamera",
     "PoseLimits",
+    "ProjectedOutline",
     "Proposal",
     "ProposalSettings",
     "Proposer",
@@ -75,7 +84,8 @@ __all__ = [
     "Refinement",
     "RefinementSettings",
     "Refiner",
-    "SearchBounds",
+    "SearchBoundsSettings",
+    "StereoDepth",
     "StereoRig",
     "SyntheticCloth",
     "TrackingSettings",
@@ -89,6 +99,7 @@ __all__ = [
     "compass_search",
     "confidence",
     "decide",
+    "draw_outline",
     "find_peaks",
     "full_search",
     "hue_distance",
@@ -96,9 +107,11 @@ __all__ = [
     "load_photo",
     "load_rig",
     "make_model",
+    "model_outline",
     "model_photo_transform",
     "occluder_covering",
     "plot_full_search",
+    "project_outline",
     "render_model_photo",
     "render_stereo_pair",
     "sample_model",

@@ -11,15 +11,14 @@ a third darker or brighter or tinted by 12 % per channel.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import numpy.typing as npt
 from pydantic import Field
 
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
-from robot_app.vision.hue import hue_distance
-from robot_app.vision.photo_model import ClothModel
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.hue import hue_distance, to_hsv
 
 
 class ExposureSettings(StrictModel):
@@ -56,14 +55,24 @@ def sheet_gains(
     if not settings.enabled or model.sheet_bgr is None:
         return np.ones(3)
     sample = np.ascontiguousarray(np.asarray(image_bgr)[:: settings.step, :: settings.step])
-    hsv = cv2.cvtColor(sample, cv2.COLOR_BGR2HSV_FULL).reshape(-1, 3)
+    hsv = to_hsv(sample).reshape(-1, 3)
     sheet = (hsv[:, 1] >= settings.min_saturation) & (
         hue_distance(hsv[:, 0], model.background_hue) <= settings.hue_tolerance
     )
     if sheet.sum() < max(settings.min_share * len(hsv), 3):
         return np.ones(3)
-    scene = np.maximum(np.median(sample.reshape(-1, 3)[sheet].astype(float), axis=0), 1.0)
+    scene = np.maximum(_channel_medians(sample.reshape(-1, 3)[sheet]), 1.0)
     return np.clip(np.asarray(model.sheet_bgr) / scene, 1.0 / settings.max_gain, settings.max_gain)
+
+
+def _channel_medians(pixels: npt.NDArray[np.uint8]) -> FloatArray:
+    """(3,) median of each channel of (N, 3) uint8 pixels (the lower median), by histogram."""
+    out = np.empty(3)
+    half = (len(pixels) + 1) // 2
+    for k in range(3):
+        counts = np.bincount(pixels[:, k], minlength=256)
+        out[k] = float(np.searchsorted(np.cumsum(counts), half))
+    return out
 
 
 __all__ = ["ExposureSettings", "sheet_gains"]

@@ -1,23 +1,9 @@
-"""The matching fitness of the paper (eqs. 9-11), evaluated for a population of poses at once.
+"""The matching fitness of the paper (eq. 11), evaluated for a population of poses at once.
 
-For a pose ^CR T_M the model points are projected into both images (eq. 8) and each one
-scores by the hue of the pixel it lands on (nearest pixel, as in the paper):
-
-- S_in point with model hue H_M (eq. 9): `score_in_match` (2) if the image hue is within
-  `hue_threshold_in` (30) of H_M, else `score_in_background` (-0.005) if it is within 30
-  of the background hue H̄_B, else `score_in_other` (0);
-- S_out point (eq. 10): `score_out_background` (0.1) if the image hue is within
-  `hue_threshold_out` (20) of H̄_B, else `score_out_other` (-0.5).
-
-Hue differences are taken on the circle (HSV_FULL, 256 steps per turn). Beyond the paper,
-a pixel without hue (`min_saturation`, `min_value`) has a tone, DARK or LIGHT
-(`robot_app.vision.hue`), and so may an S_in point (`ModelSettings.tones`): a tone point
-matches a pixel of its tone as a hue point matches its hue; a hue point on a toned
-pixel, or a tone point on another tone, scores `score_in_other`; an S_out point on a
-toned pixel `score_out_other`. With the defaults (`min_saturation` 0) every pixel has
-its hue, as in the paper. F = (F_R + F_L) / 2
-(eq. 11) is reported divided by its maximum, so that a perfect match is 1.0. Points that
-fall outside an image (or behind a camera) contribute nothing to that image's sum.
+Each model point scores by `fitness_scores.py` (eqs. 9-10) at the pixel it lands on
+(`pixel_codes.py`); F = (F_R + F_L) / 2 (eq. 11) is reported divided by its maximum, so
+that a perfect match is 1.0. Points that fall outside an image (or behind a camera)
+contribute nothing to that image's sum.
 
 Which maximum (`FitnessSettings.normalisation`):
 - "model" (the paper): 2·N_in + 0.1·N_out with the default scores, over all points in
@@ -30,207 +16,28 @@ Which maximum (`FitnessSettings.normalisation`):
   cloth partly out of view is 1.0; a pose with less than that fraction in view scores
   in proportion to the points in view.
 
-With `hidden_foreign` (the recognizer's search uses it), a point on a pixel of a foreign
-hue (neither the background's nor near any of the model's hues: a blue sheet over the
-cloth, a cloth of other colours) is taken as hidden, like a point off the image: it
-scores 0 and leaves the divisor. A cloth 45 % under a sheet then matches fully at its
-true pose, and a smaller (farther) pose that squeezes the model into the visible part
-is worse, because its S_out band lands on the cloth. Without it the smaller pose wins:
-the fitness counts model points, and a smaller model fits more of them onto the visible
-part.
+With `hidden_foreign` (the recognizer's search uses it) a point on a foreign colour is
+hidden: it scores 0 and leaves the divisor. A cloth 45 % under a sheet then matches fully
+at its true pose, and a smaller (farther) pose that squeezes the model into the visible
+part is worse, because its S_out band lands on the cloth. Without it the smaller pose
+wins: the fitness counts model points, and a smaller model fits more of them onto the
+visible part.
 """
 
 from __future__ import annotations
 
-import functools
-from typing import Literal, NamedTuple
+from typing import NamedTuple
 
-import cv2
 import numpy as np
 import numpy.typing as npt
-from pydantic import Field, model_validator
 
 from robot_app.arrays import FloatArray
-from robot_app.config import StrictModel
-from robot_app.errors import InputError
-from robot_app.vision.camera import PinholeCamera, StereoRig
-from robot_app.vision.fitness_kernels import (
-    bgr_codes,
-    every_colour,
-    gain_levels,
-    hsv_codes,
-    normalised,
-    score_poses,
-)
-from robot_app.vision.hue import COLOUR_CODES, DARK, HUE_RANGE, LIGHT, colours_match, to_hsv
-from robot_app.vision.photo_model import ClothModel
+from robot_app.vision.camera import StereoRig
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.fitness_kernels import normalised, score_poses
+from robot_app.vision.fitness_scores import COLUMNS, OUTSIDE_ROW, FitnessSettings, score_table, seen_table
+from robot_app.vision.pixel_codes import checked_image, pixel_codes
 from robot_app.vision.poses import AvoidedPoses, as_poses
-
-OFF_IMAGE = COLOUR_CODES  # code of the frame around each image that off-image points read: scores 0
-OUTSIDE_ROW = COLOUR_CODES  # table row of S_out points; rows 0-257 are S_in points by colour code
-_COLUMNS = COLOUR_CODES + 1  # pixel codes: hues 0-255, DARK, LIGHT, OFF_IMAGE
-
-
-class FitnessSettings(StrictModel):
-    """Constants of eqs. 9-10; the defaults are the paper's.
-
-    Attributes:
-        score_in_match: S_in point on a pixel of its own hue.
-        score_in_background: S_in point on a background-hued pixel.
-        score_in_other: S_in point on any other pixel.
-        score_out_background: S_out point on a background-hued pixel.
-        score_out_other: S_out point on any other pixel.
-        hue_threshold_in: hue tolerance of eq. 9 [HSV_FULL steps, 0-128].
-        hue_threshold_out: hue tolerance of eq. 10 [HSV_FULL steps, 0-128].
-        min_saturation: pixels with saturation below this (0-255) have no hue but a tone
-            (DARK / LIGHT): they match neither a model hue nor the background, only model
-            points of their tone. 0 (the paper) gives every pixel a hue.
-        min_value: pixels with value below this (0-255) have no hue either (the
-            saturation of a dark pixel is mostly noise). 0: the paper.
-        value_split: a pixel without hue is DARK below this value, else LIGHT; the model's
-            (`ModelSettings.value_split`) should be the same.
-        score_out_foreign: S_out point on a pixel whose hue is neither background nor
-            within `hue_threshold_in` of any of the model's hues (a blue sheet over a red
-            cloth, a cloth of another colour). None (the paper): `score_out_other`. The
-            paper's -0.5 there makes an occluder push the model away from it; the
-            recognizer searches with 0 (RecognitionSettings.search_out_foreign).
-        normalisation: "model" divides by the maximum of all points (the paper), "view" by
-            the maximum of the points that land on the images (see the module docstring).
-        min_view_fraction: with "view", the divisor is at least this fraction of the
-            model's maximum.
-        hidden_foreign: with "view", points on a foreign hue score 0 and leave the
-            divisor (hidden, see the module docstring); `score_out_foreign` is then unused.
-        model_hue_min_share: for the foreign-hue test, a model hue counts if at least this
-            share of the S_in points have it.
-        hidden_penalty: with "view", subtracted times the share of the model's maximum
-            that is not seen (off the images or hidden). Hiding then costs a little, so a
-            cloth in full view beats the same model laid over another cloth that shares
-            some of its hues (whose other hues would be "hidden"); 45 % hidden under a
-            sheet still beats a smaller pose squeezed onto the visible part.
-    """
-
-    score_in_match: float = Field(default=2.0, gt=0)
-    score_in_background: float = -0.005
-    score_in_other: float = 0.0
-    score_out_background: float = Field(default=0.1, ge=0)
-    score_out_other: float = -0.5
-    hue_threshold_in: int = Field(default=30, ge=0, le=128)
-    hue_threshold_out: int = Field(default=20, ge=0, le=128)
-    min_saturation: int = Field(default=0, ge=0, le=255)
-    min_value: int = Field(default=0, ge=0, le=255)
-    value_split: int = Field(default=128, ge=1, le=255)
-    score_out_foreign: float | None = None
-    normalisation: Literal["model", "view"] = "view"
-    min_view_fraction: float = Field(default=0.5, gt=0.0, le=1.0)
-    hidden_foreign: bool = False
-    model_hue_min_share: float = Field(default=0.01, ge=0.0, le=1.0)
-    hidden_penalty: float = Field(default=0.0, ge=0.0, le=1.0)
-
-    @model_validator(mode="after")
-    def _scores_ordered(self) -> FitnessSettings:
-        if self.score_in_match < max(self.score_in_background, self.score_in_other):
-            raise ValueError("score_in_match must be the largest S_in score")
-        if self.score_out_background < self.score_out_other:
-            raise ValueError("score_out_background must be at least score_out_other")
-        if self.hidden_foreign and self.normalisation != "view":
-            raise ValueError('hidden_foreign needs normalisation "view"')
-        return self
-
-
-def score_table(
-    background_hue: float, params: FitnessSettings, model_hues: npt.ArrayLike | None = None
-) -> npt.NDArray[np.float32]:
-    """(259, 259) table of eqs. 9-10: row = model colour code 0-257 (hue, DARK, LIGHT) or 258
-    (S_out), column = pixel code.
-
-    Pixel codes are hues 0-255, `DARK`, `LIGHT` and `OFF_IMAGE` (always 0).
-
-    Args:
-        background_hue: H̄_B [HSV_FULL, 0-256).
-        params: scores and thresholds.
-        model_hues: the model's S_in colour codes; needed only for `params.score_out_foreign`
-            and `params.hidden_foreign`.
-    """
-    codes = np.arange(COLOUR_CODES)
-    d_background = _background_distance(background_hue)  # tones: never the background
-    match = colours_match(codes[:, None], codes[None, :], params.hue_threshold_in)  # (model, pixel)
-    table = np.zeros((COLOUR_CODES + 1, _COLUMNS), dtype=np.float32)
-    inside = np.where(
-        d_background <= params.hue_threshold_in, params.score_in_background, params.score_in_other
-    )
-    table[:COLOUR_CODES, :COLOUR_CODES] = np.where(match, params.score_in_match, inside[None, :])
-    table[OUTSIDE_ROW, :COLOUR_CODES] = np.where(
-        d_background <= params.hue_threshold_out, params.score_out_background, params.score_out_other
-    )
-    if params.score_out_foreign is not None and model_hues is not None:
-        foreign = _foreign_hues(background_hue, params, model_hues, params.hue_threshold_out)
-        table[OUTSIDE_ROW, :COLOUR_CODES][foreign] = params.score_out_foreign
-    if params.hidden_foreign and model_hues is not None:
-        table[~seen_table(background_hue, params, model_hues)] = 0.0
-    return table
-
-
-def seen_table(
-    background_hue: float, params: FitnessSettings, model_hues: npt.ArrayLike | None = None
-) -> npt.NDArray[np.bool_]:
-    """(259, 259) like `score_table`: does a point of that row on that pixel code count as seen?
-
-    Not seen: `OFF_IMAGE`, and with `params.hidden_foreign` a foreign colour, i.e. a hue
-    farther than `hue_threshold_in` from every model hue and, from the background's,
-    farther than `hue_threshold_in` (S_in rows) or `hue_threshold_out` (the S_out row), or
-    a tone the model does not have.
-
-    Args:
-        background_hue: H̄_B [HSV_FULL, 0-256).
-        params: thresholds.
-        model_hues: the model's S_in colour codes; needed for `params.hidden_foreign`.
-    """
-    seen = np.ones((COLOUR_CODES + 1, _COLUMNS), dtype=bool)
-    seen[:, OFF_IMAGE] = False
-    if params.hidden_foreign and model_hues is not None:
-        seen[:COLOUR_CODES, :COLOUR_CODES] = ~_foreign_hues(
-            background_hue, params, model_hues, params.hue_threshold_in
-        )
-        seen[OUTSIDE_ROW, :COLOUR_CODES] = ~_foreign_hues(
-            background_hue, params, model_hues, params.hue_threshold_out
-        )
-    return seen
-
-
-def _background_distance(background_hue: float) -> FloatArray:
-    """(258,) distance of each colour code from H̄_B: on the circle for a hue (H̄_B may lie
-    between two hues), infinite for a tone."""
-    d = np.abs(np.arange(HUE_RANGE) - background_hue) % HUE_RANGE
-    return np.concatenate([np.minimum(d, HUE_RANGE - d), [np.inf, np.inf]])
-
-
-def _foreign_hues(
-    background_hue: float, params: FitnessSettings, model_hues: npt.ArrayLike, background_threshold: int
-) -> npt.NDArray[np.bool_]:
-    """(258,) colour codes neither within `background_threshold` of H̄_B nor near a model colour."""
-    far_from_background = _background_distance(background_hue) > background_threshold
-    return np.asarray(far_from_background & ~_near_model_hues(model_hues, params))
-
-
-def foreign_codes(
-    background_hue: float, params: FitnessSettings, model_hues: npt.ArrayLike
-) -> npt.NDArray[np.bool_]:
-    """(259,) per pixel code: is it a foreign colour for an S_in point (neither within
-    `hue_threshold_in` of H̄_B nor near a colour the model has; `OFF_IMAGE` counts as
-    foreign)? What the verification takes as hidden."""
-    return np.append(_foreign_hues(background_hue, params, model_hues, params.hue_threshold_in), True)
-
-
-def _near_model_hues(model_hues: npt.ArrayLike, params: FitnessSettings) -> npt.NDArray[np.bool_]:
-    """(258,) colour codes that match one the model really has: one that at least
-    `model_hue_min_share` of its S_in points have (a few mixed pixels along colour edges
-    would otherwise make a blue sheet "near" a cyan cloth)."""
-    counts = np.bincount(np.asarray(model_hues, dtype=int).ravel(), minlength=COLOUR_CODES)[:COLOUR_CODES]
-    colours = np.flatnonzero(counts >= params.model_hue_min_share * max(int(counts.sum()), 1))
-    if not len(colours):  # a spread-out model: every colour it has
-        colours = np.flatnonzero(counts)
-    codes = np.arange(COLOUR_CODES)
-    return np.asarray(colours_match(codes[:, None], colours[None, :], params.hue_threshold_in).any(axis=1))
 
 
 class FitnessEvaluator:
@@ -258,7 +65,7 @@ class FitnessEvaluator:
         self.search_params = search_params if search_params is not None else self.params
         self._table = _paired_table(model, self.params)
         self._search_table = _paired_table(model, self.search_params)
-        self._columns = _COLUMNS
+        self._columns = COLUMNS
         self._subsets: dict[int, _PointSet] = {}
         self._full = self._point_set(1)
         self._left_from_right = np.ascontiguousarray(rig.transform_right_to_left)
@@ -280,6 +87,7 @@ class FitnessEvaluator:
         image_left_bgr: npt.NDArray[np.uint8],
         image_right_bgr: npt.NDArray[np.uint8],
         gains: tuple[FloatArray, FloatArray] | None = None,
+        regions: tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]] | None = None,
     ) -> None:
         """Takes a new stereo pair (BGR uint8, the rig's image size); undistorts if the rig says so.
 
@@ -288,6 +96,9 @@ class FitnessEvaluator:
             gains: per image, (3,) factors of the b, g, r channels that map the scene's
                 exposure and white balance onto the model photo's before the colour codes
                 are taken (`exposure.sheet_gains`); None: as they are.
+            regions: per image, (4,) int64 (u0, v0, u1, v1) inclusive: only pixels there
+                get a code, the others count as off the image (a tracking frame's search
+                cannot reach them); None: the whole images.
 
         Raises:
             InputError: an image is not (H, W, 3) uint8 of the rig's size.
@@ -295,12 +106,16 @@ class FitnessEvaluator:
         codes = []
         unit = np.ones(3)
         left_gains, right_gains = (unit, unit) if gains is None else gains
-        for side, image, camera, gain in (
-            ("left", image_left_bgr, self.rig.left, left_gains),
-            ("right", image_right_bgr, self.rig.right, right_gains),
+        width, height = self.rig.image_size
+        whole = np.array([0, 0, width - 1, height - 1], dtype=np.int64)
+        left_box, right_box = (whole, whole) if regions is None else regions
+        for side, image, camera, gain, box in (
+            ("left", image_left_bgr, self.rig.left, left_gains, left_box),
+            ("right", image_right_bgr, self.rig.right, right_gains, right_box),
         ):
             array = checked_image(image, camera, side)
-            codes.append(self._pixel_codes(array, camera, np.asarray(gain, dtype=float)))
+            thresholds = (self.params.min_saturation, self.params.min_value, self.params.value_split)
+            codes.append(pixel_codes(array, camera, thresholds, np.asarray(gain, dtype=float), box))
         self._codes = (codes[0], codes[1])
 
     @property
@@ -310,16 +125,6 @@ class FitnessEvaluator:
         if self._codes is None:
             raise RuntimeError("no stereo pair yet: call update(left, right) first")
         return self._codes
-
-    def _pixel_codes(
-        self, image: npt.NDArray[np.uint8], camera: PinholeCamera, gains: FloatArray
-    ) -> npt.NDArray[np.uint16]:
-        if camera.has_distortion:
-            K = camera.camera_matrix
-            image = np.asarray(cv2.undistort(image, K, camera.dist_coeffs, None, K), dtype=np.uint8)
-        p = self.params  # framed by OFF_IMAGE:
-        table = colour_table(p.min_saturation, p.min_value, p.value_split)
-        return bgr_codes(np.ascontiguousarray(image), table, OFF_IMAGE, gain_levels(gains))
 
     def _point_set(self, stride: int) -> _PointSet:
         """Every `stride`-th S_in and S_out point (all of them for 1), cached."""
@@ -473,37 +278,6 @@ class KernelFitness:
         self.evaluator.evaluations += int(poses)
 
 
-@functools.lru_cache(maxsize=4)
-def colour_table(min_saturation: int, min_value: int, value_split: int) -> npt.NDArray[np.uint16]:
-    """(2^24,) read-only: the pixel code (`hue.colour_codes` of `hue.to_hsv`) of every BGR
-    colour, at index b << 16 | g << 8 | r; built once per process and thresholds (about
-    0.2 s, 32 MB) from OpenCV's own conversion of an image of all colours."""
-    hsv = to_hsv(every_colour())
-    framed = hsv_codes(hsv, min_saturation, min_value, value_split, DARK, LIGHT, OFF_IMAGE)
-    table = np.ascontiguousarray(framed.reshape(4096 + 3, 4096 + 3)[1:-2, 1:-2]).ravel()
-    table.setflags(write=False)
-    return table
-
-
-def checked_image(image: npt.ArrayLike, camera: PinholeCamera, side: str) -> npt.NDArray[np.uint8]:
-    """`image` as an (H, W, 3) uint8 array of `camera`'s size.
-
-    Raises:
-        InputError: another type or size (the message names `side` and both sizes).
-    """
-    array = np.asarray(image)
-    width, height = camera.image_size
-    if array.ndim != 3 or array.shape[2] != 3 or array.dtype != np.uint8:
-        raise InputError(
-            f"{side} image must be an (H, W, 3) uint8 BGR image, got {array.shape} {array.dtype}"
-        )
-    if array.shape[:2] != (height, width):
-        raise InputError(
-            f"{side} image is {array.shape[1]}x{array.shape[0]} px but the rig expects {width}x{height} px"
-        )
-    return array
-
-
 def _paired_table(model: ClothModel, params: FitnessSettings) -> npt.NDArray[np.float32]:
     """The flat (score, seen) table the kernels read: entry 2 (row · columns + code) is the score."""
     scores = score_table(model.background_hue, params, model.hues_in)
@@ -521,15 +295,4 @@ class _PointSet(NamedTuple):
     maximum: float  # score of a perfect match in one image
 
 
-__all__ = [
-    "OFF_IMAGE",
-    "OUTSIDE_ROW",
-    "FitnessEvaluator",
-    "FitnessSettings",
-    "KernelFitness",
-    "checked_image",
-    "colour_table",
-    "foreign_codes",
-    "score_table",
-    "seen_table",
-]
+__all__ = ["FitnessEvaluator", "KernelFitness"]

@@ -59,7 +59,7 @@ def every_colour():
 
 
 @_jit
-def bgr_codes(bgr, table, fill, levels):
+def bgr_codes(bgr, table, fill, levels, box):
     """(H, W, 3) BGR image -> flat pixel codes framed like `hsv_codes`'s, each pixel looked
     up in `table` ((2^24,) code of every colour, index b << 16 | g << 8 | r): one gather per
     pixel instead of an HSV conversion and a pass over it (0.27 against 0.78 ms per
@@ -67,13 +67,17 @@ def bgr_codes(bgr, table, fill, levels):
     Each channel value first goes through its row of `levels` ((3, 256) uint8, b, g, r):
     the exposure gains of `exposure.py` as look-up tables (`gain_levels`), which map the
     scene's exposure and white balance onto the model photo's; identity rows change
-    nothing."""
+    nothing. Only pixels inside `box` ((4,) int64 u0, v0, u1, v1, inclusive; clipped to
+    the image) get their code, the others `fill` as the frame (a tracking frame needs
+    only the region its window can reach)."""
     height, width = bgr.shape[0], bgr.shape[1]
     stride = width + 3
     out = np.full((height + 3) * stride, fill, dtype=np.uint16)
-    for v in range(height):
+    u0, v0 = max(box[0], 0), max(box[1], 0)
+    u1, v1 = min(box[2], width - 1), min(box[3], height - 1)
+    for v in range(v0, v1 + 1):
         base = (v + 1) * stride + 1
-        for u in range(width):
+        for u in range(u0, u1 + 1):
             b = np.int64(levels[0, bgr[v, u, 0]])
             g = np.int64(levels[1, bgr[v, u, 1]])
             r = np.int64(levels[2, bgr[v, u, 2]])

@@ -2,7 +2,7 @@
 
 A chromosome is six 12-bit genes (t_x, t_y, t_z, ε1, ε2, ε3): the position of Σ_M in Σ_CR
 and the vector part ε of a unit quaternion with ε0 = sqrt(1 - |ε|²) ≥ 0. Each gene maps
-its 4096 levels linearly onto the `SearchBounds` range of its variable, Gray-coded by
+its 4096 levels linearly onto the `SearchBoundsSettings` range of its variable, Gray-coded by
 default so that one bit flip moves a variable by one level. The ε box can hold |ε| > 1;
 such an ε is repaired by normalising it to |ε| = 1 (ε0 = 0, a half turn), which keeps
 every chromosome a valid rotation. The tilt of Σ_M from the camera axis depends only on
@@ -35,7 +35,7 @@ import numpy.typing as npt
 from pydantic import Field, model_validator
 
 from robot_app.arrays import FloatArray
-from robot_app.config import StrictModel
+from robot_app.config import SettingValueError, StrictModel
 from robot_app.vision.fitness import KernelFitness
 from robot_app.vision.ga_kernels import evolve
 from robot_app.vision.pose_kernels import transforms_from_genes
@@ -46,7 +46,7 @@ LEVELS = (1 << BITS) - 1  # highest gene value, 4095
 Genes = npt.NDArray[np.uint16]
 
 
-class SearchBounds(StrictModel):
+class SearchBoundsSettings(StrictModel):
     """The search space, in the right camera frame Σ_CR (defaults: docs/architecture.md).
 
     Attributes:
@@ -62,13 +62,15 @@ class SearchBounds(StrictModel):
     max_yaw_deg: float = Field(default=180.0, gt=0.0, le=180.0)
 
     @model_validator(mode="after")
-    def _ranges_increase(self) -> SearchBounds:
+    def _ranges_increase(self) -> SearchBoundsSettings:
         for name in ("x", "y", "z"):
             low, high = getattr(self, name)
             if not low < high:
-                raise ValueError(f"{name} range must be (low, high) with low < high")
+                raise SettingValueError(
+                    name, f"{name} range must be (low, high) with low < high", list(getattr(self, name))
+                )
         if self.z[0] <= 0:
-            raise ValueError("z range must be in front of the camera (z > 0)")
+            raise SettingValueError("z", "z range must be in front of the camera (z > 0)", list(self.z))
         return self
 
     def gene_ranges(self) -> FloatArray:
@@ -119,9 +121,13 @@ class GASettings(StrictModel):
     @model_validator(mode="after")
     def _elite_fits(self) -> GASettings:
         if self.population < 4 * self.islands:
-            raise ValueError("population must hold at least 4 individuals per island")
+            raise SettingValueError(
+                "population", "population must hold at least 4 individuals per island", self.population
+            )
         if self.elite >= self.population // self.islands:
-            raise ValueError("elite must be smaller than each island's population")
+            raise SettingValueError(
+                "elite", "elite must be smaller than each island's population", self.elite
+            )
         return self
 
     def island_slices(self) -> list[slice]:
@@ -130,7 +136,7 @@ class GASettings(StrictModel):
         return [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
 
 
-def encode(parameters: npt.ArrayLike, bounds: SearchBounds, gray_code: bool = True) -> Genes:
+def encode(parameters: npt.ArrayLike, bounds: SearchBoundsSettings, gray_code: bool = True) -> Genes:
     """(P, 6) (t_x, t_y, t_z, ε1, ε2, ε3) -> (P, 6) genes; values outside the bounds are clipped."""
     x = np.asarray(parameters, dtype=float).reshape(-1, GENES)
     ranges = bounds.gene_ranges()
@@ -139,7 +145,7 @@ def encode(parameters: npt.ArrayLike, bounds: SearchBounds, gray_code: bool = Tr
     return (genes ^ (genes >> 1)).astype(np.uint16) if gray_code else genes
 
 
-def decode(genes: Genes, bounds: SearchBounds, gray_code: bool = True) -> FloatArray:
+def decode(genes: Genes, bounds: SearchBoundsSettings, gray_code: bool = True) -> FloatArray:
     """(P, 6) genes -> (P, 6) (t_x, t_y, t_z, ε1, ε2, ε3) [m, -]."""
     g = np.asarray(genes, dtype=np.uint16).reshape(-1, GENES).copy()
     if gray_code:
@@ -173,11 +179,11 @@ class GeneticAlgorithm:
 
     def __init__(
         self,
-        bounds: SearchBounds | None = None,
+        bounds: SearchBoundsSettings | None = None,
         settings: GASettings | None = None,
         rng: np.random.Generator | None = None,
     ) -> None:
-        self.bounds = bounds if bounds is not None else SearchBounds()
+        self.bounds = bounds if bounds is not None else SearchBoundsSettings()
         self.settings = settings if settings is not None else GASettings()
         self.rng = rng if rng is not None else np.random.default_rng(self.settings.seed)
         self.population: Genes | None = None
@@ -308,7 +314,7 @@ __all__ = [
     "GAResult",
     "GASettings",
     "GeneticAlgorithm",
-    "SearchBounds",
+    "SearchBoundsSettings",
     "decode",
     "encode",
     "mutation_draws",

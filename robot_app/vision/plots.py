@@ -16,9 +16,9 @@ import numpy.typing as npt
 from robot_app.arrays import FloatArray
 from robot_app.errors import InputError, ModelError
 from robot_app.vision.camera import PinholeCamera
+from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.full_search import FullSearchResult
 from robot_app.vision.hue import DARK, HUE_RANGE
-from robot_app.vision.photo_model import ClothModel
 
 S_IN_BGR = (0, 230, 255)  # yellow dots
 S_OUT_BGR = (255, 0, 255)  # magenta dots

@@ -28,29 +28,12 @@ from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.geometry import rotation_about_z, wrap_angle, yaw_of
 from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
-from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBounds
+from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBoundsSettings
 from robot_app.vision.poses import AvoidedPoses, PoseLimits, as_poses
 from robot_app.vision.refinement import Refiner
+from robot_app.vision.tracking_window import TrackingSettings, reachable_regions, window_around
 
 HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])  # about the model's z axis, through its origin
-
-
-class TrackingSettings(StrictModel):
-    """Multi-step proposal between frames.
-
-    Attributes:
-        ga: the tracking GA (its `generations` are per frame; 24 individuals, one island).
-        window: half-width of the x-y search window around the motion-predicted pose [m].
-        depth_window: half-width of the depth window [m]; the window moves with the
-            camera, so a descending camera keeps its cloth.
-        verify_every: verify (and decide) on every n-th tracking frame; between them the
-            last verification's appearance is carried over (1: every frame).
-    """
-
-    ga: GASettings = GASettings(population=24, generations=3, islands=1, elite=2)
-    window: float = Field(default=0.02, gt=0.0)
-    depth_window: float = Field(default=0.03, gt=0.0)
-    verify_every: int = Field(default=1, ge=1)
 
 
 class ProposalSettings(StrictModel):
@@ -63,6 +46,9 @@ class ProposalSettings(StrictModel):
         coarse_stride: every n-th model point scored in the coarse generations.
         fine_stride: every n-th model point scored in the other generations and while
             tracking (the refinement and the reported fitness always use every point).
+            6 and 4 (before: 4 and 3) save about 3 ms a recognition; on 160 flat and 80
+            covered calibration scenes the errors did not grow (flat: 95th percentile
+            |x| 0.48 against 0.51 mm, no gross error; covered: gross errors 6 % against 8 %).
         candidates_per_island: distinct poses (x-y farther apart than `candidate_separation`
             or yaws farther apart than 20°) taken from each island's final population.
         candidate_separation: x-y distance that makes two candidates distinct [m].
@@ -90,10 +76,10 @@ class ProposalSettings(StrictModel):
     """
 
     ga: GASettings = GASettings()
-    bounds: SearchBounds = SearchBounds()
+    bounds: SearchBoundsSettings = SearchBoundsSettings()
     coarse_generations: int = Field(default=60, ge=0)
-    coarse_stride: int = Field(default=4, ge=1)
-    fine_stride: int = Field(default=3, ge=1)
+    coarse_stride: int = Field(default=6, ge=1)
+    fine_stride: int = Field(default=4, ge=1)
     candidates_per_island: int = Field(default=2, ge=1)
     candidate_separation: float = Field(default=0.01, gt=0.0)
     candidate_depths: tuple[float, ...] = (-0.03, -0.015, 0.0, 0.015, 0.03)
@@ -176,7 +162,7 @@ class Proposer:
             self.evaluator, stride=stride, search=True, subpixel=subpixel, avoid=self._avoided(centres)
         )
 
-    def limits(self, bounds: SearchBounds | None = None) -> PoseLimits:
+    def limits(self, bounds: SearchBoundsSettings | None = None) -> PoseLimits:
         """The allowed set of the local searches: position inside `bounds` (default: the
         search bounds), tilt within `max_tilt_deg` (a cone), yaw within `max_yaw_deg`."""
         b = self.settings.bounds if bounds is None else bounds
@@ -222,30 +208,20 @@ class Proposer:
         Raises:
             RuntimeError: nothing kept yet (propose first).
         """
-        if self._poses is None:
-            raise RuntimeError("nothing to track: propose() first")
         s, t = self.settings, self.settings.tracking
         count = t.ga.generations if generations is None else generations
         if count < 0:
             raise ValueError(f"generations must be >= 0, got {count}")
-        poses = self._poses
-        if transform_motion is not None:
-            motion = np.asarray(transform_motion, dtype=float)
-            if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
-                raise ValueError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
-            poses = motion @ poses
-        x, y, z = poses[0, :3, 3]
-        window = SearchBounds(
-            x=(x - t.window, x + t.window),
-            y=(y - t.window, y + t.window),
-            z=(max(z - t.depth_window, 1e-3), max(z + t.depth_window, 2e-3)),
-            max_tilt_deg=s.bounds.max_tilt_deg,
-            max_yaw_deg=s.bounds.max_yaw_deg,
-        )
+        poses = self._moved_poses(transform_motion)
+        window = window_around(poses[0], t, s.bounds)
+        near = _yaw_offsets(poses, poses[0]) <= np.deg2rad(t.yaw_window_deg)
+        poses = poses[near]  # the kept poses near the predicted one (a half turn may be among them)
         ga = GeneticAlgorithm(window, t.ga, self.rng)
         ga.seed(np.concatenate([poses, np.repeat(poses[-1:], t.ga.population - len(poses), axis=0)]))
         ga.evolve(self.fitness(s.fine_stride), count)
-        pose = ga.best_pose()
+        ranked = ga.ranked_poses(t.ga.population)
+        inside = _yaw_offsets(ranked, poses[0]) <= np.deg2rad(t.yaw_window_deg)
+        pose = ranked[int(np.argmax(inside))] if inside.any() else poses[0]
         r = self.refiner.settings
         if r.enabled and r.in_tracking:
             fine = self.fitness(subpixel=r.subpixel)
@@ -253,8 +229,43 @@ class Proposer:
                 pose, fine, r.tracking_iterations, self.limits(window)
             ).transform_model_to_camera
         best = Candidate(pose, float(self.fitness()(pose)[0]))
-        self.keep(pose, ga.ranked_poses(t.ga.population))
+        self.keep(pose, ranked)
         return best, count
+
+    def tracking_window(self, transform_motion: FloatArray | None) -> SearchBoundsSettings:
+        """The window the next `track(transform_motion)` searches: around the best kept pose
+        moved by the motion, `tracking.window` in x-y and `tracking.depth_window` in depth.
+
+        Raises:
+            RuntimeError: nothing kept yet (propose first).
+            ValueError: a motion that is not a finite 4x4 transform.
+        """
+        return window_around(
+            self._moved_poses(transform_motion)[0], self.settings.tracking, self.settings.bounds
+        )
+
+    def tracking_regions(
+        self, transform_motion: FloatArray | None
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+        """Per image (left, right), the box the model can reach from the next tracking
+        window (`tracking_window.reachable_regions`): the only pixels a tracking frame
+        needs colour codes of (`FitnessEvaluator.update(regions=...)`).
+
+        Raises:
+            RuntimeError: nothing kept yet (propose first).
+        """
+        window = self.tracking_window(transform_motion)
+        return reachable_regions(window, self.evaluator.model, self.evaluator.rig)
+
+    def _moved_poses(self, transform_motion: FloatArray | None) -> FloatArray:
+        if self._poses is None:
+            raise RuntimeError("nothing to track: propose() first")
+        if transform_motion is None:
+            return self._poses
+        motion = np.asarray(transform_motion, dtype=float)
+        if motion.shape != (4, 4) or not np.all(np.isfinite(motion)):
+            raise ValueError(f"transform_motion must be a finite 4x4 transform, got shape {motion.shape}")
+        return motion @ self._poses
 
     # ------------------------------------------------------------------ one-shot internals
     def _runs(
@@ -366,12 +377,17 @@ def _same_peak(a: FloatArray, b: FloatArray, separation: float) -> bool:
     return close and abs(float(wrap_angle(yaw_of(a[:3, :3]) - yaw_of(b[:3, :3])))) < np.deg2rad(20.0)
 
 
+def _yaw_offsets(poses: FloatArray, reference: FloatArray) -> FloatArray:
+    """|yaw difference| [rad] of (P, 4, 4) poses from a reference pose, on the circle."""
+    yaws = np.arctan2(poses[:, 1, 0], poses[:, 0, 0])
+    return np.abs(np.asarray(wrap_angle(yaws - yaw_of(reference[:3, :3])), dtype=float)).reshape(-1)
+
+
 __all__ = [
     "HALF_TURN",
     "Candidate",
     "Proposal",
     "ProposalSettings",
     "Proposer",
-    "TrackingSettings",
     "untilted",
 ]

@@ -11,12 +11,17 @@ The recogniser composes the stages and holds no search logic of its own:
    pose, its half and quarter turns and the other runs' ends whose search fitness is
    within `verify.ambiguity_margin`; the most confident is kept (and polished if it was
    not the polished one);
-5. decide (`decide.decide`): `found` = confidence >= `decide.threshold`, the one
+5. stereo depth (`stereo_depth.StereoDepth`): the plane the pair shows around the pose,
+   without the model's size; a small depth offset is taken, and a pose whose plane is
+   not the pair's is searched again on the stereo plane (`plane_search.search_in_plane`,
+   its shortlist ranked by the decision);
+6. decide (`decide.decide`): `found` = confidence >= `decide.threshold`, the one
    acceptance threshold.
 
 Multi-step recognition (`Recognizer.track`) proposes from the kept poses moved by the
-camera motion (Sec. II-E), then verifies (every `propose.tracking.verify_every`-th frame)
-and decides the same way.
+camera motion (Sec. II-E), with colour codes only where the tracking window reaches
+(`tracking_window.py`), then verifies (every `propose.tracking.verify_every`-th frame)
+and decides the same way; it has no depth check.
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ import functools
 import gc
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
 import numpy as np
@@ -33,15 +38,21 @@ import numpy.typing as npt
 from pydantic import model_validator
 
 from robot_app.arrays import FloatArray
-from robot_app.config import StrictModel
-from robot_app.geometry import quaternion_xyzw_from_matrix, rotation_about_z, yaw_of
+from robot_app.config import SettingValueError, StrictModel
+from robot_app.geometry import rotation_about_z
 from robot_app.vision.camera import StereoRig
-from robot_app.vision.decide import DecisionSettings, confidence, decide
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.decide import DecisionSettings, Evidence, decide, logit
 from robot_app.vision.exposure import ExposureSettings, sheet_gains
-from robot_app.vision.fitness import FitnessEvaluator, FitnessSettings, checked_image
-from robot_app.vision.photo_model import ClothModel
+from robot_app.vision.fitness import FitnessEvaluator
+from robot_app.vision.fitness_scores import FitnessSettings
+from robot_app.vision.pixel_codes import checked_image
+from robot_app.vision.plane_search import onto_plane, search_in_plane
+from robot_app.vision.poses import moved
 from robot_app.vision.propose import HALF_TURN, Candidate, ProposalSettings, Proposer
+from robot_app.vision.recognition import Peak, Recognition
 from robot_app.vision.refinement import RefinementSettings, Refiner
+from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
 from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
 _Method = TypeVar("_Method", bound=Callable[..., "Recognition"])
@@ -70,6 +81,7 @@ class RecognitionSettings(StrictModel):
         propose: the GA search, one-shot and tracking.
         refine: the local polish.
         verify: the appearance check and the ambiguity margin.
+        depth: the stereo depth check of the final pose.
         decide: the confidence and THE acceptance threshold.
         pause_garbage_collector: switch Python's cyclic garbage collector off during a
             recognition (it runs again afterwards; a recognition makes no reference
@@ -90,6 +102,7 @@ class RecognitionSettings(StrictModel):
     propose: ProposalSettings = ProposalSettings()
     refine: RefinementSettings = RefinementSettings()
     verify: VerificationSettings = VerificationSettings()
+    depth: DepthCheckSettings = DepthCheckSettings()
     decide: DecisionSettings = DecisionSettings()
     pause_garbage_collector: bool = True
 
@@ -98,105 +111,12 @@ class RecognitionSettings(StrictModel):
         keys = ("min_saturation", "min_value", "value_split")
         differ = [k for k in keys if getattr(self.search, k) != getattr(self.fitness, k)]
         if differ:
-            raise ValueError(f"search.{differ[0]} must equal fitness.{differ[0]} (one pixel code per image)")
+            raise SettingValueError(
+                f"search.{differ[0]}",
+                f"search.{differ[0]} must equal fitness.{differ[0]} (one pixel code per image)",
+                getattr(self.search, differ[0]),
+            )
         return self
-
-
-@dataclass(frozen=True)
-class Peak:
-    """The best pose of one distinct peak of the fitness.
-
-    Attributes:
-        transform_model_to_camera: (4, 4) ^CR T_M.
-        fitness: normalised fitness there (nearest pixel).
-    """
-
-    transform_model_to_camera: FloatArray
-    fitness: float
-
-    @property
-    def position(self) -> FloatArray:
-        """Origin of Σ_M in Σ_CR [m]."""
-        return self.transform_model_to_camera[:3, 3].copy()
-
-    @property
-    def yaw(self) -> float:
-        """Rotation of Σ_M about the camera z axis [rad]."""
-        return yaw_of(self.transform_model_to_camera[:3, :3])
-
-
-@dataclass(frozen=True)
-class Recognition:
-    """Result of one recognition.
-
-    Attributes:
-        found: the decision: confidence >= `decide.threshold`, the intended cloth is in view.
-        fitness: normalised hue fitness (`RecognitionSettings.fitness`, eqs. 9-11) of the
-            reported pose (1.0 = perfect match).
-        transform_model_to_camera: (4, 4) ^CR T_M, Σ_M in the right camera.
-        evaluations: poses evaluated (GA, refinement and peaks).
-        generations: GA generations run.
-        time_s: wall time of the call [s].
-        peaks: with `report_peaks`, the best pose of each distinct peak, best first.
-        confidence: the calibrated confidence in [0, 1] that `found` decides on.
-        visible_fraction: share of the model's texture in view and not under a foreign colour.
-        appearance: the texture's agreement with the images, -1 to 1 (NaN: no texture).
-        search_fitness: the search fitness (occluders hidden) of the reported pose.
-    """
-
-    found: bool
-    fitness: float
-    transform_model_to_camera: FloatArray
-    evaluations: int
-    generations: int
-    time_s: float
-    peaks: tuple[Peak, ...] = field(default=())
-    confidence: float = 0.0
-    visible_fraction: float = 0.0
-    appearance: float = float("nan")
-    search_fitness: float = 0.0
-
-    @property
-    def position(self) -> FloatArray:
-        """Origin of Σ_M in Σ_CR [m]."""
-        return self.transform_model_to_camera[:3, 3].copy()
-
-    @property
-    def quaternion_xyzw(self) -> FloatArray:
-        """Orientation of Σ_M in Σ_CR, (x, y, z, w) with w >= 0."""
-        return quaternion_xyzw_from_matrix(self.transform_model_to_camera[:3, :3])
-
-    @property
-    def yaw(self) -> float:
-        """Rotation of Σ_M about the camera z axis [rad]."""
-        return yaw_of(self.transform_model_to_camera[:3, :3])
-
-    def to_json(self) -> dict[str, object]:
-        """The DESIGN.md recognition record (plus `appearance`, and `peaks` when there are any)."""
-        data: dict[str, object] = {
-            "found": bool(self.found),
-            "fitness": float(self.fitness),
-            "position": [float(v) for v in self.position],
-            "quaternion_xyzw": [float(v) for v in self.quaternion_xyzw],
-            "yaw_deg": float(np.rad2deg(self.yaw)),
-            "frame": "right_camera",
-            "generations": int(self.generations),
-            "evaluations": int(self.evaluations),
-            "time_s": float(self.time_s),
-            "confidence": float(self.confidence),
-            "visible_fraction": float(self.visible_fraction),
-            "appearance": None if np.isnan(self.appearance) else float(self.appearance),
-        }
-        if self.peaks:
-            data["peaks"] = [
-                {
-                    "fitness": float(p.fitness),
-                    "position": [float(v) for v in p.position],
-                    "yaw_deg": float(np.rad2deg(p.yaw)),
-                }
-                for p in self.peaks
-            ]
-        return data
 
 
 def _collector_paused(method: _Method) -> _Method:
@@ -238,6 +158,7 @@ class Recognizer:
         self.refiner = Refiner(s.refine)
         self.proposer = Proposer(self.evaluator, s.propose, self.refiner, s.propose.ga.seed)
         self.verifier = Verifier(model, self.evaluator, s.search, s.verify)
+        self.depth = StereoDepth(model, rig, s.depth)
         self._frames_since_verified = 0
         self._last_verification: Verification | None = None
 
@@ -251,14 +172,22 @@ class Recognizer:
         self.proposer.reset()
         self._last_verification = None
 
-    def _take(self, image_left_bgr: npt.NDArray[np.uint8], image_right_bgr: npt.NDArray[np.uint8]) -> None:
-        """Exposure gains of both images, then the pair into the evaluator and verifier."""
+    def _take(
+        self,
+        image_left_bgr: npt.NDArray[np.uint8],
+        image_right_bgr: npt.NDArray[np.uint8],
+        regions: tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]] | None = None,
+    ) -> None:
+        """Exposure gains of both images, then the pair into the evaluator (colour codes
+        only inside `regions`, if given), the verifier and the depth check."""
         s = self.settings
         left = checked_image(image_left_bgr, self.rig.left, "left")
         right = checked_image(image_right_bgr, self.rig.right, "right")
         gains = (sheet_gains(left, self.model, s.exposure), sheet_gains(right, self.model, s.exposure))
-        self.evaluator.update(left, right, gains)
+        self.evaluator.update(left, right, gains, regions)
         self.verifier.update(left, right, gains)
+        if s.depth.enabled:
+            self.depth.update(left, right)
 
     @_collector_paused
     def recognize(
@@ -284,21 +213,23 @@ class Recognizer:
         before = self.evaluator.evaluations
         rng = np.random.default_rng(seed) if seed is not None else self.proposer.rng
         proposal = self.proposer.propose(rng, peaks=report_peaks)
-        chosen = self._most_confident(proposal.best, proposal.candidates, rng)
-        self._last_verification, self._frames_since_verified = chosen.verification, 0
-        peaks = tuple(
-            sorted(
-                (
-                    Peak(
-                        p.transform_model_to_camera,
-                        float(self.evaluator.evaluate(p.transform_model_to_camera)[0]),
-                    )
-                    for p in proposal.peaks
-                ),
-                key=lambda p: -p.fitness,
-            )
+        chosen, measurement = self._depth_checked(
+            self._most_confident(proposal.best, proposal.candidates, rng)
         )
-        return self._result(chosen, proposal.generations, before, start, peaks)
+        kept = self.proposer.kept_poses
+        if kept is not None and chosen.pose is not proposal.best.transform_model_to_camera:
+            self.proposer.keep(chosen.pose, kept)  # tracking goes on from the verified pose (a half turn?)
+        self._last_verification, self._frames_since_verified = chosen.verification, 0
+        # the first peak is the best run's, which the recognition went on from
+        poses = (
+            [chosen.pose, *(p.transform_model_to_camera for p in proposal.peaks[1:])]
+            if proposal.peaks
+            else []
+        )
+        peaks = tuple(
+            sorted((Peak(T, float(self.evaluator.evaluate(T)[0])) for T in poses), key=lambda p: -p.fitness)
+        )
+        return self._result(chosen, proposal.generations, before, start, peaks, measurement.offset)
 
     @_collector_paused
     def track(
@@ -329,7 +260,7 @@ class Recognizer:
         if self.proposer.kept_poses is None:
             return self.recognize(image_left_bgr, image_right_bgr)
         start = time.perf_counter()
-        self._take(image_left_bgr, image_right_bgr)
+        self._take(image_left_bgr, image_right_bgr, self.proposer.tracking_regions(transform_motion))
         before = self.evaluator.evaluations
         best, count = self.proposer.track(transform_motion, generations)
         pose = best.transform_model_to_camera
@@ -339,19 +270,19 @@ class Recognizer:
             self._last_verification = self.verifier.verify(pose)[0]
             self._frames_since_verified = 0
         chosen = _Verified(pose, best.search_fitness, self._last_verification, 0.0)
-        return self._result(chosen, count, before, start, ())
+        return self._result(chosen, count, before, start, (), float("nan"))
 
     def _result(
-        self, chosen: _Verified, generations: int, before: int, start: float, peaks: tuple[Peak, ...]
+        self,
+        chosen: _Verified,
+        generations: int,
+        before: int,
+        start: float,
+        peaks: tuple[Peak, ...],
+        depth_offset: float,
     ) -> Recognition:
         v = chosen.verification
-        decision = decide(
-            self.settings.decide,
-            chosen.search_fitness,
-            v.appearance,
-            v.visible_fraction,
-            self.model.has_texture,
-        )
+        decision = decide(self.settings.decide, self._evidence(chosen.search_fitness, v))
         return Recognition(
             found=decision.found,
             fitness=float(self.evaluator.evaluate(chosen.pose)[0]),
@@ -364,6 +295,9 @@ class Recognizer:
             visible_fraction=v.visible_fraction,
             appearance=v.appearance,
             search_fitness=chosen.search_fitness,
+            depth_offset=depth_offset,
+            interleaved=v.interleaved,
+            agreeing=v.agreeing,
         )
 
     def _most_confident(
@@ -394,13 +328,70 @@ class Recognizer:
             return self._verified(polished, float(fitness(polished)[0]), self.verifier.verify(polished)[0])
         return chosen
 
-    def _verified(self, pose: FloatArray, search_fitness: float, verification: Verification) -> _Verified:
-        d = self.settings.decide
-        value = confidence(
-            d, search_fitness, verification.appearance, verification.visible_fraction, self.model.has_texture
+    def _depth_checked(self, chosen: _Verified) -> tuple[_Verified, DepthMeasurement]:
+        """`chosen` checked against the stereo pair (`stereo_depth.py`): moved to its stereo
+        depth if the check trusts a small offset (`depth.adopt_within`); searched again on
+        the stereo plane (`plane_search.py`) if its own plane is not the one the pair
+        shows; else as it is. Also the measurement of the pose the search ended on."""
+        s = self.settings.depth
+        if not s.enabled:
+            return chosen, DepthMeasurement(float("nan"), float("nan"), float("nan"), 0, False)
+        measurement = self.depth.measure(chosen.pose)
+        if measurement.trusted and abs(measurement.offset) <= s.adopt_within:
+            return self._at_depth(chosen.pose, measurement.offset), measurement
+        measured = measurement.samples >= s.min_samples
+        off_plane = (
+            abs(measurement.offset) > s.research_beyond or not measurement.correlation >= s.min_correlation
         )
-        logit = float(np.log(max(value, 1e-300)) - np.log(max(1.0 - value, 1e-300)))
-        return _Verified(pose, search_fitness, verification, logit)
+        if not (s.research.enabled and measured and off_plane):
+            return chosen, measurement
+        plane = self.depth.fit_plane(chosen.pose)
+        if plane is None or not plane.trusted or plane.correlation - plane.correlation_at_pose < s.min_gain:
+            return chosen, measurement
+        start = onto_plane(chosen.pose, plane.normal, plane.distance)
+        p = self.proposer
+        poses = search_in_plane(
+            start,
+            p.fitness(s.research.stride),
+            p.fitness(),
+            p.fitness(subpixel=True),
+            s.research,
+            self._logits,
+        )
+        found = [self._at_depth(pose, 0.0) for pose in poses]
+        best = max(found, key=lambda item: item.score).pose  # the first (best by hue) on ties
+        again = self.depth.measure(best)
+        offset = again.offset if again.trusted and abs(again.offset) <= s.adopt_within else 0.0
+        return self._at_depth(best, offset), measurement
+
+    def _logits(self, poses: FloatArray) -> FloatArray:
+        """(P,) the decision's log-odds at each of (P, 4, 4) poses."""
+        fitness = self.proposer.fitness()(poses)
+        verified = self.verifier.verify(poses)
+        return np.array(
+            [self._verified(T, float(f), v).score for T, f, v in zip(poses, fitness, verified, strict=True)]
+        )
+
+    def _at_depth(self, pose: FloatArray, offset: float) -> _Verified:
+        """`pose` moved by `offset` along the ray through its origin, verified."""
+        moved_pose = moved(pose, [0.0, 0.0, offset, 0.0, 0.0, 0.0]) if offset else np.array(pose, dtype=float)
+        search_fitness = float(self.proposer.fitness()(moved_pose)[0])
+        return self._verified(moved_pose, search_fitness, self.verifier.verify(moved_pose)[0])
+
+    def _verified(self, pose: FloatArray, search_fitness: float, verification: Verification) -> _Verified:
+        score = logit(self.settings.decide, self._evidence(search_fitness, verification))
+        return _Verified(pose, search_fitness, verification, score)
+
+    def _evidence(self, search_fitness: float, verification: Verification) -> Evidence:
+        v = verification
+        return Evidence(
+            search_fitness,
+            v.appearance,
+            v.visible_fraction,
+            v.interleaved,
+            self.model.has_texture,
+            v.agreeing,
+        )
 
 
-__all__ = ["Peak", "Recognition", "RecognitionSettings", "Recognizer"]
+__all__ = ["RecognitionSettings", "Recognizer"]

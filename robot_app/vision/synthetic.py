@@ -1,17 +1,19 @@
 """A small ground-truth renderer for vision tests and benchmarks (numpy + OpenCV only).
 
-Flat textured cloths are drawn into a camera by inverse mapping: each image pixel is
-back-projected (undistorted if the camera has distortion) onto the cloth plane and
-samples the texture there, which is exact for a plane at any pose. The table is a
-mildly textured green sheet; an optional blue sheet occludes part of a cloth (paper
-Fig. 11 b). The pose handed to `render_stereo_pair` is the ground truth ^CR T_M of the
-cloth's model frame Σ_M: origin at the centroid of the cloth's outline (alpha mask),
-x and y along the texture's x and y, z into the table.
+Flat textured cloths (`SyntheticCloth`; the catalogue is `synthetic_catalogue.py`, the
+photographic prints and deformations `synthetic_prints.py`) are drawn into a camera by
+inverse mapping: each image pixel is back-projected (undistorted if the camera has
+distortion) onto the cloth plane and samples the texture there, which is exact for a
+plane at any pose. The table is a mildly textured green sheet; an optional sheet of
+another colour occludes part of a cloth (paper Fig. 11 b). The pose handed to
+`render_stereo_pair` is the ground truth ^CR T_M of the cloth's model frame Σ_M: origin
+at the centroid of the cloth's outline (alpha mask), x and y along the texture's x and
+y, z into the table.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -19,7 +21,6 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
-from robot_app.errors import InputError
 from robot_app.geometry import (
     make_transform,
     rotation_about_z,
@@ -104,138 +105,6 @@ class SyntheticCloth:
         c = self.centroid
         xy = (uv + 0.5) * [sx, sy] - c
         return np.concatenate([xy, np.zeros((*xy.shape[:-1], 1))], axis=-1)
-
-
-def synthetic_cloth(index: int, seed: int = 0) -> SyntheticCloth:
-    """One cloth of the catalogue (see `cloth_catalogue`): never green, saturated hues.
-
-    Args:
-        index: 0 .. CATALOGUE_SIZE - 1.
-        seed: varies the random parts of a pattern (dots, patches, fabric grain).
-    """
-    if not 0 <= index < CATALOGUE_SIZE:
-        raise InputError(f"synthetic cloth index must be in 0..{CATALOGUE_SIZE - 1}, got {index}")
-    rng = np.random.default_rng([seed, index])
-    name, (width, height), outline, pattern = _CATALOGUE[index]
-    shape = (round(height / CLOTH_TEXEL), round(width / CLOTH_TEXEL))
-    y, x = (np.indices(shape) + 0.5) * CLOTH_TEXEL
-    x, y = x / width, y / height  # (0, 1) across the cloth
-    colours = np.asarray(pattern(x, y, rng), dtype=float)
-    grain = rng.normal(0.0, 4.0, (*shape, 1))  # fabric texture, a few grey levels
-    texture = np.clip(colours + grain, 0, 255).astype(np.uint8)
-    return SyntheticCloth(name, texture, outline(x, y), (shape[1] * CLOTH_TEXEL, shape[0] * CLOTH_TEXEL))
-
-
-# --- the catalogue: 12+ cloths (paper Fig. 10: No.1 .. No.12), up to 0.25 x 0.20 m ----------
-CLOTH_TEXEL = 0.0005  # texture resolution [m]
-# Four hue classes more than the paper's hue threshold (30 of 256) apart from each other,
-# from the green sheet (91) and from the blue occluder (169): red 255, yellow 37, cyan 135,
-# violet 205 (HSV_FULL). Orange (19) and crimson (242) are accents only: they match red.
-RED, YELLOW, CYAN, VIOLET = (35, 30, 215), (25, 205, 230), (200, 170, 20), (190, 30, 160)
-ORANGE, CRIMSON = (20, 120, 240), (70, 20, 170)
-Array = npt.NDArray[np.float64]
-
-
-Mask = npt.NDArray[np.bool_]
-Layers = list[tuple[tuple[int, int, int], Callable[[Array, Array], Mask] | None]]
-
-
-def _paint(x: Array, y: Array, layers: Layers) -> Array:
-    """Colours painted in order, each where its mask (of x, y in (0, 1)) holds (None: everywhere)."""
-    image = np.zeros((*x.shape, 3))
-    for colour, mask in layers:
-        image[np.ones(x.shape, bool) if mask is None else mask(x, y)] = colour
-    return image
-
-
-def _rectangle(x: Array, y: Array) -> Mask:
-    return np.ones(x.shape, bool)
-
-
-def _rounded(radius: float) -> Callable[[Array, Array], Mask]:
-    def outline(x: Array, y: Array) -> Mask:
-        dx, dy = (
-            np.maximum(np.abs(x - 0.5) - (0.5 - radius), 0),
-            np.maximum(np.abs(y - 0.5) - (0.5 - radius), 0),
-        )
-        return dx**2 + dy**2 <= radius**2
-
-    return outline
-
-
-def _trapezoid(x: Array, y: Array) -> Mask:
-    return np.abs(x - 0.5) <= 0.3 + 0.2 * y
-
-
-def _tshirt(x: Array, y: Array) -> Mask:
-    body = np.abs(x - 0.5) <= 0.3
-    sleeves = (y <= 0.4) & (np.abs(x - 0.5) <= 0.5 - 0.6 * np.maximum(0, y - 0.05))
-    neck = (x - 0.5) ** 2 + (y / 0.6) ** 2 < 0.12**2
-    return (body | sleeves) & ~neck
-
-
-def _ellipse(x: Array, y: Array) -> Mask:
-    return (x - 0.5) ** 2 + (y - 0.5) ** 2 <= 0.25
-
-
-def _l_shape(x: Array, y: Array) -> Mask:
-    return (x <= 0.45) | (y >= 0.55)
-
-
-def _dots(x: Array, y: Array, rng: np.random.Generator) -> Array:
-    centres = rng.uniform(0.08, 0.92, (14, 2))
-    dots = [(YELLOW, lambda x, y, c=c: (x - c[0]) ** 2 + ((y - c[1]) * 0.8) ** 2 < 0.08**2) for c in centres]
-    return _paint(x, y, [(CYAN, None), *dots])
-
-
-def _patchwork(x: Array, y: Array, rng: np.random.Generator) -> Array:
-    palette = [RED, YELLOW, CYAN, VIOLET]
-    edges_x, edges_y = np.sort(rng.uniform(0.15, 0.85, 2)), np.sort(rng.uniform(0.15, 0.85, 2))
-
-    def cell(k: int) -> Callable[[Array, Array], Mask]:
-        return lambda x, y: np.asarray(np.searchsorted(edges_x, x) * 3 + np.searchsorted(edges_y, y) == k)
-
-    cells: Layers = [(palette[int(rng.integers(len(palette)))], cell(k)) for k in range(9)]
-    return _paint(x, y, cells)
-
-
-def _layered(layers: Layers) -> Callable[[Array, Array, np.random.Generator], Array]:
-    return lambda x, y, rng: _paint(x, y, layers)
-
-
-def _stripes(x: Array, y: Array) -> Mask:
-    return (x * 8).astype(int) % 2 == 1
-
-
-def _checks(x: Array, y: Array) -> Mask:
-    return ((x * 8).astype(int) + (y * 6).astype(int)) % 2 == 1
-
-
-def _diagonals(x: Array, y: Array) -> Mask:
-    return ((x + y) * 6).astype(int) % 2 == 1
-
-
-Pattern = Callable[[Array, Array, np.random.Generator], Array]
-_CATALOGUE: list[tuple[str, tuple[float, float], Callable[[Array, Array], Mask], Pattern]] = [
-    ("red_plain", (0.20, 0.15), _rectangle, _layered([(RED, None)])),
-    ("yellow_square", (0.18, 0.18), _rectangle, _layered([(YELLOW, None)])),
-    ("red_yellow_stripes", (0.25, 0.20), _rectangle, _layered([(RED, None), (YELLOW, _stripes)])),
-    ("small_colourful", (0.15, 0.12), _rectangle, _layered([
-        (CYAN, None), (RED, lambda x, y: x < 0.5), (YELLOW, lambda x, y: y > 0.6),
-        (VIOLET, lambda x, y: (x - 0.7) ** 2 + (y - 0.3) ** 2 < 0.05)])),
-    ("violet_yellow_checks", (0.22, 0.18), _rectangle, _layered([(VIOLET, None), (YELLOW, _checks)])),
-    ("yellow_dots_on_cyan", (0.20, 0.16), _rectangle, _dots),
-    ("cyan_rounded", (0.22, 0.16), _rounded(0.2), _layered([(CYAN, None)])),
-    ("violet_red_trapezoid", (0.20, 0.16), _trapezoid,
-     _layered([(VIOLET, None), (RED, lambda x, y: y > 0.5)])),
-    ("red_cyan_tshirt", (0.25, 0.20), _tshirt,
-     _layered([(RED, None), (CYAN, lambda x, y: y > 0.45)])),
-    ("violet_ellipse", (0.20, 0.14), _ellipse, _layered([(VIOLET, None)])),
-    ("cyan_violet_diagonals", (0.20, 0.20), _rectangle, _layered([(CYAN, None), (VIOLET, _diagonals)])),
-    ("patchwork", (0.24, 0.18), _rectangle, _patchwork),
-    ("orange_l_shape", (0.20, 0.18), _l_shape, _layered([(ORANGE, None), (CRIMSON, lambda x, y: x < 0.2)])),
-]  # fmt: skip
-CATALOGUE_SIZE = len(_CATALOGUE)
 
 
 def model_photo_transform(model_camera: ModelCamera) -> FloatArray:
@@ -434,7 +303,6 @@ def _add_noise(image: npt.NDArray[np.float32], rng: np.random.Generator, sigma: 
 
 
 __all__ = [
-    "CATALOGUE_SIZE",
     "OCCLUDER_BLUE_BGR",
     "OCCLUDER_COLOURS",
     "TABLE_GREEN_BGR",
@@ -444,5 +312,4 @@ __all__ = [
     "occluder_covering",
     "render_model_photo",
     "render_stereo_pair",
-    "synthetic_cloth",
 ]

@@ -23,7 +23,8 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.errors import InputError
-from robot_app.vision.synthetic import CATALOGUE_SIZE, CLOTH_TEXEL, SyntheticCloth, synthetic_cloth
+from robot_app.vision.synthetic import SyntheticCloth
+from robot_app.vision.synthetic_catalogue import CATALOGUE_SIZE, CLOTH_TEXEL, synthetic_cloth
 
 Image = npt.NDArray[np.uint8]
 GREEN_HUE = 86  # the sheet's hue (HSV_FULL, 0-255)
@@ -128,7 +129,7 @@ def photo_print(index: int) -> SyntheticCloth:
 def extended_cloth(index: int, seed: int = 0) -> SyntheticCloth:
     """Cloth `index` of the 20-cloth catalogue: 0-12 `synthetic_cloth`, 13-19 the prints."""
     if not 0 <= index < EXTENDED_CATALOGUE_SIZE:
-        raise InputError(f"catalogue index must be in 0..{EXTENDED_CATALOGUE_SIZE - 1}, got {index}")
+        raise ValueError(f"catalogue index must be in 0..{EXTENDED_CATALOGUE_SIZE - 1}, got {index}")
     if index < CATALOGUE_SIZE:
         return synthetic_cloth(index, seed)
     return photo_print(index - CATALOGUE_SIZE)

@@ -11,7 +11,10 @@ model and image: where the model is textured by the zero-mean normalised cross-c
 of each colour channel (invariant to a gain and offset per channel: exposure and white
 balance), where it is flat by whether the image is flat too and of the model's mean colour.
 The appearance score is the cells' mean agreement in [-1, 1], weighted by their visible
-samples; the visible fraction is the share of samples visible.
+samples; `agreeing` is the weighted share of cells that agree; the visible fraction is
+the share of samples visible; `interleaved` is the share of the samples in view that lie
+in partly hidden cells (a sheet hides whole cells, another cloth's stripes of a colour
+foreign to the model hide parts of many).
 
 A model without texture (a version 1-2 file) cannot be verified: `Verification.appearance`
 is NaN and the decision uses its stand-in (`DecisionSettings.appearance_without_texture`).
@@ -28,8 +31,9 @@ from pydantic import Field
 
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
-from robot_app.vision.fitness import FitnessEvaluator, FitnessSettings, foreign_codes
-from robot_app.vision.photo_model import ClothModel
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.fitness import FitnessEvaluator
+from robot_app.vision.fitness_scores import FitnessSettings, foreign_codes
 from robot_app.vision.poses import as_poses
 from robot_app.vision.verify_kernels import appearance
 
@@ -55,6 +59,9 @@ class VerificationSettings(StrictModel):
             exposure gains; smooth shading stays inside).
         ambiguity_margin: alternatives (half and quarter turns, other peaks) whose search
             fitness is within this of the best are verified and the most confident kept.
+        partial_low, partial_high: a cell in view whose hidden share (samples on a foreign
+            colour) lies between these is partly hidden (see `Verification.interleaved`).
+        agree_level: a cell agrees from this score (see `Verification.agreeing`).
     """
 
     spacing: float = Field(default=0.003, gt=0.0005, le=0.02)
@@ -67,6 +74,9 @@ class VerificationSettings(StrictModel):
     chroma_tolerance: float = Field(default=0.05, gt=0.0, le=1.0)
     brightness_tolerance: float = Field(default=0.35, gt=0.0, le=4.0)
     ambiguity_margin: float = Field(default=0.1, ge=0.0, le=1.0)
+    partial_low: float = Field(default=0.2, gt=0.0, lt=1.0)
+    partial_high: float = Field(default=0.8, gt=0.0, lt=1.0)
+    agree_level: float = Field(default=0.5, ge=-1.0, le=1.0)
 
 
 @dataclass(frozen=True)
@@ -79,11 +89,21 @@ class Verification:
             (mean of both images); for a model without texture, the hue fitness's seen share.
         textured_share: share of the compared weight on textured cells (0: a plain cloth,
             compared by flatness alone).
+        interleaved: share of the samples in view that lie in partly hidden cells. A sheet
+            over the cloth hides whole cells but those along its edge; a cloth of other
+            colours whose stripes, checks or dots of a foreign colour the model takes as
+            hidden hides parts of many cells.
+        agreeing: share of the compared weight on cells that agree at least
+            `agree_level`: a compact region that disagrees (a folded corner, a sheet of
+            the model's own hue) costs it only its own share, where it pulls the mean
+            `appearance` down by twice that (NaN: nothing compared).
     """
 
     appearance: float
     visible_fraction: float
     textured_share: float
+    interleaved: float = 0.0
+    agreeing: float = float("nan")
 
 
 class Verifier:
@@ -149,23 +169,23 @@ class Verifier:
         poses = as_poses(transforms_model_to_camera)
         if self._samples is None:
             seen = self.evaluator.seen_fraction(poses)
-            return [Verification(float("nan"), float(v), 0.0) for v in seen]
+            return [Verification(float("nan"), float(v), 0.0, 0.0, float("nan")) for v in seen]
         if self._images is None:
             raise RuntimeError("no stereo pair to verify on: call update(left, right) first")
         px, py, values, cells, n_cells = self._samples
         codes_left, codes_right = self.evaluator.codes
         rig = self.evaluator.rig
         s = self.settings
-        scores, visible, textured = appearance(
+        scores, visible, textured, interleaved, agreeing = appearance(
             poses, rig.left.camera_matrix, rig.right.camera_matrix,
             np.ascontiguousarray(rig.transform_right_to_left), px, py, values, cells, n_cells,
             self._images[0], self._images[1], codes_left, codes_right, self._foreign,
             self._gains[0], self._gains[1], float(s.min_points), s.texture_min, s.flat_tolerance,
-            s.chroma_tolerance, s.brightness_tolerance,
+            s.chroma_tolerance, s.brightness_tolerance, s.partial_low, s.partial_high, s.agree_level,
         )  # fmt: skip
         return [
-            Verification(float(a), float(v), float(t))
-            for a, v, t in zip(scores, visible, textured, strict=True)
+            Verification(float(a), float(v), float(t), float(i), float(g))
+            for a, v, t, i, g in zip(scores, visible, textured, interleaved, agreeing, strict=True)
         ]
 
 

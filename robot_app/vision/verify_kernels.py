@@ -13,10 +13,11 @@ _jit = njit(cache=True, fastmath=True, nogil=True, error_model="numpy")
 
 @_jit
 def _accumulate(M, px, py, values, cells, image, codes, foreign, gains, width, height, sums):
-    """Adds the visible samples of one image to `sums` (cells, 16): count, then per channel
-    (b, g, r) the sums of model, image, model², image² and model·image values. A sample is
-    visible if it lands inside the image and its pixel's code (nearest pixel of the framed
-    `codes`) is not `foreign`. Returns the number of visible samples."""
+    """Adds the visible samples of one image to `sums` (cells, 17): count, then per channel
+    (b, g, r) the sums of model, image, model², image² and model·image values, then the
+    count of samples in the image (visible or hidden). A sample is visible if it lands
+    inside the image and its pixel's code (nearest pixel of the framed `codes`) is not
+    `foreign`. Returns the number of visible samples."""
     stride = width + 3
     visible = 0
     for i in range(px.shape[0]):
@@ -31,10 +32,11 @@ def _accumulate(M, px, py, values, cells, image, codes, foreign, gains, width, h
         iu, iv = np.int64(u), np.int64(v)
         fu, fv = u - iu, v - iv
         nu, nv = np.int64(u + 0.5), np.int64(v + 0.5)
+        c = cells[i]
+        sums[c, 16] += 1.0
         if foreign[codes[(nv + 1) * stride + nu + 1]]:
             continue
         visible += 1
-        c = cells[i]
         sums[c, 0] += 1.0
         for k in range(3):
             a = image[iv, iu, k] + fu * (image[iv, iu + 1, k] - np.float32(image[iv, iu, k]))
@@ -110,10 +112,14 @@ def _cell_scores(sums, min_points, texture_min, flat_tolerance, chroma_tolerance
 @_jit
 def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cells, n_cells, image_left,
                image_right, codes_left, codes_right, foreign, gains_left, gains_right, min_points,
-               texture_min, flat_tolerance, chroma_tolerance, brightness_tolerance):  # fmt: skip
+               texture_min, flat_tolerance, chroma_tolerance, brightness_tolerance, partial_low,
+               partial_high, agree_level):  # fmt: skip
     """For each pose: the cell-weighted agreement of the texture samples with both images
-    (NaN if no cell is scored), the share of samples visible (mean of both images) and the
-    share of the scored weight on textured cells.
+    (NaN if no cell is scored), the share of samples visible (mean of both images), the
+    share of the scored weight on textured cells, and the share of the samples in view
+    that lie in partly hidden cells (a hidden share between `partial_low` and
+    `partial_high`; cells with fewer than `min_points` samples in view left out), and the
+    share of the scored weight on cells that agree at least `agree_level` (NaN if none).
 
     Args:
         transforms: (P, 4, 4) poses ^CR T_M.
@@ -133,6 +139,8 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     scores = np.empty(n_poses)
     visible = np.empty(n_poses)
     textured = np.empty(n_poses)
+    interleaved = np.empty(n_poses)
+    agreeing = np.empty(n_poses)
     P_right = np.zeros((3, 4))
     P_right[:, :3] = K_right
     P_left = K_left @ np.ascontiguousarray(left_from_right[:3, :])
@@ -142,8 +150,9 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     model_rms = np.zeros(n_cells)
     for p in range(n_poses):
         total, weight, textured_weight, seen = 0.0, 0.0, 0.0, 0
+        in_view, partial, agreeing_weight = 0.0, 0.0, 0.0
         for side in range(2):
-            sums = np.zeros((n_cells, 16))
+            sums = np.zeros((n_cells, 17))
             if side == 0:
                 _projection(P_left, transforms[p], M)
                 seen += _accumulate(M, px, py, values, cells, image_left, codes_left, foreign, gains_left,
@@ -155,6 +164,12 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
             _cell_scores(sums, min_points, texture_min, flat_tolerance, chroma_tolerance,
                          brightness_tolerance, cell_scores, cell_weights)  # fmt: skip
             for c in range(n_cells):
+                landed = sums[c, 16]
+                if landed >= min_points:
+                    hidden = 1.0 - sums[c, 0] / landed
+                    in_view += landed
+                    if partial_low <= hidden <= partial_high:
+                        partial += landed
                 n = sums[c, 0]
                 if n > 0:
                     var = 0.0
@@ -164,12 +179,16 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
                     model_rms[c] = np.sqrt(var / 3.0)
                 total += cell_scores[c] * cell_weights[c]
                 weight += cell_weights[c]
+                if cell_scores[c] >= agree_level:
+                    agreeing_weight += cell_weights[c]
                 if model_rms[c] >= texture_min:
                     textured_weight += cell_weights[c]
         scores[p] = total / weight if weight > 0 else np.nan
         visible[p] = seen / (2.0 * px.shape[0])
         textured[p] = textured_weight / weight if weight > 0 else 0.0
-    return scores, visible, textured
+        interleaved[p] = partial / in_view if in_view > 0 else 0.0
+        agreeing[p] = agreeing_weight / weight if weight > 0 else np.nan
+    return scores, visible, textured, interleaved, agreeing
 
 
 __all__ = ["appearance"]

@@ -1,0 +1,153 @@
+"""Search on a known plane: where on the stereo pair's plane does the model fit best?
+
+When the stereo depth check finds that the pair shows the cloth's plane elsewhere than the
+pose the hue search ended on (a corner folded under: the search fitted a smaller model
+farther away, or tilted), the pose is searched again with its plane held at the stereo
+plane: only the position on the plane and the yaw about its normal are free, so the
+cloth keeps the size the model photo gives it. The search is three grids, each around
+the best of the one before: coarse (every `coarse_step` within `radius`, yaws within
+`yaw_range` of the pose's and of its half and quarter turns, on every `stride`-th model
+point), then finer on every point, then on the sub-pixel fitness.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from pydantic import Field
+
+from robot_app.arrays import FloatArray
+from robot_app.config import StrictModel
+
+
+class PlaneSearchSettings(StrictModel):
+    """The search on the stereo plane.
+
+    Attributes:
+        enabled: search again on the stereo plane when the depth check asks for it.
+        radius: the coarse grid covers this around the pose's origin on the plane [m].
+        coarse_step: its step [m].
+        yaw_range: ... and yaws within this of the pose's and of its half turn [deg].
+        yaw_step: in these steps [deg].
+        stride: every n-th model point scored on the coarse grid.
+        shortlist: the best this many distinct poses of the coarse grid (farther apart
+            than two `coarse_step` or 20° in yaw) are ranked by the recogniser's decision
+            (a print of one hue matches itself half-turned; its texture does not) ...
+        candidates: ... and the best this many go through the finer grids; the
+            recogniser keeps the most confident.
+        fine_steps: (position [m], yaw [deg]) steps of the two finer grids, each over
+            four steps either way around the best of the grid before.
+    """
+
+    enabled: bool = True
+    radius: float = Field(default=0.036, gt=0.0, le=0.2)
+    coarse_step: float = Field(default=0.004, gt=0.0)
+    yaw_range: float = Field(default=16.0, ge=0.0, le=90.0)
+    yaw_step: float = Field(default=8.0, gt=0.0)
+    stride: int = Field(default=4, ge=1)
+    shortlist: int = Field(default=16, ge=1)
+    candidates: int = Field(default=3, ge=1)
+    fine_steps: tuple[tuple[float, float], ...] = ((0.001, 1.0), (0.00025, 0.25))
+
+
+Fitness = Callable[[FloatArray], FloatArray]
+
+
+def onto_plane(pose: FloatArray, normal: FloatArray, distance: float) -> FloatArray:
+    """`pose` with its z axis turned onto `normal` (the smallest rotation) and its origin
+    moved along the right camera's ray through it onto the plane normal·X = distance."""
+    out = np.array(pose, dtype=float)
+    z = out[:3, 2]
+    n = np.asarray(normal, dtype=float) / np.linalg.norm(normal)
+    axis = np.cross(z, n)
+    sine, cosine = float(np.linalg.norm(axis)), float(z @ n)
+    if sine > 1e-12:
+        out[:3, :3] = _about(axis / sine, np.arctan2(sine, cosine)) @ out[:3, :3]
+    along = float(n @ out[:3, 3])
+    if abs(along) > 1e-12:
+        out[:3, 3] *= distance / along
+    return out
+
+
+def poses_on_plane(base: FloatArray, offsets: FloatArray, yaws: FloatArray) -> FloatArray:
+    """(K, 4, 4): `base` moved by each (a, b) of (K, 2) `offsets` along its own x and y axes
+    [m] and turned by each of (K,) `yaws` about its z axis through its origin [rad]."""
+    R0, t0 = base[:3, :3], base[:3, 3]
+    n = R0[:, 2]
+    out = np.tile(np.eye(4), (len(yaws), 1, 1))
+    out[:, :3, 3] = t0 + offsets[:, :1] * R0[:, 0] + offsets[:, 1:2] * R0[:, 1]
+    cross = np.array([[0.0, -n[2], n[1]], [n[2], 0.0, -n[0]], [-n[1], n[0], 0.0]])
+    c, s = np.cos(yaws)[:, None, None], np.sin(yaws)[:, None, None]
+    turns = c * np.eye(3) + (1.0 - c) * np.outer(n, n) + s * cross
+    out[:, :3, :3] = turns @ R0
+    return out
+
+
+def search_in_plane(
+    pose: FloatArray,
+    coarse: Fitness,
+    full: Fitness,
+    fine: Fitness,
+    settings: PlaneSearchSettings,
+    rank: Callable[[FloatArray], FloatArray] | None = None,
+) -> FloatArray:
+    """(C, 4, 4) the best poses on the plane of `pose` (already on the stereo plane,
+    `onto_plane`) by the grids of the module docstring.
+
+    Args:
+        pose: (4, 4) ^CR T_M on the plane.
+        coarse: the search fitness on every `stride`-th point (nearest pixel).
+        full: ... on every point.
+        fine: ... on the sub-pixel fitness.
+        settings: the grids.
+        rank: scores (P,) of (P, 4, 4) poses, higher better (the decision's log-odds):
+            the `shortlist` best distinct coarse poses by the fitness are ranked by it and
+            the best `candidates` of them go on. None: by the fitness alone.
+    """
+    s = settings
+    span = np.arange(-s.radius, s.radius + 1e-12, s.coarse_step)
+    turns = np.deg2rad(np.arange(-s.yaw_range, s.yaw_range + 1e-9, s.yaw_step))
+    yaws = np.concatenate([turns + quarter * np.pi / 2.0 for quarter in range(4)])
+    a, b, yaw = (g.ravel() for g in np.meshgrid(span, span, yaws, indexing="ij"))
+    poses = poses_on_plane(pose, np.column_stack([a, b]), yaw)
+    order = np.argsort(-coarse(poses), kind="stable")
+    chosen: list[int] = []
+    wanted = s.shortlist if rank is not None else s.candidates
+    for k in order:
+        distinct = all(
+            np.hypot(a[k] - a[j], b[k] - b[j]) > 2.0 * s.coarse_step
+            or abs(np.angle(np.exp(1j * (yaw[k] - yaw[j])))) > np.deg2rad(20.0)
+            for j in chosen
+        )
+        if distinct:
+            chosen.append(int(k))
+            if len(chosen) == wanted:
+                break
+    if rank is not None:
+        ranked = np.argsort(-rank(poses[chosen]), kind="stable")[: s.candidates]
+        chosen = [chosen[int(k)] for k in ranked]
+    out = []
+    for k in chosen:
+        best = poses[k]
+        for fitness, (step, yaw_step) in zip((full, fine), s.fine_steps, strict=False):
+            around = np.arange(-4, 5, dtype=float) * step
+            best = _best(best, around, np.deg2rad(np.arange(-4, 5) * yaw_step), fitness)
+        out.append(best)
+    return np.array(out)
+
+
+def _best(base: FloatArray, span: FloatArray, yaws: FloatArray, fitness: Fitness) -> FloatArray:
+    a, b, yaw = (g.ravel() for g in np.meshgrid(span, span, yaws, indexing="ij"))
+    poses = poses_on_plane(base, np.column_stack([a, b]), yaw)
+    return np.asarray(poses[int(np.argmax(fitness(poses)))])
+
+
+def _about(axis: FloatArray, angle: float) -> FloatArray:
+    """(3, 3) rotation by `angle` [rad] about the unit `axis` (Rodrigues)."""
+    x, y, z = axis
+    K = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    return np.eye(3) + np.sin(angle) * K + (1.0 - np.cos(angle)) * (K @ K)
+
+
+__all__ = ["PlaneSearchSettings", "onto_plane", "poses_on_plane", "search_in_plane"]
