@@ -3,7 +3,8 @@
 Every subsystem declares its own settings as a `StrictModel` next to the code that uses
 them; `load_config` reads a YAML file into any such model, applies dotted overrides and
 turns pydantic's validation errors into one `ConfigError` that names each bad key and
-what would be valid.
+what would be valid. A check across keys (a model validator) raises `SettingValueError`
+to name the key it is about: pydantic itself would name only the section.
 """
 
 from __future__ import annotations
@@ -25,6 +26,25 @@ class StrictModel(BaseModel):
     """Base of all config sections: unknown keys are errors, values are immutable."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, validate_default=True)
+
+
+class SettingValueError(ValueError):
+    """A settings validator's complaint about one key of its section.
+
+    Raised in a model validator (a check across keys), it makes the `ConfigProblem`
+    name `key` below the section and carry `value`, where pydantic would name only the
+    section and the whole section's input.
+
+    Args:
+        key: the key within the validated section, dotted if deeper ('search.min_value').
+        message: what was wrong and what would be valid.
+        value: the value given for `key`.
+    """
+
+    def __init__(self, key: str, message: str, value: Any) -> None:
+        super().__init__(message)
+        self.key = key
+        self.value = value
 
 
 def read_yaml(path: str | Path) -> dict[str, Any]:
@@ -133,11 +153,17 @@ def validation_problems(err: ValidationError) -> tuple[ConfigProblem, ...]:
     """Each bad key of a pydantic validation error: dotted key, what was wrong, value given."""
     problems = []
     for problem in err.errors():
-        key = ".".join(str(part) for part in problem["loc"]) or "<top level>"
+        parts = [str(part) for part in problem["loc"]]
+        value = problem.get("input")
+        cause = problem.get("ctx", {}).get("error")
+        if isinstance(cause, SettingValueError):  # a check across keys names its key
+            parts.append(cause.key)
+            value = cause.value
+        key = ".".join(parts) or "<top level>"
         if problem["type"] == "extra_forbidden":
-            problems.append(ConfigProblem(key, "unknown key", problem.get("input")))
+            problems.append(ConfigProblem(key, "unknown key", value))
         else:
-            problems.append(ConfigProblem(key, str(problem["msg"]), problem.get("input")))
+            problems.append(ConfigProblem(key, str(problem["msg"]), value))
     return tuple(problems)
 
 
@@ -159,6 +185,7 @@ def _deep_copy(data: dict[str, Any]) -> dict[str, Any]:
 
 
 __all__ = [
+    "SettingValueError",
     "StrictModel",
     "apply_overrides",
     "dump_config",

@@ -36,13 +36,21 @@ def require_input_file(path: str | Path, what: str, *, key: str | None = None) -
     file = Path(path)
     if file.is_dir():
         raise InputError(
-            f"{what} file {file} is a folder, not a file", path=file, key=key, expected=f"a {what} file"
+            f"{what} file {file} is a folder, not a file",
+            path=file,
+            key=key,
+            expected=f"{_article(what)} {what} file",
         )
     if not file.exists():
-        raise InputError(f"{what} file not found: {file}", path=file, key=key, expected=f"a {what} file")
+        raise InputError(
+            f"{what} file not found: {file}", path=file, key=key, expected=f"{_article(what)} {what} file"
+        )
     if not file.is_file():
         raise InputError(
-            f"{what} file {file} is not a regular file", path=file, key=key, expected=f"a {what} file"
+            f"{what} file {file} is not a regular file",
+            path=file,
+            key=key,
+            expected=f"{_article(what)} {what} file",
         )
     if not os.access(file, os.R_OK):
         raise InputError(f"{what} file {file} is not readable (permission denied)", path=file, key=key)
@@ -186,6 +194,11 @@ def read_image(
         np.array_equal(bgr[..., 0], bgr[..., 1]) and np.array_equal(bgr[..., 1], bgr[..., 2])
     )
     return LoadedImage(bgr, info, gray)
+
+
+def _article(word: str) -> str:
+    """'a' or 'an' before `word` (by its first letter)."""
+    return "an" if word[:1].lower() in "aeiou" else "a"
 
 
 __all__ = ["GRAYSCALE_MODES", "ImageInfo", "LoadedImage", "inspect_image", "read_image", "require_input_file"]

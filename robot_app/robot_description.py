@@ -43,7 +43,8 @@ def urdf_path(file_name: str) -> Path:
     """Absolute path of one of robot_app's URDF files, e.g. 'pa10.urdf'.
 
     Raises:
-        InputError: the file is in none of `urdf_search_dirs()` (`path` names it).
+        InputError: the file is in none of `urdf_search_dirs()` (`path` names it, `key`
+            the environment variable that adds a folder).
     """
     for folder in urdf_search_dirs():
         candidate = folder / file_name
@@ -53,6 +54,7 @@ def urdf_path(file_name: str) -> Path:
     raise InputError(
         f"{file_name} not found in {searched}; set {URDF_DIR_ENV} to the folder holding it",
         path=file_name,
+        key=URDF_DIR_ENV,
         expected=f"a file in {searched}",
     )
 

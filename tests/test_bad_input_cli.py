@@ -350,10 +350,12 @@ def test_pybullet_banner_is_not_printed(tmp_path) -> None:
 
 def test_robot_app_debug_shows_the_traceback(inputs, monkeypatch, tmp_path) -> None:
     monkeypatch.setenv("ROBOT_APP_DEBUG", "1")
-    with pytest.raises(InputError, match="not found"):
+    with pytest.raises(InputError) as missing:
         main(["recognize", *inputs.recognize_args(left=tmp_path / "missing.png")])
-    with pytest.raises(ConfigError):
+    assert (missing.value.path, missing.value.key) == (tmp_path / "missing.png", "--left")
+    with pytest.raises(ConfigError) as population:
         main(["recognize", *inputs.recognize_args(), "--set", "propose.ga.population=1"])
+    assert (population.value.key, population.value.value) == ("propose.ga.population", 1)
 
 
 def test_errors_carry_their_data(inputs, tmp_path) -> None:

@@ -1,9 +1,9 @@
 from pathlib import Path
 
 import pytest
-from pydantic import Field
+from pydantic import Field, model_validator
 
-from robot_app.config import StrictModel, apply_overrides, dump_config, load_config
+from robot_app.config import SettingValueError, StrictModel, apply_overrides, dump_config, load_config
 from robot_app.errors import ConfigError
 
 
@@ -67,3 +67,28 @@ def test_override_syntax_errors() -> None:
     with pytest.raises(ConfigError) as not_a_section:
         apply_overrides({"a": 1}, ["a.b=2"])
     assert (not_a_section.value.key, not_a_section.value.value) == ("a.b", 2)
+
+
+class Window(StrictModel):
+    low: float = 0.0
+    high: float = 1.0
+
+    @model_validator(mode="after")
+    def _ordered(self) -> "Window":
+        if not self.low < self.high:
+            raise SettingValueError("high", "high must be above low", self.high)
+        return self
+
+
+class Holder(StrictModel):
+    window: Window = Window()
+
+
+def test_a_check_across_keys_names_its_key_below_the_section() -> None:
+    with pytest.raises(ConfigError) as crossed:
+        load_config(Holder, None, ["window.low=2", "window.high=1"])
+    assert (crossed.value.key, crossed.value.value) == ("window.high", 1)
+    assert str(crossed.value).startswith("window.high:")
+    with pytest.raises(ConfigError) as alone:
+        load_config(Window, None, ["high=-1"])
+    assert (alone.value.key, alone.value.value) == ("high", -1)

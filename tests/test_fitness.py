@@ -304,10 +304,12 @@ def test_counts_evaluations_and_validates_input(scene) -> None:
     evaluator = FitnessEvaluator(model, rig)
     with pytest.raises(RuntimeError, match="update"):
         evaluator.evaluate(pose)
-    with pytest.raises(InputError, match="320x240"):
-        evaluator.update(left[:, :200], right)
-    with pytest.raises(InputError, match="uint8"):
+    with pytest.raises(InputError) as size:
+        evaluator.update(left, right[:, :200])
+    assert (size.value.key, size.value.value) == ("right", (200, 240))  # (width, height) [px]
+    with pytest.raises(InputError) as dtype:
         evaluator.update(left.astype(float), right)
+    assert (dtype.value.key, dtype.value.value) == ("left", ((240, 320, 3), "float64"))
     evaluator.update(left, right)
     with pytest.raises(ValueError, match="shape"):
         evaluator.evaluate(np.eye(3))
@@ -317,12 +319,18 @@ def test_counts_evaluations_and_validates_input(scene) -> None:
 
 
 def test_params_are_validated() -> None:
-    with pytest.raises(ConfigError, match="hue_threshold_in"):
-        validate(FitnessSettings, {"hue_threshold_in": 200})
-    with pytest.raises(ConfigError, match="score_in_match"):
-        validate(FitnessSettings, {"score_in_match": -1.0})
-    with pytest.raises(ConfigError, match="bogus"):
+    for data, key, value in (
+        ({"hue_threshold_in": 200}, "hue_threshold_in", 200),
+        ({"score_in_match": -1.0}, "score_in_match", -1.0),
+        ({"score_in_match": 0.5, "score_in_other": 1.0}, "score_in_match", 0.5),  # not the largest
+        ({"hidden_foreign": True, "normalisation": "model"}, "normalisation", "model"),
+    ):
+        with pytest.raises(ConfigError) as bad:
+            validate(FitnessSettings, data)
+        assert (bad.value.key, bad.value.value) == (key, value)
+    with pytest.raises(ConfigError) as unknown:
         validate(FitnessSettings, {"bogus": 1})
+    assert unknown.value.key == "bogus" and unknown.value.problems[0].problem == "unknown key"
 
 
 def test_avoided_poses_are_those_near_a_centre_at_its_yaw_or_at_any_yaw() -> None:

@@ -6,7 +6,6 @@ import cv2
 import numpy as np
 import pytest
 
-from robot_app.errors import InputError
 from robot_app.geometry import make_transform, rotation_about_z, yaw_of
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.fitness import FitnessEvaluator
@@ -108,16 +107,17 @@ def test_plots_are_written(tmp_path):
         assert image is not None and min(image.shape[:2]) > 300
 
 
-def test_bad_arguments_are_input_errors():
+def test_bad_arguments_are_programming_errors():
+    # the commands check the user's --step, --depth and bounds before they call these
     evaluator = _evaluator(0, [])
-    with pytest.raises(InputError, match="rotation"):
+    with pytest.raises(ValueError, match="rotation"):
         full_search(evaluator, rotation=np.diag([1.0, 1.0, -1.0]))
-    with pytest.raises(InputError, match="x_range"):
+    with pytest.raises(ValueError, match="x_range"):
         full_search(evaluator, x_range=(0.1, -0.1))
-    with pytest.raises(InputError, match="yaws"):
+    with pytest.raises(ValueError, match="yaws"):
         full_search(evaluator, yaws=[])
-    with pytest.raises(InputError, match="step"):
+    with pytest.raises(ValueError, match="step"):
         full_search(evaluator, step=0.0)
     result = full_search(evaluator, (-0.01, 0.01), (-0.01, 0.01), step=0.01)
-    with pytest.raises(InputError, match="min_separation"):
+    with pytest.raises(ValueError, match="min_separation"):
         find_peaks(result, min_separation=0.0, min_fitness=0.0)

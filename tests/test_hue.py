@@ -7,7 +7,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from robot_app.errors import InputError
 from robot_app.vision.hue import HUE_RANGE, circular_mean_hue, hue_distance, to_hsv, to_hue
 
 
@@ -39,6 +38,7 @@ def test_circular_mean_across_zero():
 @pytest.mark.parametrize(
     "image", [np.zeros((4, 4), np.uint8), np.zeros((4, 4, 3)), np.zeros((4, 4, 4), np.uint8)]
 )
-def test_non_bgr_images_are_input_errors(image):
-    with pytest.raises(InputError, match="uint8 BGR"):
+def test_non_bgr_arrays_are_programming_errors(image):
+    # the user's images are checked where they enter (pixel_codes.checked_image, make_model)
+    with pytest.raises(ValueError, match="uint8 BGR"):
         to_hue(image)

@@ -110,17 +110,18 @@ def test_a_staged_folder_moves_its_files_in_or_leaves_nothing(tmp_path) -> None:
 def test_output_file_checks(tmp_path) -> None:
     (tmp_path / "dir.mp4").mkdir()
     (tmp_path / "file").write_text("x")
-    with pytest.raises(OutputError, match="is a folder"):
-        check_output_file(tmp_path / "dir.mp4", key="--video", suffixes=(".mp4",))
-    with pytest.raises(OutputError, match=r"\.mp4"):
-        check_output_file(tmp_path / "v.avi", key="--video", suffixes=(".mp4",))
-    with pytest.raises(OutputError, match="not a regular file"):
-        check_output_file("/dev/null", key="--out")
-    with pytest.raises(OutputError, match="is a file, not a folder"):
-        check_output_file(tmp_path / "file" / "x.npz", key="--out")
-    with pytest.raises(OutputError, match="does not exist") as caught:
-        check_output_file(tmp_path / "missing" / "x.npz", key="--out", create_parents=False)
-    assert caught.value.key == "--out" and caught.value.value == str(tmp_path / "missing" / "x.npz")
+    cases = [  # (path, suffixes, create_parents, what would be valid)
+        (tmp_path / "dir.mp4", (".mp4",), True, "a file name"),
+        (tmp_path / "v.avi", (".mp4",), True, "a file name ending in .mp4"),
+        (Path("/dev/null"), (), True, "a regular file name"),
+        (tmp_path / "file" / "x.npz", (), True, "a path whose parents are folders"),
+        (tmp_path / "missing" / "x.npz", (), False, "a file in an existing folder"),
+    ]
+    for path, suffixes, create_parents, expected in cases:
+        with pytest.raises(OutputError) as caught:
+            check_output_file(path, key="--video", suffixes=suffixes, create_parents=create_parents)
+        error = caught.value
+        assert (error.path, error.key, error.value, error.expected) == (path, "--video", str(path), expected)
     assert check_output_file(tmp_path / "new" / "deeper" / "v.mp4", key="--video", suffixes=(".mp4",))
     assert _everything(tmp_path) == ["dir.mp4", "file"]  # checks create nothing, probes are gone
 
@@ -131,14 +132,18 @@ def test_output_folder_checks(tmp_path) -> None:
     (tmp_path / "full" / "x").write_text("x")
     check_output_folder(tmp_path / "empty", key="--out")
     check_output_folder(tmp_path / "new", key="--out")
-    with pytest.raises(OutputError, match="already holds files"):
-        check_output_folder(tmp_path / "full", key="--out")
+    cases = [  # (path, what would be valid)
+        (tmp_path / "full", "a new or empty folder (or --force)"),
+        (tmp_path / "full" / "x", "a new or empty folder"),  # a file
+        (Path("/proc/robot_app_results"), "a writable location"),
+    ]
+    for path, expected in cases:
+        with pytest.raises(OutputError) as caught:
+            check_output_folder(path, key="--out")
+        error = caught.value
+        assert (error.path, error.key, error.value, error.expected) == (path, "--out", str(path), expected)
     check_output_folder(tmp_path / "full", key="--out", force=True)
     check_output_folder(tmp_path / "full", key="--out", resumable=True)
-    with pytest.raises(OutputError, match="is a file"):
-        check_output_folder(tmp_path / "full" / "x", key="--out")
-    with pytest.raises(OutputError, match="cannot write"):
-        check_output_folder("/proc/robot_app_results", key="--out")
     assert _everything(tmp_path) == ["empty", "full", "full/x"]
 
 
@@ -158,8 +163,9 @@ def test_memory_and_count_limits() -> None:
     with pytest.raises(ResourceError) as caught:
         limits.check_memory(2 * GB, key="--step", value=0.001, what="a grid")
     assert caught.value.key == "--step" and caught.value.value == 0.001 and "1.0 GB" in str(caught.value)
-    with pytest.raises(ResourceError, match="--allow-large"):
+    with pytest.raises(ResourceError) as count:
         limits.check_count(11, 10, key="--step", value=1, what="poses")
+    assert (count.value.key, count.value.value, count.value.expected) == ("--step", 1, "at most 10 poses")
     ResourceLimits(allow_large=True).check_count(11, 10, key="--step", value=1, what="poses")
     with pytest.raises(InputError):
         ResourceLimits(max_memory_gb=0.0)
@@ -178,12 +184,15 @@ def test_workers_and_trial_time() -> None:
     check_workers(limits, 2, "synthetic")
     with pytest.raises(InputError):
         check_workers(limits, 0, "synthetic")
-    with pytest.raises(ResourceError, match="CPU"):
+    with pytest.raises(ResourceError) as workers:
         check_workers(limits, 10_000, "sim")
+    assert (workers.value.key, workers.value.value) == ("--workers", 10_000)
+    assert workers.value.expected.endswith("worker processes")  # the CPU count, not the memory, limits them
     check_workers(ResourceLimits(allow_large=True, max_memory_gb=1e4), 10_000, "sim")
     check_trial_time(limits, kind="pick_place", source="sim", to_run=100, workers=2, key="trials", value=100)
-    with pytest.raises(ResourceError, match="days"):
+    with pytest.raises(ResourceError) as time:
         check_trial_time(limits, kind="pick_place", source="sim", to_run=10**5, workers=1, key="t", value=1)
+    assert (time.value.key, time.value.value) == ("t", 1)
 
 
 def test_format_bytes() -> None:

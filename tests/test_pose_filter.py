@@ -125,18 +125,22 @@ def test_outliers_and_low_fitness_are_rejected_and_counted() -> None:
         (truth + np.array([0.2, 0.0, 0.0, 0.0]), 0.8, UpdateReason.POSITION_JUMP),
         (truth + np.array([0.0, 0.0, 0.0, math.radians(60.0)]), 0.8, UpdateReason.YAW_JUMP),
         (truth + np.array([0.025, 0.0, 0.0, 0.0]), 0.8, UpdateReason.MAHALANOBIS),  # 7 sigma, < 5 cm
-        (truth, SETTINGS.min_fitness - 0.01, UpdateReason.LOW_FITNESS),
+        (truth + np.array([0.2, 0.0, 0.0, 0.0]), SETTINGS.min_fitness - 0.01, UpdateReason.LOW_FITNESS),
     ]
     for n, (measurement, fitness, reason) in enumerate(outliers, start=1):
         update = pose_filter.update(measurement, fitness, t=2.9 + 0.1 * n)
         assert not update.accepted and update.reason is reason
         assert pose_filter.rejected_count == n and pose_filter.consecutive_rejections == n
+    # a poor recognition where the cloth should be is not fused, and does not count toward lost
+    update = pose_filter.update(truth, SETTINGS.min_fitness - 0.01, t=3.4)
+    assert not update.accepted and update.reason is UpdateReason.LOW_FITNESS_CONSISTENT
+    assert pose_filter.rejected_count == 5 and pose_filter.consecutive_rejections == 4
     assert pose_filter.accepted_count == 30 and not pose_filter.lost
     # A rejected measurement only moves the filter's time: it equals the twin's prediction.
-    twin.predict(3.3)
+    twin.predict(3.4)
     np.testing.assert_allclose(state_of(pose_filter), state_of(twin), atol=1e-15)
-    assert pose_filter.update(noisy(rng, truth), 0.8, t=3.4).accepted
-    assert pose_filter.consecutive_rejections == 0 and pose_filter.rejected_count == 4
+    assert pose_filter.update(noisy(rng, truth), 0.8, t=3.5).accepted
+    assert pose_filter.consecutive_rejections == 0 and pose_filter.rejected_count == 5
 
 
 def test_a_lost_filter_reinitialises_on_the_next_good_recognition() -> None:
@@ -245,3 +249,20 @@ def test_bad_inputs_are_input_errors() -> None:
         pose_filter.update(np.zeros(4), 0.9, t=0.5)
     with pytest.raises(ValueError, match="went back"):
         pose_filter.predict(0.9)
+
+
+def test_two_looks_start_the_filter_moving_with_the_difference_covariance() -> None:
+    pose_filter = PoseFilter()
+    first, second = PoseXYZYaw(0.50, 0.10, 0.0, math.pi - 0.01), PoseXYZYaw(0.505, 0.11, 0.0, -math.pi + 0.01)
+    estimate = pose_filter.reset_from_two(first, 1.0, second, 1.1)
+    np.testing.assert_allclose(estimate.position, second[:3])
+    np.testing.assert_allclose(estimate.velocity, [0.05, 0.1, 0.0], atol=1e-12)
+    assert estimate.yaw_rate == pytest.approx(0.2)  # across the +-pi seam: +0.02 rad in 0.1 s
+    variance_xy = SETTINGS.measurement_std_xy**2
+    assert estimate.covariance[4, 4] == pytest.approx(2 * variance_xy / 0.1**2)
+    assert estimate.covariance[0, 4] == pytest.approx(variance_xy / 0.1)
+    np.testing.assert_allclose(np.linalg.eigvalsh(estimate.covariance).min() > 0, True)
+    later = pose_filter.estimate_at(1.5)
+    np.testing.assert_allclose(later.position, [0.525, 0.15, 0.0], atol=1e-12)
+    with pytest.raises(ValueError):
+        pose_filter.reset_from_two(first, 1.0, second, 1.0)

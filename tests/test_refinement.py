@@ -194,12 +194,10 @@ def test_cma_returns_the_start_when_nothing_is_better() -> None:
 
 
 def test_settings_are_validated() -> None:
-    with pytest.raises(ConfigError, match="cma_population"):
-        validate(RefinementSettings, {"cma_population": 2})
-    with pytest.raises(ConfigError, match="method"):
-        validate(RefinementSettings, {"method": "newton"})
-    with pytest.raises(ConfigError, match="cma_sigma"):
-        validate(RefinementSettings, {"cma_sigma": 0.0})
+    for key, value in (("cma_population", 2), ("method", "newton"), ("cma_sigma", 0.0)):
+        with pytest.raises(ConfigError) as bad:
+            validate(RefinementSettings, {key: value})
+        assert (bad.value.key, bad.value.value) == (key, value)
 
 
 def test_a_disabled_refiner_returns_the_pose_unscored() -> None:

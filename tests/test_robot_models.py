@@ -88,8 +88,10 @@ def test_urdf_dir_can_be_overridden(tmp_path: Path, monkeypatch: pytest.MonkeyPa
     shutil.copy(pa10_spec().urdf_path, tmp_path / "pa10.urdf")
     monkeypatch.setenv(_paths.URDF_DIR_ENV, str(tmp_path))
     assert pa10_spec().urdf_path == tmp_path / "pa10.urdf"
-    with pytest.raises(InputError, match="ROBOT_APP_URDF_DIR"):
+    with pytest.raises(InputError) as missing:
         _paths.urdf_path("no_such_robot.urdf")
+    assert (missing.value.path, missing.value.key) == (Path("no_such_robot.urdf"), "ROBOT_APP_URDF_DIR")
+    assert str(tmp_path) in missing.value.expected  # the variable's folder was searched
 
 
 def test_unknown_arm_raises_input_error() -> None:

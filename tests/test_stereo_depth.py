@@ -85,10 +85,10 @@ def test_the_recognizer_takes_a_trusted_depth_and_reports_the_offset() -> None:
 
 
 def test_settings_are_checked() -> None:
-    with pytest.raises(ConfigError, match="smoothing"):
-        validate(DepthCheckSettings, {"smoothing": 0})
-    with pytest.raises(ConfigError, match="min_samples"):
-        validate(DepthCheckSettings, {"min_samples": 3})
+    for key, value in (("smoothing", 0), ("min_samples", 3)):
+        with pytest.raises(ConfigError) as bad:
+            validate(DepthCheckSettings, {key: value})
+        assert (bad.value.key, bad.value.value) == (key, value)
 
 
 def test_the_plane_fit_finds_depth_and_tilt_from_a_pose_far_off_both() -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robot_app.errors import InputError
 from robot_app.geometry import make_transform, rotation_about_z, rotation_from_rpy
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.hue import hue_distance, to_hsv, to_hue
@@ -124,9 +123,9 @@ def test_model_photo_shows_the_cloth_centred_and_the_background_empty():
     assert photo.shape == background.shape == (480, 640, 3)
 
 
-def test_bad_inputs_are_input_errors():
+def test_bad_arguments_are_programming_errors():
     cloth = synthetic_cloth(0)
-    with pytest.raises(InputError, match="index"):
+    with pytest.raises(ValueError, match="index"):
         synthetic_cloth(CATALOGUE_SIZE)
     with pytest.raises(ValueError, match="fraction"):
         occluder_covering(cloth, np.eye(4), fraction=1.2)

@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robot_app.errors import InputError
+from robot_app.errors import InputError, OutputError
 from robot_app.experiments.experiment_config import RecognitionTrialConfig, parse_trial_config
-from robot_app.experiments.results_table import ResultsTable, is_timing_column
+from robot_app.experiments.results_table import ResultsTable, is_timing_column, table_columns
 from robot_app.experiments.trial_result import execute_trial, trial_seed
 from robot_app.experiments.trials import SweepInterruptedError, run_sweep
 
@@ -129,10 +129,14 @@ def test_interrupted_sweep_resumes_without_redoing(tmp_path: Path) -> None:
 
 def test_resume_refuses_a_different_config(tmp_path: Path) -> None:
     run_sweep(_config(), fake_trial, FakeOutcome, tmp_path, progress=False)
-    with pytest.raises(InputError, match="different config"):
+    with pytest.raises(OutputError) as other:
         run_sweep(_config(seed=8), fake_trial, FakeOutcome, tmp_path, progress=False)
-    with pytest.raises(InputError, match="already holds results"):
+    assert (other.value.path, other.value.key, other.value.value) == (tmp_path, "--out", str(tmp_path))
+    assert _config(seed=8).config_hash() in other.value.expected  # the config given
+    assert _config(seed=8).config_hash() != _config().config_hash()
+    with pytest.raises(OutputError) as no_resume:
         run_sweep(_config(), fake_trial, FakeOutcome, tmp_path, progress=False, resume=False)
+    assert (no_resume.value.path, no_resume.value.key) == (tmp_path, "--out")
 
 
 def test_table_refuses_other_columns(tmp_path: Path) -> None:
@@ -142,8 +146,10 @@ def test_table_refuses_other_columns(tmp_path: Path) -> None:
     class Other:
         value: float
 
-    with pytest.raises(InputError, match="columns"):
+    with pytest.raises(InputError) as columns:
         ResultsTable(tmp_path / "trials.csv", Other)
+    assert columns.value.path == tmp_path / "trials.csv"
+    assert columns.value.value == list(table_columns(FakeOutcome))  # the header in the file
 
 
 def test_sweep_points_share_scenes_and_summarise_separately(tmp_path: Path) -> None:
@@ -177,10 +183,12 @@ def test_dead_worker_is_a_failed_row_and_the_sweep_goes_on(tmp_path: Path) -> No
 
 
 def test_bad_workers_and_backend_are_input_errors(tmp_path: Path) -> None:
-    with pytest.raises(InputError, match="workers"):
+    with pytest.raises(InputError) as workers:
         run_sweep(_config(), fake_trial, FakeOutcome, tmp_path, workers=0, progress=False)
-    with pytest.raises(InputError, match="backend"):
+    assert (workers.value.key, workers.value.value) == ("--workers", 0)
+    with pytest.raises(InputError) as backend:
         run_sweep(_config(), fake_trial, FakeOutcome, tmp_path, backend="slurm", progress=False)  # type: ignore[arg-type]
+    assert (backend.value.key, backend.value.value) == ("--backend", "slurm")
 
 
 @pytest.mark.slow

@@ -159,12 +159,16 @@ def test_the_confidence_grows_with_each_measure_and_found_is_its_threshold() -> 
 
 
 def test_settings_are_validated_once() -> None:
-    with pytest.raises(ConfigError, match=r"search\.min_saturation"):
+    with pytest.raises(ConfigError) as pixel_code:
         validate(RecognitionSettings, {"search": {"min_saturation": 10}})
-    with pytest.raises(ConfigError, match="threshold"):
+    assert (pixel_code.value.key, pixel_code.value.value) == ("search.min_saturation", 10)
+    validate(RecognitionSettings, {"search": {"min_saturation": 10}, "fitness": {"min_saturation": 10}})
+    with pytest.raises(ConfigError) as threshold:
         validate(RecognitionSettings, {"decide": {"threshold": 1.5}})
-    with pytest.raises(ConfigError, match="spacing"):
+    assert (threshold.value.key, threshold.value.value) == ("decide.threshold", 1.5)
+    with pytest.raises(ConfigError) as spacing:
         validate(VerificationSettings, {"spacing": 0.0})
+    assert (spacing.value.key, spacing.value.value) == ("spacing", 0.0)
 
 
 def test_the_reported_confidence_is_the_decision_on_the_reported_evidence() -> None:

@@ -55,6 +55,9 @@ def pick_place(
 ) -> None:
     """Run one pick-and-place episode in simulation: find the cloth, grasp it, put it in the box.
 
+    With `--set scene.conveyor_speed=0.05` the cloth comes on a belt; a belt no robot could
+    keep up with is refused before the start (outcome 'unreachable', exit code 2).
+
     Ctrl-C (or SIGTERM) stops it after the current control step: the results folder is
     written with outcome 'interrupted' and the phases so far, the video is closed
     playable, the recording holds the episode up to the stop, and the exit code is 130 (143).
@@ -105,6 +108,9 @@ def pick_place(
             f"{len(r.phases)} phases) in {folder}{shown}",
             signal_number=stop.signal_number or 2,
         )
+    if r.outcome is Outcome.UNREACHABLE:  # refused before the start: the settings ask the impossible
+        typer.echo(f"REFUSED: unreachable ({r.reason}); results: {folder}", err=True)
+        raise typer.Exit(2)
     verdict = "SUCCESS" if r.success else "FAILED"
     placed = f"{r.placed_fraction:.0%} of the cloth in the box" if r.placed_fraction is not None else ""
     typer.echo(

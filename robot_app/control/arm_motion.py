@@ -1,135 +1,218 @@
-"""Arm motions between pick-and-place episodes: the jerk-limited moves a job makes itself.
+"""The commanded arm: every joint sample the loop sends goes through `ArmMotion.send`.
 
-A job that runs `PickPlaceLoop` once per cloth also moves the arm on its own: it holds
-still while it looks, lowers a cloth it should not have lifted back onto the table, goes
-to another observation pose. `ArmMotion` does that with the loop's means (ruckig
-point-to-point plans within `JointLimits`, Pinocchio IK with the cameras looking
-straight down, one command per control period, contact checks), starting from the last
-commanded state of the cell (a `LoggedCell`), so the hand-over to and from the loop is
-seamless; every motion ends at rest.
+It keeps the commanded state (positions, velocities, accelerations), sends it to the
+`Cell` each control period, logs every sample for the limit check at the end, counts arm
+contacts every `collision_check_period`, stops an episode past `max_episode_time`, and
+solves the TCP's inverse kinematics (Pinocchio) with the hand's fixed orientation (the
+cameras look straight down throughout).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
+from robot_app.control.cell import Cell
+from robot_app.control.episode import EpisodeAbortError, Outcome
 from robot_app.control.kinematics import Kinematics
-from robot_app.control.limits import JointLimits
-from robot_app.control.logged_cell import LoggedCell
-from robot_app.control.trajectory import plan_point_to_point
-from robot_app.errors import IKError
+from robot_app.control.limits import JointLimits, LimitReport, check_limits
+from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.trajectory import OnlineTrajectory, TrajectorySample, plan_point_to_point
 from robot_app.geometry import make_transform
 
-StepCallback = Callable[[], None]
+TCP_FRAME = "tcp"
+
+
+@dataclass
+class Command:
+    """Last commanded joint state (positions [rad], velocities [rad/s], accelerations [rad/s^2])."""
+
+    q: FloatArray
+    v: FloatArray
+    a: FloatArray
 
 
 class ArmMotion:
-    """Moves the arm of a `LoggedCell` between episodes.
+    """Jerk-limited motion of the arm through a `Cell`, with its logs.
 
     Args:
-        cell: the logged cell (its last command is where motions start).
-        kinematics: the arm with its `tcp` frame.
-        limits: joint limits of every commanded sample.
-        observation_joints: the observation pose [rad]; its hand orientation is kept.
-        on_step: called after every control step (video frames, stop requests).
-        ik_time_budget: per IK solve [s]; ik_tolerance: [m] and [rad].
-        collision_check_period: [s] between contact checks.
+        cell: the robot cell.
+        kinematics: arm kinematics with the `tcp` frame, poses in Σ_W.
+        limits: joint limits every commanded sample must respect.
+        settings: the loop's settings (IK budget and tolerance, collision period, episode time).
+        tcp_rotation: (3, 3) orientation the TCP keeps in Σ_W.
+        preferred_posture: joints [rad] the IK's null space pulls toward.
+        after_step: called after every control step (observers; may raise InterruptError).
     """
 
     def __init__(
         self,
-        cell: LoggedCell,
+        cell: Cell,
         kinematics: Kinematics,
         limits: JointLimits,
-        observation_joints: npt.ArrayLike,
-        *,
-        on_step: StepCallback | None = None,
-        ik_time_budget: float = 0.1,
-        ik_tolerance: float = 1e-4,
-        collision_check_period: float = 0.05,
+        settings: LoopSettings,
+        tcp_rotation: npt.ArrayLike,
+        preferred_posture: npt.ArrayLike,
+        after_step: Callable[[], None] | None = None,
     ) -> None:
         self.cell = cell
         self.kinematics = kinematics
         self.limits = limits
-        self.observation_joints = np.array(observation_joints, dtype=float)
-        self.tcp_rotation = kinematics.frame_pose(self.observation_joints, "tcp")[:3, :3].copy()
-        self.on_step = on_step
-        self.ik_time_budget = ik_time_budget
-        self.ik_tolerance = ik_tolerance
-        self.collision_check_period = collision_check_period
+        self.settings = settings
+        self.tcp_rotation = np.array(tcp_rotation, dtype=float).reshape(3, 3)
+        self.preferred_posture = np.array(preferred_posture, dtype=float)
+        self.after_step = after_step
+        self.reset()
+
+    def reset(self) -> None:
+        """Starts an episode: the command is the measured arm at rest; the logs are emptied."""
+        q0 = np.asarray(self.cell.joint_positions(), dtype=float)
+        q0 = np.clip(q0, self.limits.lower, self.limits.upper)
+        self.command = Command(q0, np.zeros(len(q0)), np.zeros(len(q0)))
+        self.start_time = self.cell.time
+        self._next_collision_check = self.cell.time
         self.collisions = 0
-        self._next_check = cell.time
+        self.ruckig_times_us: list[float] = []
+        self.ik_times_ms: list[float] = []
+        self._times: list[float] = []
+        self._Q: list[FloatArray] = []
+        self._V: list[FloatArray] = []
+        self._A: list[FloatArray] = []
 
-    @property
-    def q(self) -> FloatArray:
-        """Where motions start: the last commanded joints (measured before any command)."""
-        last = self.cell.last_command
-        return last if last is not None else np.array(self.cell.joint_positions(), dtype=float)
-
+    # ------------------------------------------------------------------ kinematics
     def tcp_position(self, q: npt.ArrayLike | None = None) -> FloatArray:
-        """TCP position [m] in Σ_W at `q` (default: the last command)."""
-        return self.kinematics.frame_pose(self.q if q is None else np.asarray(q, dtype=float), "tcp")[
-            :3, 3
-        ].copy()
+        """(3,) TCP position [m] at `q` (default: the commanded joints)."""
+        return self.kinematics.frame_pose(self.command.q if q is None else q, TCP_FRAME)[:3, 3]
 
-    def solve_tcp(self, position: npt.ArrayLike) -> FloatArray:
-        """Joints putting the TCP at `position` [m] with the observation pose's orientation.
+    def tcp_velocity(self) -> FloatArray:
+        """(3,) commanded TCP velocity [m/s]."""
+        J = self.kinematics.frame_jacobian(self.command.q, TCP_FRAME, "local_world_aligned")
+        return np.asarray(J[:3] @ self.command.v, dtype=float)
+
+    def frame_position(self, frame: str, q: npt.ArrayLike | None = None) -> FloatArray:
+        """(3,) position [m] of a kinematics frame at `q` (default: the commanded joints)."""
+        return self.kinematics.frame_pose(self.command.q if q is None else q, frame)[:3, 3]
+
+    def solve_tcp(self, position: npt.ArrayLike, seed: npt.ArrayLike | None = None) -> FloatArray:
+        """Joints [rad] putting the TCP at `position` [m] with the hand's orientation.
 
         Raises:
-            IKError: no solution within the joint limits.
+            EpisodeAbortError: IK_UNREACHABLE, with the residual, if no solution within
+                the joint limits is found (one retry with 5x the time budget).
         """
-        target = make_transform(self.tcp_rotation, np.asarray(position, dtype=float))
-        result = None
-        for budget in (self.ik_time_budget, 5 * self.ik_time_budget):
+        s = self.settings
+        target = make_transform(self.tcp_rotation, position)
+        start = self.command.q if seed is None else np.asarray(seed, dtype=float)
+        for budget in (s.ik_time_budget, 5 * s.ik_time_budget):
             result = self.kinematics.solve_ik(
                 target,
-                self.q,
-                frame="tcp",
+                start,
+                frame=TCP_FRAME,
                 time_budget=budget,
-                position_tolerance=self.ik_tolerance,
-                orientation_tolerance=self.ik_tolerance,
-                preferred_posture=self.observation_joints,
+                position_tolerance=s.ik_tolerance,
+                orientation_tolerance=s.ik_tolerance,
+                preferred_posture=self.preferred_posture,
             )
+            self.ik_times_ms.append(result.time_s * 1e3)
             if result.success and self.limits.contains(result.q):
-                return np.array(result.q, dtype=float)
+                return np.array(result.q)
         where = ", ".join(f"{v:.3f}" for v in np.asarray(position, dtype=float))
-        residual = float("nan") if result is None else result.position_error * 1e3
-        raise IKError(
-            f"no IK solution within the joint limits for the TCP at ({where}) m: residual {residual:.1f} mm"
+        raise EpisodeAbortError(
+            Outcome.IK_UNREACHABLE,
+            f"no IK solution within the joint limits for the TCP at ({where}) m: "
+            f"residual {result.position_error * 1e3:.1f} mm, {np.rad2deg(result.orientation_error):.2f} deg",
         )
 
+    # ------------------------------------------------------------------ motion
+    def send(self, q: npt.ArrayLike, v: npt.ArrayLike, a: npt.ArrayLike) -> None:
+        """Commands one joint sample for one control period, logs it, checks contacts."""
+        if self.cell.time - self.start_time > self.settings.max_episode_time:
+            raise EpisodeAbortError(
+                Outcome.TIMEOUT, f"episode longer than {self.settings.max_episode_time:.0f} s"
+            )
+        self.command = Command(np.array(q, dtype=float), np.array(v, dtype=float), np.array(a, dtype=float))
+        self.cell.command_joints(self.command.q, self.command.v)
+        self.cell.step()
+        self._times.append(self.cell.time)
+        self._Q.append(self.command.q)
+        self._V.append(self.command.v)
+        self._A.append(self.command.a)
+        if self.cell.time >= self._next_collision_check:
+            self._next_collision_check += self.settings.collision_check_period
+            self.collisions += self.cell.collisions()
+        if self.after_step is not None:
+            self.after_step()
+
+    def hold(self, duration: float) -> None:
+        """Holds the commanded joints still for `duration` [s]."""
+        for _ in range(round(duration / self.cell.dt)):
+            self._send_still()
+
+    def hold_until(self, time: float, while_waiting: Callable[[], None] | None = None) -> None:
+        """Holds still until cell time `time` [s], calling `while_waiting` after each step."""
+        while self.cell.time < time - 1e-9:
+            self._send_still()
+            if while_waiting is not None:
+                while_waiting()
+
+    def _send_still(self) -> None:
+        zeros = np.zeros_like(self.command.q)
+        self.send(self.command.q, zeros, zeros)
+
     def move_to_joints(self, q_goal: npt.ArrayLike, speed: float = 1.0) -> None:
-        """Jerk-limited move from rest to rest at `q_goal` [rad], limits scaled by `speed` (0, 1]."""
-        limits = self.limits if speed >= 1.0 else self.limits.scaled(speed)
-        start = self.q
-        trajectory = plan_point_to_point(start, np.asarray(q_goal, dtype=float), limits, dt=self.cell.dt)
+        """Jerk-limited move to rest at `q_goal` [rad], the limits scaled by `speed` (0, 1]."""
+        trajectory = plan_point_to_point(
+            self.command.q,
+            q_goal,
+            self.limits if speed >= 1.0 else self.limits.scaled(speed),
+            v_start=self.command.v,
+            a_start=self.command.a,
+            dt=self.cell.dt,
+        )
+        self.ruckig_times_us.append(trajectory.calculation_time_s * 1e6)
         steps = round(trajectory.duration / self.cell.dt)
         for k in range(1, steps + 1):
             sample = trajectory.sample(k * self.cell.dt)
-            self._send(sample.q, sample.v)
+            self.send(sample.q, sample.v, sample.a)
+        self.command.v[:] = 0.0
+        self.command.a[:] = 0.0
 
-    def move_tcp(self, position: npt.ArrayLike, speed: float = 1.0) -> None:
-        """Moves the TCP to `position` [m] (cameras looking down)."""
-        self.move_to_joints(self.solve_tcp(position), speed)
+    def start_online(self) -> OnlineTrajectory:
+        """An online (replanning) trajectory from the commanded state."""
+        online = OnlineTrajectory(self.limits, self.cell.dt, self.command.q)
+        online.reset(self.command.q, self.command.v, self.command.a)
+        return online
 
-    def hold(self, duration: float) -> None:
-        """Holds the last command for `duration` [s] (rounded to control periods)."""
-        q = self.q
-        for _ in range(max(0, round(duration / self.cell.dt))):
-            self._send(q, np.zeros_like(q))
+    def step_online(self, online: OnlineTrajectory) -> TrajectorySample:
+        """One control period along `online` (after any `set_target`)."""
+        sample = online.step()
+        self.send(sample.q, sample.v, sample.a)
+        return sample
 
-    def _send(self, q: FloatArray, v: FloatArray) -> None:
-        self.cell.command_joints(q, v)
-        self.cell.step()
-        if self.cell.time >= self._next_check:
-            self._next_check += self.collision_check_period
-            self.collisions += self.cell.collisions()
-        if self.on_step is not None:
-            self.on_step()
+    def end_online(self, online: OnlineTrajectory, *, to_rest: bool) -> None:
+        """Keeps the online run's replan times; with `to_rest`, brings the arm to rest where
+        it is heading (jerk-limited)."""
+        self.ruckig_times_us.extend(t * 1e6 for t in online.calculation_times)
+        if to_rest:
+            self.move_to_joints(np.clip(self.command.q, self.limits.lower, self.limits.upper))
+
+    # ------------------------------------------------------------------ logs
+    @property
+    def samples(self) -> int:
+        return len(self._times)
+
+    def limit_report(self) -> LimitReport:
+        """Every commanded sample checked against the position, velocity, acceleration and jerk limits."""
+        n, dof = len(self._times), self.limits.dof
+        times = np.asarray(self._times) if n else np.zeros(0)
+        Q = np.asarray(self._Q).reshape(n, dof)
+        V = np.asarray(self._V).reshape(n, dof)
+        A = np.asarray(self._A).reshape(n, dof)
+        return check_limits(times, Q, V, A, self.limits, tol=1e-6)
 
 
-__all__ = ["ArmMotion"]
+__all__ = ["TCP_FRAME", "ArmMotion", "Command"]

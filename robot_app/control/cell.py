@@ -16,7 +16,15 @@ from robot_app.arrays import FloatArray
 
 
 class StereoCapture(Protocol):
-    """One capture of the hand stereo pair and where the right camera was at that time."""
+    """One capture of the hand stereo pair and where the right camera was at that time.
+
+    Attributes:
+        time: the exposure [s] (cell time): what the images show happened then.
+        available_time: when the images reached the computer [s] (>= time: the camera's
+            latency; a frame the camera lost and resent arrives a frame period later).
+        dropped: the frame triggered at `time` was lost and these images came late.
+        transform_right_camera_to_world: 4x4 pose of Σ_CR at the exposure [m].
+    """
 
     @property
     def left_bgr(self) -> npt.NDArray[np.uint8]: ...
@@ -26,6 +34,12 @@ class StereoCapture(Protocol):
 
     @property
     def time(self) -> float: ...
+
+    @property
+    def available_time(self) -> float: ...
+
+    @property
+    def dropped(self) -> bool: ...
 
     @property
     def transform_right_camera_to_world(self) -> FloatArray: ...
@@ -54,7 +68,8 @@ class Cell(Protocol):
         """Position (and velocity feed-forward) command for the arm [rad, rad/s]."""
 
     def capture(self) -> StereoCapture:
-        """Captures the hand stereo pair now."""
+        """Triggers the hand stereo pair now (exposure at `time`; the images carry their
+        `available_time`, which the loop must not act before)."""
 
     def set_gripper(self, opening: float) -> None:
         """Commands the finger gap [m] (0 = closed)."""

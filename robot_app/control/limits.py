@@ -79,14 +79,17 @@ class JointLimits:
         n = arrays["lower"].size
         if n == 0 or any(a.size != n for a in arrays.values()):
             sizes = {k: v.size for k, v in arrays.items()}
-            raise ConfigError(f"joint limits need one value per joint in every array, got sizes {sizes}")
+            raise ValueError(f"joint limits need one value per joint in every array, got sizes {sizes}")
         if self.names and len(self.names) != n:
-            raise ConfigError(f"joint limits: {len(self.names)} names for {n} joints")
+            raise ValueError(f"joint limits: {len(self.names)} names for {n} joints")
         object.__setattr__(self, "names", tuple(self.names))
         if np.any(arrays["lower"] >= arrays["upper"]):
             raise ConfigError(
                 f"joint limits: lower must be below upper, got lower={arrays['lower'].tolist()}, "
-                f"upper={arrays['upper'].tolist()}"
+                f"upper={arrays['upper'].tolist()}",
+                key="lower",
+                value=arrays["lower"].tolist(),
+                expected=f"below upper {arrays['upper'].tolist()}",
             )
         for field in ("velocity", "acceleration", "jerk"):
             if np.any(arrays[field] <= 0.0):
@@ -161,7 +164,10 @@ class JointLimits:
         if not (position_margin >= 0.0 and np.all(self.upper - self.lower > 2.0 * position_margin)):
             raise ConfigError(
                 f"position margin must be >= 0 and leave a range, got {position_margin} [rad] "
-                f"for ranges {(self.upper - self.lower).tolist()} [rad]"
+                f"for ranges {(self.upper - self.lower).tolist()} [rad]",
+                key="position_margin",
+                value=position_margin,
+                expected="a margin >= 0 [rad] below half of every joint's range",
             )
         return JointLimits(
             lower=self.lower + position_margin,
@@ -246,7 +252,7 @@ def check_limits(
             than tol x L (positions: tol x range width).
 
     Raises:
-        InputError: the arrays' shapes disagree or times do not increase.
+        ValueError: the arrays' shapes disagree or times do not increase.
     """
     t = np.asarray(times, dtype=float).reshape(-1)
     Q, V, A = (np.asarray(x, dtype=float) for x in (Q, V, A))

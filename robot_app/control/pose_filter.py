@@ -8,6 +8,16 @@ only if its fitness reaches `min_fitness` and it is close to the prediction (pos
 and yaw jumps, and the innovation's Mahalanobis distance); others are rejected and
 counted. After `max_consecutive_rejections` in a row the filter is *lost* and the next
 recognition with enough fitness re-initialises it (the cloth was moved, e.g. grasped).
+A recognition below `min_fitness` that passes the gates is not fused either, but does not
+count toward being lost: a poor view of the cloth where it should be (the arm's shadow on
+it, the cloth past the image's edge) is not a lost cloth.
+A cloth pushed by a few centimetres, or turned, is followed sooner: `relocate_after`
+trusted measurements in a row that the Mahalanobis or the yaw gate rejected (each within
+`max_position_jump`) and that agree with each other (within `relocation_tolerance` and
+`RELOCATION_YAW`, after the predicted motion between them) restart the estimate at the
+newest of them with the velocity between the first and the newest (a pushed cloth on a
+running belt moves on; one stopped at the belt's end does not). A plain square cloth
+recognised a quarter turn round is the same case: its yaw is relocated.
 
 Yaw is an angle: the state's yaw is kept in [-pi, pi) and the measured yaw is moved to
 the branch nearest the prediction before fusing, so a cloth at 179 deg measured at
@@ -32,6 +42,7 @@ from robot_app.config import StrictModel
 from robot_app.geometry import is_rotation, make_transform, rotation_about_z, wrap_angle, yaw_of
 
 _YAW = 3  # index of yaw in the state and the measurement
+RELOCATION_YAW = math.radians(10.0)  # rejected measurements agreeing in yaw to relocate onto them
 _Z_DOWN = np.diag([1.0, -1.0, -1.0])  # Σ_M's z points into the table (docs/architecture.md)
 
 
@@ -56,6 +67,11 @@ class PoseFilterSettings(StrictModel):
         min_fitness: recognitions with a lower normalised fitness are rejected [-];
             the paper's clean, occluded and two-cloth scenes scored 0.85, 0.32, 0.79.
         max_consecutive_rejections: rejections in a row after which the filter is lost.
+        relocate_after: trusted Mahalanobis or yaw rejections in a row, agreeing with each
+            other, that move the estimate onto the newest (0: never).
+        relocation_tolerance: how close [m] consecutive rejected measurements must agree.
+        untrusted_std_scale: a recognition the decision does not trust (`trusted=False`:
+            not `found`) is fused with its measurement standard deviations times this.
     """
 
     position_process_psd: Annotated[float, Field(gt=0.0)] = 1e-4
@@ -70,6 +86,9 @@ class PoseFilterSettings(StrictModel):
     max_yaw_jump: Annotated[float, Field(gt=0.0, le=math.pi)] = math.radians(20.0)
     min_fitness: float = 0.3
     max_consecutive_rejections: Annotated[int, Field(ge=1)] = 5
+    relocate_after: Annotated[int, Field(ge=0)] = 2
+    untrusted_std_scale: Annotated[float, Field(ge=1.0)] = 3.0
+    relocation_tolerance: Annotated[float, Field(gt=0.0)] = 0.008
 
 
 class PoseXYZYaw(NamedTuple):
@@ -127,9 +146,11 @@ class UpdateReason(enum.StrEnum):
     INITIALISED = "initialised"
     REINITIALISED = "reinitialised after being lost"
     LOW_FITNESS = "fitness below min_fitness"
+    LOW_FITNESS_CONSISTENT = "fitness below min_fitness, where the prediction is"
     POSITION_JUMP = "position jump beyond max_position_jump"
     YAW_JUMP = "yaw jump beyond max_yaw_jump"
     MAHALANOBIS = "Mahalanobis distance beyond gate_chi2"
+    RELOCATED = "relocated onto agreeing rejected measurements"
 
 
 @dataclass(frozen=True)
@@ -188,6 +209,7 @@ class PoseFilter:
         self.accepted_count = 0
         self.rejected_count = 0
         self.consecutive_rejections = 0
+        self._jumps: list[tuple[FloatArray, float]] = []  # agreeing Mahalanobis rejections (z, t)
 
     @property
     def lost(self) -> bool:
@@ -225,6 +247,36 @@ class PoseFilter:
         self._time = _finite_time(t)
         self.initialised = True
         self.consecutive_rejections = 0
+        self._jumps.clear()
+        return self._estimate(self._kf.x, self._kf.P, self._time)
+
+    def reset_from_two(
+        self,
+        first: PoseXYZYaw | npt.ArrayLike,
+        t_first: float,
+        second: PoseXYZYaw | npt.ArrayLike,
+        t_second: float,
+    ) -> PoseEstimate:
+        """(Re)starts the filter at `second` with the velocity the two measurements give
+        ((second - first) / (t_second - t_first), yaw on the nearest branch) and that
+        difference's covariance (2 R / dt^2 for the velocity, R / dt for the cross terms).
+
+        Raises:
+            ValueError: the times are not increasing.
+        """
+        dt = _finite_time(t_second) - _finite_time(t_first)
+        if not dt > 0.0:
+            raise ValueError(f"two measurements need increasing times, got {t_first} s and {t_second} s")
+        a, b = _measurement_vector(first), _measurement_vector(second)
+        change = b - a
+        change[_YAW] = wrap_angle(change[_YAW])
+        R = np.asarray(self._kf.R, dtype=float)
+        self._kf.x = np.concatenate([b, change / dt]).reshape(8, 1)
+        self._kf.P = np.block([[R, R / dt], [R / dt, 2.0 * R / dt**2]])
+        self._time = float(t_second)
+        self.initialised = True
+        self.consecutive_rejections = 0
+        self._jumps.clear()
         return self._estimate(self._kf.x, self._kf.P, self._time)
 
     def predict(self, t: float) -> PoseEstimate:
@@ -250,13 +302,18 @@ class PoseFilter:
         x[_YAW, 0] = wrap_angle(x[_YAW, 0])
         return self._estimate(x, F @ self._kf.P @ F.T + Q, float(t) if dt > 0.0 else self._time)
 
-    def update(self, measurement: PoseXYZYaw | npt.ArrayLike, fitness: float, t: float) -> FilterUpdate:
+    def update(
+        self, measurement: PoseXYZYaw | npt.ArrayLike, fitness: float, t: float, *, trusted: bool = True
+    ) -> FilterUpdate:
         """Predicts to `t` [s] and fuses a recognised pose unless a gate rejects it.
 
         Args:
             measurement: (x, y, z, yaw) [m, rad] or the 4x4 pose of Σ_M in Σ_W.
             fitness: the recognition's normalised fitness [-].
             t: capture time of the recognised images [s].
+            trusted: the recogniser decided the cloth is there (`found`); only trusted
+                measurements can relocate the estimate, and untrusted ones count for less
+                (`untrusted_std_scale`).
 
         Raises:
             InputError: malformed measurement, non-finite fitness or a time going back.
@@ -265,8 +322,12 @@ class PoseFilter:
         if not math.isfinite(fitness):
             raise ValueError(f"recognition fitness must be finite, got {fitness}")
         if fitness < self.settings.min_fitness:
-            if self.initialised:
-                self.predict(t)
+            if not self.initialised:
+                return self._reject(UpdateReason.LOW_FITNESS, math.nan)
+            self.predict(t)
+            if not self.lost and self._consistent(z):  # a poor view of the cloth where it should be
+                self.rejected_count += 1
+                return FilterUpdate(False, UpdateReason.LOW_FITNESS_CONSISTENT, math.nan, self.estimate)
             return self._reject(UpdateReason.LOW_FITNESS, math.nan)
         if not self.initialised or self.lost:
             reason = UpdateReason.REINITIALISED if self.initialised else UpdateReason.INITIALISED
@@ -281,26 +342,81 @@ class PoseFilter:
             (float(wrap_angle(z[_YAW] + turn - kf.x[_YAW, 0])) for turn in self._yaw_turns), key=abs
         )
         innovation = z - (kf.H @ kf.x).ravel()
-        S = kf.H @ kf.P @ kf.H.T + kf.R
+        R = kf.R if trusted else kf.R * self.settings.untrusted_std_scale**2
+        S = kf.H @ kf.P @ kf.H.T + R
         nis = float(innovation @ np.linalg.solve(S, innovation))
         if np.linalg.norm(innovation[:3]) > self.settings.max_position_jump:
             return self._reject(UpdateReason.POSITION_JUMP, nis)
+        jump = None
         if abs(innovation[_YAW]) > self.settings.max_yaw_jump:
-            return self._reject(UpdateReason.YAW_JUMP, nis)
-        if nis > self.settings.gate_chi2:
-            return self._reject(UpdateReason.MAHALANOBIS, nis)
-        kf.update(z)
+            jump = UpdateReason.YAW_JUMP
+        elif nis > self.settings.gate_chi2:
+            jump = UpdateReason.MAHALANOBIS
+        if jump is not None:
+            if not trusted:
+                self._jumps.clear()
+            elif self._relocates(z, float(t)):
+                return self._relocate(z, nis)
+            return self._reject(jump, nis)
+        kf.update(z, R=R)
         kf.x[_YAW, 0] = wrap_angle(kf.x[_YAW, 0])
         return self._accept(UpdateReason.ACCEPTED, nis)
+
+    def _consistent(self, z: FloatArray) -> bool:
+        """True if a measurement passes the position, yaw and Mahalanobis gates (not fused)."""
+        kf = self._kf
+        z = z.copy()
+        z[_YAW] = kf.x[_YAW, 0] + wrap_angle(z[_YAW] - kf.x[_YAW, 0])
+        innovation = z - (kf.H @ kf.x).ravel()
+        S = kf.H @ kf.P @ kf.H.T + kf.R
+        nis = float(innovation @ np.linalg.solve(S, innovation))
+        s = self.settings
+        return bool(
+            np.linalg.norm(innovation[:3]) <= s.max_position_jump
+            and abs(innovation[_YAW]) <= s.max_yaw_jump
+            and nis <= s.gate_chi2
+        )
+
+    def _relocates(self, z: FloatArray, t: float) -> bool:
+        """Keeps the run of agreeing rejected measurements; True once it is long enough."""
+        s = self.settings
+        if s.relocate_after == 0:
+            return False
+        velocity = self._kf.x[4:7, 0]
+        if self._jumps:
+            previous, t_previous = self._jumps[-1]
+            expected = previous[:3] + velocity * (t - t_previous)
+            turned = abs(float(wrap_angle(z[_YAW] - previous[_YAW])))
+            if np.linalg.norm(z[:3] - expected) > s.relocation_tolerance or turned > RELOCATION_YAW:
+                self._jumps.clear()
+        self._jumps.append((z.copy(), t))
+        return len(self._jumps) >= s.relocate_after
+
+    def _relocate(self, z: FloatArray, nis: float) -> FilterUpdate:
+        """Restarts from the run of agreeing rejected measurements: at the newest, with the
+        velocity between the first and the newest (a push leaves the belt running; a belt
+        that stopped, or a cloth stopped at the belt's end, no longer moves)."""
+        (first, t_first), (_, t_last) = self._jumps[0], self._jumps[-1]
+        if t_last > t_first:
+            self.reset_from_two(first, t_first, z, t_last)
+        else:  # a run of one (relocate_after=1): the position only, the velocity kept
+            velocity = self._kf.x[4:8, 0].copy()
+            self.reset(z, t_last)
+            self._kf.x[4:8, 0] = velocity
+        return self._accept(UpdateReason.RELOCATED, nis)
 
     def _accept(self, reason: UpdateReason, nis: float) -> FilterUpdate:
         self.accepted_count += 1
         self.consecutive_rejections = 0
+        if reason is not UpdateReason.RELOCATED:
+            self._jumps.clear()
         return FilterUpdate(True, reason, nis, self.estimate)
 
     def _reject(self, reason: UpdateReason, nis: float) -> FilterUpdate:
         self.rejected_count += 1
         self.consecutive_rejections += 1
+        if reason not in (UpdateReason.MAHALANOBIS, UpdateReason.YAW_JUMP):
+            self._jumps.clear()
         return FilterUpdate(False, reason, nis, self.estimate)
 
     def _elapsed(self, t: float) -> float:

@@ -40,7 +40,6 @@ import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
 from robot_app.control.anchored_recognizer import AnchoredRecognizer
-from robot_app.control.arm_motion import ArmMotion
 from robot_app.control.box_check import BoxCheck, BoxCheckSettings, BoxView, box_view, check_box
 from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import (
@@ -53,10 +52,12 @@ from robot_app.control.clear_table_records import (
     TableResult,
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
+from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
 from robot_app.control.logged_cell import LoggedCell
-from robot_app.control.pick_place import LoopSettings, PickPlaceLoop
+from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_posture
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
 from robot_app.errors import IKError, InterruptError, TrajectoryError
@@ -95,7 +96,8 @@ class TableClearer:
         kinematics: the arm, poses in Σ_W.
         recognizers: model name -> recogniser, every cloth the robot knows.
         limits: joint limits of every commanded sample.
-        observation_joints: the observation pose [rad].
+        observation_camera_pose: (4, 4) the right camera's pose in Σ_W where the job
+            surveys (the joints come from the controller's IK, `observation_posture`).
         boxes: the cell's collection boxes.
         sort: cloth -> box name.
         table_z: height of the table top [m].
@@ -110,6 +112,10 @@ class TableClearer:
             error logs only), or None.
         weigh: the wrist load cell: what the gripper carries now [kg] (None: no weight check).
         weights: model name -> the cloth's weight [kg], weighed with its model photo.
+        posture_seed: joints [rad] the observation IK starts from (e.g. the arm's home).
+
+    Raises:
+        IKError: the observation pose has no IK solution within the joint limits.
     """
 
     def __init__(
@@ -118,7 +124,7 @@ class TableClearer:
         kinematics: Kinematics,
         recognizers: Mapping[str, Recognizer],
         limits: JointLimits,
-        observation_joints: npt.ArrayLike,
+        observation_camera_pose: npt.ArrayLike,
         boxes: tuple[BoxPlace, ...],
         sort: SortSettings,
         table_z: float,
@@ -135,6 +141,7 @@ class TableClearer:
         ground_truth: Callable[[str], Callable[[], FloatArray] | None] | None = None,
         weigh: Callable[[], float] | None = None,
         weights: Mapping[str, float] | None = None,
+        posture_seed: npt.ArrayLike | None = None,
     ) -> None:
         if not recognizers:
             raise ValueError("the job needs at least one known cloth")
@@ -143,13 +150,16 @@ class TableClearer:
         self.kinematics = kinematics
         self.recognizers = dict(recognizers)
         self.limits = limits
-        self.observation_joints = np.array(observation_joints, dtype=float)
+        self.loop_settings = loop_settings or LoopSettings()
+        self.observation_camera_pose = np.array(observation_camera_pose, dtype=float).reshape(4, 4)
+        self.observation_joints = observation_posture(
+            kinematics, limits, self.observation_camera_pose, posture_seed, self.loop_settings.ik_tolerance
+        )
         self.boxes = {b.name: b for b in boxes}
         self.sort = sort
         self.table_z = float(table_z)
         self.settings = settings or ClearTableSettings()
         self.identify_settings = identify_settings or IdentifySettings()
-        self.loop_settings = loop_settings or LoopSettings()
         self.filter_settings = filter_settings
         self.box_settings = box_settings or BoxCheckSettings()
         self.on_phase = on_phase
@@ -162,7 +172,7 @@ class TableClearer:
         self.rig = next(iter(self.recognizers.values())).rig
         self._phase: str = "survey"
         self._meant: str | None = None
-        self.motion = ArmMotion(
+        self.motion = JobMotion(
             self.cell,
             kinematics,
             limits,
@@ -283,7 +293,7 @@ class TableClearer:
             self.kinematics,
             recognizer,
             self.limits,
-            self.observation_joints,
+            self.observation_camera_pose,
             box.centre,
             self.table_z,
             self._loop_settings(target.name),
@@ -292,6 +302,7 @@ class TableClearer:
             on_step=lambda _cell, _capture: self._loop_step(loop, target.name),
             on_recognition=lambda cycle: self._loop_vision(cycle, attempt),
             ground_truth=truth,
+            posture_seed=self.observation_joints,
         )
         self._phase, self._meant = "observe", target.name
         result = loop.run()
@@ -380,7 +391,7 @@ class TableClearer:
     def _loop_phase(self, record: PhaseRecord, attempt: _Attempt) -> None:
         if self.on_phase is not None:
             self.on_phase(record, attempt.target.name)
-        if record.phase == "lift" and record.note == "cloth lifted":
+        if record.phase == "lift" and record.note.startswith(LIFTED):
             self._after_lift(attempt)
         elif record.phase == "transfer" and not self.cell.holding():
             attempt.dropped = True

@@ -97,6 +97,31 @@ class JointTrajectory:
         return TrajectorySamples(times, Q, V, A)
 
 
+def time_optimal_duration(
+    limits: JointLimits,
+    q: npt.ArrayLike,
+    v: npt.ArrayLike,
+    a: npt.ArrayLike,
+    q_target: npt.ArrayLike,
+    v_target: npt.ArrayLike | None = None,
+) -> float:
+    """Shortest time [s] from a state (q [rad], v [rad/s], a [rad/s^2]) to a target
+    position with a target velocity within `limits` (ruckig, not sampled).
+
+    Raises:
+        TrajectoryPlanningError: ruckig rejects the input or fails.
+    """
+    planner = ruckig.Ruckig(limits.dof)
+    request = _make_input(limits)
+    _set_state(request, limits, q, v, a, "start")
+    _set_target(request, limits, q_target, v_target)
+    trajectory = ruckig.Trajectory(limits.dof)
+    result = _call_ruckig(planner.calculate, request, trajectory)
+    if result != ruckig.Result.Working:
+        raise TrajectoryPlanningError("ruckig failed to time the motion", int(result))
+    return float(trajectory.duration)
+
+
 def plan_point_to_point(
     q_start: npt.ArrayLike,
     q_goal: npt.ArrayLike,
@@ -177,6 +202,9 @@ class OnlineTrajectory:
         q_target: npt.ArrayLike,
         v_target: npt.ArrayLike | None = None,
         a_target: npt.ArrayLike | None = None,
+        *,
+        minimum_duration: float | None = None,
+        synchronized: bool = True,
     ) -> None:
         """Sets the target positions [rad], velocities [rad/s] and accelerations [rad/s^2].
 
@@ -184,8 +212,26 @@ class OnlineTrajectory:
         that accelerates (e.g. a sinusoid) should pass it: a time-optimal replan toward a
         state whose acceleration it does not know chatters at the acceleration limit.
         Velocities and accelerations default to zero.
+
+        `minimum_duration` [s] makes the plan take at least that long (ruckig's own
+        option): a moving target state is then met when it is due, not as early as the
+        limits allow (an intercept). None: time-optimal.
+
+        `synchronized` (default) makes every joint arrive together (ruckig's time
+        synchronisation: a straight-ish path in joint space). False lets each joint reach
+        its own target state as fast as it can: for tracking a target that moves a little
+        every period, where synchronising all joints to the slowest one's small correction
+        bends the others' motion.
         """
+        if minimum_duration is not None and not (np.isfinite(minimum_duration) and minimum_duration >= 0):
+            raise ValueError(f"minimum_duration must be finite and >= 0 [s], got {minimum_duration}")
+        if minimum_duration is not None and not synchronized:
+            raise ValueError("a minimum_duration needs the joints synchronized")
         _set_target(self._input, self.limits, q_target, v_target, a_target)
+        self._input.minimum_duration = None if minimum_duration is None else float(minimum_duration)
+        self._input.synchronization = (
+            ruckig.Synchronization.Time if synchronized else ruckig.Synchronization.No
+        )
         self.finished = False
 
     def step(self) -> TrajectorySample:
@@ -250,6 +296,14 @@ class OnlineTrajectory:
     def target(self) -> FloatArray:
         """Current target positions [rad]."""
         return _frozen(self._input.target_position)
+
+    @property
+    def time_to_target(self) -> float:
+        """Time [s] the latest plan still needs to reach its target (0 before any step and
+        once reached): when a command given now will have acted."""
+        if self._time == 0.0 or self.finished:
+            return 0.0
+        return max(0.0, float(self._output.trajectory.duration) - float(self._output.time))
 
     @property
     def calculation_times(self) -> FloatArray:
@@ -391,4 +445,5 @@ __all__ = [
     "TrajectorySample",
     "TrajectorySamples",
     "plan_point_to_point",
+    "time_optimal_duration",
 ]

@@ -211,7 +211,7 @@ def _run_in_cell(
         kinematics,
         recognizers,
         limits,
-        world.observation_joints,
+        world.transform_observation_camera_to_world,
         boxes,
         config.sort,
         w.table.top_z,
@@ -229,7 +229,11 @@ def _run_in_cell(
         weights={
             name: scale.weigh_model(n) for name, n in ((cloth_name(n), n) for n in config.known_numbers)
         },
+        posture_seed=w.robot.home_joints,
     )
+    world.robot.reset_joints(
+        clearer.observation_joints
+    )  # the job starts at the controller's observation pose
     try:
         result = clearer.run()
         verdict = judge(world, pile, result, witness.lifts, config.sort, set(models))

@@ -141,7 +141,7 @@ class _TrialConfigBase(StrictModel):
         if self.sweep is None:
             return self
         if not 0 <= point < len(self.sweep.values):
-            raise ConfigError(f"sweep point {point} out of range [0, {len(self.sweep.values)})")
+            raise ValueError(f"sweep point {point} out of range [0, {len(self.sweep.values)})")
         data = self.model_dump(mode="json")
         data.pop("sweep")
         value = self.sweep.values[point]

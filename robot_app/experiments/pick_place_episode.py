@@ -1,9 +1,10 @@
 """One simulated pick-and-place episode from a config: world, scene, model, loop, results.
 
-`run_episode` builds the pybullet cell, lays out the seeded scene, makes the target's
-photo model at the Fig. 7 station (through `make_model`, as a real photo would go),
-runs `PickPlaceLoop` and measures the outcome against the simulator's ground truth
-(fraction of the cloth inside the box). `write_episode` stores the results folder.
+`run_episode` refuses a belt no robot could keep up with (outcome `unreachable`, see
+`conveyor_check`), builds the pybullet cell, lays out the seeded scene, makes the target's
+photo model at the Fig. 7 station (through `make_model`, as a real photo would go) and
+runs `PickPlaceLoop`, which judges its outcome against the simulator's ground truth
+(fraction of the cloth inside the box) once. `write_episode` stores the results folder.
 """
 
 from __future__ import annotations
@@ -13,48 +14,58 @@ import io
 import json
 from collections.abc import Callable
 from contextlib import ExitStack
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
+import numpy.typing as npt
 from pydantic import Field
 
 from robot_app.config import StrictModel, dump_config
-from robot_app.control.episode import EpisodeResult, Outcome, Phase, PhaseRecord
-from robot_app.control.kinematics import Kinematics
-from robot_app.control.limits import JointLimits, TrajectorySettings
-from robot_app.control.pick_place import LoopSettings, PickPlaceLoop
-from robot_app.control.pose_filter import PoseFilterSettings
+from robot_app.control import (
+    SUCCESS_FRACTION,
+    EpisodeResult,
+    JointLimits,
+    Kinematics,
+    LoopSettings,
+    Outcome,
+    Phase,
+    PhaseRecord,
+    PickPlaceLoop,
+    PoseFilterSettings,
+    TrajectorySettings,
+    observation_posture,
+)
 from robot_app.errors import ConfigError
+from robot_app.experiments.conveyor_check import conveyor_problem
 from robot_app.experiments.episode_views import EpisodeViews
 from robot_app.experiments.recording import require_rerun
-from robot_app.geometry import yaw_of
 from robot_app.outputs import atomic_path, atomic_write_text, output_folder
 from robot_app.sim import (
-    ClothBody,
     ModelStation,
-    Scene,
     SceneSettings,
     SimCell,
     World,
     WorldConfig,
     cloth_spec,
     make_scene,
+    observation_camera_pose,
 )
 from robot_app.sim.config import CATALOGUE_SIZE
 from robot_app.vision import ClothModel, ModelSettings, RecognitionSettings, Recognizer, make_model
 
-SUCCESS_FRACTION = 0.9  # of the cloth's nodes inside the box walls: the cloth counts as placed
-
 
 class NudgeSettings(StrictModel):
-    """Pushes the target cloth during APPROACH (regression test of the filter and replanning).
+    """Pushes the target cloth once during a phase (regression test of the filter and replanning).
 
     Attributes:
-        after: time into APPROACH when the cloth is moved [s].
+        phase: the phase the push happens in (approach or descend).
+        after: time into that phase when the cloth is moved [s].
         dx, dy: displacement on the table [m].
     """
 
+    phase: Literal["approach", "descend"] = "approach"
     after: float = Field(0.5, ge=0.0)
     dx: float = 0.03
     dy: float = 0.02
@@ -139,16 +150,31 @@ def run_episode(
         raise ConfigError("world.robot.base_xyz/base_yaw: the loop needs the robot base at the world origin")
     if record_path is not None:
         require_rerun()  # before the model and the cell: a missing extra never costs an episode
+    kinematics = Kinematics.from_urdf(w.robot.urdf, "base_link", "tcp")
+    limits = JointLimits.from_urdf(w.robot.urdf, config.trajectory)
+    observation = observation_posture(
+        kinematics, limits, observation_camera_pose(w), w.robot.home_joints, config.loop.ik_tolerance
+    )
+    problem = conveyor_problem(w, config.scene, config.loop, kinematics, limits, observation)
+    if problem is not None:
+        refused = EpisodeResult.not_started(Outcome.UNREACHABLE, problem, config.loop.strategy.value)
+        bx, by = w.box.centre_xy
+        return Episode(refused, config.wanted, True, (float(bx), float(by), float(w.table.top_z)))
     model = _make_target_model(config)
     with ExitStack() as stack:
         video_file = stack.enter_context(atomic_path(video_path)) if video_path is not None else None
         record_file = stack.enter_context(atomic_path(record_path)) if record_path is not None else None
-        return _run_in_cell(config, model, gui, on_phase, video_file, record_file, stop)
+        return _run_in_cell(
+            config, model, kinematics, limits, observation, gui, on_phase, video_file, record_file, stop
+        )
 
 
 def _run_in_cell(
     config: PickPlaceConfig,
     model: ClothModel,
+    kinematics: Kinematics,
+    limits: JointLimits,
+    observation: npt.NDArray[np.float64],
     gui: bool,
     on_phase: Callable[[PhaseRecord], None] | None,
     video_file: Path | None,
@@ -157,12 +183,11 @@ def _run_in_cell(
 ) -> Episode:
     w = config.world
     with World(w, gui=gui) as world:
+        world.robot.reset_joints(observation)  # the episode starts at the controller's observation pose
         scene = make_scene(world, config.scene, seed=config.seed)
         present = config.wanted in (config.scene.target, config.scene.distractor)
         wanted_body = scene.target if config.wanted == config.scene.target else scene.distractor
         cell = SimCell(world, grasp_radius=config.grasp_radius)
-        kinematics = Kinematics.from_urdf(w.robot.urdf, "base_link", "tcp")
-        limits = JointLimits.from_urdf(w.robot.urdf, config.trajectory)
         recognizer = Recognizer(model, world.stereo.rig, _recognition_settings(config))
         views = EpisodeViews(
             world,
@@ -188,23 +213,27 @@ def _run_in_cell(
             if on_phase is not None:
                 on_phase(record)
 
+        judged = wanted_body if wanted_body is not None else scene.target
         loop = PickPlaceLoop(
             cell,
             kinematics,
             recognizer,
             limits,
-            world.observation_joints,
+            world.transform_observation_camera_to_world,
             world.box.centre,
             w.table.top_z,
             config.loop,
             config.filter,
+            posture_seed=w.robot.home_joints,
             on_phase=on_phase_ended,
             on_step=on_step if (views.active or nudge is not None or stop is not None) else None,
             on_recognition=views.on_recognition if views.active else None,
             ground_truth=wanted_body.pose if wanted_body is not None else None,
+            placed_fraction=lambda: world.cloth_in_box(judged),
+            target_present=present,
         )
         try:
-            result = _judged(loop.run(), world, scene, wanted_body, present)
+            result = loop.run()
             views.finish(result, world.time)
         finally:
             views.close()
@@ -212,21 +241,6 @@ def _run_in_cell(
             video_file.unlink(missing_ok=True)  # no frame, no playable video: leave none
         bx, by, bz = (float(v) for v in world.box.centre)
         return Episode(result, config.wanted, present, (bx, by, bz))
-
-
-def _judged(
-    result: EpisodeResult, world: World, scene: Scene, wanted_body: ClothBody | None, present: bool
-) -> EpisodeResult:
-    """The loop's result with the simulator's verdict: placed fraction, final pose, success."""
-    judged = wanted_body if wanted_body is not None else scene.target
-    placed = world.cloth_in_box(judged)
-    pose = judged.pose()
-    final = (float(pose[0, 3]), float(pose[1, 3]), float(pose[2, 3]), yaw_of(pose[:3, :3]))
-    if present:
-        success = result.success and placed >= SUCCESS_FRACTION and result.collisions == 0
-    else:  # nothing to pick: success is saying so without touching anything
-        success = result.outcome is Outcome.NOT_PRESENT and result.grasp_attempts == 0
-    return replace(result, placed_fraction=placed, final_pose=final, success=success)
 
 
 def _recognition_settings(config: PickPlaceConfig) -> RecognitionSettings:
@@ -250,7 +264,7 @@ def _make_target_model(config: PickPlaceConfig) -> ClothModel:
 
 
 class _Nudger:
-    """Moves the target cloth once, `after` seconds into APPROACH."""
+    """Moves the target cloth once, `after` seconds into the configured phase."""
 
     def __init__(self, world: World, cloth, config: NudgeSettings) -> None:
         self.world, self.cloth, self.config = world, cloth, config
@@ -258,7 +272,7 @@ class _Nudger:
         self.done = False
 
     def tick(self, phase: Phase) -> None:
-        if self.done or phase is not Phase.APPROACH:
+        if self.done or phase.value != self.config.phase:
             return
         if self.start is None:
             self.start = self.world.time
@@ -301,4 +315,4 @@ def _json_default(value: object) -> object:
     return str(value)
 
 
-__all__ = ["Episode", "NudgeSettings", "PickPlaceConfig", "run_episode", "write_episode"]
+__all__ = ["SUCCESS_FRACTION", "Episode", "NudgeSettings", "PickPlaceConfig", "run_episode", "write_episode"]

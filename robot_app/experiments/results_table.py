@@ -113,6 +113,8 @@ class ResultsTable:
                 f"{self.path} has columns {header}, expected {list(self.columns)}; "
                 "it was written by another trial kind or version; choose another --out",
                 path=self.path,
+                value=header,
+                expected=f"the columns {list(self.columns)}",
             )
         good = [lines[0]]
         for line in lines[1:]:

@@ -74,6 +74,7 @@ def _check_folder(config: AnyTrialConfig, out_dir: Path, resume: bool) -> None:
             path=out_dir,
             key="--out",
             value=str(out_dir),
+            expected="a new or empty folder (or resume)",
         )
     try:
         previous = parse_trial_config(read_yaml(config_file), str(config_file))
@@ -83,6 +84,8 @@ def _check_folder(config: AnyTrialConfig, out_dir: Path, resume: bool) -> None:
             f"cannot resume {out_dir}: its {CONFIG_FILE} is not a trial config ({first})",
             path=out_dir,
             key="--out",
+            value=str(out_dir),
+            expected="a new or empty folder, or one holding a trial run",
         ) from err
     if previous.config_hash() != config.config_hash():
         raise OutputError(
@@ -91,6 +94,8 @@ def _check_folder(config: AnyTrialConfig, out_dir: Path, resume: bool) -> None:
             "use the same config and --set values, or choose another --out",
             path=out_dir,
             key="--out",
+            value=str(out_dir),
+            expected=f"a new or empty folder, or one holding results of config {config.config_hash()}",
         )
     check_output_folder(out_dir, key="--out", resumable=True)
 
@@ -125,7 +130,12 @@ def check_sweep(
     _check_folder(config, folder, resume)
     table_file = folder / TABLE_FILE
     if table_file.exists() and not table_file.is_file():
-        raise OutputError(f"{table_file} is not a file; choose another --out", path=table_file)
+        raise OutputError(
+            f"{table_file} is not a file; choose another --out",
+            path=table_file,
+            key="--out",
+            value=str(folder),
+        )
     done = ResultsTable(table_file, outcome_type, repair=False).complete_indices()
     todo = sorted(set(range(config.trials)) - done)
     check_trial_time(

@@ -23,6 +23,7 @@ from robot_app.sim.config import (
     WorldConfig,
     load_world_config,
 )
+from robot_app.sim.conveyor import BeltArea, BeltMotion, Conveyor
 from robot_app.sim.imaging import CameraModel, FrameClock
 from robot_app.sim.lighting import ShadowMap, draw_lighting
 from robot_app.sim.realism import (
@@ -37,13 +38,15 @@ from robot_app.sim.scene import Scene, make_scene
 from robot_app.sim.station import ModelStation, StationPhoto
 from robot_app.sim.stereo import StereoCamera
 from robot_app.sim.video import EpisodeVideo, VisionOverlay
-from robot_app.sim.world import BoxGeometry, World
+from robot_app.sim.world import BoxGeometry, World, observation_camera_pose
 
 __all__ = [
     "CATALOGUE",
     "PRESETS",
     "REALISM_NAMES",
     "AppearanceSettings",
+    "BeltArea",
+    "BeltMotion",
     "BoxGeometry",
     "CameraModel",
     "ClothBody",
@@ -51,6 +54,7 @@ __all__ = [
     "ClothPhysicsSettings",
     "ClothSpec",
     "Contact",
+    "Conveyor",
     "EpisodeVideo",
     "FrameClock",
     "ImagingSettings",
@@ -77,6 +81,7 @@ __all__ = [
     "gl_view_matrix",
     "load_world_config",
     "make_scene",
+    "observation_camera_pose",
     "outline_polygon",
     "render_bgr",
     "texture_image",

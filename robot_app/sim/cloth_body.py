@@ -18,6 +18,7 @@ spring constants to the node mass matter.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -113,6 +114,7 @@ class ClothBody:
             physicsClientId=client,
         )
         self._anchors: list[int] = []
+        self._held = np.zeros(len(mesh.vertices), dtype=bool)  # anchored, in pybullet's node order
 
     @property
     def spec(self) -> ClothSpec:
@@ -200,6 +202,7 @@ class ClothBody:
                 self.body_id, node, robot.body_id, link_index, physicsClientId=self._client
             )
             self._anchors.append(anchor)
+            self._held[node] = True
         return int(chosen.size)
 
     def release(self) -> int:
@@ -208,6 +211,7 @@ class ClothBody:
         for anchor in self._anchors:
             pb.removeConstraint(anchor, physicsClientId=self._client)
         self._anchors.clear()
+        self._held[:] = False
         return count
 
     def ignore_collisions_with(self, body: int, links: tuple[int, ...]) -> None:
@@ -251,6 +255,34 @@ class ClothBody:
                 self.body_id, int(self._order[k]), -1, -1, physicsClientId=self._client
             )
             self._anchors.append(anchor)
+            self._held[int(self._order[k])] = True
+
+    def move_free_nodes(
+        self, displacement: npt.ArrayLike, where: Callable[[FloatArray], npt.NDArray[np.bool_]]
+    ) -> int:
+        """Moves the nodes that are not anchored and for which `where(nodes)` holds (a belt).
+
+        Only positions change: a node's velocity is what the physics gave it, so a cloth at
+        rest on a moving belt rides along without slipping (sim/conveyor.py).
+
+        Args:
+            displacement: (3,) shift [m] in Σ_W.
+            where: (N, 3) node positions -> (N,) mask of the nodes to move.
+
+        Returns:
+            The number of nodes moved.
+        """
+        shift = np.asarray(displacement, dtype=float).reshape(3)
+        _, positions = pb.getMeshData(
+            self.body_id, -1, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=self._client
+        )
+        nodes = np.asarray(positions, dtype=float)
+        moving = np.asarray(where(nodes), dtype=bool) & ~self._held
+        count = int(np.count_nonzero(moving))
+        if count:
+            nodes[moving] += shift
+            pb.resetMeshData(self.body_id, vertices=nodes.tolist(), physicsClientId=self._client)
+        return count
 
     def remove(self) -> None:
         """Deletes the soft body from its client."""

@@ -156,7 +156,11 @@ def hue_family(number: int) -> str | None:
 def cloth_spec(number: int) -> ClothSpec:
     """The catalogue cloth No.`number` (1-20)."""
     if not 1 <= int(number) <= len(CATALOGUE):
-        raise InputError(f"cloth number must be 1..{len(CATALOGUE)}, got {number}")
+        raise InputError(
+            f"cloth number must be 1..{len(CATALOGUE)}, got {number}",
+            value=number,
+            expected=f"1..{len(CATALOGUE)}",
+        )
     return CATALOGUE[int(number) - 1]
 
 

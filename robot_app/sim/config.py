@@ -7,7 +7,7 @@ All lengths [m], angles [rad] unless the field name says `_deg`; positions are i
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
@@ -224,8 +224,16 @@ class WorldConfig(StrictModel):
         return (self.box,) if self.boxes is None else self.boxes
 
 
+ConveyorProfileName = Literal["constant", "stop_and_go", "ramp"]
+
+
 class SceneSettings(StrictModel):
-    """What `make_scene` puts on the table."""
+    """What `make_scene` puts on the table, and how the belt under the range moves it.
+
+    With `conveyor_speed` > 0 the target lies at the upstream edge of the range (its pose
+    drawn as usual, then moved against the belt until it touches the range's edge), as a
+    cloth a belt has just brought fully into view, and the belt carries it across.
+    """
 
     target: int = Field(3, ge=1, le=CATALOGUE_SIZE, description="catalogue number No.1-No.20")
     occluder: bool = False
@@ -242,6 +250,21 @@ class SceneSettings(StrictModel):
     fold_probability: float | None = Field(
         None, ge=0.0, le=1.0, description="chance a cloth lies with a corner folded over; null: the preset's"
     )
+    # The conveyor (sim/conveyor.py): the green sheet is a belt that carries every cloth node
+    # lying on it (and not held) at the belt's speed. 0 m/s: a still table, as before.
+    conveyor_speed: float = Field(0.0, ge=0.0, allow_inf_nan=False, description="belt speed [m/s]")
+    conveyor_direction_deg: float = Field(
+        0.0, ge=-360.0, le=360.0, description="direction of travel in Σ_W, from +x toward +y [deg]"
+    )
+    conveyor_profile: ConveyorProfileName = Field(
+        "constant", description="constant | stop_and_go (runs, stops, runs ...) | ramp (0 to speed)"
+    )
+    conveyor_run_time: float = Field(2.0, gt=0.0, description="stop_and_go: time running per cycle [s]")
+    conveyor_stop_time: float = Field(1.0, ge=0.0, description="stop_and_go: time standing per cycle [s]")
+    conveyor_acceleration: float = Field(
+        0.5, gt=0.0, description="stop_and_go: the belt's acceleration when it starts and stops [m/s^2]"
+    )
+    conveyor_ramp_time: float = Field(4.0, gt=0.0, description="ramp: time from standstill to speed [s]")
 
 
 def load_world_config(path: str | Path | None = None, overrides: tuple[str, ...] = ()) -> WorldConfig:
@@ -258,6 +281,7 @@ __all__ = [
     "BoxSettings",
     "CameraSettings",
     "ClothPhysicsSettings",
+    "ConveyorProfileName",
     "ObservationSettings",
     "RangeSettings",
     "RobotSettings",

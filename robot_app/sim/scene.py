@@ -6,6 +6,11 @@ with `fold_probability`, with a corner folded over; both default to the world's
 realism preset. The key lamp's direction is drawn for the scene, and the cameras'
 noise restarts from the scene's seed.
 
+With `conveyor_speed` > 0 the green sheet becomes a running belt (`sim/conveyor.py`),
+switched on once the cloths have settled; the target then lies at the upstream edge of
+the range, as a cloth the belt has just brought fully into view, and the belt carries it
+across.
+
 Same world config, same `SceneSettings`, same seed: same scene, same images.
 """
 
@@ -27,6 +32,7 @@ from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloth_visual import ClothLook
 from robot_app.sim.cloths import ClothSpec, cloth_spec, outline_polygon, polygon_area
 from robot_app.sim.config import SceneSettings
+from robot_app.sim.conveyor import BeltArea, BeltMotion, Conveyor
 from robot_app.sim.realism import scene_defaults
 from robot_app.sim.world import FLIP_FACE_UP, World
 
@@ -44,6 +50,7 @@ class Scene:
         occluder: pybullet id of the blue paper, or None.
         occluded_fraction: fraction of the target's area under the paper (0 without one).
         settle_time: simulated time the cloths took to settle [s].
+        conveyor: the running belt (also `world.conveyor`), None on a still table.
     """
 
     seed: int
@@ -52,6 +59,7 @@ class Scene:
     occluder: int | None
     occluded_fraction: float
     settle_time: float
+    conveyor: Conveyor | None = None
 
     @property
     def target_spec(self) -> ClothSpec:
@@ -74,8 +82,12 @@ def make_scene(world: World, config: SceneSettings | None = None, seed: int = 0)
     half = np.asarray(range_cfg.size_xy) / 2 - config.position_margin
     target_spec = cloth_spec(config.target)
     other = cloth_spec(config.distractor) if config.distractor is not None else None
+    belt = BeltMotion.from_scene(config)
+    upstream = belt.direction[:2] if belt.speed > 0 else None
     for _ in range(MAX_TRIES):
         x, y, yaw = _free_pose(rng, target_spec, centre, half, [])
+        if upstream is not None:
+            x, y = _slide_upstream(target_spec, x, y, yaw, centre, half, upstream)
         if other is None:
             break
         try:
@@ -107,7 +119,12 @@ def make_scene(world: World, config: SceneSettings | None = None, seed: int = 0)
         paper_centre = outline.mean(axis=0) + normal * (offset + depth / 2)
         occluder = world.add_occluder(tuple(paper_centre), direction, (depth, width))
         fraction = _covered_fraction(outline, normal, offset)
-    return Scene(seed, target, distractor, occluder, fraction, settle_time)
+    conveyor = None
+    if belt.speed > 0:
+        conveyor = Conveyor(belt, BeltArea.under_sheet(world.config))
+        world.conveyor = conveyor
+        conveyor.start(world.time)
+    return Scene(seed, target, distractor, occluder, fraction, settle_time, conveyor)
 
 
 def _placed_outline(spec: ClothSpec, x: float, y: float, yaw: float) -> FloatArray:
@@ -115,6 +132,29 @@ def _placed_outline(spec: ClothSpec, x: float, y: float, yaw: float) -> FloatArr
     outline = outline_polygon(spec)
     outline = outline - outline.mean(axis=0)
     return outline @ rotation_about_z(yaw)[:2, :2].T + np.array([x, y])
+
+
+def _slide_upstream(
+    spec: ClothSpec,
+    x: float,
+    y: float,
+    yaw: float,
+    centre: FloatArray,
+    half: FloatArray,
+    direction: FloatArray,
+) -> tuple[float, float]:
+    """The centroid moved against the belt's unit `direction` until the outline touches the
+    edge of the box `centre` +- `half` [m]: a cloth the belt has just brought into view."""
+    corners = _placed_outline(spec, x, y, yaw)
+    room = []
+    for axis in range(2):
+        d = float(direction[axis])
+        if d > 1e-12:
+            room.append(float(np.min(corners[:, axis] - (centre[axis] - half[axis]))) / d)
+        elif d < -1e-12:
+            room.append(float(np.min(centre[axis] + half[axis] - corners[:, axis])) / -d)
+    shift = max(0.0, min(room)) if room else 0.0
+    return x - shift * float(direction[0]), y - shift * float(direction[1])
 
 
 def _apart(a: FloatArray, b: FloatArray, gap: float) -> bool:

@@ -29,6 +29,7 @@ from robot_app.sim.cloth_mesh import build_cloth_mesh, cache_dir
 from robot_app.sim.cloth_visual import ClothLook, build_render_mesh, render_obj_path
 from robot_app.sim.cloths import ClothSpec
 from robot_app.sim.config import BoxSettings, WorldConfig, load_world_config
+from robot_app.sim.conveyor import Conveyor
 from robot_app.sim.lighting import draw_lighting
 from robot_app.sim.robot import SimRobot
 from robot_app.sim.stereo import StereoCamera
@@ -121,7 +122,7 @@ class World:
         self.box = self.boxes[0]  # the main box (pick-place's)
         self.box_ids = tuple(walls)  # every box's four walls
         self.robot = SimRobot(self._client, c.robot)
-        self.transform_observation_camera_to_world = self._observation_camera_pose()
+        self.transform_observation_camera_to_world = observation_camera_pose(c)
         self.observation_joints = self.robot.solve_frame_ik(
             RIGHT_FRAME, self.transform_observation_camera_to_world, c.robot.home_joints
         )
@@ -129,6 +130,7 @@ class World:
         self.robot.reset_joints(self.observation_joints)
         self.stereo = StereoCamera(self._client, self.robot, c, self)
         self.cloths: list[ClothBody] = []
+        self.conveyor: Conveyor | None = None  # the belt under the range, when a scene runs one
 
     @property
     def lighting(self) -> Lighting:
@@ -155,12 +157,18 @@ class World:
         return (self.table_id, *self.box_ids)
 
     def step(self, n: int = 1) -> None:
-        """Advances the simulation by `n` steps of `dt` [s]."""
+        """Advances the simulation by `n` steps of `dt` [s]; a running belt carries its cloths first."""
         if n < 0:
             raise ValueError(f"step count must be >= 0, got {n}")
+        if self.conveyor is None or not self.conveyor.running:
+            for _ in range(n):
+                pb.stepSimulation(physicsClientId=self._client)
+            self.time += n * self.dt
+            return
         for _ in range(n):
+            self.conveyor.carry(self.cloths, self.time, self.dt)
             pb.stepSimulation(physicsClientId=self._client)
-        self.time += n * self.dt
+            self.time += self.dt
 
     def add_cloth(
         self,
@@ -292,13 +300,6 @@ class World:
     ) -> None:
         self.close()
 
-    def _observation_camera_pose(self) -> FloatArray:
-        c = self.config
-        rx, ry = c.range.centre_xy
-        turn = rotation_about_z(c.observation.camera_yaw)
-        axes = np.column_stack([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
-        return make_transform(turn @ axes, [rx, ry, c.table.top_z + c.observation.height])
-
     def _box_walls(self, b: BoxSettings) -> tuple[int, int, int, int]:
         """The four walls of a collection box standing on the table (body ids)."""
         bx, by = b.centre_xy
@@ -360,6 +361,15 @@ class World:
         return body
 
 
+def observation_camera_pose(config: WorldConfig) -> FloatArray:
+    """(4, 4) pose of the right camera at the observation pose in Σ_W [m]: `observation.height`
+    above the range centre, looking straight down, turned by `observation.camera_yaw`."""
+    rx, ry = config.range.centre_xy
+    turn = rotation_about_z(config.observation.camera_yaw)
+    axes = np.column_stack([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+    return make_transform(turn @ axes, [rx, ry, config.table.top_z + config.observation.height])
+
+
 def _tile_mesh(
     rectangles: list[tuple[float, float, float, float]], z: float, tile: float
 ) -> tuple[list[list[float]], list[int]]:
@@ -391,4 +401,4 @@ def _frame(
     return [p for p in pieces if p[1] - p[0] > 1e-6 and p[3] - p[2] > 1e-6]
 
 
-__all__ = ["BoxGeometry", "World"]
+__all__ = ["BoxGeometry", "World", "observation_camera_pose"]

@@ -49,9 +49,19 @@ def _warn_short_distortion(entry: dict[str, Any], file: str | Path, key: str) ->
 def _readonly(array: npt.ArrayLike, shape: tuple[int, ...], name: str) -> FloatArray:
     a = np.array(array, dtype=float)
     if a.shape != shape:
-        raise CalibrationError(f"{name} must be an array of shape {shape}, got shape {a.shape}", key=name)
+        raise CalibrationError(
+            f"{name} must be an array of shape {shape}, got shape {a.shape}",
+            key=name,
+            value=a.tolist(),
+            expected=f"an array of shape {shape}",
+        )
     if not np.all(np.isfinite(a)):
-        raise CalibrationError(f"{name} must hold finite numbers, got {a.tolist()}", key=name)
+        raise CalibrationError(
+            f"{name} must hold finite numbers, got {a.tolist()}",
+            key=name,
+            value=a.tolist(),
+            expected="finite numbers",
+        )
     a.setflags(write=False)
     return a
 
@@ -73,16 +83,36 @@ class PinholeCamera:
     def __post_init__(self) -> None:
         K = _readonly(self.camera_matrix, (3, 3), "camera_matrix")
         if K[0, 0] <= 0 or K[1, 1] <= 0 or K[0, 1] != 0 or K[1, 0] != 0 or K[2, 0] != 0:
-            raise CalibrationError(f"camera_matrix must be [[fx,0,cx],[0,fy,cy],[0,0,1]], got {K.tolist()}")
+            raise CalibrationError(
+                f"camera_matrix must be [[fx,0,cx],[0,fy,cy],[0,0,1]], got {K.tolist()}",
+                key="camera_matrix",
+                value=K.tolist(),
+                expected="[[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0",
+            )
         if not np.allclose(K[2], [0.0, 0.0, 1.0]):
-            raise CalibrationError(f"camera_matrix last row must be [0, 0, 1], got {K[2].tolist()}")
+            raise CalibrationError(
+                f"camera_matrix last row must be [0, 0, 1], got {K[2].tolist()}",
+                key="camera_matrix",
+                value=K.tolist(),
+                expected="[[fx, 0, cx], [0, fy, cy], [0, 0, 1]] with fx, fy > 0",
+            )
         width, height = (int(v) for v in self.image_size)
         if width <= 0 or height <= 0:
-            raise CalibrationError(f"image_size must be two positive integers, got {self.image_size}")
+            raise CalibrationError(
+                f"image_size must be two positive integers, got {self.image_size}",
+                key="image_size",
+                value=self.image_size,
+                expected="[width, height] in whole pixels > 0",
+            )
         dist = np.zeros(5)
         given = np.asarray(self.dist_coeffs, dtype=float).reshape(-1)
         if given.size > 5 or not np.all(np.isfinite(given)):
-            raise CalibrationError(f"dist_coeffs must be up to 5 finite numbers, got {given.tolist()}")
+            raise CalibrationError(
+                f"dist_coeffs must be up to 5 finite numbers, got {given.tolist()}",
+                key="dist_coeffs",
+                value=given.tolist(),
+                expected="up to 5 finite numbers (k1, k2, p1, p2, k3)",
+            )
         dist[: given.size] = given
         dist.setflags(write=False)
         object.__setattr__(self, "camera_matrix", K)
@@ -99,7 +129,12 @@ class PinholeCamera:
         """
         width, height = image_size
         if not 0 < horizontal_fov < np.pi:
-            raise CalibrationError(f"horizontal_fov must be in (0, pi) rad, got {horizontal_fov}")
+            raise CalibrationError(
+                f"horizontal_fov must be in (0, pi) rad, got {horizontal_fov}",
+                key="horizontal_fov",
+                value=horizontal_fov,
+                expected="an angle in (0, pi) rad",
+            )
         f = (width / 2.0) / np.tan(horizontal_fov / 2.0)
         K = np.array([[f, 0.0, width / 2.0], [0.0, f, height / 2.0], [0.0, 0.0, 1.0]])
         return cls(K, (width, height))
@@ -168,7 +203,10 @@ class StereoRig:
     def __post_init__(self) -> None:
         if self.left.image_size != self.right.image_size:
             raise CalibrationError(
-                f"left and right image sizes differ: {self.left.image_size} vs {self.right.image_size}"
+                f"left and right image sizes differ: {self.left.image_size} vs {self.right.image_size}",
+                key="image_size",
+                value=(self.left.image_size, self.right.image_size),
+                expected="one image size for both cameras",
             )
         for name in ("transform_left_to_right", "transform_right_camera_to_hand"):
             value = getattr(self, name)
@@ -176,9 +214,19 @@ class StereoRig:
                 continue
             T = _readonly(value, (4, 4), name)
             if not is_rotation(T[:3, :3], tol=1e-5):
-                raise CalibrationError(f"{name}: R is not a rotation (R^T R != I or det != 1)")
+                raise CalibrationError(
+                    f"{name}: R is not a rotation (R^T R != I or det != 1)",
+                    key=name,
+                    value=T.tolist(),
+                    expected="a 4x4 transform [R T; 0 1] with R a rotation",
+                )
             if not np.allclose(T[3], [0, 0, 0, 1]):
-                raise CalibrationError(f"{name}: last row must be [0, 0, 0, 1]")
+                raise CalibrationError(
+                    f"{name}: last row must be [0, 0, 0, 1]",
+                    key=name,
+                    value=T.tolist(),
+                    expected="a 4x4 transform [R T; 0 1] with R a rotation",
+                )
             object.__setattr__(self, name, T)
 
     @property
@@ -246,7 +294,12 @@ class ModelCamera:
 
     def __post_init__(self) -> None:
         if not np.isfinite(self.distance) or self.distance <= 0:
-            raise CalibrationError(f"distance must be a positive number of metres, got {self.distance}")
+            raise CalibrationError(
+                f"distance must be a positive number of metres, got {self.distance}",
+                key="distance",
+                value=self.distance,
+                expected="a distance > 0 [m]",
+            )
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -261,8 +314,8 @@ def _with_path(err: CalibrationError, path: str | Path) -> CalibrationError:
     """`err` with the file named (the camera classes do not know which file they came from)."""
     if err.path is not None:
         return err
-    value = err.value if err.has_value else None
-    return CalibrationError(f"{path}: {err}", path=path, key=err.key, value=value, expected=err.expected)
+    given = {"value": err.value} if err.has_value else {}
+    return CalibrationError(f"{path}: {err}", path=path, key=err.key, expected=err.expected, **given)
 
 
 def _read_mapping(path: str | Path, what: str) -> dict[str, Any]:
@@ -270,15 +323,22 @@ def _read_mapping(path: str | Path, what: str) -> dict[str, Any]:
     try:
         data = yaml.safe_load(file.read_text())
     except (yaml.YAMLError, UnicodeDecodeError) as err:
-        raise CalibrationError(f"{file} is not a YAML {what} file: {err}", path=file) from err
+        raise CalibrationError(
+            f"{file} is not a YAML {what} file: {err}", path=file, expected=f"a YAML {what} file"
+        ) from err
     if not isinstance(data, dict):
-        raise CalibrationError(f"{file} is not a YAML {what} file (no mapping at top level)", path=file)
+        raise CalibrationError(
+            f"{file} is not a YAML {what} file (no mapping at top level)",
+            path=file,
+            value=data,
+            expected=f"a YAML {what} file",
+        )
     return data
 
 
 def _require(data: dict[str, Any], key: str, file: str | Path) -> Any:
     if key not in data:
-        raise CalibrationError(f"{file}: missing key '{key}'", path=file, key=key)
+        raise CalibrationError(f"{file}: missing key '{key}'", path=file, key=key, expected=f"a key '{key}'")
     return data[key]
 
 
@@ -305,15 +365,32 @@ def load_rig(path: str | Path) -> StereoRig:
         cameras = {}
         for side in ("left", "right"):
             entry = _require(data, side, path)
-            cameras[side] = PinholeCamera(
-                _require(entry, "camera_matrix", path), size, entry.get("dist_coeffs", np.zeros(5))
-            )
+            try:
+                cameras[side] = PinholeCamera(
+                    _require(entry, "camera_matrix", path), size, entry.get("dist_coeffs", np.zeros(5))
+                )
+            except CalibrationError as err:  # the key as the file spells it: left.camera_matrix
+                err.key = f"{side}.{err.key}" if err.key else side
+                raise
         R = np.asarray(_require(data, "R", path), dtype=float)
         T = np.asarray(_require(data, "T", path), dtype=float).reshape(-1)
         if R.shape != (3, 3) or T.shape != (3,):
-            raise CalibrationError(f"{path}: R must be 3x3 and T a 3-vector", path=path)
+            bad = "R" if R.shape != (3, 3) else "T"
+            raise CalibrationError(
+                f"{path}: R must be 3x3 and T a 3-vector",
+                path=path,
+                key=bad,
+                value=(R if bad == "R" else T).tolist(),
+                expected="R a 3x3 rotation matrix, T a 3-vector [m]",
+            )
         if not is_rotation(R, tol=1e-5):
-            raise CalibrationError(f"{path}: R is not a rotation matrix (R^T R != I or det != 1)", path=path)
+            raise CalibrationError(
+                f"{path}: R is not a rotation matrix (R^T R != I or det != 1)",
+                path=path,
+                key="R",
+                value=R.tolist(),
+                expected="a rotation matrix (R^T R = I, det = +1)",
+            )
         hand = data.get("transform_right_camera_to_hand")
         rig = StereoRig(cameras["left"], cameras["right"], make_transform(R, T), hand)
     except (TypeError, ValueError, AttributeError) as err:

@@ -33,12 +33,18 @@ MODEL_FORMAT = "robot_app.cloth_model"
 # too, without texture: the verification then has no appearance to compare.
 MODEL_VERSION = 3
 _READABLE_VERSIONS = (1, 2, 3)
+_EXPECTED_FILE = f"a '{MODEL_FORMAT}' .npz written by 'model make'"
 
 
 def _frozen_points(array: npt.ArrayLike, name: str) -> FloatArray:
     a = np.array(array, dtype=float)
     if a.ndim != 2 or a.shape[1] != 3 or not np.all(np.isfinite(a)):
-        raise ModelError(f"{name} must be a finite (N, 3) array [m], got shape {a.shape}")
+        raise ModelError(
+            f"{name} must be a finite (N, 3) array [m], got shape {a.shape}",
+            key=name,
+            value=a.shape,
+            expected="a finite (N, 3) array [m]",
+        )
     a.setflags(write=False)
     return a
 
@@ -93,26 +99,41 @@ class ClothModel:
         points_in = _frozen_points(self.points_in, "points_in")
         points_out = _frozen_points(self.points_out, "points_out")
         if len(points_in) == 0:
-            raise ModelError("a cloth model needs at least one S_in point")
+            raise ModelError("a cloth model needs at least one S_in point", key="points_in", value=(0, 3))
         hues = np.array(self.hues_in)
-        in_range = hues.size == 0 or 0 <= hues.min() <= hues.max() < COLOUR_CODES
-        if hues.shape != (len(points_in),) or not in_range:
+        outside = hues[~((hues >= 0) & (hues < COLOUR_CODES))]  # NaN too
+        if hues.shape != (len(points_in),) or outside.size:
             raise ModelError(
                 f"hues_in must be {len(points_in)} colour codes in 0-{COLOUR_CODES - 1}, "
-                f"got shape {hues.shape}"
+                f"got shape {hues.shape}",
+                key="hues_in",
+                value=hues.shape if hues.shape != (len(points_in),) else outside.tolist(),  # or the bad codes
+                expected=f"{len(points_in)} colour codes in 0-{COLOUR_CODES - 1}",
             )
         hues = hues.astype(np.uint16)
         hues.setflags(write=False)
         grasp = np.array(self.grasp_point, dtype=float).reshape(-1)
         if grasp.shape != (3,) or not np.all(np.isfinite(grasp)):
-            raise ModelError(f"grasp_point must be a finite 3-vector [m], got {grasp.tolist()}")
+            raise ModelError(
+                f"grasp_point must be a finite 3-vector [m], got {grasp.tolist()}",
+                key="grasp_point",
+                value=grasp.tolist(),
+            )
         grasp.setflags(write=False)
         background = float(self.background_hue)
         if not 0.0 <= background < 256.0:
-            raise ModelError(f"background_hue must be in [0, 256), got {background}")
+            raise ModelError(
+                f"background_hue must be in [0, 256), got {background}",
+                key="background_hue",
+                value=background,
+            )
         extent = tuple(float(v) for v in self.extent)
         if len(extent) != 2 or min(extent) < 0:
-            raise ModelError(f"extent must be two non-negative lengths [m], got {self.extent}")
+            raise ModelError(
+                f"extent must be two non-negative lengths [m], got {self.extent}",
+                key="extent",
+                value=self.extent,
+            )
         object.__setattr__(self, "points_in", points_in)
         object.__setattr__(self, "points_out", points_out)
         object.__setattr__(self, "hues_in", hues)
@@ -125,27 +146,47 @@ class ClothModel:
             value = getattr(self, name)
             weights = np.ones(n) if value is None else np.array(value, dtype=float).reshape(-1)
             if weights.shape != (n,) or not np.all(np.isfinite(weights)) or np.any(weights <= 0):
-                raise ModelError(f"{name} must be {n} positive weights, got shape {weights.shape}")
+                raise ModelError(
+                    f"{name} must be {n} positive weights, got shape {weights.shape}",
+                    key=name,
+                    value=weights.shape,
+                )
             weights.setflags(write=False)
             object.__setattr__(self, name, weights)
         self._check_texture()
 
     def _check_texture(self) -> None:
-        parts = (self.texture_bgr, self.texture_mask, self.texture_from_model)
-        if all(p is None for p in parts):
+        parts = {"texture_bgr": self.texture_bgr, "texture_mask": self.texture_mask,
+                 "texture_from_model": self.texture_from_model}  # fmt: skip
+        absent = [name for name, part in parts.items() if part is None]
+        if len(absent) == len(parts):
             object.__setattr__(self, "texture_mask", None)
-        elif any(p is None for p in parts):
-            raise ModelError("texture_bgr, texture_mask and texture_from_model come together (or none)")
+        elif absent:
+            raise ModelError(
+                "texture_bgr, texture_mask and texture_from_model come together (or none)", key=absent[0]
+            )
         else:
             texture = np.array(self.texture_bgr)
             mask = np.array(self.texture_mask, dtype=bool)
             affine = np.array(self.texture_from_model, dtype=float)
             if texture.ndim != 3 or texture.shape[2] != 3 or texture.dtype != np.uint8:
-                raise ModelError(f"texture_bgr must be (h, w, 3) uint8, got {texture.shape} {texture.dtype}")
+                raise ModelError(
+                    f"texture_bgr must be (h, w, 3) uint8, got {texture.shape} {texture.dtype}",
+                    key="texture_bgr",
+                    value=(texture.shape, str(texture.dtype)),
+                )
             if mask.shape != texture.shape[:2] or not mask.any():
-                raise ModelError(f"texture_mask must be a non-empty (h, w) mask of shape {texture.shape[:2]}")
+                raise ModelError(
+                    f"texture_mask must be a non-empty (h, w) mask of shape {texture.shape[:2]}",
+                    key="texture_mask",
+                    value=mask.shape,
+                )
             if affine.shape != (2, 3) or not np.all(np.isfinite(affine)):
-                raise ModelError(f"texture_from_model must be a finite 2x3 affine map, got {affine.shape}")
+                raise ModelError(
+                    f"texture_from_model must be a finite 2x3 affine map, got {affine.shape}",
+                    key="texture_from_model",
+                    value=affine.shape,
+                )
             for name, array in (
                 ("texture_bgr", texture),
                 ("texture_mask", mask),
@@ -156,7 +197,11 @@ class ClothModel:
         if self.sheet_bgr is not None:
             sheet = np.array(self.sheet_bgr, dtype=float).reshape(-1)
             if sheet.shape != (3,) or not np.all((sheet > 0) & (sheet <= 255)):
-                raise ModelError(f"sheet_bgr must be three channel values in (0, 255], got {sheet.tolist()}")
+                raise ModelError(
+                    f"sheet_bgr must be three channel values in (0, 255], got {sheet.tolist()}",
+                    key="sheet_bgr",
+                    value=sheet.tolist(),
+                )
             sheet.setflags(write=False)
             object.__setattr__(self, "sheet_bgr", sheet)
 
@@ -222,7 +267,7 @@ class ClothModel:
         try:
             header_json = json.dumps(header)
         except (TypeError, ValueError) as err:
-            raise ModelError(f"model metadata must be JSON-serialisable: {err}") from err
+            raise ModelError(f"model metadata must be JSON-serialisable: {err}", key="metadata") from err
         target = Path(path)
         temporary = target.with_name(f".{target.name}.partial")
         try:
@@ -260,24 +305,52 @@ class ClothModel:
                 arrays = {key: data[key] for key in data.files}
         except (OSError, ValueError, zipfile.BadZipFile, EOFError) as err:
             raise ModelError(
-                f"{file} is not a cloth model (.npz written by 'model make')", path=file
+                f"{file} is not a cloth model (.npz written by 'model make')",
+                path=file,
+                expected=_EXPECTED_FILE,
             ) from err
         if not isinstance(arrays, dict) or "header" not in arrays:
-            raise ModelError(f"{file} is not a cloth model: no '{MODEL_FORMAT}' header", path=file)
+            raise ModelError(
+                f"{file} is not a cloth model: no '{MODEL_FORMAT}' header",
+                path=file,
+                key="header",
+                expected=_EXPECTED_FILE,
+            )
         try:
             header = json.loads(str(arrays["header"]))
         except json.JSONDecodeError as err:
-            raise ModelError(f"{file} is not a cloth model: unreadable header", path=file) from err
+            raise ModelError(
+                f"{file} is not a cloth model: unreadable header",
+                path=file,
+                key="header",
+                expected=_EXPECTED_FILE,
+            ) from err
         if not isinstance(header, dict) or header.get("format") != MODEL_FORMAT:
-            raise ModelError(f"{file} is not a cloth model: format tag is not '{MODEL_FORMAT}'", path=file)
+            raise ModelError(
+                f"{file} is not a cloth model: format tag is not '{MODEL_FORMAT}'",
+                path=file,
+                key="format",
+                value=header.get("format") if isinstance(header, dict) else None,
+                expected=_EXPECTED_FILE,
+            )
         if header.get("version") not in _READABLE_VERSIONS:
             raise ModelError(
                 f"{file}: cloth model version {header.get('version')} is not supported "
-                f"(this robot_app reads versions {', '.join(map(str, _READABLE_VERSIONS))})"
+                f"(this robot_app reads versions {', '.join(map(str, _READABLE_VERSIONS))})",
+                path=file,
+                key="version",
+                value=header.get("version"),
+                expected=f"version {', '.join(map(str, _READABLE_VERSIONS))}",
             )
         missing = {"points_in", "hues_in", "points_out", "grasp_point"} - arrays.keys()
         if missing:
-            raise ModelError(f"{file}: cloth model lacks arrays {sorted(missing)}", path=file)
+            raise ModelError(
+                f"{file}: cloth model lacks arrays {sorted(missing)}",
+                path=file,
+                key=sorted(missing)[0],
+                value=sorted(missing),
+                expected="the arrays points_in, hues_in, points_out and grasp_point",
+            )
         try:
             return cls(
                 name=str(header["name"]),
@@ -298,6 +371,11 @@ class ClothModel:
             )
         except (KeyError, TypeError, ValueError) as err:
             raise ModelError(f"{file}: malformed cloth model: {err}", path=file) from err
+        except ModelError as err:  # an array or header value the model does not accept
+            given = {"value": err.value} if err.has_value else {}
+            raise ModelError(
+                f"{file}: {err}", path=file, key=err.key, expected=err.expected, **given
+            ) from err
 
 
 __all__ = ["MODEL_FORMAT", "MODEL_VERSION", "ClothModel"]

@@ -35,7 +35,7 @@ import numpy.typing as npt
 from pydantic import Field, model_validator
 
 from robot_app.arrays import FloatArray
-from robot_app.config import StrictModel
+from robot_app.config import SettingValueError, StrictModel
 from robot_app.vision.hue import COLOUR_CODES, HUE_RANGE, colours_match
 
 OFF_IMAGE = COLOUR_CODES  # code of the frame around each image that off-image points read: scores 0
@@ -101,11 +101,19 @@ class FitnessSettings(StrictModel):
     @model_validator(mode="after")
     def _scores_ordered(self) -> FitnessSettings:
         if self.score_in_match < max(self.score_in_background, self.score_in_other):
-            raise ValueError("score_in_match must be the largest S_in score")
+            raise SettingValueError(
+                "score_in_match", "score_in_match must be the largest S_in score", self.score_in_match
+            )
         if self.score_out_background < self.score_out_other:
-            raise ValueError("score_out_background must be at least score_out_other")
+            raise SettingValueError(
+                "score_out_background",
+                "score_out_background must be at least score_out_other",
+                self.score_out_background,
+            )
         if self.hidden_foreign and self.normalisation != "view":
-            raise ValueError('hidden_foreign needs normalisation "view"')
+            raise SettingValueError(
+                "normalisation", 'hidden_foreign needs normalisation "view"', self.normalisation
+            )
         return self
 
 

@@ -18,7 +18,6 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
-from robot_app.errors import InputError
 from robot_app.geometry import (
     is_rotation,
     make_transform,
@@ -99,16 +98,20 @@ def full_search(
 
     Returns:
         The distribution and its best pose.
+
+    Raises:
+        ValueError: a bad argument (not a rotation, a step or depth <= 0, an empty yaw
+            list, a range with high < low); the commands check the user's values first.
     """
     R = np.eye(3) if rotation is None else np.asarray(rotation, dtype=float)
     if R.shape != (3, 3) or not is_rotation(R, tol=1e-6):
-        raise InputError("rotation must be a 3x3 rotation matrix (R^T R = I, det = +1)")
+        raise ValueError("rotation must be a 3x3 rotation matrix (R^T R = I, det = +1)")
     if not step > 0 or not depth > 0 or batch < 1:
-        raise InputError(f"step and depth must be > 0 [m] and batch >= 1, got {step}, {depth}, {batch}")
+        raise ValueError(f"step and depth must be > 0 [m] and batch >= 1, got {step}, {depth}, {batch}")
     xs, ys = _axis(x_range, step, "x_range"), _axis(y_range, step, "y_range")
     yaw_list = [0.0] if yaws is None else [float(a) for a in yaws]
     if not yaw_list:
-        raise InputError("yaws must hold at least one angle [rad] (or be None)")
+        raise ValueError("yaws must hold at least one angle [rad] (or be None)")
     gx, gy = np.meshgrid(xs, ys)
     translations = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, depth)])
     best = np.full(gx.size, -np.inf)
@@ -154,9 +157,12 @@ def find_peaks(result: FullSearchResult, min_separation: float, min_fitness: flo
 
     Returns:
         The peaks (paper Fig. 13 e-f: one per cloth in a two-cloth scene).
+
+    Raises:
+        ValueError: `min_separation` <= 0 (the settings' `peak_separation` is validated > 0).
     """
     if not min_separation > 0:
-        raise InputError(f"min_separation must be > 0 [m], got {min_separation}")
+        raise ValueError(f"min_separation must be > 0 [m], got {min_separation}")
     radius = max(1, int(np.ceil(min_separation / max(result.step, 1e-12))))
     fitness = np.nan_to_num(result.fitness.astype(np.float32), nan=-np.inf)
     kernel = np.ones((2 * radius + 1, 2 * radius + 1), np.uint8)
@@ -174,7 +180,7 @@ def find_peaks(result: FullSearchResult, min_separation: float, min_fitness: flo
 def _axis(bounds: tuple[float, float], step: float, name: str) -> FloatArray:
     lo, hi = (float(v) for v in bounds)
     if not hi >= lo:
-        raise InputError(f"{name} must be (low, high) with low <= high [m], got {bounds}")
+        raise ValueError(f"{name} must be (low, high) with low <= high [m], got {bounds}")
     return np.asarray(lo + step * np.arange(int(np.floor((hi - lo) / step + 1e-9)) + 1), dtype=float)
 
 

@@ -35,7 +35,7 @@ import numpy.typing as npt
 from pydantic import Field, model_validator
 
 from robot_app.arrays import FloatArray
-from robot_app.config import StrictModel
+from robot_app.config import SettingValueError, StrictModel
 from robot_app.vision.fitness import KernelFitness
 from robot_app.vision.ga_kernels import evolve
 from robot_app.vision.pose_kernels import transforms_from_genes
@@ -66,9 +66,11 @@ class SearchBoundsSettings(StrictModel):
         for name in ("x", "y", "z"):
             low, high = getattr(self, name)
             if not low < high:
-                raise ValueError(f"{name} range must be (low, high) with low < high")
+                raise SettingValueError(
+                    name, f"{name} range must be (low, high) with low < high", list(getattr(self, name))
+                )
         if self.z[0] <= 0:
-            raise ValueError("z range must be in front of the camera (z > 0)")
+            raise SettingValueError("z", "z range must be in front of the camera (z > 0)", list(self.z))
         return self
 
     def gene_ranges(self) -> FloatArray:
@@ -119,9 +121,13 @@ class GASettings(StrictModel):
     @model_validator(mode="after")
     def _elite_fits(self) -> GASettings:
         if self.population < 4 * self.islands:
-            raise ValueError("population must hold at least 4 individuals per island")
+            raise SettingValueError(
+                "population", "population must hold at least 4 individuals per island", self.population
+            )
         if self.elite >= self.population // self.islands:
-            raise ValueError("elite must be smaller than each island's population")
+            raise SettingValueError(
+                "elite", "elite must be smaller than each island's population", self.elite
+            )
         return self
 
     def island_slices(self) -> list[slice]:

@@ -15,8 +15,6 @@ import cv2
 import numpy as np
 import numpy.typing as npt
 
-from robot_app.errors import InputError
-
 HUE_RANGE = 256  # hue values per full turn in HSV_FULL
 DARK = HUE_RANGE  # colour code of a pixel without hue below the value split (black, dark grey)
 LIGHT = HUE_RANGE + 1  # colour code of a pixel without hue at or above it (white, light grey)
@@ -24,10 +22,15 @@ COLOUR_CODES = HUE_RANGE + 2  # hues 0-255, DARK, LIGHT
 
 
 def to_hsv(image_bgr: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
-    """(H, W, 3) uint8 BGR image -> (H, W, 3) uint8 HSV_FULL (hue 0-255)."""
+    """(H, W, 3) uint8 BGR image -> (H, W, 3) uint8 HSV_FULL (hue 0-255).
+
+    Raises:
+        ValueError: not an (H, W, 3) uint8 array (the user's images are checked where
+            they enter: `pixel_codes.checked_image`, `photo_model.make_model`).
+    """
     image = np.asarray(image_bgr)
     if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
-        raise InputError(f"expected an (H, W, 3) uint8 BGR image, got {image.shape} {image.dtype}")
+        raise ValueError(f"expected an (H, W, 3) uint8 BGR image, got {image.shape} {image.dtype}")
     return np.asarray(cv2.cvtColor(image, cv2.COLOR_BGR2HSV_FULL), dtype=np.uint8)
 
 

@@ -128,17 +128,21 @@ def make_model(
         sources: file names to record in the metadata (photo, background, camera).
 
     Raises:
-        InputError: an image of the wrong type or size for the camera.
-        ModelError: a background that is not uniform or not coloured, or no cloth.
+        InputError: an image of the wrong type or size for the camera (`key` photo or
+            background).
+        ModelError: a background that is not uniform or not coloured, or no cloth (`key`
+            photo or background), or too few points (`key` point_spacing).
     """
     settings = ModelSettings() if settings is None else settings
     camera = model_camera.camera
-    hsv = _checked_hsv(photo_bgr, camera, "photo")
+    hsv = _checked_hsv(photo_bgr, camera, "photo", "photo")
     if background_bgr is not None:
-        background_hsv = _checked_hsv(background_bgr, camera, "background photo")
-        H_B, agreement = _background_hue(background_hsv.reshape(-1, 3), settings, "background photo")
+        background_hsv = _checked_hsv(background_bgr, camera, "background photo", "background")
+        H_B, agreement = _background_hue(
+            background_hsv.reshape(-1, 3), settings, "background photo", "background"
+        )
     else:
-        H_B, agreement = _background_hue(_border(hsv), settings, "photo border")
+        H_B, agreement = _background_hue(_border(hsv), settings, "photo border", "photo")
     metric = _metric_grid(camera, model_camera.distance)  # (H, W, 2) photo plane [m]
     metres_per_pixel = model_camera.distance / float(camera.camera_matrix[0, 0])
     mask, n_objects = _cloth_mask(hsv, H_B, settings, metres_per_pixel)  # S_in of Fig. 4 (c)
@@ -153,7 +157,10 @@ def make_model(
     if len(samples.points_in) < 3:
         raise ModelError(
             f"the cloth has only {len(samples.points_in)} sample points at point_spacing="
-            f"{settings.point_spacing} m; use a smaller point_spacing or a larger cloth"
+            f"{settings.point_spacing} m; use a smaller point_spacing or a larger cloth",
+            key="point_spacing",
+            value=settings.point_spacing,
+            expected="a spacing that gives the cloth at least 3 points",
         )
     points_in = np.column_stack([samples.points_in, np.zeros(len(samples.points_in))])
     hues_in = samples.hues_in
@@ -241,14 +248,24 @@ def _sheet_colour(
     return np.maximum(np.median(np.asarray(photo_bgr)[sheet].reshape(-1, 3), axis=0), 1.0).astype(float)
 
 
-def _checked_hsv(image: Image, camera: PinholeCamera, what: str) -> Image:
+def _checked_hsv(image: Image, camera: PinholeCamera, what: str, key: str) -> Image:
+    """`image` in HSV_FULL; an `InputError` with `key` (photo, background) if it is not an
+    (H, W, 3) uint8 image of the camera's size."""
     array = np.asarray(image)
     if array.ndim != 3 or array.shape[2] != 3 or array.dtype != np.uint8:
-        raise InputError(f"{what} must be an (H, W, 3) uint8 colour image, got {array.shape} {array.dtype}")
+        raise InputError(
+            f"{what} must be an (H, W, 3) uint8 colour image, got {array.shape} {array.dtype}",
+            key=key,
+            value=(array.shape, str(array.dtype)),
+            expected="an (H, W, 3) uint8 colour image",
+        )
     if array.shape[:2] != (camera.height, camera.width):
         raise InputError(
             f"{what} is {array.shape[1]}x{array.shape[0]} px but the camera file says "
-            f"{camera.width}x{camera.height}"
+            f"{camera.width}x{camera.height}",
+            key=key,
+            value=(array.shape[1], array.shape[0]),
+            expected=f"{camera.width}x{camera.height} px, the camera file's image_size",
         )
     return to_hsv(np.ascontiguousarray(array))
 
@@ -260,13 +277,21 @@ def _border(hsv: Image) -> Image:
                            hsv[w:-w, :w].reshape(-1, 3), hsv[w:-w, -w:].reshape(-1, 3)])  # fmt: skip
 
 
-def _background_hue(pixels_hsv: Image, settings: ModelSettings, what: str) -> tuple[float, float]:
-    """Robust average background hue H̄_B: circular mean around the hue histogram's mode."""
+def _background_hue(pixels_hsv: Image, settings: ModelSettings, what: str, key: str) -> tuple[float, float]:
+    """Robust average background hue H̄_B: circular mean around the hue histogram's mode.
+
+    Raises:
+        ModelError: `key` (photo, background) is not a coloured sheet (`value`: the share
+            of saturated pixels) or not a uniform one (`value`: the share near H̄_B).
+    """
     saturated = pixels_hsv[:, 1] >= settings.min_saturation
     if saturated.mean() < settings.min_background_agreement:
         raise ModelError(
             f"the {what} is not a coloured sheet: only {saturated.mean():.0%} of its pixels have "
-            f"saturation >= {settings.min_saturation}; use a uniform green sheet as in Fig. 7"
+            f"saturation >= {settings.min_saturation}; use a uniform green sheet as in Fig. 7",
+            key=key,
+            value=float(saturated.mean()),
+            expected=f"at least {settings.min_background_agreement:.0%} of the sheet's pixels saturated",
         )
     hues = pixels_hsv[saturated, 0]
     histogram = np.bincount(hues, minlength=256).astype(float)
@@ -281,7 +306,10 @@ def _background_hue(pixels_hsv: Image, settings: ModelSettings, what: str) -> tu
         raise ModelError(
             f"the {what} is not uniform: only {agreement:.0%} of it is within "
             f"{settings.min_hue_difference // 2} of its average hue {H_B:.0f}; needs "
-            f">= {settings.min_background_agreement:.0%} (a plain sheet, no other objects)"
+            f">= {settings.min_background_agreement:.0%} (a plain sheet, no other objects)",
+            key=key,
+            value=agreement,
+            expected=f"at least {settings.min_background_agreement:.0%} of the sheet near one hue",
         )
     return H_B, agreement
 
@@ -311,7 +339,10 @@ def _cloth_mask(
         raise ModelError(
             f"no cloth in the photo: no region with hue > {settings.min_hue_difference} away from the "
             f"background ({H_B:.0f}) is larger than {settings.min_object_area * 1e4:.2f} cm² "
-            f"(largest: {largest * 1e4:.2f} cm²)"
+            f"(largest: {largest * 1e4:.2f} cm²)",
+            key="photo",
+            value=largest,
+            expected=f"a region of at least {settings.min_object_area} m² off the background's hue",
         )
     if settings.largest_object_only:
         keep = keep[[int(np.argmax(stats[keep, cv2.CC_STAT_AREA]))]]
@@ -323,7 +354,11 @@ def _cloth_mask(
         )
     edge = np.concatenate([mask[0], mask[-1], mask[:, 0], mask[:, -1]])
     if edge.any():
-        raise ModelError("the cloth touches the photo's border, so its outline is cut: centre it in the view")
+        raise ModelError(
+            "the cloth touches the photo's border, so its outline is cut: centre it in the view",
+            key="photo",
+            expected="the whole cloth inside the photo",
+        )
     return mask.astype(bool), int(keep.size)
 
 

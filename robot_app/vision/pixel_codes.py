@@ -105,17 +105,24 @@ def checked_image(image: npt.ArrayLike, camera: PinholeCamera, side: str) -> npt
     """`image` as an (H, W, 3) uint8 array of `camera`'s size.
 
     Raises:
-        InputError: another type or size (the message names `side` and both sizes).
+        InputError: another type or size; `key` is `side`, `value` the image's (shape,
+            dtype) or its (width, height) [px].
     """
     array = np.asarray(image)
     width, height = camera.image_size
     if array.ndim != 3 or array.shape[2] != 3 or array.dtype != np.uint8:
         raise InputError(
-            f"{side} image must be an (H, W, 3) uint8 BGR image, got {array.shape} {array.dtype}"
+            f"{side} image must be an (H, W, 3) uint8 BGR image, got {array.shape} {array.dtype}",
+            key=side,
+            value=(array.shape, str(array.dtype)),
+            expected="an (H, W, 3) uint8 BGR image",
         )
     if array.shape[:2] != (height, width):
         raise InputError(
-            f"{side} image is {array.shape[1]}x{array.shape[0]} px but the rig expects {width}x{height} px"
+            f"{side} image is {array.shape[1]}x{array.shape[0]} px but the rig expects {width}x{height} px",
+            key=side,
+            value=(array.shape[1], array.shape[0]),
+            expected=f"{width}x{height} px, the rig's image size",
         )
     return array
 

@@ -38,7 +38,7 @@ import numpy.typing as npt
 from pydantic import model_validator
 
 from robot_app.arrays import FloatArray
-from robot_app.config import StrictModel
+from robot_app.config import SettingValueError, StrictModel
 from robot_app.geometry import rotation_about_z
 from robot_app.vision.camera import StereoRig
 from robot_app.vision.cloth_model import ClothModel
@@ -111,7 +111,11 @@ class RecognitionSettings(StrictModel):
         keys = ("min_saturation", "min_value", "value_split")
         differ = [k for k in keys if getattr(self.search, k) != getattr(self.fitness, k)]
         if differ:
-            raise ValueError(f"search.{differ[0]} must equal fitness.{differ[0]} (one pixel code per image)")
+            raise SettingValueError(
+                f"search.{differ[0]}",
+                f"search.{differ[0]} must equal fitness.{differ[0]} (one pixel code per image)",
+                getattr(self.search, differ[0]),
+            )
         return self
 
 

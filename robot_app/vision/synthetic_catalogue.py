@@ -13,7 +13,6 @@ from collections.abc import Callable
 import numpy as np
 import numpy.typing as npt
 
-from robot_app.errors import InputError
 from robot_app.vision.synthetic import SyntheticCloth
 
 # --- the catalogue: 12+ cloths (paper Fig. 10: No.1 .. No.12), up to 0.25 x 0.20 m ----------
@@ -136,7 +135,7 @@ def synthetic_cloth(index: int, seed: int = 0) -> SyntheticCloth:
         seed: varies the random parts of a pattern (dots, patches, fabric grain).
     """
     if not 0 <= index < CATALOGUE_SIZE:
-        raise InputError(f"synthetic cloth index must be in 0..{CATALOGUE_SIZE - 1}, got {index}")
+        raise ValueError(f"synthetic cloth index must be in 0..{CATALOGUE_SIZE - 1}, got {index}")
     rng = np.random.default_rng([seed, index])
     name, (width, height), outline, pattern = _CATALOGUE[index]
     shape = (round(height / CLOTH_TEXEL), round(width / CLOTH_TEXEL))

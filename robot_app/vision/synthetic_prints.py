@@ -129,7 +129,7 @@ def photo_print(index: int) -> SyntheticCloth:
 def extended_cloth(index: int, seed: int = 0) -> SyntheticCloth:
     """Cloth `index` of the 20-cloth catalogue: 0-12 `synthetic_cloth`, 13-19 the prints."""
     if not 0 <= index < EXTENDED_CATALOGUE_SIZE:
-        raise InputError(f"catalogue index must be in 0..{EXTENDED_CATALOGUE_SIZE - 1}, got {index}")
+        raise ValueError(f"catalogue index must be in 0..{EXTENDED_CATALOGUE_SIZE - 1}, got {index}")
     if index < CATALOGUE_SIZE:
         return synthetic_cloth(index, seed)
     return photo_print(index - CATALOGUE_SIZE)

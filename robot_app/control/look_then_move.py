@@ -1,0 +1,105 @@
+"""The baseline strategy (`loop.strategy: look_then_move`): the wave-1 loop, kept to compare.
+
+APPROACH servos the TCP at the observation height over the grasp point of the latest
+filtered estimate (at its exposure time, not predicted) and waits there at rest; DESCEND
+is two blind moves, to `pregrasp_height` and to the grasp height, on the estimate at the
+end of APPROACH; the fingers close with the hand still and LIFT goes straight up. It
+sees the same camera latency as the servo (the same `VisionPipeline`); on a still cloth
+it is the loop of before, on a moving one it grasps where the cloth was.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from robot_app.arrays import FloatArray
+from robot_app.control.arm_motion import ArmMotion
+from robot_app.control.cloth_tracker import ClothTracker
+from robot_app.control.intercept import GraspPath
+from robot_app.control.loop_settings import LoopSettings
+
+
+class LookThenMoveStrategy:
+    """APPROACH, DESCEND, GRASP and LIFT of the look-then-move loop.
+
+    Args:
+        arm: the commanded arm.
+        tracker: the cloth as the loop knows it.
+        settings: the loop's settings.
+        table_z: height of the table top [m].
+    """
+
+    def __init__(self, arm: ArmMotion, tracker: ClothTracker, settings: LoopSettings, table_z: float) -> None:
+        self.arm = arm
+        self.tracker = tracker
+        self.settings = settings
+        self.table_z = float(table_z)
+        self.hover_z = float(arm.tcp_position(arm.preferred_posture)[2])
+        self.note = ""
+
+    def approach(self) -> bool:
+        """Servos the TCP over the latest estimate's grasp point at the observation height."""
+        s = self.settings
+        online = self.arm.start_online()
+        self.tracker.start_tracking()
+        start, fused = self.arm.cell.time, 0
+        target: FloatArray | None = None
+        while True:
+            updates = self.tracker.poll(sample_truth=True)
+            if self.tracker.lost:
+                self.note = f"lost after {self.tracker.filter.consecutive_rejections} rejected recognitions"
+                self.arm.end_online(online, to_rest=True)
+                return False
+            if any(u.accepted for u in updates):
+                fused += sum(u.accepted for u in updates)
+                target = self._grasp_position()
+                target[2] = self.hover_z
+                online.set_target(self.arm.solve_tcp(target))
+            self.arm.step_online(online)
+            settled = fused >= s.min_accepted_updates and online.finished
+            if (
+                target is not None
+                and settled
+                and np.linalg.norm(self.arm.tcp_position() - target) <= s.approach_tolerance
+            ):
+                self.note = f"{fused} fused recognitions"
+                self.arm.end_online(online, to_rest=False)
+                return True
+            if self.arm.cell.time - start > s.approach_timeout:
+                self.note = f"no stable target within {s.approach_timeout:.1f} s"
+                self.arm.end_online(online, to_rest=True)
+                return False
+
+    def descend(self) -> bool:
+        """Two blind moves down onto the estimate's grasp point."""
+        s = self.settings
+        self.tracker.stop()
+        grasp = self._grasp_position()
+        self._grasp_xyz = grasp
+        self.arm.move_to_joints(self.arm.solve_tcp(grasp + np.array([0.0, 0.0, s.pregrasp_height])))
+        self.arm.move_to_joints(self.arm.solve_tcp(grasp))
+        return True
+
+    def close(self) -> None:
+        """Closes the fingers with the hand still."""
+        self.arm.cell.set_gripper(0.0)
+        self.arm.hold(self.settings.close_time)
+
+    def lift(self) -> None:
+        """Straight up over the grasp point."""
+        grasp = self._grasp_xyz
+        lifted = np.array([grasp[0], grasp[1], self.table_z + self.settings.lift_height])
+        self.arm.move_to_joints(self.arm.solve_tcp(lifted))
+
+    def _grasp_position(self) -> FloatArray:
+        """TCP position for grasping the latest estimate (at its exposure time, not predicted)."""
+        estimate = self.tracker.filter.estimate
+        if estimate is None:
+            raise RuntimeError("no filtered cloth pose: search first")
+        point = GraspPath.from_estimate(estimate, self.tracker.grasp_point_model).position
+        s = self.settings
+        z = max(point[2] + s.grasp_height, self.table_z + s.min_table_clearance)
+        return np.array([point[0], point[1], z])
+
+
+__all__ = ["LookThenMoveStrategy"]

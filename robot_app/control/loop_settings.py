@@ -1,0 +1,93 @@
+"""Settings of the pick-and-place loop (`loop:` in configs/pick_place.yaml).
+
+Heights are of the TCP [m]; times are cell time [s]. The servo-only keys say so.
+"""
+
+from __future__ import annotations
+
+from pydantic import Field
+
+from robot_app.config import StrictModel
+from robot_app.control.episode import Strategy
+
+
+class LoopSettings(StrictModel):
+    """Settings of the loop. Heights are of the TCP [m]; times are cell time [s]."""
+
+    strategy: Strategy = Field(
+        Strategy.SERVO, description="servo (predict, intercept, track down) | look_then_move (baseline)"
+    )
+    vision_rate_hz: float = Field(15.0, ge=10.0, le=30.0, description="camera triggers per second")
+    vision_latency: float | None = Field(
+        None,
+        ge=0.0,
+        le=2.0,
+        description="recognition time in cell time [s], after the camera's own latency; "
+        "null: each recognition's measured wall time",
+    )
+    search_attempts: int = Field(3, ge=1, description="one-shot GA runs before 'not present'")
+    candidate_confidence: float = Field(
+        0.05,
+        ge=0.0,
+        le=1.0,
+        description="recognition confidence below 'found' (recognition.decide.threshold) but at least "
+        "this: centre the cameras on the candidate and look again",
+    )
+    max_observe_returns: int = Field(2, ge=0, description="returns to OBSERVE after losing the cloth")
+    grasp_retries: int = Field(2, ge=0, description="new attempts after a missed grasp")
+    min_accepted_updates: int = Field(3, ge=1, description="fused recognitions before descending")
+    approach_tolerance: float = Field(0.004, gt=0.0, description="TCP to target to end APPROACH [m]")
+    approach_timeout: float = Field(6.0, gt=0.0)
+    settle_time: float = Field(0.3, ge=0.0, description="wait after arriving at the observation pose")
+    pregrasp_height: float = Field(
+        0.08, gt=0.0, description="look_then_move: TCP above the cloth before the last move"
+    )
+    track_height: float = Field(
+        0.15,
+        gt=0.0,
+        description="servo: TCP above the cloth while APPROACH tracks it [m] (cameras 0.1 m higher)",
+    )
+    min_working_distance: float = Field(
+        0.22,
+        gt=0.0,
+        description="servo: closest camera-to-cloth distance at which captures are recognised [m]; "
+        "below it DESCEND goes on blind, on the prediction",
+    )
+    grasp_tolerance: float = Field(
+        0.003, gt=0.0, description="servo: TCP to the moving grasp target before the fingers close [m]"
+    )
+    velocity_tolerance: float = Field(
+        0.02, gt=0.0, description="servo: TCP velocity to the cloth's to end APPROACH and close [m/s]"
+    )
+    max_prediction: float = Field(
+        1.5, gt=0.0, description="servo: farthest the filter predicts the cloth ahead [s]"
+    )
+    grasp_height: float = Field(
+        0.022, ge=0.0, description="TCP above the recognised cloth surface (fingertips reach 0.01 below it)"
+    )
+    min_table_clearance: float = Field(0.02, ge=0.0, description="TCP never lower above the table")
+    close_time: float = Field(0.3, gt=0.0, description="time the fingers get to close")
+    lift_height: float = Field(0.40, gt=0.05, description="TCP above the table after lifting")
+    lift_clearance: float = Field(
+        0.02,
+        ge=0.0,
+        description="servo: the hanging cloth's lowest point above the belt when the hand "
+        "stops following it [m]",
+    )
+    lift_check: float = Field(0.05, gt=0.0, description="cloth must be this far off the table [m]")
+    transfer_height: float = Field(0.40, gt=0.05, description="TCP above the table over the box")
+    release_clearance: float = Field(
+        0.02, ge=0.0, description="lowest point of the hanging cloth above the box floor when let go [m]"
+    )
+    min_release_height: float = Field(0.06, gt=0.0, description="TCP never lower than this over the box")
+    release_speed: float = Field(0.3, gt=0.0, le=1.0, description="limit scale for lowering into the box")
+    release_wait: float = Field(1.0, ge=0.0, description="time for the cloth to fall and settle")
+    gripper_open: float = Field(0.08, gt=0.0, le=0.08)
+    max_episode_time: float = Field(60.0, gt=0.0)
+    ik_time_budget: float = Field(0.02, gt=0.0, description="per IK solve [s]; one retry gets 5x")
+    ik_tolerance: float = Field(1e-4, gt=0.0, description="IK position tolerance [m] (and [rad])")
+    collision_check_period: float = Field(0.05, gt=0.0, description="[s] between contact checks")
+    track_generations: int | None = Field(None, ge=0, description="None: the recogniser's default")
+
+
+__all__ = ["LoopSettings"]

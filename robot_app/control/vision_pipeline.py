@@ -1,0 +1,220 @@
+"""Recognitions that take time, as on a real rig: a triggered camera and one recogniser.
+
+The camera is triggered at `rate_hz` of cell time. A frame shows the scene at its exposure
+(`capture.time`) and reaches the computer at `capture.available_time` (the camera's
+latency; a lost frame arrives a frame period later). One recogniser works through the
+frames in order: it takes a frame once the frame has arrived and it is free, and its
+result is available `latency` later (`loop.vision_latency`, or the recognition's measured
+wall time when that is None). Meanwhile the arm keeps moving: the loop polls every
+control period and receives each result at the cell time it becomes available, stamped
+with the exposure time it belongs to.
+
+A trigger is skipped when the recogniser would still be busy when the *next* trigger's
+frame arrives (that frame will be fresher), so a slow recogniser works on the newest
+frames instead of a queue of old ones. In simulation the recognition itself runs when
+the cell time reaches its start, with what the loop knew at that moment (the filter's
+motion prediction for the tracker).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from robot_app.arrays import FloatArray
+from robot_app.control.cell import Cell, StereoCapture
+from robot_app.geometry import invert_transform
+from robot_app.vision import Recognition, Recognizer
+
+# displacement of the cloth in Σ_W between two exposure times -> 4x4 (None: assume still)
+ClothMotion = Callable[[float, float], FloatArray | None]
+# the cloth's predicted 4x4 pose in Σ_W at an exposure time
+ClothPrediction = Callable[[float], FloatArray]
+
+
+@dataclass(frozen=True)
+class VisionResult:
+    """One recognition and when it happened.
+
+    Attributes:
+        capture: the frame (exposure `capture.time`, camera pose at the exposure).
+        recognition: the recogniser's result (^CR T_M, fitness, confidence, found).
+        transform_model_to_world: (4, 4) ^W T_M = ^W T_CR(exposure) ^CR T_M [m], read-only.
+        mode: "search" (one-shot) or "track" (multi-step).
+        start_time: cell time the recogniser took the frame [s].
+        available_time: cell time the result reached the loop [s].
+        compute_s: wall time of the recognition [s].
+    """
+
+    capture: StereoCapture
+    recognition: Recognition
+    transform_model_to_world: FloatArray
+    mode: str
+    start_time: float
+    available_time: float
+    compute_s: float
+
+    @property
+    def age(self) -> float:
+        """Exposure to availability [s]."""
+        return self.available_time - self.capture.time
+
+
+class VisionPipeline:
+    """The camera and the recogniser of the loop, with their timing.
+
+    Args:
+        cell: the robot cell (its `capture`, its clock).
+        recognizer: the target's recogniser.
+        rate_hz: camera triggers per second of cell time.
+        latency: recognition time in cell time [s]; None: the measured wall time.
+        track_generations: GA generations per tracking frame (None: the recogniser's).
+    """
+
+    def __init__(
+        self,
+        cell: Cell,
+        recognizer: Recognizer,
+        rate_hz: float,
+        latency: float | None = None,
+        track_generations: int | None = None,
+    ) -> None:
+        if rate_hz <= 0:
+            raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
+        if latency is not None and latency < 0:
+            raise ValueError(f"latency must be >= 0 [s] or None, got {latency}")
+        self.cell = cell
+        self.recognizer = recognizer
+        self.period = 1.0 / rate_hz
+        self.latency = latency
+        self.track_generations = track_generations
+        self.busy_until = -np.inf
+        self.captures = 0
+        self.skipped_triggers = 0
+        self._camera_latency = 0.0
+        self._previous: StereoCapture | None = None
+        self._waiting: StereoCapture | None = None
+        self._in_flight: list[VisionResult] = []
+        self._next_trigger = np.inf
+        self._reseed: ClothPrediction | None = None
+        self.on_capture: Callable[[StereoCapture], None] | None = None  # e.g. ground truth at the exposure
+
+    # ------------------------------------------------------------------ one-shot
+    def search(self, seed: int) -> VisionResult:
+        """Triggers the camera now and recognises the frame one-shot (GA search).
+
+        The result is stamped with the time it becomes available; the caller waits for it.
+        Tracking frames in flight are dropped: the search starts a new track.
+        """
+        self.stop()
+        capture = self._trigger()
+        start = max(capture.available_time, self.busy_until)
+        wall = time.perf_counter()
+        recognition = self.recognizer.recognize(capture.left_bgr, capture.right_bgr, seed=seed)
+        result = self._result(capture, recognition, "search", start, time.perf_counter() - wall)
+        self.busy_until = result.available_time
+        self._previous = capture
+        return result
+
+    # ------------------------------------------------------------------ tracking
+    def start_tracking(self) -> None:
+        """Triggers from now on at the vision rate (after a search or a previous track)."""
+        self._next_trigger = self.cell.time
+
+    def stop(self) -> None:
+        """Stops triggering and drops the frames and results still on their way."""
+        self._next_trigger = np.inf
+        self._waiting = None
+        self._in_flight.clear()
+
+    @property
+    def tracking(self) -> bool:
+        return bool(np.isfinite(self._next_trigger))
+
+    def reseed(self, prediction: ClothPrediction) -> None:
+        """Moves the tracker's kept poses onto `prediction` for the next frame (they settled
+        on a wrong peak, e.g. the cloth half a turn round): the best kept pose lands on the
+        predicted pose at that frame's exposure, the others move with it."""
+        self._reseed = prediction
+
+    def poll(
+        self, *, may_capture: bool = True, cloth_motion: ClothMotion | None = None
+    ) -> list[VisionResult]:
+        """Call once per control period: triggers, recognises and delivers what is due.
+
+        Args:
+            may_capture: False keeps the camera from triggering (e.g. closer to the cloth
+                than the cameras' working distance); frames already taken still arrive.
+            cloth_motion: the cloth's predicted displacement in Σ_W between two exposures
+                (4x4); the tracker's kept poses move by it as well as by the camera's motion.
+
+        Returns:
+            The results that became available by now, oldest first.
+        """
+        now = self.cell.time
+        ticked = now >= self._next_trigger
+        if ticked:
+            while self._next_trigger <= now:
+                self._next_trigger += self.period
+            if may_capture:
+                arrival_next = now + self.period + self._camera_latency
+                if self._waiting is not None or self.busy_until > arrival_next:
+                    self.skipped_triggers += 1  # a frame waits, or the next trigger's is fresher in time
+                else:
+                    self._waiting = self._trigger()
+        waiting = self._waiting
+        if waiting is not None and waiting.available_time <= now and self.busy_until <= now:
+            self._waiting = None
+            start = max(waiting.available_time, self.busy_until)
+            self._in_flight.append(self._track(waiting, start, cloth_motion))
+        due = [r for r in self._in_flight if r.available_time <= now + 1e-12]
+        self._in_flight = [r for r in self._in_flight if r.available_time > now + 1e-12]
+        return due
+
+    # ------------------------------------------------------------------ internals
+    def _trigger(self) -> StereoCapture:
+        capture = self.cell.capture()
+        self.captures += 1
+        if self.on_capture is not None:
+            self.on_capture(capture)
+        self._camera_latency = max(0.0, capture.available_time - capture.time)
+        return capture
+
+    def _track(self, capture: StereoCapture, start: float, cloth_motion: ClothMotion | None) -> VisionResult:
+        previous = self._previous
+        motion = None
+        if previous is not None:
+            world_motion = cloth_motion(previous.time, capture.time) if cloth_motion is not None else None
+            displacement = np.eye(4) if world_motion is None else world_motion
+            motion = (
+                invert_transform(capture.transform_right_camera_to_world)
+                @ displacement
+                @ previous.transform_right_camera_to_world
+            )
+        kept = self.recognizer.population
+        if self._reseed is not None and kept is not None:
+            predicted = invert_transform(capture.transform_right_camera_to_world) @ self._reseed(capture.time)
+            motion = predicted @ invert_transform(kept[0])
+        self._reseed = None
+        wall = time.perf_counter()
+        recognition = self.recognizer.track(
+            capture.left_bgr, capture.right_bgr, motion, generations=self.track_generations
+        )
+        result = self._result(capture, recognition, "track", start, time.perf_counter() - wall)
+        self.busy_until = result.available_time
+        self._previous = capture
+        return result
+
+    def _result(
+        self, capture: StereoCapture, recognition: Recognition, mode: str, start: float, compute_s: float
+    ) -> VisionResult:
+        latency = compute_s if self.latency is None else self.latency
+        pose = capture.transform_right_camera_to_world @ recognition.transform_model_to_camera
+        pose.setflags(write=False)
+        return VisionResult(capture, recognition, pose, mode, start, start + latency, compute_s)
+
+
+__all__ = ["ClothMotion", "ClothPrediction", "VisionPipeline", "VisionResult"]

@@ -1,0 +1,79 @@
+"""Clear-table regression tests: whole jobs in the simulated realistic cell (320x240).
+
+Each test lays out a known pile (catalogue numbers, poses), runs the job (survey,
+identification, one pick-and-place loop per cloth, checks after lift, transfer and
+release) and judges it by where the simulator says every cloth ended. Latencies are fixed
+(`clear.survey_latency`, `loop.vision_latency`): with the measured wall time a job depends
+on how loaded the machine is.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from robot_app.config import load_config
+from robot_app.experiments.clear_table import ClearTableConfig, ClearTableEpisode, run_clear_table
+
+CONFIG = "configs/clear_table.yaml"
+FIXED = ["clear.survey_latency=0.3", "loop.vision_latency=0.06", "seed=5"]
+
+
+def job(*overrides: str) -> ClearTableEpisode:
+    return run_clear_table(load_config(ClearTableConfig, CONFIG, [*FIXED, *overrides]))
+
+
+def finals(episode: ClearTableEpisode) -> dict[int, str]:
+    return {c.number: c.final for c in episode.verdict.cloths}
+
+
+def test_three_separate_cloths_are_sorted_into_two_boxes() -> None:
+    episode = job(
+        "pile.cloths=[3,6,12]",
+        "pile.layout=[[0.45,-0.15,0.0],[0.62,0.0,0.3],[0.45,0.15,0.0]]",
+    )
+    assert finals(episode) == {3: "colours", 6: "whites", 12: "colours"}, episode.verdict.cause
+    assert episode.verdict.cleared and episode.verdict.wrong_box == 0
+    assert episode.result.limit_report.violations == 0 and episode.result.collisions == 0
+
+
+@pytest.mark.slow
+def test_of_two_overlapping_cloths_the_top_one_is_picked_first() -> None:
+    # No.12 is dropped second, onto No.3: it lies on top
+    episode = job("pile.cloths=[3,12]", "pile.layout=[[0.55,0.0,0.0],[0.58,0.05,0.5]]")
+    assert episode.max_overlap >= 0.2
+    placed = [a.name for a in episode.result.attempts if a.result.outcome.value == "placed"]
+    assert placed[:1] == ["No.12"]
+    assert episode.verdict.cleared, episode.verdict.cause
+
+
+def test_an_unknown_cloth_is_left_on_the_table_and_reported() -> None:
+    episode = job("known=[3,6]", "pile.cloths=[3,12]", "pile.layout=[[0.45,-0.12,0.0],[0.6,0.12,0.0]]")
+    assert finals(episode) == {3: "colours", 12: "table"}, episode.verdict.cause
+    assert episode.verdict.cleared  # every known cloth in its box; the unknown one left alone
+    assert len(episode.result.unknown) == 1
+    x, y = episode.result.unknown[0]
+    assert abs(x - 0.6) < 0.06 and abs(y - 0.12) < 0.06  # reported where it lies
+    assert all(a.name != "No.12" for a in episode.result.attempts)
+
+
+def dropped_job() -> ClearTableEpisode:
+    return job("pile.cloths=[3]", "pile.layout=[[0.5,0.0,0.0]]", "faults.drop_transfers=[1]")
+
+
+@pytest.mark.slow
+def test_a_cloth_dropped_in_transfer_is_detected_and_looked_for_again() -> None:
+    episode = dropped_job()
+    assert episode.verdict.drops == 1 and episode.verdict.drops_detected == 1
+    assert [a.dropped for a in episode.result.attempts][:1] == [True]
+    assert len(episode.result.attempts) >= 2 and episode.result.attempts[1].name == "No.3"
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=True,
+    reason="known gap: the dropped cloth lands crumpled; the drop is detected and the survey "
+    "finds it again (confidence 0.65, then 0.58), but the flat photo model's one-shot search "
+    "does not reach the decision threshold (0.21-0.41) and the job leaves it",
+)
+def test_a_cloth_dropped_in_transfer_is_picked_again() -> None:
+    assert finals(dropped_job()) == {3: "colours"}
