@@ -59,6 +59,9 @@ class FakeRecognizer:
         self.wall = wall
         self.motions: list[np.ndarray | None] = []
         self.population = np.eye(4)[None]  # the kept poses: the cloth at the camera's origin
+        self.model = SimpleNamespace(
+            texture_bgr=None, texture_mask=None, texture_from_model=None
+        )  # no warm-up
 
     def _result(self) -> SimpleNamespace:
         if self.wall:

@@ -27,7 +27,7 @@ import numpy as np
 from robot_app.arrays import FloatArray
 from robot_app.control.cell import Cell, StereoCapture
 from robot_app.geometry import invert_transform
-from robot_app.vision import Recognition, Recognizer
+from robot_app.vision import Recognition, Recognizer, warm_up
 
 # displacement of the cloth in Σ_W between two exposure times -> 4x4 (None: assume still)
 ClothMotion = Callable[[float, float], FloatArray | None]
@@ -70,7 +70,8 @@ class VisionPipeline:
         cell: the robot cell (its `capture`, its clock).
         recognizer: the target's recogniser.
         rate_hz: camera triggers per second of cell time.
-        latency: recognition time in cell time [s]; None: the measured wall time.
+        latency: recognition time in cell time [s]; None: the measured wall time (the
+            kernels are then compiled first, `vision.warm_up`: no result pays for that).
         track_generations: GA generations per tracking frame (None: the recogniser's).
     """
 
@@ -86,6 +87,8 @@ class VisionPipeline:
             raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
         if latency is not None and latency < 0:
             raise ValueError(f"latency must be >= 0 [s] or None, got {latency}")
+        if latency is None:
+            warm_up(recognizer)
         self.cell = cell
         self.recognizer = recognizer
         self.period = 1.0 / rate_hz

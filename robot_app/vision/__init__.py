@@ -26,6 +26,7 @@ from robot_app.vision.hue import (
     to_hsv,
     to_hue,
 )
+from robot_app.vision.kernel_warm_up import warm_up
 from robot_app.vision.outline import ProjectedOutline, draw_outline, model_outline, project_outline
 from robot_app.vision.photo_model import ModelSettings, load_photo, make_model
 from robot_app.vision.plots import plot_full_search, save_preview
@@ -122,4 +123,5 @@ __all__ = [
     "synthetic_cloth",
     "to_hsv",
     "to_hue",
+    "warm_up",
 ]
