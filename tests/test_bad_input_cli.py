@@ -409,3 +409,31 @@ def test_other_bad_arguments_are_one_line(capsys, monkeypatch, args, words) -> N
     monkeypatch.delenv("DISPLAY", raising=False)
     run = run_cli(capsys, *args)
     assert_one_line_error(run, 2, *words)
+
+
+# --- clear-table -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("setting", "names"),
+    [
+        ("pile.count=[9,9]", ("pile", "2-6")),
+        ("sort.boxes.greys=[3]", ("sort", "greys")),
+        ("known=[0]", ("known", "1-20")),
+    ],
+)
+def test_clear_table_bad_settings_are_one_line_errors_before_any_work(
+    capsys, tmp_path, setting, names
+) -> None:
+    out = tmp_path / "job"
+    run = run_cli(capsys, "clear-table", "--set", setting, "--out", out)
+    assert_one_line_error(run, 2, *names)
+    assert not out.exists()
+
+
+def test_clear_table_out_naming_a_file_is_refused_and_the_file_kept(capsys, tmp_path) -> None:
+    file = tmp_path / "results"
+    file.write_text("keep me")
+    run = run_cli(capsys, "clear-table", "--out", file)
+    assert_one_line_error(run, 2, str(file))
+    assert file.read_text() == "keep me"

@@ -111,6 +111,31 @@ def no_temporaries(folder: Path) -> bool:
     return not any(".tmp" in name or "robot_app-probe" in name for name in files_under(folder))
 
 
+# --- clear-table ---------------------------------------------------------------------------------
+
+
+def test_ctrl_c_during_clear_table_writes_the_job_so_far(tmp_path) -> None:
+    folder = tmp_path / "job"
+    process = start("clear-table", "--out", folder, "--set", "loop.vision_latency=0.06", cwd=tmp_path)
+    process.wait_for(lambda line: line.lstrip().startswith("No.") and " observe " in line)  # a pick began
+    process.popen.send_signal(signal.SIGINT)
+    code, stderr = process.finish()
+    assert code == 130, stderr
+    assert "Traceback" not in stderr
+    assert stderr.strip().splitlines()[-1].startswith("interrupted: stopped"), stderr
+    summary = json.loads((folder / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and summary["cleared"] is False
+    assert summary["surveys"] >= 1  # the survey before the stop is kept
+    assert sorted(p.name for p in folder.iterdir()) == [
+        "cloths.csv",
+        "config.yaml",
+        "picks.csv",
+        "summary.json",
+        "surveys.csv",
+    ]
+    assert no_temporaries(folder.parent)
+
+
 # --- pick-place ----------------------------------------------------------------------------------
 
 

@@ -18,7 +18,7 @@ from typing import Any
 
 from pydantic import Field, model_validator
 
-from robot_app.config import StrictModel
+from robot_app.config import SettingValueError, StrictModel
 from robot_app.control.box_check import BoxCheckSettings
 from robot_app.control.clear_table_records import BoxPlace, ClearTableSettings, SurveyRecord, TableResult
 from robot_app.control.episode import PhaseRecord
@@ -107,7 +107,9 @@ class ClearTableConfig(StrictModel):
         names = tuple(b.name for b in self.world.all_boxes)
         self.sort.check_boxes(names, key="sort")
         if self.known is not None and any(not 1 <= n <= CATALOGUE_SIZE for n in self.known):
-            raise ValueError(f"known: catalogue numbers are 1-{CATALOGUE_SIZE}, got {list(self.known)}")
+            raise SettingValueError(
+                "known", f"catalogue numbers are 1-{CATALOGUE_SIZE}, got {list(self.known)}", list(self.known)
+            )
         if any(abs(v) > 1e-12 for v in (*self.world.robot.base_xyz, self.world.robot.base_yaw)):
             raise ValueError(
                 "world.robot.base_xyz/base_yaw: the loop needs the robot base at the world origin"
