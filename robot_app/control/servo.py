@@ -92,7 +92,10 @@ class ServoStrategy:
         now = self.arm.cell.time
         self._track.reset(self.tracker.grasp_path(now), now)
         self._height = _Profile(s.track_height, s.track_height, now, 1.0)
-        self._intercept = self._plan_intercept(online)
+        try:
+            self._intercept = self._plan_intercept(online)
+        except EpisodeAbortError as abort:
+            return self._out_of_reach(abort)
         start, fused = now, 0
         while True:
             updates = self.tracker.poll(may_capture=self._in_view(), sample_truth=True)
@@ -101,8 +104,11 @@ class ServoStrategy:
                 self.note = f"lost after {self.tracker.filter.consecutive_rejections} rejected recognitions"
                 self._end(to_rest=True)
                 return False
-            self._renew(online, any(u.accepted for u in updates))
-            position_error, velocity_error = self._follow(online)
+            try:
+                self._renew(online, any(u.accepted for u in updates))
+                position_error, velocity_error = self._follow(online)
+            except EpisodeAbortError as abort:
+                return self._out_of_reach(abort)
             matched = position_error <= s.approach_tolerance and velocity_error <= s.velocity_tolerance
             if fused >= s.min_accepted_updates and self._intercept is None and matched:
                 speed = float(np.linalg.norm(self._target_velocity(self.arm.cell.time)[:2]))
@@ -112,6 +118,17 @@ class ServoStrategy:
                 self.note = f"no stable intercept within {s.approach_timeout:.1f} s"
                 self._end(to_rest=True)
                 return False
+
+    def _out_of_reach(self, abort: EpisodeAbortError) -> bool:
+        """APPROACH ends as lost (False: the loop looks again) when the predicted grasp point
+        leaves the arm's reach: the prediction may be wrong, not the cloth gone (two looks on
+        neighbouring peaks of a print made a still cloth "move" at 172 mm/s). Other aborts
+        stand."""
+        if abort.outcome is not Outcome.IK_UNREACHABLE:
+            raise abort
+        self.note = f"predicted grasp point out of reach, looking again: {abort.reason}"
+        self._end(to_rest=True)
+        return False
 
     def descend(self) -> bool:
         """Tracks down to the grasp height (blind below the working distance); False if lost."""
