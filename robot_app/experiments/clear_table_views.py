@@ -13,17 +13,15 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from robot_app.control.clear_table_records import TableResult
-from robot_app.control.episode import PhaseRecord, VisionCycle
+from robot_app.control.episode import VisionCycle
 from robot_app.control.limits import JointLimits
 from robot_app.experiments.clear_table_judge import TableVerdict
-from robot_app.experiments.recording import EpisodeRecorder
-from robot_app.experiments.recording_scene import SceneSampler, cell_layout, robot_bodies
-from robot_app.geometry import invert_transform
-from robot_app.sim import ClothBody, EpisodeVideo, SimCell, VisionOverlay, World
-from robot_app.vision import ClothModel, ProjectedOutline, model_outline, project_outline
+from robot_app.experiments.episode_views import CellViews
+from robot_app.sim import ClothBody, SimCell, World
+from robot_app.vision import ClothModel, model_outline
 
 
-class TableViews:
+class TableViews(CellViews):
     """The video and/or the recording of one job; both optional.
 
     Args:
@@ -47,77 +45,23 @@ class TableViews:
         truth: Mapping[str, ClothBody],
         name: str,
     ) -> None:
-        self.world = world
-        self.rig = world.stereo.rig
+        super().__init__(world, cell, limits, video_file, record_file, name)
         self.models = models
         self.truth = truth
         self._outlines: dict[str, tuple] = {}
-        self.video = EpisodeVideo(world, cell, video_file) if video_file is not None else None
-        self.recorder: EpisodeRecorder | None = None
-        self.sampler: SceneSampler | None = None
-        if record_file is not None:
-            self.recorder = EpisodeRecorder(record_file, name=name)
-            bodies = robot_bodies(world)
-            self.recorder.log_layout(cell_layout(world, limits, bodies))
-            self.sampler = SceneSampler(world, self.recorder, bodies)
-
-    @property
-    def active(self) -> bool:
-        return self.video is not None or self.recorder is not None
-
-    @property
-    def video_frames(self) -> int:
-        return 0 if self.video is None else self.video.frames
-
-    def on_phase(self, record: PhaseRecord) -> None:
-        if self.recorder is not None:
-            self.recorder.log_phase(record)
 
     def on_step(self, phase: str, meant: str | None) -> None:
-        if self.sampler is not None:
-            self.sampler.tick()
-        if self.video is not None:
-            self.video.tick(phase if meant is None else f"{meant}: {phase}")
+        self._step(phase if meant is None else f"{meant}: {phase}")
 
     def on_recognition(self, cycle: VisionCycle, meant: str) -> None:
-        outline = self._outline(meant)
-        capture = cycle.capture
-        recognised = project_outline(self.rig, cycle.recognition.transform_model_to_camera, outline)
-        true: ProjectedOutline | None = None
-        true_pose = None
-        if meant in self.truth:
-            true_pose = self.truth[meant].pose()
-            to_camera = invert_transform(capture.transform_right_camera_to_world) @ true_pose
-            true = project_outline(self.rig, to_camera, outline)
-        if self.recorder is not None:
-            left_pose = capture.transform_right_camera_to_world @ self.rig.transform_left_to_right
-            self.recorder.log_vision_cycle(
-                cycle, left_pose, recognised, true, true_pose, prefix=f"cloths/{meant}"
-            )
-        if self.video is not None:
-            r, record = cycle.recognition, cycle.record
-            verdict = "accepted" if record.accepted else "rejected"
-            caption = (
-                f"{meant} {record.mode} at {capture.time:.2f} s: {verdict}",
-                f"fitness {r.fitness:.2f}  confidence {r.confidence:.2f}",
-            )
-            self.video.show_vision(
-                VisionOverlay(capture.left_bgr, capture.right_bgr, recognised, true, caption, record.accepted)
-            )
+        true_pose = self.truth[meant].pose() if meant in self.truth else None
+        self._show_cycle(cycle, self._outline(meant), true_pose, f"{meant} ", f"cloths/{meant}")
 
     def finish(self, result: TableResult, verdict: TableVerdict, end_time: float) -> None:
         if self.recorder is None:
             return
         text = f"{'CLEARED' if verdict.cleared else 'NOT CLEARED'}: {verdict.cause or result.stop_reason}"
         self.recorder.log_outcome(end_time, text, verdict.cleared)
-
-    def close(self) -> None:
-        try:
-            if self.video is not None:
-                self.video.close()
-        finally:
-            if self.recorder is not None:
-                self.recorder.close()
 
     def _outline(self, name: str) -> tuple:
         if name not in self._outlines:
