@@ -1,7 +1,9 @@
-"""Command-line options several commands share: seeds, --force and the resource limits."""
+"""Command-line options several commands share: seeds, --set, --video, --record, --force and the
+resource limits."""
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -26,6 +28,16 @@ def check_memory_gb(value: float | None) -> float | None:
 SeedOption = Annotated[
     int | None,
     typer.Option("--seed", callback=check_seed, help="Seed (an integer >= 0; default: the settings')."),
+]
+SettingsOption = Annotated[list[str] | None, typer.Option("--set", help="Setting key=value (repeatable).")]
+VideoOption = Annotated[Path | None, typer.Option("--video", help="Write an MP4 of the run.")]
+RecordOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--record",
+        help="Write a Rerun recording (.rrd) of the run; open it with `rerun FILE.rrd` "
+        "(needs the viewer extra: pip install 'robot_app\\[viewer]').",
+    ),
 ]
 ForceOption = Annotated[
     bool, typer.Option("--force", help="Write into an --out folder that already holds files.")

@@ -9,7 +9,15 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from robot_app.commands._guards import check_world_cameras
-from robot_app.commands._options import ForceOption, MaxMemoryOption, SeedOption, resource_limits
+from robot_app.commands._options import (
+    ForceOption,
+    MaxMemoryOption,
+    RecordOption,
+    SeedOption,
+    SettingsOption,
+    VideoOption,
+    resource_limits,
+)
 from robot_app.config import load_config
 from robot_app.errors import InterruptError
 from robot_app.interrupts import stop_at_safe_points
@@ -43,22 +51,13 @@ def clear_table(
     config: Annotated[
         Path | None, typer.Option("--config", help="Clear-table YAML (default: configs/clear_table.yaml).")
     ] = None,
-    overrides: Annotated[
-        list[str] | None, typer.Option("--set", help="Setting key=value (repeatable).")
-    ] = None,
+    overrides: SettingsOption = None,
     seed: SeedOption = None,
     out: Annotated[
         Path | None, typer.Option("--out", help="Results folder (default: results/clear_table-<time>).")
     ] = None,
-    video: Annotated[Path | None, typer.Option("--video", help="Write an MP4 of the job.")] = None,
-    record: Annotated[
-        Path | None,
-        typer.Option(
-            "--record",
-            help="Write a Rerun recording (.rrd) of the job "
-            "(needs the viewer extra: pip install 'robot_app\\[viewer]').",
-        ),
-    ] = None,
+    video: VideoOption = None,
+    record: RecordOption = None,
     force: ForceOption = False,
     max_memory_gb: MaxMemoryOption = None,
 ) -> None:

@@ -9,7 +9,15 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from robot_app.commands._guards import check_display, check_world_cameras
-from robot_app.commands._options import ForceOption, MaxMemoryOption, SeedOption, resource_limits
+from robot_app.commands._options import (
+    ForceOption,
+    MaxMemoryOption,
+    RecordOption,
+    SeedOption,
+    SettingsOption,
+    VideoOption,
+    resource_limits,
+)
 from robot_app.config import load_config
 from robot_app.errors import InterruptError
 from robot_app.interrupts import stop_at_safe_points
@@ -33,22 +41,13 @@ def pick_place(
     config: Annotated[
         Path | None, typer.Option("--config", help="Pick-and-place YAML (default: configs/pick_place.yaml).")
     ] = None,
-    overrides: Annotated[
-        list[str] | None, typer.Option("--set", help="Setting key=value (repeatable).")
-    ] = None,
+    overrides: SettingsOption = None,
     seed: SeedOption = None,
     out: Annotated[
         Path | None, typer.Option("--out", help="Results folder (default: results/pick_place-<time>).")
     ] = None,
-    video: Annotated[Path | None, typer.Option("--video", help="Write an MP4 of the episode.")] = None,
-    record: Annotated[
-        Path | None,
-        typer.Option(
-            "--record",
-            help="Write a Rerun recording (.rrd) of the episode; open it with `rerun FILE.rrd` "
-            "(needs the viewer extra: pip install 'robot_app\\[viewer]').",
-        ),
-    ] = None,
+    video: VideoOption = None,
+    record: RecordOption = None,
     gui: Annotated[bool, typer.Option("--gui", help="Show pybullet's GUI (needs a display).")] = False,
     force: ForceOption = False,
     max_memory_gb: MaxMemoryOption = None,
