@@ -15,6 +15,8 @@ anything was written into it.
 
 from __future__ import annotations
 
+import csv
+import io
 import os
 import secrets
 import shutil
@@ -298,6 +300,17 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
+def atomic_write_csv(path: str | Path, rows: list[dict[str, object]]) -> Path:
+    """Writes `rows` as a CSV table (header from the first row's keys) to `path` atomically;
+    no rows: an empty file."""
+    buffer = io.StringIO(newline="")
+    if rows:
+        writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    return atomic_write_text(path, buffer.getvalue())
+
+
 def atomic_write_image(path: str | Path, image: npt.NDArray[np.uint8]) -> Path:
     """Encodes an image by its file suffix (default PNG) and writes it atomically.
 
@@ -316,6 +329,7 @@ def atomic_write_image(path: str | Path, image: npt.NDArray[np.uint8]) -> Path:
 __all__ = [
     "atomic_path",
     "atomic_write_bytes",
+    "atomic_write_csv",
     "atomic_write_image",
     "atomic_write_text",
     "check_output_file",

@@ -8,8 +8,6 @@ by the simulator), the `cause` when not, and what the robot did and noticed.
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 from pathlib import Path
 from typing import Any
@@ -18,7 +16,7 @@ import numpy as np
 
 from robot_app.config import dump_config
 from robot_app.experiments.clear_table import ClearTableConfig, ClearTableEpisode
-from robot_app.outputs import atomic_write_text, output_folder
+from robot_app.outputs import atomic_write_csv, atomic_write_text, output_folder
 
 
 def cloth_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
@@ -155,22 +153,13 @@ def write_clear_table(out_dir: str | Path, config: ClearTableConfig, episode: Cl
     folder = Path(out_dir)
     with output_folder(folder):
         dump_config(config, folder / "config.yaml")
-        _write_csv(folder / "cloths.csv", cloth_rows(episode))
-        _write_csv(folder / "picks.csv", pick_rows(episode))
-        _write_csv(folder / "surveys.csv", survey_rows(episode))
+        atomic_write_csv(folder / "cloths.csv", cloth_rows(episode))
+        atomic_write_csv(folder / "picks.csv", pick_rows(episode))
+        atomic_write_csv(folder / "surveys.csv", survey_rows(episode))
         atomic_write_text(
             folder / "summary.json", json.dumps(summary(config, episode), indent=2, default=str)
         )
     return folder
-
-
-def _write_csv(path: Path, rows: list[dict[str, object]]) -> None:
-    buffer = io.StringIO(newline="")
-    if rows:
-        writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-    atomic_write_text(path, buffer.getvalue())
 
 
 __all__ = ["cloth_rows", "pick_rows", "summary", "survey_rows", "write_clear_table"]

@@ -9,8 +9,6 @@ runs `PickPlaceLoop`, which judges its outcome against the simulator's ground tr
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 from collections.abc import Callable
 from contextlib import ExitStack
@@ -41,7 +39,7 @@ from robot_app.errors import ConfigError
 from robot_app.experiments.conveyor_check import conveyor_problem
 from robot_app.experiments.episode_views import EpisodeViews
 from robot_app.experiments.recording import require_rerun
-from robot_app.outputs import atomic_path, atomic_write_text, output_folder
+from robot_app.outputs import atomic_path, atomic_write_csv, atomic_write_text, output_folder
 from robot_app.sim import (
     ModelStation,
     SceneSettings,
@@ -292,19 +290,10 @@ def write_episode(out_dir: str | Path, config: PickPlaceConfig, episode: Episode
     }
     with output_folder(folder):  # each file is written whole (temporary name, then renamed)
         dump_config(config, folder / "config.yaml")
-        _write_csv(folder / "phases.csv", [asdict(p) | {"duration": p.duration} for p in result.phases])
-        _write_csv(folder / "recognitions.csv", [asdict(r) for r in result.recognitions])
+        atomic_write_csv(folder / "phases.csv", [asdict(p) | {"duration": p.duration} for p in result.phases])
+        atomic_write_csv(folder / "recognitions.csv", [asdict(r) for r in result.recognitions])
         atomic_write_text(folder / "summary.json", json.dumps(summary, indent=2, default=_json_default))
     return folder
-
-
-def _write_csv(path: Path, rows: list[dict[str, object]]) -> None:
-    buffer = io.StringIO(newline="")
-    if rows:
-        writer = csv.DictWriter(buffer, fieldnames=list(rows[0]))
-        writer.writeheader()
-        writer.writerows(rows)
-    atomic_write_text(path, buffer.getvalue())
 
 
 def _json_default(value: object) -> object:
