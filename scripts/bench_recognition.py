@@ -173,25 +173,62 @@ def seeds(args: argparse.Namespace, calibration: bool) -> Callable[[str, int], n
     return rng
 
 
-def collect(scenes: Scenes, recognizers: list[Recognizer], args, calibration: bool) -> dict[str, list]:
-    """Recognitions of every scene kind: per kind a list of (index, recognition, truth)."""
+DUMP_COLUMNS = ("kind", "model", "cloth", "fitness", "search_fitness", "appearance", "visible", "interleaved",
+                "agreeing", "confidence", "found", "err_x_mm", "err_y_mm", "err_yaw_deg")  # fmt: skip
+
+
+def dump_row(kind: str, model: ClothModel, cloth: int, result, truth) -> list:
+    """One row of `--dump`: the scene kind, model and cloth, the decision's evidence and error."""
+    e = [np.nan] * 4 if truth is None else errors_of(model, result.transform_model_to_camera, truth)
+    return [kind, model.name, cloth, result.fitness, result.search_fitness, result.appearance,
+            result.visible_fraction, result.interleaved, result.agreeing, result.confidence,
+            int(result.found), e[0], e[1], e[3]]  # fmt: skip
+
+
+def write_dump(path: str | None, rows: list[list]) -> None:
+    """Writes `--dump` rows as CSV (atomically)."""
+    if not path:
+        return
+    target = Path(path)
+    temporary = target.with_name(target.name + ".part")
+    with temporary.open("w", newline="") as file:
+        writer = csv.writer(file)
+        writer.writerow(DUMP_COLUMNS)
+        writer.writerows(rows)
+    os.replace(temporary, target)
+
+
+def collect(
+    scenes: Scenes, recognizers: list[Recognizer], args, calibration: bool, dump: list | None = None
+) -> dict[str, list]:
+    """Recognitions of every scene kind: per kind a list of (index, recognition, truth);
+    with `dump`, also one `dump_row` per recognition."""
     rng = seeds(args, calibration)
     out: dict[str, list] = {}
+    kinds = args.kinds.split(",") if getattr(args, "kinds", None) else None
     for kind in ("flat", "wrinkled", "folded", "covered"):
+        if kinds is not None and kind not in kinds:
+            continue
         count = args.scenes if kind == "flat" else max(N, args.scenes // 2)
         rows = []
         for k in range(count):
             index = k % N
             left, right, truth = scenes.present(kind, index, rng(kind, k))
             rows.append((index, recognizers[index].recognize(left, right, seed=k), truth))
+            if dump is not None:
+                dump.append(dump_row(kind, scenes.models[index], index, rows[-1][1], truth))
         out[kind] = rows
     for kind, family in (("absent_family", True), ("absent_other", False)):
+        if kinds is not None and kind not in kinds:
+            continue
         rows = []
         count = max(N, args.scenes // 2)
         for k in range(count):
             index = k % N
-            left, right, _ = scenes.absent(index, rng(kind, k), family)
+            left, right, other = scenes.absent(index, rng(kind, k), family)
             rows.append((index, recognizers[index].recognize(left, right, seed=k), None))
+            if dump is not None:
+                dump.append(dump_row(kind, scenes.models[index], other, rows[-1][1], None))
         out[kind] = rows
     return out
 
@@ -220,9 +257,14 @@ def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list
     accept nor an absent cloth); prints the weights and the threshold that best separates
     the calibration scenes."""
     kinds = ("flat", "wrinkled", "folded", "covered")
-    wrong = sum(not correct(models, r) for kind in kinds for r in data[kind])
-    present = [r for kind in kinds for r in data[kind] if correct(models, r)]
-    absent = [r for kind in ("absent_family", "absent_other") for r in data[kind]]
+    wrong = sum(not correct(models, r) for kind in kinds for r in data.get(kind, []))
+    present = [r for kind in kinds for r in data.get(kind, []) if correct(models, r)]
+    absent = [
+        r
+        for kind in data
+        if kind.startswith("absent") or kind.startswith("identification")
+        for r in data[kind]
+    ]
     X = np.vstack([features(present), features(absent)])
     X[:, 1] = np.where(np.isnan(X[:, 1]), settings.decide.appearance_nothing_seen, X[:, 1])
     X[:, 4] = np.where(np.isnan(X[:, 4]), (X[:, 1] + 1.0) / 2.0, X[:, 4])
@@ -315,13 +357,30 @@ def report_distractor(scenes: Scenes, recognizers: list[Recognizer], args) -> No
           f"(goal >= 99%: {verdict(chosen / count >= 0.99)}); found {found / count:.1%}")  # fmt: skip
 
 
-def report_identification(scenes: Scenes, recognizers: list[Recognizer], args, size: int) -> None:
-    rng = seeds(args, False)
+def report_identification(
+    scenes: Scenes,
+    recognizers: list[Recognizer],
+    args,
+    size: int,
+    calibration: bool = False,
+    dump: list | None = None,
+    wrong: list | None = None,
+) -> None:
+    """Model i on a scene of cloth j alone, for i, j < size; with `dump`, one `dump_row` per
+    recognition; with `wrong`, the (index, recognition, None) of every i != j (negatives
+    for `--calibrate`)."""
+    rng = seeds(args, calibration)
     false_accepts, missed = [], []
     for j in range(size):
-        left, right, _ = scenes.present("flat", j, rng(f"identification{size}", j))
+        left, right, truth = scenes.present("flat", j, rng(f"identification{size}", j))
         for i in range(size):
             result = recognizers[i].recognize(left, right, seed=i * size + j)
+            if dump is not None:
+                dump.append(
+                    dump_row(f"identification{size}", scenes.models[i], j, result, truth if i == j else None)
+                )
+            if wrong is not None and i != j:
+                wrong.append((i, result, None))
             if result.found and i != j:
                 false_accepts.append((i, j, round(result.confidence, 3)))
             if not result.found and i == j:
@@ -459,6 +518,14 @@ def main() -> None:
     parser.add_argument("--calibrate", action="store_true", help="fit the decision on the calibration seeds")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
+        "--dump", help="write every recognition's evidence of the accuracy scenes to this CSV"
+    )
+    parser.add_argument("--kinds", help="only these scene kinds (comma-separated: flat, wrinkled, folded, "
+                        "covered, absent_family, absent_other)")  # fmt: skip
+    parser.add_argument("--identification-size", type=int, default=0,
+                        help="with --calibrate: also an NxN identification on calibration seeds, its wrong "
+                        "pairs as absent scenes")  # fmt: skip
+    parser.add_argument(
         "--set", dest="overrides", action="append", default=[], help="RecognitionSettings key=value"
     )
     args = parser.parse_args()
@@ -469,14 +536,22 @@ def main() -> None:
     scenes = Scenes(cloths, models)
     print(f"catalogue: {[m.name for m in models]}; half-turn symmetric: "
           f"{[m.name for m in models if half_turn_symmetric(m)]}")  # fmt: skip
+    dump: list | None = [] if args.dump else None
     if args.calibrate:
-        calibrate(collect(scenes, recognizers, args, calibration=True), settings, models)
+        data = collect(scenes, recognizers, args, calibration=True, dump=dump)
+        if args.identification_size:
+            wrong: list = []
+            report_identification(scenes, recognizers, args, args.identification_size, True, dump, wrong)
+            data[f"identification{args.identification_size}"] = wrong
+        write_dump(args.dump, dump or [])
+        calibrate(data, settings, models)
         return
     report_speed(scenes, recognizers, models, args)
     report_batch(scenes, models, args)
     if args.speed_only:
         return
-    data = collect(scenes, recognizers, args, calibration=False)
+    data = collect(scenes, recognizers, args, calibration=False, dump=dump)
+    write_dump(args.dump, dump or [])
     report_accuracy(data, models, settings.decide.threshold)
     report_distractor(scenes, recognizers, args)
     if args.quick:
