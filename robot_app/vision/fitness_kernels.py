@@ -85,6 +85,29 @@ def bgr_codes(bgr, table, fill, levels, box):
     return out
 
 
+@_jit
+def bgr_codes_shaded(bgr, table, fill, levels, index, block, box):
+    """`bgr_codes` under uneven light: the channel rows are those of the pixel's block,
+    `levels[index[v // block, u // block]]` ((L, 3, 256) uint8: the gains times each shading
+    level's factor, `gain_levels`), blocks past `index`'s last row or column take it."""
+    height, width = bgr.shape[0], bgr.shape[1]
+    stride = width + 3
+    out = np.full((height + 3) * stride, fill, dtype=np.uint16)
+    u0, v0 = max(box[0], 0), max(box[1], 0)
+    u1, v1 = min(box[2], width - 1), min(box[3], height - 1)
+    rows, cols = index.shape[0], index.shape[1]
+    for v in range(v0, v1 + 1):
+        base = (v + 1) * stride + 1
+        i = min(v // block, rows - 1)
+        for u in range(u0, u1 + 1):
+            level = levels[index[i, min(u // block, cols - 1)]]
+            b = np.int64(level[0, bgr[v, u, 0]])
+            g = np.int64(level[1, bgr[v, u, 1]])
+            r = np.int64(level[2, bgr[v, u, 2]])
+            out[base + u] = table[(b << 16) | (g << 8) | r]
+    return out
+
+
 def gain_levels(gains):
     """(3, 256) uint8: each channel value v of b, g, r times its gain, rounded and clipped
     to 255 (the rows `bgr_codes` reads)."""
