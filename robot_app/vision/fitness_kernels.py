@@ -89,7 +89,7 @@ def bgr_codes(bgr, table, fill, levels, box):
 def bgr_codes_shaded(bgr, table, fill, levels, index, block, box):
     """`bgr_codes` under uneven light: the channel rows are those of the pixel's block,
     `levels[index[v // block, u // block]]` ((L, 3, 256) uint8: the gains times each shading
-    level's factor, `gain_levels`), blocks past `index`'s last row or column take it."""
+    level's factor, `shaded_levels`); blocks past `index`'s last row or column take it."""
     height, width = bgr.shape[0], bgr.shape[1]
     stride = width + 3
     out = np.full((height + 3) * stride, fill, dtype=np.uint16)
@@ -99,13 +99,29 @@ def bgr_codes_shaded(bgr, table, fill, levels, index, block, box):
     for v in range(v0, v1 + 1):
         base = (v + 1) * stride + 1
         i = min(v // block, rows - 1)
-        for u in range(u0, u1 + 1):
-            level = levels[index[i, min(u // block, cols - 1)]]
-            b = np.int64(level[0, bgr[v, u, 0]])
-            g = np.int64(level[1, bgr[v, u, 1]])
-            r = np.int64(level[2, bgr[v, u, 2]])
-            out[base + u] = table[(b << 16) | (g << 8) | r]
+        start = u0
+        while start <= u1:
+            j = min(start // block, cols - 1)
+            stop = u1 + 1 if j == cols - 1 else min((j + 1) * block, u1 + 1)
+            level = levels[index[i, j]]
+            for u in range(start, stop):
+                b = np.int64(level[0, bgr[v, u, 0]])
+                g = np.int64(level[1, bgr[v, u, 1]])
+                r = np.int64(level[2, bgr[v, u, 2]])
+                out[base + u] = table[(b << 16) | (g << 8) | r]
+            start = stop
     return out
+
+
+def shaded_levels(gains, factors):
+    """(L, 3, 256) uint8: `gain_levels` of the gains times each of the (L,) factors."""
+    values = np.arange(256, dtype=np.float64)
+    scaled = (
+        values[None, None, :]
+        * np.asarray(gains, float)[None, :, None]
+        * np.asarray(factors, float)[:, None, None]
+    )
+    return np.minimum(np.floor(scaled + 0.5), 255.0).astype(np.uint8)
 
 
 def gain_levels(gains):

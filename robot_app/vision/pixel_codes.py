@@ -22,7 +22,14 @@ from robot_app.arrays import FloatArray
 from robot_app.errors import InputError
 from robot_app.vision.camera import PinholeCamera
 from robot_app.vision.exposure import Shading
-from robot_app.vision.fitness_kernels import bgr_codes, bgr_codes_shaded, every_colour, gain_levels, hsv_codes
+from robot_app.vision.fitness_kernels import (
+    bgr_codes,
+    bgr_codes_shaded,
+    every_colour,
+    gain_levels,
+    hsv_codes,
+    shaded_levels,
+)
 from robot_app.vision.fitness_scores import OFF_IMAGE
 from robot_app.vision.hue import DARK, LIGHT, to_hsv
 
@@ -52,7 +59,7 @@ def pixel_codes(
     box = np.ascontiguousarray(box, dtype=np.int64)
     if shading is None:
         return bgr_codes(np.ascontiguousarray(image), table, OFF_IMAGE, gain_levels(gains), box)
-    levels = np.stack([gain_levels(np.asarray(gains) * factor) for factor in shading.factors])
+    levels = shaded_levels(gains, shading.factors)
     return bgr_codes_shaded(
         np.ascontiguousarray(image), table, OFF_IMAGE, levels, shading.index, shading.block, box
     )
