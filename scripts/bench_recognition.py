@@ -515,6 +515,10 @@ def main() -> None:
     parser.add_argument("--fullsearch-scenes", type=int, default=3)
     parser.add_argument("--quick", action="store_true", help="skip identification and full search")
     parser.add_argument("--speed-only", action="store_true", help="only the timing figures")
+    parser.add_argument(
+        "--skip-speed", action="store_true", help="no timing figures (one-shot, tracking, batch)"
+    )
+    parser.add_argument("--skip-fullsearch", action="store_true", help="no GA against full search")
     parser.add_argument("--calibrate", action="store_true", help="fit the decision on the calibration seeds")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
@@ -546,8 +550,9 @@ def main() -> None:
         write_dump(args.dump, dump or [])
         calibrate(data, settings, models)
         return
-    report_speed(scenes, recognizers, models, args)
-    report_batch(scenes, models, args)
+    if not args.skip_speed:
+        report_speed(scenes, recognizers, models, args)
+        report_batch(scenes, models, args)
     if args.speed_only:
         return
     data = collect(scenes, recognizers, args, calibration=False, dump=dump)
@@ -558,7 +563,8 @@ def main() -> None:
         return
     report_identification(scenes, recognizers, args, 12)
     report_identification(scenes, recognizers, args, 20)
-    report_full_search(scenes, recognizers, models, args)
+    if not args.skip_fullsearch:
+        report_full_search(scenes, recognizers, models, args)
 
 
 if __name__ == "__main__":
