@@ -251,8 +251,10 @@ def correct(models: list[ClothModel], row: tuple) -> bool:
 
 
 def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list[ClothModel]) -> None:
-    """Logistic regression of present at the right pose (1) against absent (0) on (fitness,
-    appearance, visible, interleaved, agreeing) by Newton's method with a weak ridge
+    """Logistic regression of present at the right pose (1) against absent (0, and the
+    wrong pairs of the identification scenes with `--identification-size`) on (fitness,
+    appearance, visible, interleaved, agreeing, appearance·visible, agreeing·visible) by
+    Newton's method with a weak ridge
     (present scenes recognised at a wrong pose are left out: neither a right answer to
     accept nor an absent cloth); prints the weights and the threshold that best separates
     the calibration scenes."""
@@ -268,6 +270,7 @@ def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list
     X = np.vstack([features(present), features(absent)])
     X[:, 1] = np.where(np.isnan(X[:, 1]), settings.decide.appearance_nothing_seen, X[:, 1])
     X[:, 4] = np.where(np.isnan(X[:, 4]), (X[:, 1] + 1.0) / 2.0, X[:, 4])
+    X = np.column_stack([X, X[:, 1] * X[:, 2], X[:, 4] * X[:, 2]])  # appearance, agreeing times visible
     y = np.concatenate([np.ones(len(present)), np.zeros(len(absent))])
     A = np.column_stack([np.ones(len(X)), X])
     w = np.zeros(A.shape[1])
@@ -287,7 +290,8 @@ def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list
           f"({wrong} present scenes recognised at a wrong pose left out)")  # fmt: skip
     print(f"  decide.bias={w[0]:.3f} decide.weight_fitness={w[1]:.3f} decide.weight_appearance={w[2]:.3f} "
           f"decide.weight_visible={w[3]:.3f} decide.weight_interleaved={w[4]:.3f} "
-          f"decide.weight_agreeing={w[5]:.3f}")  # fmt: skip
+          f"decide.weight_agreeing={w[5]:.3f} decide.weight_appearance_visible={w[6]:.3f} "
+          f"decide.weight_agreeing_visible={w[7]:.3f}")  # fmt: skip
     print(f"  logit of present: min {z[y == 1].min():+.2f}; of absent: max {z[y == 0].max():+.2f}; "
           f"threshold logit {threshold_z:+.2f} = confidence "
           f"{1 / (1 + np.exp(-threshold_z)):.3f}")  # fmt: skip
@@ -388,6 +392,29 @@ def report_identification(
     print(f"{size}x{size} identification (model i on a scene of cloth j alone, realistic camera): "
           f"false accepts {len(false_accepts)} (goal 0: {verdict(not false_accepts)}) {false_accepts[:6]}; "
           f"own cloth missed {len(missed)} {missed}")  # fmt: skip
+
+
+def report_identification_among(scenes: Scenes, recognizers: list[Recognizer], args, size: int) -> None:
+    """The same scenes as `report_identification` (cloth j alone), but every model of the
+    first `size` searched together (`vision.identify`: the best model per cloth region,
+    the relative test): a false accept is a found detection of another model kept."""
+    from robot_app.vision.identify import identify
+
+    rng = seeds(args, False)
+    named = {scenes.models[i].name: recognizers[i] for i in range(size)}
+    false_accepts, missed = [], []
+    for j in range(size):
+        left, right, _ = scenes.present("flat", j, rng(f"identification{size}", j))
+        result = identify(named, left, right, seed=j)
+        for detection in result.detections:
+            if detection.found and detection.name != scenes.models[j].name:
+                false_accepts.append((detection.name, j, round(detection.confidence, 3)))
+        own = result.get(scenes.models[j].name)
+        if own is None or not own.found:
+            missed.append(j)
+    print(f"{size}x{size} identification among the catalogue (vision.identify, every model on each scene, "
+          f"the best per region kept; no goal, the relative test): false accepts {len(false_accepts)} "
+          f"{false_accepts[:6]}; own cloth missed {len(missed)} {missed}")  # fmt: skip
 
 
 def report_speed(scenes: Scenes, recognizers: list[Recognizer], models: list[ClothModel], args) -> None:
@@ -518,6 +545,10 @@ def main() -> None:
     parser.add_argument(
         "--skip-speed", action="store_true", help="no timing figures (one-shot, tracking, batch)"
     )
+    parser.add_argument("--identify", action="store_true",
+                        help="also identification by vision.identify (all models together)")  # fmt: skip
+    parser.add_argument("--skip-accuracy", action="store_true",
+                        help="no accuracy, confidence or distractor figures")  # fmt: skip
     parser.add_argument("--skip-fullsearch", action="store_true", help="no GA against full search")
     parser.add_argument("--calibrate", action="store_true", help="fit the decision on the calibration seeds")
     parser.add_argument("--seed", type=int, default=0)
@@ -555,14 +586,18 @@ def main() -> None:
         report_batch(scenes, models, args)
     if args.speed_only:
         return
-    data = collect(scenes, recognizers, args, calibration=False, dump=dump)
-    write_dump(args.dump, dump or [])
-    report_accuracy(data, models, settings.decide.threshold)
-    report_distractor(scenes, recognizers, args)
+    if not args.skip_accuracy:
+        data = collect(scenes, recognizers, args, calibration=False, dump=dump)
+        write_dump(args.dump, dump or [])
+        report_accuracy(data, models, settings.decide.threshold)
+        report_distractor(scenes, recognizers, args)
     if args.quick:
         return
     report_identification(scenes, recognizers, args, 12)
     report_identification(scenes, recognizers, args, 20)
+    if args.identify:
+        report_identification_among(scenes, recognizers, args, 12)
+        report_identification_among(scenes, recognizers, args, 20)
     if not args.skip_fullsearch:
         report_full_search(scenes, recognizers, models, args)
 
