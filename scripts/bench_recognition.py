@@ -14,7 +14,12 @@ weights and threshold on them and prints them) and reported on the test seeds (t
 
     taskset -c 0 python scripts/bench_recognition.py                   # the full run
     taskset -c 0 python scripts/bench_recognition.py --scenes 24 --quick
-    taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 200   # the decision's fit
+    taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 100 --identification-size 20
+        # the decision's fit (decide.py's weights came from this command)
+    taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-fullsearch --scenes 60 --dump d.csv
+        # a lean accuracy run; d.csv holds every recognition's evidence (study the misses)
+    taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-accuracy --skip-fullsearch --identify
+        # identification alone, and by vision.identify (every model together: the relative test)
 """
 
 from __future__ import annotations
