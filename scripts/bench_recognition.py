@@ -14,7 +14,12 @@ weights and threshold on them and prints them) and reported on the test seeds (t
 
     taskset -c 0 python scripts/bench_recognition.py                   # the full run
     taskset -c 0 python scripts/bench_recognition.py --scenes 24 --quick
-    taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 200   # the decision's fit
+    taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 100 --identification-size 20
+        # the decision's fit (decide.py's weights came from this command)
+    taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-fullsearch --scenes 60 --dump d.csv
+        # a lean accuracy run; d.csv holds every recognition's evidence (study the misses)
+    taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-accuracy --skip-fullsearch --identify
+        # identification alone, and by vision.identify (every model together: the relative test)
 """
 
 from __future__ import annotations
@@ -173,25 +178,62 @@ def seeds(args: argparse.Namespace, calibration: bool) -> Callable[[str, int], n
     return rng
 
 
-def collect(scenes: Scenes, recognizers: list[Recognizer], args, calibration: bool) -> dict[str, list]:
-    """Recognitions of every scene kind: per kind a list of (index, recognition, truth)."""
+DUMP_COLUMNS = ("kind", "model", "cloth", "fitness", "search_fitness", "appearance", "visible", "interleaved",
+                "agreeing", "confidence", "found", "err_x_mm", "err_y_mm", "err_yaw_deg")  # fmt: skip
+
+
+def dump_row(kind: str, model: ClothModel, cloth: int, result, truth) -> list:
+    """One row of `--dump`: the scene kind, model and cloth, the decision's evidence and error."""
+    e = [np.nan] * 4 if truth is None else errors_of(model, result.transform_model_to_camera, truth)
+    return [kind, model.name, cloth, result.fitness, result.search_fitness, result.appearance,
+            result.visible_fraction, result.interleaved, result.agreeing, result.confidence,
+            int(result.found), e[0], e[1], e[3]]  # fmt: skip
+
+
+def write_dump(path: str | None, rows: list[list]) -> None:
+    """Writes `--dump` rows as CSV (atomically)."""
+    if not path:
+        return
+    target = Path(path)
+    temporary = target.with_name(target.name + ".part")
+    with temporary.open("w", newline="") as file:
+        writer = csv.writer(file)
+        writer.writerow(DUMP_COLUMNS)
+        writer.writerows(rows)
+    os.replace(temporary, target)
+
+
+def collect(
+    scenes: Scenes, recognizers: list[Recognizer], args, calibration: bool, dump: list | None = None
+) -> dict[str, list]:
+    """Recognitions of every scene kind: per kind a list of (index, recognition, truth);
+    with `dump`, also one `dump_row` per recognition."""
     rng = seeds(args, calibration)
     out: dict[str, list] = {}
+    kinds = args.kinds.split(",") if getattr(args, "kinds", None) else None
     for kind in ("flat", "wrinkled", "folded", "covered"):
+        if kinds is not None and kind not in kinds:
+            continue
         count = args.scenes if kind == "flat" else max(N, args.scenes // 2)
         rows = []
         for k in range(count):
             index = k % N
             left, right, truth = scenes.present(kind, index, rng(kind, k))
             rows.append((index, recognizers[index].recognize(left, right, seed=k), truth))
+            if dump is not None:
+                dump.append(dump_row(kind, scenes.models[index], index, rows[-1][1], truth))
         out[kind] = rows
     for kind, family in (("absent_family", True), ("absent_other", False)):
+        if kinds is not None and kind not in kinds:
+            continue
         rows = []
         count = max(N, args.scenes // 2)
         for k in range(count):
             index = k % N
-            left, right, _ = scenes.absent(index, rng(kind, k), family)
+            left, right, other = scenes.absent(index, rng(kind, k), family)
             rows.append((index, recognizers[index].recognize(left, right, seed=k), None))
+            if dump is not None:
+                dump.append(dump_row(kind, scenes.models[index], other, rows[-1][1], None))
         out[kind] = rows
     return out
 
@@ -214,18 +256,26 @@ def correct(models: list[ClothModel], row: tuple) -> bool:
 
 
 def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list[ClothModel]) -> None:
-    """Logistic regression of present at the right pose (1) against absent (0) on (fitness,
-    appearance, visible, interleaved, agreeing) by Newton's method with a weak ridge
+    """Logistic regression of present at the right pose (1) against absent (0, and the
+    wrong pairs of the identification scenes with `--identification-size`) on (fitness,
+    appearance, visible, interleaved, agreeing, appearance·visible, agreeing·visible) by
+    Newton's method with a weak ridge
     (present scenes recognised at a wrong pose are left out: neither a right answer to
     accept nor an absent cloth); prints the weights and the threshold that best separates
     the calibration scenes."""
     kinds = ("flat", "wrinkled", "folded", "covered")
-    wrong = sum(not correct(models, r) for kind in kinds for r in data[kind])
-    present = [r for kind in kinds for r in data[kind] if correct(models, r)]
-    absent = [r for kind in ("absent_family", "absent_other") for r in data[kind]]
+    wrong = sum(not correct(models, r) for kind in kinds for r in data.get(kind, []))
+    present = [r for kind in kinds for r in data.get(kind, []) if correct(models, r)]
+    absent = [
+        r
+        for kind in data
+        if kind.startswith("absent") or kind.startswith("identification")
+        for r in data[kind]
+    ]
     X = np.vstack([features(present), features(absent)])
     X[:, 1] = np.where(np.isnan(X[:, 1]), settings.decide.appearance_nothing_seen, X[:, 1])
     X[:, 4] = np.where(np.isnan(X[:, 4]), (X[:, 1] + 1.0) / 2.0, X[:, 4])
+    X = np.column_stack([X, X[:, 1] * X[:, 2], X[:, 4] * X[:, 2]])  # appearance, agreeing times visible
     y = np.concatenate([np.ones(len(present)), np.zeros(len(absent))])
     A = np.column_stack([np.ones(len(X)), X])
     w = np.zeros(A.shape[1])
@@ -245,7 +295,8 @@ def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list
           f"({wrong} present scenes recognised at a wrong pose left out)")  # fmt: skip
     print(f"  decide.bias={w[0]:.3f} decide.weight_fitness={w[1]:.3f} decide.weight_appearance={w[2]:.3f} "
           f"decide.weight_visible={w[3]:.3f} decide.weight_interleaved={w[4]:.3f} "
-          f"decide.weight_agreeing={w[5]:.3f}")  # fmt: skip
+          f"decide.weight_agreeing={w[5]:.3f} decide.weight_appearance_visible={w[6]:.3f} "
+          f"decide.weight_agreeing_visible={w[7]:.3f}")  # fmt: skip
     print(f"  logit of present: min {z[y == 1].min():+.2f}; of absent: max {z[y == 0].max():+.2f}; "
           f"threshold logit {threshold_z:+.2f} = confidence "
           f"{1 / (1 + np.exp(-threshold_z)):.3f}")  # fmt: skip
@@ -315,13 +366,30 @@ def report_distractor(scenes: Scenes, recognizers: list[Recognizer], args) -> No
           f"(goal >= 99%: {verdict(chosen / count >= 0.99)}); found {found / count:.1%}")  # fmt: skip
 
 
-def report_identification(scenes: Scenes, recognizers: list[Recognizer], args, size: int) -> None:
-    rng = seeds(args, False)
+def report_identification(
+    scenes: Scenes,
+    recognizers: list[Recognizer],
+    args,
+    size: int,
+    calibration: bool = False,
+    dump: list | None = None,
+    wrong: list | None = None,
+) -> None:
+    """Model i on a scene of cloth j alone, for i, j < size; with `dump`, one `dump_row` per
+    recognition; with `wrong`, the (index, recognition, None) of every i != j (negatives
+    for `--calibrate`)."""
+    rng = seeds(args, calibration)
     false_accepts, missed = [], []
     for j in range(size):
-        left, right, _ = scenes.present("flat", j, rng(f"identification{size}", j))
+        left, right, truth = scenes.present("flat", j, rng(f"identification{size}", j))
         for i in range(size):
             result = recognizers[i].recognize(left, right, seed=i * size + j)
+            if dump is not None:
+                dump.append(
+                    dump_row(f"identification{size}", scenes.models[i], j, result, truth if i == j else None)
+                )
+            if wrong is not None and i != j:
+                wrong.append((i, result, None))
             if result.found and i != j:
                 false_accepts.append((i, j, round(result.confidence, 3)))
             if not result.found and i == j:
@@ -329,6 +397,29 @@ def report_identification(scenes: Scenes, recognizers: list[Recognizer], args, s
     print(f"{size}x{size} identification (model i on a scene of cloth j alone, realistic camera): "
           f"false accepts {len(false_accepts)} (goal 0: {verdict(not false_accepts)}) {false_accepts[:6]}; "
           f"own cloth missed {len(missed)} {missed}")  # fmt: skip
+
+
+def report_identification_among(scenes: Scenes, recognizers: list[Recognizer], args, size: int) -> None:
+    """The same scenes as `report_identification` (cloth j alone), but every model of the
+    first `size` searched together (`vision.identify`: the best model per cloth region,
+    the relative test): a false accept is a found detection of another model kept."""
+    from robot_app.vision.identify import identify
+
+    rng = seeds(args, False)
+    named = {scenes.models[i].name: recognizers[i] for i in range(size)}
+    false_accepts, missed = [], []
+    for j in range(size):
+        left, right, _ = scenes.present("flat", j, rng(f"identification{size}", j))
+        result = identify(named, left, right, seed=j)
+        for detection in result.detections:
+            if detection.found and detection.name != scenes.models[j].name:
+                false_accepts.append((detection.name, j, round(detection.confidence, 3)))
+        own = result.get(scenes.models[j].name)
+        if own is None or not own.found:
+            missed.append(j)
+    print(f"{size}x{size} identification among the catalogue (vision.identify, every model on each scene, "
+          f"the best per region kept; no goal, the relative test): false accepts {len(false_accepts)} "
+          f"{false_accepts[:6]}; own cloth missed {len(missed)} {missed}")  # fmt: skip
 
 
 def report_speed(scenes: Scenes, recognizers: list[Recognizer], models: list[ClothModel], args) -> None:
@@ -456,8 +547,24 @@ def main() -> None:
     parser.add_argument("--fullsearch-scenes", type=int, default=3)
     parser.add_argument("--quick", action="store_true", help="skip identification and full search")
     parser.add_argument("--speed-only", action="store_true", help="only the timing figures")
+    parser.add_argument(
+        "--skip-speed", action="store_true", help="no timing figures (one-shot, tracking, batch)"
+    )
+    parser.add_argument("--identify", action="store_true",
+                        help="also identification by vision.identify (all models together)")  # fmt: skip
+    parser.add_argument("--skip-accuracy", action="store_true",
+                        help="no accuracy, confidence or distractor figures")  # fmt: skip
+    parser.add_argument("--skip-fullsearch", action="store_true", help="no GA against full search")
     parser.add_argument("--calibrate", action="store_true", help="fit the decision on the calibration seeds")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--dump", help="write every recognition's evidence of the accuracy scenes to this CSV"
+    )
+    parser.add_argument("--kinds", help="only these scene kinds (comma-separated: flat, wrinkled, folded, "
+                        "covered, absent_family, absent_other)")  # fmt: skip
+    parser.add_argument("--identification-size", type=int, default=0,
+                        help="with --calibrate: also an NxN identification on calibration seeds, its wrong "
+                        "pairs as absent scenes")  # fmt: skip
     parser.add_argument(
         "--set", dest="overrides", action="append", default=[], help="RecognitionSettings key=value"
     )
@@ -469,21 +576,35 @@ def main() -> None:
     scenes = Scenes(cloths, models)
     print(f"catalogue: {[m.name for m in models]}; half-turn symmetric: "
           f"{[m.name for m in models if half_turn_symmetric(m)]}")  # fmt: skip
+    dump: list | None = [] if args.dump else None
     if args.calibrate:
-        calibrate(collect(scenes, recognizers, args, calibration=True), settings, models)
+        data = collect(scenes, recognizers, args, calibration=True, dump=dump)
+        if args.identification_size:
+            wrong: list = []
+            report_identification(scenes, recognizers, args, args.identification_size, True, dump, wrong)
+            data[f"identification{args.identification_size}"] = wrong
+        write_dump(args.dump, dump or [])
+        calibrate(data, settings, models)
         return
-    report_speed(scenes, recognizers, models, args)
-    report_batch(scenes, models, args)
+    if not args.skip_speed:
+        report_speed(scenes, recognizers, models, args)
+        report_batch(scenes, models, args)
     if args.speed_only:
         return
-    data = collect(scenes, recognizers, args, calibration=False)
-    report_accuracy(data, models, settings.decide.threshold)
-    report_distractor(scenes, recognizers, args)
+    if not args.skip_accuracy:
+        data = collect(scenes, recognizers, args, calibration=False, dump=dump)
+        write_dump(args.dump, dump or [])
+        report_accuracy(data, models, settings.decide.threshold)
+        report_distractor(scenes, recognizers, args)
     if args.quick:
         return
     report_identification(scenes, recognizers, args, 12)
     report_identification(scenes, recognizers, args, 20)
-    report_full_search(scenes, recognizers, models, args)
+    if args.identify:
+        report_identification_among(scenes, recognizers, args, 12)
+        report_identification_among(scenes, recognizers, args, 20)
+    if not args.skip_fullsearch:
+        report_full_search(scenes, recognizers, models, args)
 
 
 if __name__ == "__main__":

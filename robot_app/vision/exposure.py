@@ -7,10 +7,23 @@ Multiplying a hand image by these gains before its colour codes are taken (the f
 `bgr_codes`) lets the tones DARK / LIGHT (value below / above `value_split`, no hue below
 `min_value`) and the hues mean what they meant in the model photo, under a camera that is
 a third darker or brighter or tinted by 12 % per channel.
+
+Light is not even over the cell: the arm and the cameras cast shadows (the pick-and-place
+cell's key light is 30-50° off vertical), and a white cloth half in the arm's shadow is
+grey there: its tone turned DARK where the model says LIGHT, and the search took that half
+as a mismatch (the white cloths No.17 / No.18 were "not found" in 4 of 100 pick-and-place
+episodes, each time under the arm's shadow). The sheet shows the shadow too, all around
+the cloth: `scene_exposure` measures the sheet's brightness block by block, fills the
+blocks the cloth covers from the sheet around them (inpainting), and where that brightness
+differs from the sheet's median by more than `shading_min`, gives each block a factor
+(`Shading`) that the pixel codes and the verification multiply in after the gains.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import cv2
 import numpy as np
 import numpy.typing as npt
 from pydantic import Field
@@ -31,6 +44,11 @@ class ExposureSettings(StrictModel):
         min_saturation: ... and at least this saturated [0-255].
         min_share: fewer sheet pixels than this share of those looked at: no adaptation.
         max_gain: gains are clipped to [1 / max_gain, max_gain].
+        shading: also correct uneven light (shadows) block by block, `step` pixels a block.
+        shading_min: light that differs from the sheet's median by less than this factor
+            minus one everywhere is taken as even (no shading correction).
+        shading_max: shading factors are clipped to [1 / shading_max, shading_max].
+        shading_step: factors are quantised to steps of this in their logarithm.
     """
 
     enabled: bool = True
@@ -39,6 +57,46 @@ class ExposureSettings(StrictModel):
     min_saturation: int = Field(default=40, ge=0, le=255)
     min_share: float = Field(default=0.05, gt=0.0, le=1.0)
     max_gain: float = Field(default=2.5, ge=1.0, le=10.0)
+    shading: bool = True
+    shading_min: float = Field(default=0.3, ge=0.0, le=4.0)
+    shading_max: float = Field(default=3.0, ge=1.0, le=10.0)
+    shading_step: float = Field(default=0.04, gt=0.0, le=0.5)
+
+
+@dataclass(frozen=True)
+class Shading:
+    """The light's unevenness over one image, as a factor per block of pixels.
+
+    Attributes:
+        index: (Hb, Wb) uint8, the level of each `block` x `block` pixel block (block
+            (i, j) holds pixels v // block == i, u // block == j).
+        factors: (L,) the brightness factor of each level (1: as lit as the sheet's median).
+        block: block side [px].
+    """
+
+    index: npt.NDArray[np.uint8]
+    factors: FloatArray
+    block: int
+
+    def factor_map(self, shape: tuple[int, int]) -> FloatArray:
+        """(H, W) the factor at every pixel of an image of `shape` (height, width)."""
+        rows = np.minimum(np.arange(shape[0]) // self.block, self.index.shape[0] - 1)
+        cols = np.minimum(np.arange(shape[1]) // self.block, self.index.shape[1] - 1)
+        return np.asarray(self.factors[self.index[rows][:, cols]], dtype=float)
+
+
+@dataclass(frozen=True)
+class SceneExposure:
+    """One image's exposure against the model photo's.
+
+    Attributes:
+        gains: (3,) b, g, r factors (`sheet_gains`).
+        shading: the factor per block on top of `gains`; None: even light (or no
+            reference, or `shading` off).
+    """
+
+    gains: FloatArray
+    shading: Shading | None
 
 
 def sheet_gains(
@@ -52,17 +110,71 @@ def sheet_gains(
         model: the cloth model (its `sheet_bgr` and `background_hue`).
         settings: how the sheet is found.
     """
+    return scene_exposure(image_bgr, model, settings, shading=False).gains
+
+
+def scene_exposure(
+    image_bgr: npt.NDArray[np.uint8], model: ClothModel, settings: ExposureSettings, shading: bool = True
+) -> SceneExposure:
+    """The image's gains (`sheet_gains`) and, if `shading` and `settings.shading`, its
+    shading (see the module docstring); gains of one and no shading when disabled, without
+    a reference or without enough sheet.
+
+    Args:
+        image_bgr: (H, W, 3) uint8 hand image.
+        model: the cloth model (its `sheet_bgr` and `background_hue`).
+        settings: how the sheet is found.
+        shading: also measure the shading.
+    """
+    none = SceneExposure(np.ones(3), None)
     if not settings.enabled or model.sheet_bgr is None:
-        return np.ones(3)
+        return none
     sample = np.ascontiguousarray(np.asarray(image_bgr)[:: settings.step, :: settings.step])
-    hsv = to_hsv(sample).reshape(-1, 3)
-    sheet = (hsv[:, 1] >= settings.min_saturation) & (
-        hue_distance(hsv[:, 0], model.background_hue) <= settings.hue_tolerance
+    hsv = to_hsv(sample)
+    flat = hsv.reshape(-1, 3)
+    sheet = (flat[:, 1] >= settings.min_saturation) & (
+        hue_distance(flat[:, 0], model.background_hue) <= settings.hue_tolerance
     )
-    if sheet.sum() < max(settings.min_share * len(hsv), 3):
-        return np.ones(3)
+    if sheet.sum() < max(settings.min_share * len(flat), 3):
+        return none
     scene = np.maximum(_channel_medians(sample.reshape(-1, 3)[sheet]), 1.0)
-    return np.clip(np.asarray(model.sheet_bgr) / scene, 1.0 / settings.max_gain, settings.max_gain)
+    gains = np.clip(np.asarray(model.sheet_bgr) / scene, 1.0 / settings.max_gain, settings.max_gain)
+    if not (shading and settings.shading):
+        return SceneExposure(gains, None)
+    return SceneExposure(gains, _shading(hsv[:, :, 2], sheet.reshape(hsv.shape[:2]), settings))
+
+
+def _shading(
+    value: npt.NDArray[np.uint8], sheet: npt.NDArray[np.bool_], settings: ExposureSettings
+) -> Shading | None:
+    """The factor per block from the sheet's brightness (`value`, one sample per block;
+    `sheet` where the sample is sheet); None if it stays within `shading_min` of the median.
+    Sheet samples next to a non-sheet one are left out (a blurred cloth edge mixes in)."""
+    median = float(np.median(value[sheet]))
+    core = cv2.erode(sheet.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+    if core.sum() < 3:
+        return None
+    log_max = float(np.log(settings.shading_max))
+    scale = 127.0 / log_max
+    ratio = np.log(median / np.maximum(value.astype(np.float64), 1.0))  # > 0: darker than the median
+    encoded = np.where(core, np.clip(np.rint(128.0 + ratio * scale), 0, 255), 128).astype(np.uint8)
+    smoothed = cv2.medianBlur(encoded, 3)
+    if (
+        float(np.max(np.abs(smoothed[core].astype(np.float64) - 128.0)))
+        <= np.log1p(settings.shading_min) * scale
+    ):
+        return None  # even light: the common case costs this much only
+    filled = cv2.inpaint(encoded, np.where(core, 0, 255).astype(np.uint8), 2.0, cv2.INPAINT_TELEA)
+    filled = cv2.medianBlur(np.asarray(filled, dtype=np.uint8), 3)
+    steps = np.rint((filled.astype(np.float64) - 128.0) / (scale * settings.shading_step)).astype(np.int64)
+    levels, index = np.unique(steps, return_inverse=True)
+    if len(levels) > 255:
+        raise RuntimeError(f"{len(levels)} shading levels: shading_step too small for shading_max")
+    return Shading(
+        np.ascontiguousarray(index.reshape(steps.shape).astype(np.uint8)),
+        np.exp(levels * settings.shading_step),
+        settings.step,
+    )
 
 
 def _channel_medians(pixels: npt.NDArray[np.uint8]) -> FloatArray:
@@ -75,4 +187,4 @@ def _channel_medians(pixels: npt.NDArray[np.uint8]) -> FloatArray:
     return out
 
 
-__all__ = ["ExposureSettings", "sheet_gains"]
+__all__ = ["ExposureSettings", "SceneExposure", "Shading", "scene_exposure", "sheet_gains"]

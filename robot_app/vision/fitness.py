@@ -34,6 +34,7 @@ import numpy.typing as npt
 from robot_app.arrays import FloatArray
 from robot_app.vision.camera import StereoRig
 from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.exposure import Shading
 from robot_app.vision.fitness_kernels import normalised, score_poses
 from robot_app.vision.fitness_scores import COLUMNS, OUTSIDE_ROW, FitnessSettings, score_table, seen_table
 from robot_app.vision.pixel_codes import checked_image, pixel_codes
@@ -88,6 +89,7 @@ class FitnessEvaluator:
         image_right_bgr: npt.NDArray[np.uint8],
         gains: tuple[FloatArray, FloatArray] | None = None,
         regions: tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]] | None = None,
+        shading: tuple[Shading | None, Shading | None] | None = None,
     ) -> None:
         """Takes a new stereo pair (BGR uint8, the rig's image size); undistorts if the rig says so.
 
@@ -99,6 +101,8 @@ class FitnessEvaluator:
             regions: per image, (4,) int64 (u0, v0, u1, v1) inclusive: only pixels there
                 get a code, the others count as off the image (a tracking frame's search
                 cannot reach them); None: the whole images.
+            shading: per image, the light's factor per block on top of `gains`
+                (`exposure.scene_exposure`); None: even light.
 
         Raises:
             InputError: an image is not (H, W, 3) uint8 of the rig's size.
@@ -109,13 +113,14 @@ class FitnessEvaluator:
         width, height = self.rig.image_size
         whole = np.array([0, 0, width - 1, height - 1], dtype=np.int64)
         left_box, right_box = (whole, whole) if regions is None else regions
-        for side, image, camera, gain, box in (
-            ("left", image_left_bgr, self.rig.left, left_gains, left_box),
-            ("right", image_right_bgr, self.rig.right, right_gains, right_box),
+        left_shading, right_shading = (None, None) if shading is None else shading
+        for side, image, camera, gain, box, shade in (
+            ("left", image_left_bgr, self.rig.left, left_gains, left_box, left_shading),
+            ("right", image_right_bgr, self.rig.right, right_gains, right_box, right_shading),
         ):
             array = checked_image(image, camera, side)
             thresholds = (self.params.min_saturation, self.params.min_value, self.params.value_split)
-            codes.append(pixel_codes(array, camera, thresholds, np.asarray(gain, dtype=float), box))
+            codes.append(pixel_codes(array, camera, thresholds, np.asarray(gain, dtype=float), box, shade))
         self._codes = (codes[0], codes[1])
 
     @property

@@ -85,6 +85,45 @@ def bgr_codes(bgr, table, fill, levels, box):
     return out
 
 
+@_jit
+def bgr_codes_shaded(bgr, table, fill, levels, index, block, box):
+    """`bgr_codes` under uneven light: the channel rows are those of the pixel's block,
+    `levels[index[v // block, u // block]]` ((L, 3, 256) uint8: the gains times each shading
+    level's factor, `shaded_levels`); blocks past `index`'s last row or column take it."""
+    height, width = bgr.shape[0], bgr.shape[1]
+    stride = width + 3
+    out = np.full((height + 3) * stride, fill, dtype=np.uint16)
+    u0, v0 = max(box[0], 0), max(box[1], 0)
+    u1, v1 = min(box[2], width - 1), min(box[3], height - 1)
+    rows, cols = index.shape[0], index.shape[1]
+    for v in range(v0, v1 + 1):
+        base = (v + 1) * stride + 1
+        i = min(v // block, rows - 1)
+        start = u0
+        while start <= u1:
+            j = min(start // block, cols - 1)
+            stop = u1 + 1 if j == cols - 1 else min((j + 1) * block, u1 + 1)
+            level = levels[index[i, j]]
+            for u in range(start, stop):
+                b = np.int64(level[0, bgr[v, u, 0]])
+                g = np.int64(level[1, bgr[v, u, 1]])
+                r = np.int64(level[2, bgr[v, u, 2]])
+                out[base + u] = table[(b << 16) | (g << 8) | r]
+            start = stop
+    return out
+
+
+def shaded_levels(gains, factors):
+    """(L, 3, 256) uint8: `gain_levels` of the gains times each of the (L,) factors."""
+    values = np.arange(256, dtype=np.float64)
+    scaled = (
+        values[None, None, :]
+        * np.asarray(gains, float)[None, :, None]
+        * np.asarray(factors, float)[:, None, None]
+    )
+    return np.minimum(np.floor(scaled + 0.5), 255.0).astype(np.uint8)
+
+
 def gain_levels(gains):
     """(3, 256) uint8: each channel value v of b, g, r times its gain, rounded and clipped
     to 255 (the rows `bgr_codes` reads)."""

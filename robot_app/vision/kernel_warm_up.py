@@ -5,7 +5,8 @@ first recognition of a process that finds no cache: on a fresh checkout that tak
 of seconds. A caller that maps a recognition's measured wall time to cell time (the
 loop's `loop.vision_latency: null`) would otherwise charge that compilation to the first
 search: on a fresh machine the README's main job held the arm for 128 s and timed out.
-`warm_up` runs one search and one tracking step on a synthetic view of the model (the
+`warm_up` runs one search and one tracking step (and a search under a shadow band, for the
+shaded pixel codes of `exposure.py`) on a synthetic view of the model (the
 model photo's texture, flat, in the middle of the search range) with a recogniser of its
 own, so the caller's recogniser (kept poses, random generator) is untouched.
 """
@@ -54,6 +55,11 @@ def warm_up(recognizer: Recognizer) -> Recognition | None:
     scratch = Recognizer(model, recognizer.rig, recognizer.settings)
     result = scratch.recognize(left, right, seed=0)
     scratch.track(left, right)
+    if recognizer.settings.exposure.shading:  # the shaded pixel codes: a shadow over a third of the view
+        band = slice(left.shape[1] // 3, 2 * left.shape[1] // 3)
+        for image in (left, right):
+            image[:, band] //= 2
+        scratch.recognize(left, right, seed=0)
     _done = True
     return result
 

@@ -21,7 +21,15 @@ import numpy.typing as npt
 from robot_app.arrays import FloatArray
 from robot_app.errors import InputError
 from robot_app.vision.camera import PinholeCamera
-from robot_app.vision.fitness_kernels import bgr_codes, every_colour, gain_levels, hsv_codes
+from robot_app.vision.exposure import Shading
+from robot_app.vision.fitness_kernels import (
+    bgr_codes,
+    bgr_codes_shaded,
+    every_colour,
+    gain_levels,
+    hsv_codes,
+    shaded_levels,
+)
 from robot_app.vision.fitness_scores import OFF_IMAGE
 from robot_app.vision.hue import DARK, LIGHT, to_hsv
 
@@ -32,6 +40,7 @@ def pixel_codes(
     thresholds: tuple[int, int, int],
     gains: FloatArray,
     box: npt.NDArray[np.int64],
+    shading: Shading | None = None,
 ) -> npt.NDArray[np.uint16]:
     """The framed pixel codes of one image (undistorted first if `camera` has distortion).
 
@@ -48,7 +57,12 @@ def pixel_codes(
         image = np.asarray(cv2.undistort(image, K, camera.dist_coeffs, None, K), dtype=np.uint8)
     table = colour_table(*thresholds)
     box = np.ascontiguousarray(box, dtype=np.int64)
-    return bgr_codes(np.ascontiguousarray(image), table, OFF_IMAGE, gain_levels(gains), box)
+    if shading is None:
+        return bgr_codes(np.ascontiguousarray(image), table, OFF_IMAGE, gain_levels(gains), box)
+    levels = shaded_levels(gains, shading.factors)
+    return bgr_codes_shaded(
+        np.ascontiguousarray(image), table, OFF_IMAGE, levels, shading.index, shading.block, box
+    )
 
 
 @functools.lru_cache(maxsize=4)

@@ -3,7 +3,8 @@
 The recogniser composes the stages and holds no search logic of its own:
 
 1. exposure: the green sheet in each image gives the channel gains that map the scene's
-   exposure and white balance onto the model photo's (`exposure.sheet_gains`);
+   exposure and white balance onto the model photo's, and the shading of shadows over
+   the cell (`exposure.scene_exposure`);
 2. propose (`propose.Proposer`): the paper's GA on the hue fitness, with restarts; each
    run's best is climbed and polished by
 3. refine (`refinement.Refiner`): compass search and CMA-ES on the continuous pose;
@@ -43,7 +44,7 @@ from robot_app.geometry import rotation_about_z
 from robot_app.vision.camera import StereoRig
 from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.decide import DecisionSettings, Evidence, decide, logit
-from robot_app.vision.exposure import ExposureSettings, sheet_gains
+from robot_app.vision.exposure import ExposureSettings, scene_exposure
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.fitness_scores import FitnessSettings
 from robot_app.vision.pixel_codes import checked_image
@@ -178,14 +179,19 @@ class Recognizer:
         image_right_bgr: npt.NDArray[np.uint8],
         regions: tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]] | None = None,
     ) -> None:
-        """Exposure gains of both images, then the pair into the evaluator (colour codes
+        """Exposure gains and shading of both images, then the pair into the evaluator (colour codes
         only inside `regions`, if given), the verifier and the depth check."""
         s = self.settings
         left = checked_image(image_left_bgr, self.rig.left, "left")
         right = checked_image(image_right_bgr, self.rig.right, "right")
-        gains = (sheet_gains(left, self.model, s.exposure), sheet_gains(right, self.model, s.exposure))
-        self.evaluator.update(left, right, gains, regions)
-        self.verifier.update(left, right, gains)
+        exposures = (
+            scene_exposure(left, self.model, s.exposure),
+            scene_exposure(right, self.model, s.exposure),
+        )
+        gains = (exposures[0].gains, exposures[1].gains)
+        shading = (exposures[0].shading, exposures[1].shading)
+        self.evaluator.update(left, right, gains, regions, shading)
+        self.verifier.update(left, right, gains, shading)
         if s.depth.enabled:
             self.depth.update(left, right)
 

@@ -32,6 +32,7 @@ from pydantic import Field
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.exposure import Shading
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.fitness_scores import FitnessSettings, foreign_codes
 from robot_app.vision.poses import as_poses
@@ -130,6 +131,7 @@ class Verifier:
         self._samples = _texture_samples(model, settings)
         self._images: tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]] | None = None
         self._gains = (np.ones(3), np.ones(3))
+        self._shading: tuple[Shading | None, Shading | None] = (None, None)
 
     @property
     def n_samples(self) -> int:
@@ -141,8 +143,10 @@ class Verifier:
         image_left_bgr: npt.NDArray[np.uint8],
         image_right_bgr: npt.NDArray[np.uint8],
         gains: tuple[FloatArray, FloatArray] | None = None,
+        shading: tuple[Shading | None, Shading | None] | None = None,
     ) -> None:
-        """Takes the pair the evaluator has (undistorted the same way) and its exposure gains."""
+        """Takes the pair the evaluator has (undistorted the same way), its exposure gains
+        and its shading (`exposure.scene_exposure`; None: even light)."""
         images = []
         for image, camera in (
             (image_left_bgr, self.evaluator.rig.left),
@@ -159,6 +163,7 @@ class Verifier:
             if gains is None
             else (np.asarray(gains[0], float), np.asarray(gains[1], float))
         )
+        self._shading = (None, None) if shading is None else shading
 
     def verify(self, transforms_model_to_camera: npt.ArrayLike) -> list[Verification]:
         """The appearance check of each of (P, 4, 4) or (4, 4) poses.
@@ -176,17 +181,30 @@ class Verifier:
         codes_left, codes_right = self.evaluator.codes
         rig = self.evaluator.rig
         s = self.settings
+        (factors_left, index_left), (factors_right, index_right) = (_shade(x) for x in self._shading)
+        block = max(x.block if x is not None else 1 for x in self._shading)
         scores, visible, textured, interleaved, agreeing = appearance(
             poses, rig.left.camera_matrix, rig.right.camera_matrix,
             np.ascontiguousarray(rig.transform_right_to_left), px, py, values, cells, n_cells,
             self._images[0], self._images[1], codes_left, codes_right, self._foreign,
-            self._gains[0], self._gains[1], float(s.min_points), s.texture_min, s.flat_tolerance,
+            self._gains[0], self._gains[1], factors_left, index_left, factors_right, index_right, block,
+            float(s.min_points), s.texture_min, s.flat_tolerance,
             s.chroma_tolerance, s.brightness_tolerance, s.partial_low, s.partial_high, s.agree_level,
         )  # fmt: skip
         return [
             Verification(float(a), float(v), float(t), float(i), float(g))
             for a, v, t, i, g in zip(scores, visible, textured, interleaved, agreeing, strict=True)
         ]
+
+
+_EVEN = (np.ones(1), np.zeros((1, 1), dtype=np.uint8))
+
+
+def _shade(shading: Shading | None) -> tuple[FloatArray, npt.NDArray[np.uint8]]:
+    """(factors, index) of the verification kernel: one level of factor 1 for even light."""
+    if shading is None:
+        return _EVEN
+    return np.asarray(shading.factors, dtype=np.float64), shading.index
 
 
 def _texture_samples(

@@ -12,13 +12,17 @@ _jit = njit(cache=True, fastmath=True, nogil=True, error_model="numpy")
 
 
 @_jit
-def _accumulate(M, px, py, values, cells, image, codes, foreign, gains, width, height, sums):
+def _accumulate(M, px, py, values, cells, image, codes, foreign, gains, shade_factors, shade_index, block,
+                width, height, sums):  # fmt: skip
     """Adds the visible samples of one image to `sums` (cells, 17): count, then per channel
     (b, g, r) the sums of model, image, model², image² and model·image values, then the
     count of samples in the image (visible or hidden). A sample is visible if it lands
     inside the image and its pixel's code (nearest pixel of the framed `codes`) is not
-    `foreign`. Returns the number of visible samples."""
+    `foreign`. Image values are multiplied by `gains` and by the shading factor of their
+    block (`shade_factors[shade_index[v // block, u // block]]`, see `exposure.Shading`).
+    Returns the number of visible samples."""
     stride = width + 3
+    rows, cols = shade_index.shape[0], shade_index.shape[1]
     visible = 0
     for i in range(px.shape[0]):
         x, y = px[i], py[i]
@@ -38,10 +42,11 @@ def _accumulate(M, px, py, values, cells, image, codes, foreign, gains, width, h
             continue
         visible += 1
         sums[c, 0] += 1.0
+        shade = shade_factors[shade_index[min(nv // block, rows - 1), min(nu // block, cols - 1)]]
         for k in range(3):
             a = image[iv, iu, k] + fu * (image[iv, iu + 1, k] - np.float32(image[iv, iu, k]))
             b = image[iv + 1, iu, k] + fu * (image[iv + 1, iu + 1, k] - np.float32(image[iv + 1, iu, k]))
-            seen = (a + fv * (b - a)) * gains[k]
+            seen = (a + fv * (b - a)) * gains[k] * shade
             m = values[i, k]
             sums[c, 1 + 5 * k] += m
             sums[c, 2 + 5 * k] += seen
@@ -111,9 +116,10 @@ def _cell_scores(sums, min_points, texture_min, flat_tolerance, chroma_tolerance
 
 @_jit
 def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cells, n_cells, image_left,
-               image_right, codes_left, codes_right, foreign, gains_left, gains_right, min_points,
-               texture_min, flat_tolerance, chroma_tolerance, brightness_tolerance, partial_low,
-               partial_high, agree_level):  # fmt: skip
+               image_right, codes_left, codes_right, foreign, gains_left, gains_right, shade_factors_left,
+               shade_index_left, shade_factors_right, shade_index_right, block, min_points, texture_min,
+               flat_tolerance, chroma_tolerance, brightness_tolerance, partial_low, partial_high,
+               agree_level):  # fmt: skip
     """For each pose: the cell-weighted agreement of the texture samples with both images
     (NaN if no cell is scored), the share of samples visible (mean of both images), the
     share of the scored weight on textured cells, and the share of the samples in view
@@ -131,6 +137,8 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
         codes_left, codes_right: the framed pixel codes of `FitnessEvaluator.codes`.
         foreign: (259,) bool per pixel code: a sample there is hidden.
         gains_left, gains_right: (3,) channel gains of each image (exposure reference).
+        shade_factors_left, shade_index_left, shade_factors_right, shade_index_right, block:
+            each image's shading (`exposure.Shading`; one level of factor 1: even light).
         min_points, texture_min, flat_tolerance, chroma_tolerance, brightness_tolerance:
             see `_cell_scores`.
     """
@@ -156,11 +164,13 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
             if side == 0:
                 _projection(P_left, transforms[p], M)
                 seen += _accumulate(M, px, py, values, cells, image_left, codes_left, foreign, gains_left,
-                                    width, height, sums)  # fmt: skip
+                                    shade_factors_left, shade_index_left, block, width, height,
+                                    sums)  # fmt: skip
             else:
                 _projection(P_right, transforms[p], M)
                 seen += _accumulate(M, px, py, values, cells, image_right, codes_right, foreign, gains_right,
-                                    width, height, sums)  # fmt: skip
+                                    shade_factors_right, shade_index_right, block, width, height,
+                                    sums)  # fmt: skip
             _cell_scores(sums, min_points, texture_min, flat_tolerance, chroma_tolerance,
                          brightness_tolerance, cell_scores, cell_weights)  # fmt: skip
             for c in range(n_cells):

@@ -1,0 +1,113 @@
+"""Uneven light: a shadow across the sheet and a white cloth (the arm's, in the cell)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from robot_app.config import load_config
+from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
+from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
+from robot_app.vision.exposure import ExposureSettings, scene_exposure
+from robot_app.vision.fitness_kernels import bgr_codes, bgr_codes_shaded, gain_levels
+from robot_app.vision.fitness_scores import OFF_IMAGE
+from robot_app.vision.photo_model import make_model
+from robot_app.vision.pixel_codes import colour_table
+from robot_app.vision.recognizer import RecognitionSettings, Recognizer
+from robot_app.vision.synthetic import SyntheticCloth, render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_camera import CameraRealism
+
+CAMERA = PinholeCamera.from_fov((640, 480), np.deg2rad(48))
+RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
+MODEL_CAMERA = ModelCamera(CAMERA, 0.40)
+POSE = make_transform(rotation_from_rpy(0.03, -0.02, 0.7), [0.01, -0.01, 0.58])
+SHADOW = 0.45  # the shadow keeps this share of the light
+
+
+def white_towel() -> SyntheticCloth:
+    """A plain white cloth, 0.22 x 0.17 m, with a fabric grain of a few grey levels."""
+    rng = np.random.default_rng(3)
+    shape = (340, 440)
+    grain = rng.normal(0.0, 4.0, (*shape, 1))
+    texture = np.clip(np.array([228.0, 232.0, 235.0]) + grain, 0, 255).astype(np.uint8)
+    return SyntheticCloth("white_towel", texture, np.ones(shape, bool), (0.22, 0.17))
+
+
+def shadowed(image: np.ndarray, columns: tuple[int, int]) -> np.ndarray:
+    """`image` with a soft-edged band of shadow over `columns` (the whole height)."""
+    u = np.arange(image.shape[1], dtype=float)
+    edge = np.clip((u - columns[0]) / 12.0, 0, 1) * np.clip((columns[1] - u) / 12.0, 0, 1)
+    factor = 1.0 - (1.0 - SHADOW) * edge
+    return np.clip(image * factor[None, :, None] + 0.5, 0, 255).astype(np.uint8)
+
+
+def scene_pair(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """The white cloth at POSE in even light."""
+    camera = CameraRealism(gain=1.1, white_balance=(1.0, 1.0, 1.0), shading=0.0, noise_sigma=3.0,
+                           blur_sigma=0.6, jpeg_quality=90)  # fmt: skip
+    left, right = render_stereo_pair(RIG, [(white_towel(), POSE)], rng=rng, camera=camera)
+    return left, right
+
+
+def scene(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """... with a band of shadow across the cloth's middle in both images."""
+    left, right = scene_pair(rng)
+    return shadowed(left, (300, 470)), shadowed(right, (280, 450))
+
+
+def test_the_shading_is_the_shadow_on_the_sheet_and_under_the_cloth() -> None:
+    _, right = scene(np.random.default_rng(0))
+    photo, background = render_model_photo(white_towel(), MODEL_CAMERA)
+    model = make_model(photo, MODEL_CAMERA, background, name="white_towel")
+    exposure = scene_exposure(right, model, ExposureSettings())
+    assert exposure.shading is not None
+    factors = exposure.shading.factor_map(right.shape[:2])
+    unshadowed, _ = scene_pair(np.random.default_rng(0))
+    shadow = right[20:60, 330:400, 1].mean() / unshadowed[20:60, 330:400, 1].mean()  # ~ SHADOW
+
+    def corrected(rows: slice, columns: slice) -> float:
+        return float(right[rows, columns, 1].mean() * np.median(factors[rows, columns]))
+
+    top = slice(20, 60)
+    lit = corrected(top, slice(100, 200))
+    assert abs(corrected(top, slice(330, 400)) / lit - 1.0) < 0.1  # the sheet in the band as bright as lit
+    assert abs(corrected(top, slice(500, 600)) / lit - 1.0) < 0.1  # and beside it
+    # under the cloth the sheet's shadow is filled in from around it: at least half the way
+    band = np.median(factors[220:260, 330:400]) / np.median(factors[220:260, 100:200])
+    assert band > shadow**-0.5
+    even, _ = render_stereo_pair(RIG, [(white_towel(), POSE)], rng=np.random.default_rng(1))
+    assert scene_exposure(even, model, ExposureSettings()).shading is None
+
+
+def test_shaded_codes_with_one_level_of_one_are_the_plain_codes() -> None:
+    bgr = np.random.default_rng(5).integers(0, 256, (30, 40, 3)).astype(np.uint8)
+    table = colour_table(40, 40, 128)
+    box = np.array([3, 2, 35, 27])
+    gains = np.array([1.1, 0.9, 1.3])
+    plain = bgr_codes(bgr, table, OFF_IMAGE, gain_levels(gains), box)
+    levels = np.stack([gain_levels(gains), gain_levels(gains * 2.0)])
+    index = np.zeros((4, 5), np.uint8)
+    assert np.array_equal(bgr_codes_shaded(bgr, table, OFF_IMAGE, levels, index, 8, box), plain)
+    index[:, 2:] = 1  # columns from 16 px on: twice the light
+    doubled = bgr_codes(bgr, table, OFF_IMAGE, gain_levels(gains * 2.0), box).reshape(33, 43)
+    shaded = bgr_codes_shaded(bgr, table, OFF_IMAGE, levels, index, 8, box).reshape(33, 43)
+    assert np.array_equal(shaded[:, 17:], doubled[:, 17:])
+    assert np.array_equal(shaded[:, :17], plain.reshape(33, 43)[:, :17])
+
+
+def test_a_white_cloth_half_in_a_shadow_is_found_where_it_lies() -> None:
+    photo, background = render_model_photo(white_towel(), MODEL_CAMERA)
+    model = make_model(photo, MODEL_CAMERA, background, name="white_towel")
+    settings = RecognitionSettings()
+    without = load_config(RecognitionSettings, None, ["exposure.shading=false"])
+    found, found_without = [], []
+    for seed in range(3):
+        left, right = scene(np.random.default_rng(10 + seed))
+        for recognizer, out in (
+            (Recognizer(model, RIG, settings), found),
+            (Recognizer(model, RIG, without), found_without),
+        ):
+            result = recognizer.recognize(left, right, seed=seed)
+            error = pose_error(result.transform_model_to_camera, POSE, tuple(model.symmetry_angles))
+            out.append(result.found and max(abs(error.x_mm), abs(error.y_mm)) < 3 and abs(error.yaw_deg) < 2)
+    assert all(found)
+    assert not any(found_without)  # the shadowed half is DARK against the model's LIGHT
