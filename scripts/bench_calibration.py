@@ -57,11 +57,14 @@ TARGETS = {"rms_px": 0.3, "focal_pct": 0.5, "baseline_mm": 0.5, "hand_eye_mm": 1
 SIZES = ((640, 480), (320, 240))
 
 
+FLATTEN_SIGMA = 0.0  # DetectionSettings.flatten_sigma, set by --flatten-sigma
+
+
 def calibrate_folder(folder: Path, truth: StereoRig) -> dict[str, object]:
     """Runs both calibrations on a views folder and measures them against the truth."""
     board = load_board(folder / "board.yaml")
     pairs = find_image_pairs(folder)
-    views, size = detect_views(pairs, board, DetectionSettings())
+    views, size = detect_views(pairs, board, DetectionSettings(flatten_sigma=FLATTEN_SIGMA))
     assert size is not None
     stereo = calibrate_stereo(views, board, size)
     rig = stereo.rig
@@ -104,7 +107,7 @@ def calibrate_folder(folder: Path, truth: StereoRig) -> dict[str, object]:
     return row
 
 
-def accuracy(out: Path, seeds: int, views: int) -> list[dict[str, object]]:
+def accuracy(out: Path, seeds: int, views: int, first_seed: int = 0) -> list[dict[str, object]]:
     rows = []
     print("\n== 1. accuracy on simulated views (each seed: new camera poses) ==")
     print(
@@ -114,7 +117,7 @@ def accuracy(out: Path, seeds: int, views: int) -> list[dict[str, object]]:
     )
     for width, height in SIZES:
         world = load_world_config(None, (f"cameras.image_size=[{width},{height}]",))
-        for seed in range(seeds):
+        for seed in range(first_seed, first_seed + seeds):
             folder = out / f"views_{width}x{height}_seed{seed}"
             shutil.rmtree(folder, ignore_errors=True)
             start = time.perf_counter()
@@ -333,6 +336,13 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=1, help="base seed of the pick-and-place episodes")
+    parser.add_argument("--first-view-seed", type=int, default=0, help="seed of the first accuracy run")
+    parser.add_argument(
+        "--flatten-sigma",
+        type=float,
+        default=0.0,
+        help="DetectionSettings.flatten_sigma (0: off, the default)",
+    )
     parser.add_argument("--rig", type=Path, default=Path("configs/rig_calibrated_320x240.yaml"))
     parser.add_argument("--out", type=Path, default=Path("results/bench_calibration"))
     parser.add_argument(
@@ -340,9 +350,15 @@ def main() -> None:
     )
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    report: dict[str, object] = {"views": args.views, "seeds": args.seeds}
+    global FLATTEN_SIGMA
+    FLATTEN_SIGMA = args.flatten_sigma
+    report: dict[str, object] = {
+        "views": args.views,
+        "seeds": args.seeds,
+        "flatten_sigma": args.flatten_sigma,
+    }
     if "accuracy" not in args.skip:
-        report["accuracy"] = accuracy(args.out, args.seeds, args.views)
+        report["accuracy"] = accuracy(args.out, args.seeds, args.views, args.first_view_seed)
     if "sensitivity" not in args.skip:
         report["sensitivity"] = sensitivity(args.out)
     if "pick-place" not in args.skip and args.episodes > 0:
