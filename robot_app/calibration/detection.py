@@ -14,7 +14,9 @@ measured as good, 1.5 no better than none), which evens out the black and white 
 around each corner (the first detection stays if the second fails). It is off by
 default: without vignetting it shrinks the corner grid by ~0.035 % (measured on the
 anti-aliased test views), enough to move a calibrated lens model 1.1 px at the image
-edge. Measured with it on, see scripts/bench_calibration.py --flatten-sigma.
+edge. That shrink (~0.2 mm of depth at 0.6 m) may be part of why it helps in the cell:
+it can offset the vignetting's bias as well as remove it. Measure with
+scripts/bench_calibration.py --flatten-sigma 0.5.
 ChArUco corners carry their ids.
 A view whose edges are wider than `max_edge_width_px` (10-90 % rise) is rejected as too
 blurred.
