@@ -8,7 +8,9 @@
    the stereo and hand-eye calibrations; every figure is compared with the URDF's rig.
    Issue #20's targets: reprojection RMS <= 0.3 px, focal lengths within 0.5 %, baseline
    within 0.5 mm, camera-to-hand within 1 mm and 0.2 deg. The hand-eye table also gives
-   each closed form's error against the truth, to show why the refinement is used.
+   each closed form's error against the truth, to show why the refinement is used, and
+   the focal and baseline errors of the rig the hand-eye step writes (its intrinsics and
+   stereo pose refined with X from the robot poses).
 2. Sensitivity: the cell's camera renders clean images; until the realistic camera model
    lands, noise, blur and a darker gain are added HERE (this script's own simple model:
    Gaussian blur, then gain, then Gaussian noise on every pixel, seeded) to the views of
@@ -55,11 +57,14 @@ TARGETS = {"rms_px": 0.3, "focal_pct": 0.5, "baseline_mm": 0.5, "hand_eye_mm": 1
 SIZES = ((640, 480), (320, 240))
 
 
+FLATTEN_SIGMA = 0.0  # DetectionSettings.flatten_sigma, set by --flatten-sigma
+
+
 def calibrate_folder(folder: Path, truth: StereoRig) -> dict[str, object]:
     """Runs both calibrations on a views folder and measures them against the truth."""
     board = load_board(folder / "board.yaml")
     pairs = find_image_pairs(folder)
-    views, size = detect_views(pairs, board, DetectionSettings())
+    views, size = detect_views(pairs, board, DetectionSettings(flatten_sigma=FLATTEN_SIGMA))
     assert size is not None
     stereo = calibrate_stereo(views, board, size)
     rig = stereo.rig
@@ -91,19 +96,28 @@ def calibrate_folder(folder: Path, truth: StereoRig) -> dict[str, object]:
     row["hand_eye_mm"] = 1000 * float(np.linalg.norm(X[:3, 3] - X_true[:3, 3]))
     row["hand_eye_deg"] = float(np.degrees(rotation_angle_between(X[:3, :3], X_true[:3, :3])))
     row["hand_eye_dz_mm"] = 1000 * float(X[2, 3] - X_true[2, 3])
+    # the rig file the hand-eye step writes: intrinsics and stereo pose refined with X
+    final = hand_eye.rig
+    row["rig_focal_pct"] = max(
+        abs(100 * (getattr(final, side).camera_matrix[i, i] / getattr(truth, side).camera_matrix[i, i] - 1))
+        for side in ("left", "right")
+        for i in (0, 1)
+    )
+    row["rig_baseline_mm"] = 1000 * (final.baseline - truth.baseline)
     return row
 
 
-def accuracy(out: Path, seeds: int, views: int) -> list[dict[str, object]]:
+def accuracy(out: Path, seeds: int, views: int, first_seed: int = 0) -> list[dict[str, object]]:
     rows = []
     print("\n== 1. accuracy on simulated views (each seed: new camera poses) ==")
     print(
         f"{'size':>8} {'seed':>4} {'used':>5} {'RMS px':>7} {'max|df| %':>9} {'dbase mm':>9} {'R deg':>6} "
-        f"{'HE mm':>6} {'HE deg':>6} {'HE dz':>6}  method  | closed forms: tsai / park / daniilidis mm"
+        f"{'HE mm':>6} {'HE deg':>6} {'HE dz':>6} {'rig df%':>7} {'rig db':>6}  method  "
+        "| closed forms: tsai / park / daniilidis mm"
     )
     for width, height in SIZES:
         world = load_world_config(None, (f"cameras.image_size=[{width},{height}]",))
-        for seed in range(seeds):
+        for seed in range(first_seed, first_seed + seeds):
             folder = out / f"views_{width}x{height}_seed{seed}"
             shutil.rmtree(folder, ignore_errors=True)
             start = time.perf_counter()
@@ -115,7 +129,8 @@ def accuracy(out: Path, seeds: int, views: int) -> list[dict[str, object]]:
             print(
                 f"{row['size']:>8} {seed:>4} {row['used']:>5} {row['rms_px']:7.3f} {row['focal_pct']:9.3f} "
                 f"{row['baseline_mm']:+9.3f} {row['stereo_R_deg']:6.3f} {row['hand_eye_mm']:6.2f} "
-                f"{row['hand_eye_deg']:6.3f} {row['hand_eye_dz_mm']:+6.2f}  {row['method']:<18}| "
+                f"{row['hand_eye_deg']:6.3f} {row['hand_eye_dz_mm']:+6.2f} {row['rig_focal_pct']:7.3f} "
+                f"{row['rig_baseline_mm']:+6.3f}  {row['method']:<18}| "
                 f"{row['tsai_mm']:.2f} / {row['park_mm']:.2f} / {row['daniilidis_mm']:.2f}",
                 flush=True,
             )
@@ -131,13 +146,22 @@ def accuracy(out: Path, seeds: int, views: int) -> list[dict[str, object]]:
                 f"  {size} {key:<13} worst {worst:7.3f}  median {median:7.3f}  "
                 f"target {target:5.2f}  {verdict}"
             )
-    methods = ("tsai", "park", "daniilidis", "refined")
+    print("  (focal and baseline above: the stereo calibration's; the rig file the hand-eye step writes:)")
+    for width, height in SIZES:
+        chosen = [r for r in rows if r["size"] == f"{width}x{height}"]
+        for key in ("rig_focal_pct", "rig_baseline_mm"):
+            values = [abs(float(r[key])) for r in chosen]  # type: ignore[arg-type]
+            print(
+                f"  {width}x{height} {key:<15} worst {max(values):7.3f}  "
+                f"median {float(np.median(values)):7.3f}"
+            )
+    methods = ("tsai", "park", "daniilidis", "refined", "refined with the rig")
     print("\nhand-eye methods, median over all runs: error vs URDF (mm, deg), reprojection residual (px)")
     for m in methods:
         mm = np.median([float(r[f"{m}_mm"]) for r in rows])  # type: ignore[arg-type]
         deg = np.median([float(r[f"{m}_deg"]) for r in rows])  # type: ignore[arg-type]
         px = np.median([float(r[f"{m}_px"]) for r in rows])  # type: ignore[arg-type]
-        print(f"  {m:<11} {mm:6.3f} mm  {deg:6.3f} deg  {px:6.3f} px")
+        print(f"  {m:<20} {mm:6.3f} mm  {deg:6.3f} deg  {px:6.3f} px")
     return rows
 
 
@@ -312,6 +336,13 @@ def main() -> None:
     parser.add_argument("--episodes", type=int, default=100)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=1, help="base seed of the pick-and-place episodes")
+    parser.add_argument("--first-view-seed", type=int, default=0, help="seed of the first accuracy run")
+    parser.add_argument(
+        "--flatten-sigma",
+        type=float,
+        default=0.0,
+        help="DetectionSettings.flatten_sigma (0: off, the default)",
+    )
     parser.add_argument("--rig", type=Path, default=Path("configs/rig_calibrated_320x240.yaml"))
     parser.add_argument("--out", type=Path, default=Path("results/bench_calibration"))
     parser.add_argument(
@@ -319,9 +350,15 @@ def main() -> None:
     )
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-    report: dict[str, object] = {"views": args.views, "seeds": args.seeds}
+    global FLATTEN_SIGMA
+    FLATTEN_SIGMA = args.flatten_sigma
+    report: dict[str, object] = {
+        "views": args.views,
+        "seeds": args.seeds,
+        "flatten_sigma": args.flatten_sigma,
+    }
     if "accuracy" not in args.skip:
-        report["accuracy"] = accuracy(args.out, args.seeds, args.views)
+        report["accuracy"] = accuracy(args.out, args.seeds, args.views, args.first_view_seed)
     if "sensitivity" not in args.skip:
         report["sensitivity"] = sensitivity(args.out)
     if "pick-place" not in args.skip and args.episodes > 0:

@@ -86,3 +86,30 @@ def test_charuco_corners_carry_their_ids_also_when_partly_hidden() -> None:
     assert 10 <= len(found.corner_ids) < 54
     error = np.linalg.norm(found.image_points - _truth(board, pose)[found.corner_ids], axis=1)
     assert error.max() < 0.5, error.max()
+
+
+def _vignetted(image: np.ndarray, vignetting: float) -> np.ndarray:
+    """The image under a radial fall-off: 1 in the middle, 1 - vignetting in the corners."""
+    height, width = image.shape[:2]
+    u = (np.arange(width) - (width - 1) / 2) / ((width - 1) / 2)
+    v = (np.arange(height) - (height - 1) / 2) / ((height - 1) / 2)
+    r2 = (u[None, :] ** 2 * width**2 + v[:, None] ** 2 * height**2) / (width**2 + height**2)
+    return np.clip(image * (1.0 - vignetting * r2)[..., None] * 1.1, 0, 255).astype(np.uint8)
+
+
+def test_flattening_the_shading_keeps_corners_as_accurate_under_vignetting() -> None:
+    """25 % vignetting makes the detector's corners 0.17 px RMS off on these views, 0.11 px
+    without it (measured); detected again in the flattened image they are back to ~0.11 px.
+    (Off by default: it shrinks the grid by ~0.035 % where there is no vignetting.)"""
+    errors: dict[float, list[float]] = {0.0: [], 0.5: []}
+    for turn, tilt, depth in [(0, (0.25, -0.2), 0.45), (35, (-0.3, 0.1), 0.6), (-150, (0.0, 0.35), 0.72)]:
+        pose = _pose(BOARD, np.deg2rad(turn), tilt, depth)
+        image = _vignetted(render_view(BOARD, CAMERA, pose), 0.25)
+        for sigma, found_errors in errors.items():
+            found = detect_board(image, BOARD, DetectionSettings(flatten_sigma=sigma))
+            assert found.usable, found.reason
+            found_errors.append(
+                float(np.sqrt(np.mean(np.sum((found.image_points - _truth(BOARD, pose)) ** 2, 1))))
+            )
+    assert np.mean(errors[0.5]) < 0.13
+    assert np.mean(errors[0.5]) < 0.85 * np.mean(errors[0.0])

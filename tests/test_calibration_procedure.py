@@ -26,6 +26,7 @@ from robot_app.calibration import (
 )
 from robot_app.errors import CalibrationError, InputError
 from robot_app.geometry import invert_transform, make_transform, rotation_angle_between
+from robot_app.vision.camera import StereoRig
 from tests._board_views import render_view, true_rig, write_views
 
 BOARD = BoardConfig(rows=7, cols=10, square_size=0.03)
@@ -80,13 +81,76 @@ def test_hand_eye_calibration_recovers_x_with_every_method(folder, detected) -> 
     assert X_true is not None
     assert np.linalg.norm(X[:3, 3] - X_true[:3, 3]) < 1e-3
     assert rotation_angle_between(X[:3, :3], X_true[:3, :3]) < np.deg2rad(0.2)
-    assert {m.name for m in result.methods} == {"tsai", "park", "daniilidis", "refined"}
-    assert result.method.endswith("refined") and result.reprojection_rms_px < 0.3
+    assert {m.name for m in result.methods} == {
+        "tsai",
+        "park",
+        "daniilidis",
+        "refined",
+        "refined with the rig",
+    }
+    assert result.method.endswith("refined with the rig") and result.reprojection_rms_px < 0.3
+    np.testing.assert_array_equal(result.rig.transform_right_camera_to_hand, X)
+    assert result.rig_note.startswith("rig refined with X")
     assert abs(result.scale - 1) < 0.005
     for method in ("tsai", "park", "daniilidis"):
         alone = calibrate_hand_eye(views, poses, stereo, BOARD, HandEyeSettings(method=method, refine=False))
         assert alone.method == method
         assert np.linalg.norm(alone.transform_right_camera_to_hand[:3, 3] - X_true[:3, 3]) < 3e-3
+
+
+def _with_focal_error(rig: StereoRig, factor: float) -> StereoRig:
+    cameras = []
+    for camera in (rig.left, rig.right):
+        K = camera.camera_matrix.copy()
+        K[0, 0] *= factor
+        K[1, 1] *= factor
+        cameras.append(replace(camera, camera_matrix=K))
+    return replace(rig, left=cameras[0], right=cameras[1])
+
+
+def test_a_focal_length_error_moves_x_along_the_optical_axis_unless_the_rig_is_refined(
+    folder, detected
+) -> None:
+    """A stereo calibration 0.4 % long in focal length: held, the boards seem 0.4 % farther and
+    X moves ~2 mm along the optical axis; refined with X from the robot's poses, it is found.
+
+    (On these 18 views the refined X is 0.86 mm off, the held true-ish stereo focal lengths'
+    0.38 mm: the fit's focal lengths land 0.1 % short, 2 of its formal sigmas.)"""
+    views, _ = detected
+    poses = match_robot_poses(find_image_pairs(folder), read_robot_poses(folder / "robot_poses.csv"))
+    stereo = calibrate_stereo(views, BOARD, TRUTH.image_size).rig
+    wrong = _with_focal_error(stereo, 1.004)
+    X_true = TRUTH.transform_right_camera_to_hand
+    assert X_true is not None
+    held = calibrate_hand_eye(views, poses, wrong, BOARD, HandEyeSettings(refine_rig=False))
+    error = held.transform_right_camera_to_hand[:3, 3] - X_true[:3, 3]
+    along_axis = float(X_true[:3, 2] @ error)
+    assert abs(along_axis) > 1e-3 and abs(along_axis) > 0.8 * np.linalg.norm(error)
+    np.testing.assert_array_equal(held.rig.right.camera_matrix, wrong.right.camera_matrix)
+
+    refined = calibrate_hand_eye(views, poses, wrong, BOARD)
+    assert refined.method.endswith("refined with the rig")
+    X = refined.transform_right_camera_to_hand
+    assert np.linalg.norm(X[:3, 3] - X_true[:3, 3]) < 1e-3
+    # the same fit as from the stereo calibration's own focal lengths: the start does not matter
+    unperturbed = calibrate_hand_eye(views, poses, stereo, BOARD).transform_right_camera_to_hand
+    assert np.linalg.norm(X[:3, 3] - unperturbed[:3, 3]) < 0.05e-3
+    for side in ("left", "right"):
+        K, K_true = getattr(refined.rig, side).camera_matrix, getattr(TRUTH, side).camera_matrix
+        assert abs(K[0, 0] / K_true[0, 0] - 1) < 0.002 and abs(K[1, 1] / K_true[1, 1] - 1) < 0.002
+    assert abs(refined.rig.baseline - TRUTH.baseline) < 0.5e-3
+
+
+def test_the_rig_is_kept_when_the_boards_all_lie_at_one_depth(folder, detected) -> None:
+    views, _ = detected
+    poses = match_robot_poses(find_image_pairs(folder), read_robot_poses(folder / "robot_poses.csv"))
+    stereo = calibrate_stereo(views, BOARD, TRUTH.image_size).rig
+    result = calibrate_hand_eye(views, poses, stereo, BOARD, HandEyeSettings(min_depth_ratio=3.0))
+    assert result.method.endswith(", refined") and "depths differ by a factor" in result.rig_note
+    np.testing.assert_array_equal(result.rig.left.camera_matrix, stereo.left.camera_matrix)
+    np.testing.assert_array_equal(
+        result.rig.transform_right_camera_to_hand, result.transform_right_camera_to_hand
+    )
 
 
 def test_a_view_whose_board_moved_between_the_two_images_is_refused(folder, detected, tmp_path) -> None:

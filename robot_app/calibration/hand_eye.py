@@ -8,9 +8,16 @@ H_i X C_i is the same board pose W for every view, which fixes X = ^H T_CR.
 How X is found: the three closed-form methods (Tsai-Lenz, Park-Martin, Daniilidis) are
 run on every pair of views and scored by the reprojection error their X gives (board
 pose W averaged over the views, then the board's corners projected into every image);
-the best one starts a Levenberg-Marquardt refinement of X and W over the pixel errors
-of both cameras, which weighs each view by what its image really measured instead of by
-its pose's noise. `method` can force one closed form and `refine` switch the last step off.
+the best one starts a least-squares refinement of X and W over the pixel errors of both
+cameras, which weighs each view by what its image really measured instead of by its
+pose's noise. With `refine_rig` (the default) that fit also frees both cameras'
+intrinsics and the stereo pose: the flange poses are metric, so views at several depths
+measure the focal lengths better than the stereo calibration's board foreshortening did,
+and a focal length error no longer lands in X along the optical axis (see
+hand_eye_residuals). It is used when the boards' depths differ enough to separate focal
+length from depth (`min_depth_ratio`) and the rig moves no further than a calibration's
+error (`max_focal_change`); else only X and W are refined, and the result says why.
+`method` can force one closed form and `refine` switch the last step off.
 
 Checks that make bad input an error rather than a wrong X: the robot's translations and
 the camera's must agree in scale (a board file with the wrong square size, poses in
@@ -20,7 +27,7 @@ millimetres), and the hand must turn about at least two different axes.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import combinations
 from typing import Literal
 
@@ -54,6 +61,15 @@ class HandEyeSettings(StrictModel):
     min_views: int = Field(6, ge=3, description="fewest usable views")
     method: HandEyeMethod = Field("auto", description="closed form to start from; auto = lowest residual")
     refine: bool = Field(True, description="refine X and the board pose over the pixel errors")
+    refine_rig: bool = Field(
+        True, description="refine the cameras' intrinsics and the stereo pose with X (robot-aided)"
+    )
+    min_depth_ratio: float = Field(
+        1.2, ge=1.0, description="refine the rig only if the farthest board is this many times the nearest"
+    )
+    max_focal_change: float = Field(
+        0.01, gt=0.0, lt=0.2, description="keep the given rig if the refinement moves a focal length more"
+    )
     max_scale_error: float = Field(
         0.03, gt=0.0, lt=1.0, description="largest |camera / robot translation scale - 1| accepted"
     )
@@ -80,6 +96,8 @@ class HandEyeCalibration:
         turn_deg: how far the hand turned about its second axis of rotation [deg].
         refused: (view number, reason) for each view left out.
         left_unused: views whose left image was left out (its corners did not fit).
+        rig: the rig with X: intrinsics and stereo pose refined with X, or as given.
+        rig_note: why the rig was (not) refined, one line.
     """
 
     transform_right_camera_to_hand: FloatArray
@@ -91,7 +109,9 @@ class HandEyeCalibration:
     scale: float
     turn_deg: float
     refused: tuple[tuple[int, str], ...]
-    left_unused: tuple[int, ...] = ()
+    left_unused: tuple[int, ...]
+    rig: StereoRig
+    rig_note: str
 
 
 def match_robot_poses(
@@ -185,11 +205,25 @@ def calibrate_hand_eye(
     methods = list(candidates)
     final, label = best, best.name
     W = observations.board_pose(best.transform_right_camera_to_hand)
+    calibrated = replace(rig, transform_right_camera_to_hand=best.transform_right_camera_to_hand)
+    note = "rig as given (no refinement)"
     if s.refine:
-        refined, W_refined = observations.refine(best.transform_right_camera_to_hand)
+        refined, W_refined, _ = observations.refine(best.transform_right_camera_to_hand)
         methods.append(refined)
         if refined.reprojection_rms_px <= best.reprojection_rms_px:
             final, label, W = refined, f"{best.name}, refined", W_refined
+            calibrated = replace(rig, transform_right_camera_to_hand=refined.transform_right_camera_to_hand)
+            note = "rig as given (refine_rig off)"
+        if s.refine_rig:
+            with_rig, W_with_rig, rig_refined = observations.refine(
+                final.transform_right_camera_to_hand, with_rig=True
+            )
+            methods.append(with_rig)
+            note = _rig_refinement_note(observations.depth_ratio(), rig, rig_refined, s)
+            if not note:
+                final, label, W = with_rig, f"{best.name}, refined with the rig", W_with_rig
+                calibrated, observations = rig_refined, observations.with_rig(rig_refined)
+                note = _rig_change(rig, rig_refined)
     X = final.transform_right_camera_to_hand
     return HandEyeCalibration(
         X,
@@ -202,7 +236,45 @@ def calibrate_hand_eye(
         turn,
         tuple(sorted(refused)),
         tuple(sorted(skip_left)),
+        calibrated,
+        note,
     )
+
+
+def _rig_refinement_note(depth_ratio: float, rig: StereoRig, refined: StereoRig, s: HandEyeSettings) -> str:
+    """Why the refined rig is not used ('' when it is)."""
+    if depth_ratio < s.min_depth_ratio:
+        return (
+            f"rig as given: the boards' depths differ by a factor {depth_ratio:.2f} only "
+            f"(min_depth_ratio {s.min_depth_ratio}): too little to tell focal length from depth"
+        )
+    change = _largest_focal_change(rig, refined)
+    if change > s.max_focal_change:
+        return (
+            f"rig as given: refining it with X moved a focal length by {100 * change:.2f} % "
+            f"(max_focal_change {100 * s.max_focal_change:.2f} %): the robot poses and the rig disagree"
+        )
+    return ""
+
+
+def _focal_changes(rig: StereoRig, refined: StereoRig) -> dict[str, float]:
+    """Relative change of each focal length, e.g. {'left fx': 0.0012}."""
+    return {
+        f"{side} f{axis}": getattr(refined, side).camera_matrix[i, i] / getattr(rig, side).camera_matrix[i, i]
+        - 1
+        for side in ("left", "right")
+        for i, axis in ((0, "x"), (1, "y"))
+    }
+
+
+def _largest_focal_change(rig: StereoRig, refined: StereoRig) -> float:
+    return max(abs(c) for c in _focal_changes(rig, refined).values())
+
+
+def _rig_change(rig: StereoRig, refined: StereoRig) -> str:
+    """One line: how the refinement moved the rig's focal lengths and baseline."""
+    focal = ", ".join(f"{name} {100 * c:+.3f} %" for name, c in _focal_changes(rig, refined).items())
+    return f"rig refined with X: {focal}; baseline {1000 * (refined.baseline - rig.baseline):+.3f} mm"
 
 
 def _closed_forms(

@@ -2,22 +2,35 @@
 
 With X (the right camera in the hand) and W (the fixed board in the robot base), view i
 predicts the board in the right camera as X⁻¹ H_i⁻¹ W and in the left one through the
-rig; the pixel errors of every detected corner score an X, and Levenberg-Marquardt on
-the 12 parameters of X and W minimises them.
+rig; the pixel errors of every detected corner score an X, and a least-squares fit
+(`scipy.optimize.least_squares`) minimises them over X and W, and optionally over the
+rig too: both cameras' fx, fy, cx, cy, k1, k2, p1, p2 and the left-to-right pose.
+
+Why the rig too: with the intrinsics held, a focal length off by ε puts every board ε
+too far or too near and X absorbs it along the optical axis (ε of 0.2 % at 0.6 m: 1.2
+mm, what 320x240 images give `cv2.calibrateCamera`). The robot's flange poses are
+metric: views at different depths fix the focal length far better than the board's
+foreshortening alone, so one fit over every corner of every view, with one board pose
+W instead of one per view, corrects the focal lengths and X together (a robot-aided
+bundle adjustment).
 """
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
 
 from robot_app.arrays import FloatArray
 from robot_app.calibration.views import DetectedView
 from robot_app.errors import CalibrationError
 from robot_app.geometry import invert_transform, make_transform, rotation_angle_between
 from robot_app.vision.camera import PinholeCamera, StereoRig
+
+INTRINSICS = 8  # fx, fy, cx, cy, k1, k2, p1, p2 per camera (k3 stays as calibrated)
 
 
 @dataclass(frozen=True)
@@ -88,6 +101,26 @@ class BoardObservations:
             if view.left.usable and view.pair.index not in skip_left:
                 sides.append((objects[view.left.corner_ids], view.left.image_points, rig.left, True))
             self.sides.append(sides)
+
+    def with_rig(self, rig: StereoRig) -> BoardObservations:
+        """The same observations seen through another rig (e.g. a refined one)."""
+        other = copy.copy(self)
+        other.rig = rig
+        other.right_to_left = rig.transform_right_to_left
+        other.sides = [
+            [(o, p, rig.left if is_left else rig.right, is_left) for o, p, _, is_left in sides]
+            for sides in self.sides
+        ]
+        return other
+
+    def depth_ratio(self) -> float:
+        """Farthest over nearest board (its corners' mean depth in the right camera, PnP)."""
+        depths = []
+        for sides in self.sides:
+            objects, pixels, camera, _ = sides[0]
+            T = board_in_camera(objects, pixels, camera)
+            depths.append(float((T[:3, :3] @ objects.mean(axis=0) + T[:3, 3])[2]))
+        return max(depths) / min(depths)
 
     def board_pose(self, X: FloatArray) -> FloatArray:
         """W: the mean of the per-view board poses H_i X C_i (C_i from the right image's PnP)."""
@@ -171,37 +204,77 @@ class BoardObservations:
             )
         return tuple(out)
 
-    def refine(self, X0: FloatArray, iterations: int = 50) -> tuple[MethodResult, FloatArray]:
-        """Levenberg-Marquardt on (X, W), 12 parameters, over every corner's pixel error."""
+    def refine(self, X0: FloatArray, with_rig: bool = False) -> tuple[MethodResult, FloatArray, StereoRig]:
+        """Least squares over every corner's pixel error: X and W, and the rig if `with_rig`.
+
+        Returns the refined X's result, W and the rig (the given one unless `with_rig`;
+        its transform_right_camera_to_hand is X).
+        """
         W0 = self.board_pose(X0)
-        p = np.r_[_vector(X0), _vector(W0)]
+        p0 = [_vector(X0), _vector(W0)]
+        if with_rig:
+            p0 += [
+                _intrinsics(self.rig.left),
+                _intrinsics(self.rig.right),
+                _vector(self.rig.transform_left_to_right),
+            ]
+        observations = [
+            (k, is_left, objects, pixels)
+            for k, sides in enumerate(self.sides)
+            for objects, pixels, _, is_left in sides
+        ]
+        hand_inverse = [invert_transform(H) for H in self.H]
+        k3s = (float(self.rig.left.dist_coeffs[4]), float(self.rig.right.dist_coeffs[4]))
+
+        def unpack(q: FloatArray) -> tuple[FloatArray, FloatArray, StereoRig]:
+            X, W = _transform(q[:6]), _transform(q[6:12])
+            if not with_rig:
+                return X, W, self.rig
+            left = _camera(self.rig.left, q[12 : 12 + INTRINSICS])
+            right = _camera(self.rig.right, q[12 + INTRINSICS : 12 + 2 * INTRINSICS])
+            return X, W, StereoRig(left, right, _transform(q[12 + 2 * INTRINSICS :]))
 
         def residual(q: FloatArray) -> FloatArray:
-            return np.concatenate(self.errors(_transform(q[:6]), _transform(q[6:]))).ravel()
+            X, W = _transform(q[:6]), _transform(q[6:12])
+            if with_rig:
+                cameras = (q[12 : 12 + INTRINSICS], q[12 + INTRINSICS : 12 + 2 * INTRINSICS])
+                right_to_left = invert_transform(_transform(q[12 + 2 * INTRINSICS :]))
+            else:
+                cameras = (_intrinsics(self.rig.left), _intrinsics(self.rig.right))
+                right_to_left = self.right_to_left
+            left, right = (_matrices(c, k3) for c, k3 in zip(cameras, k3s, strict=True))
+            X_inverse = invert_transform(X)
+            out = []
+            for k, is_left, objects, pixels in observations:
+                T = X_inverse @ hand_inverse[k] @ W
+                if is_left:
+                    T = right_to_left @ T
+                K, dist = left if is_left else right
+                projected, _ = cv2.projectPoints(objects, cv2.Rodrigues(T[:3, :3])[0], T[:3, 3], K, dist)
+                out.append((projected.reshape(-1, 2) - pixels).ravel())
+            return np.concatenate(out)
 
-        r = residual(p)
-        damping = 1e-3
-        for _ in range(iterations):
-            J = np.empty((r.size, p.size))
-            for k in range(p.size):
-                step = 1e-6 if k % 6 < 3 else 1e-7  # rotation [rad], translation [m]
-                dp = np.zeros_like(p)
-                dp[k] = step
-                J[:, k] = (residual(p + dp) - residual(p - dp)) / (2 * step)
-            g, N = J.T @ r, J.T @ J
-            while True:
-                delta = -np.linalg.solve(N + damping * np.diag(np.diag(N)), g)
-                candidate = residual(p + delta)
-                if candidate @ candidate < r @ r:
-                    p, r, damping = p + delta, candidate, max(damping / 10, 1e-9)
-                    break
-                damping *= 10
-                if damping > 1e6:
-                    break
-            if damping > 1e6 or np.linalg.norm(delta) < 1e-12:
-                break
-        X, W = _transform(p[:6]), _transform(p[6:])
-        return self.score("refined", X, W), W
+        solution = least_squares(residual, np.concatenate(p0), method="lm", x_scale="jac")
+        X, W, rig = unpack(solution.x)
+        rig = StereoRig(rig.left, rig.right, rig.transform_left_to_right, X)
+        scored = self.with_rig(rig) if with_rig else self
+        name = "refined with the rig" if with_rig else "refined"
+        return scored.score(name, X, W), W, rig
+
+
+def _intrinsics(camera: PinholeCamera) -> FloatArray:
+    K, d = camera.camera_matrix, camera.dist_coeffs
+    return np.array([K[0, 0], K[1, 1], K[0, 2], K[1, 2], d[0], d[1], d[2], d[3]])
+
+
+def _matrices(q: FloatArray, k3: float) -> tuple[FloatArray, FloatArray]:
+    K = np.array([[q[0], 0.0, q[2]], [0.0, q[1], q[3]], [0.0, 0.0, 1.0]])
+    return K, np.array([q[4], q[5], q[6], q[7], k3])
+
+
+def _camera(camera: PinholeCamera, q: FloatArray) -> PinholeCamera:
+    K, dist = _matrices(q, float(camera.dist_coeffs[4]))
+    return PinholeCamera(K, camera.image_size, dist)
 
 
 def _vector(T: FloatArray) -> FloatArray:

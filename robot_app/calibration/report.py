@@ -194,6 +194,11 @@ def write_hand_eye_report(folder: str | Path, calibration: HandEyeCalibration) -
             for m in calibration.methods
         ],
         "transform_board_to_base": calibration.transform_board_to_base.tolist(),
+        "rig": calibration.rig_note,
+        "camera_matrices": {
+            side: getattr(calibration.rig, side).camera_matrix.tolist() for side in ("left", "right")
+        },
+        "baseline_mm": 1000.0 * calibration.rig.baseline,
     }
     return [
         atomic_write_text(out / "views.csv", _csv(rows)),

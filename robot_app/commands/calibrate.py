@@ -5,7 +5,6 @@ from __future__ import annotations
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -134,12 +133,20 @@ def hand_eye(
     refine: Annotated[
         bool, typer.Option("--refine/--no-refine", help="Refine over the pixel errors of both cameras.")
     ] = True,
+    refine_rig: Annotated[
+        bool,
+        typer.Option(
+            "--refine-rig/--keep-rig",
+            help="Refine the intrinsics and the stereo pose with X (robot-aided), or keep the --rig's.",
+        ),
+    ] = True,
     min_views: Annotated[int, typer.Option("--min-views", help="Fewest usable views.")] = 6,
     max_edge_width: MaxBlurOption = 4.0,
 ) -> None:
     """The right camera's pose on the hand from views of a fixed board at several arm poses.
 
-    Writes transform_right_camera_to_hand into the rig file and a report folder
+    Writes transform_right_camera_to_hand into the rig file (with the intrinsics and the
+    stereo pose refined together with it, unless --keep-rig) and a report folder
     (views.csv: per view its pixel error and how far its board pose is from the others';
     summary.json: every method's residuals).
     """
@@ -166,6 +173,7 @@ def hand_eye(
             "min_views": min_views,
             "method": method,
             "refine": refine,
+            "refine_rig": refine_rig,
         },
         "command-line options",
     )
@@ -186,11 +194,12 @@ def hand_eye(
         result = calibrate_hand_eye(views, poses, stereo_rig, board_config, settings)
     X = result.transform_right_camera_to_hand
     write_rig(
-        replace(stereo_rig, transform_right_camera_to_hand=X),
+        result.rig,
         rig_path,
         (
             f"robot-app calibrate hand-eye: {len(result.residuals)} views, method {result.method}",
             f"reprojection RMS {result.reprojection_rms_px:.3f} px",
+            result.rig_note,
         ),
     )
     paths = write_hand_eye_report(report_dir, result)
@@ -215,6 +224,7 @@ def hand_eye(
         f"camera/robot motion scale {result.scale:.4f}; "
         f"hand turned {result.turn_deg:.1f} deg about a second axis"
     )
+    typer.echo(result.rig_note)
     typer.echo(f"wrote {rig_path}; report {', '.join(str(p) for p in paths)}")
 
 
