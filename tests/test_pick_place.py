@@ -155,11 +155,6 @@ def test_a_belt_that_stops_halfway() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="known gap (#16): placed, but grasped 31 mm (still) / 13 mm (25 mm/s) from the "
-    "intended point: a push late in DESCEND is not followed in time",
-)
 @pytest.mark.parametrize("speed", [0.0, 0.025])
 def test_a_cloth_pushed_30_mm_during_descend_is_still_grasped(speed: float) -> None:
     result = episode(
@@ -167,10 +162,12 @@ def test_a_cloth_pushed_30_mm_during_descend_is_still_grasped(speed: float) -> N
         "loop.vision_latency=0.06", "nudge.phase=descend", "nudge.after=0.05", "nudge.dx=0.03", "nudge.dy=0",
     )  # fmt: skip
     assert_placed(result)
-    assert result.grasp_attempts == 1  # in the same descent, not after a missed grasp
+    assert result.grasp_attempts == 1  # the fingers closed once: not blind where the cloth had been
     assert result.grasps[0].offset_mm is not None and result.grasps[0].offset_mm < 10.0
-    reasons = {r.reason for r in result.recognitions}
-    assert "relocated onto agreeing rejected measurements" in reasons  # the filter followed the push
+    # the push was seen (the filtered pose 20 mm or more off the truth) and the loop's
+    # estimate followed it before the fingers closed
+    assert any(t.error_xy_mm > 20.0 for t in result.tracking)
+    assert result.tracking[-1].error_xy_mm < 5.0
 
 
 @pytest.mark.slow

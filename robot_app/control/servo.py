@@ -37,6 +37,7 @@ from robot_app.control.cloth_tracker import ClothTracker
 from robot_app.control.episode import EpisodeAbortError, Outcome
 from robot_app.control.intercept import JointFollower, TrackFilter, hanging_reach
 from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.pose_filter import FilterUpdate, UpdateReason
 from robot_app.control.trajectory import OnlineTrajectory, time_optimal_duration
 
 CAMERA_FRAME = "camera_right_optical"
@@ -49,6 +50,9 @@ LOOKAHEAD = 0.05  # [s] tracking aims at the target's state this far ahead, due 
 LIMIT_MARGIN = 2e-3  # [rad] joint targets stay this far inside the position limits
 CLOTH_SURFACE_MAX = 0.01  # [m] a cloth's surface on the belt is at most this above it (wrinkles)
 CAUGHT_UP = 0.02  # [m] the hand this close to the target ends the intercept: tracking from then on
+HOLD_MARGIN = 0.01  # [m] above the height where the cameras go blind, DESCEND holds on a doubted view
+DOUBT_DISTANCE = 0.012  # [m] a fused view this far from the prediction doubts it (3 sigma of a normal one)
+DOUBTED_VIEWS = 3  # recognitions in a row not fused on the way down: the cloth is not where predicted
 
 
 class ServoStrategy:
@@ -131,12 +135,24 @@ class ServoStrategy:
         return False
 
     def descend(self) -> bool:
-        """Tracks down to the grasp height (blind below the working distance); False if lost."""
+        """Tracks down to the grasp height (blind below the working distance); False if lost.
+
+        The blind segment starts only from a prediction the views confirm: a recognition
+        of DESCEND that the filter does not fuse (a poor view where the cloth should be, or
+        one beyond its gates: the cloth pushed out of the tracker's window), or fuses
+        `DOUBT_DISTANCE` or farther from the prediction (an untrusted view, fused with
+        little weight, of a cloth pushed aside), holds the hand
+        `HOLD_MARGIN` above the height where the cameras go blind (rising back to it if it
+        was already lower) until a recognition is fused; `DOUBTED_VIEWS` in a row end
+        DESCEND as lost (the loop looks again) instead of grasping where the cloth was.
+        """
         s = self.settings
         online = self.online
         now = self.arm.cell.time
-        self._height = self._height.to(s.grasp_height, now, self._vertical_speed())
-        start, seen, blind_from = now, 0, None
+        speed = self._vertical_speed()
+        self._height = self._height.to(s.grasp_height, now, speed)
+        hold = s.min_working_distance - self.camera_above_tcp + HOLD_MARGIN  # TCP above the cloth
+        start, seen, doubted, blind_from = now, 0, 0, None
         while True:
             in_view = self._in_view()
             if not in_view and blind_from is None:
@@ -147,9 +163,22 @@ class ServoStrategy:
                 self.note = "lost while descending"
                 self._end(to_rest=True)
                 return False
+            for update in updates:
+                now = self.arm.cell.time
+                if _confirms(update) and doubted:
+                    doubted = 0
+                    self._height = self._height.to(s.grasp_height, now, speed)
+                elif not _confirms(update):
+                    doubted += 1
+                    if self._height.last != hold:
+                        self._height = self._height.to(hold, now, speed)
+            if doubted >= DOUBTED_VIEWS:
+                self.note = f"{doubted} recognitions in a row did not confirm the prediction on the way down"
+                self._end(to_rest=True)
+                return False
             self._renew(online, any(u.accepted for u in updates))
             position_error, velocity_error = self._follow(online)
-            down = self.arm.cell.time >= self._height.end
+            down = not doubted and self.arm.cell.time >= self._height.end
             if down and position_error <= s.grasp_tolerance and velocity_error <= s.velocity_tolerance:
                 blind = "" if blind_from is None else f", blind below {blind_from * 1e3:.0f} mm"
                 self.note = f"{seen} fused recognitions on the way down{blind}"
@@ -352,6 +381,13 @@ class ServoStrategy:
     def _in_view(self) -> bool:
         """True while the cameras are at least the working distance from the cloth."""
         return self._height_above_cloth() + self.camera_above_tcp >= self.settings.min_working_distance
+
+
+def _confirms(update: FilterUpdate) -> bool:
+    """True if a recognition confirms the prediction: fused, and near it or relocating it."""
+    if not update.accepted:
+        return False
+    return update.reason is UpdateReason.RELOCATED or not update.distance >= DOUBT_DISTANCE
 
 
 class _Profile:
