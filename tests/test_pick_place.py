@@ -171,6 +171,20 @@ def test_a_cloth_pushed_30_mm_during_descend_is_still_grasped(speed: float) -> N
 
 
 @pytest.mark.slow
+def test_a_cloth_carried_toward_the_base_out_of_reach_is_reported_unreachable() -> None:
+    """bench_conveyor's servo 100 mm/s episode 21: No.13 heading at 170 deg toward the
+    robot's base, where the hand pointing down cannot get low; the descent ended in an
+    IK failure 0.9 s in. DESCEND now foresees it before the hand moves down."""
+    result = episode(
+        "seed=1600021", "scene.target=13", "scene.conveyor_direction_deg=170.3",
+        "scene.conveyor_speed=0.1", "loop.vision_latency=0.06",
+    )  # fmt: skip
+    assert result.outcome is Outcome.UNREACHABLE and not result.success
+    assert "leaves the arm's reach" in result.reason
+    assert result.grasp_attempts == 0 and result.limit_report.violations == 0 and result.collisions == 0
+
+
+@pytest.mark.slow
 def test_look_then_move_baseline_still_places_a_still_cloth() -> None:
     result = episode("seed=1", "scene.target=3", "loop.strategy=look_then_move", "loop.vision_latency=0.06")
     assert_placed(result)

@@ -52,6 +52,7 @@ CLOTH_SURFACE_MAX = 0.01  # [m] a cloth's surface on the belt is at most this ab
 CAUGHT_UP = 0.02  # [m] the hand this close to the target ends the intercept: tracking from then on
 HOLD_MARGIN = 0.01  # [m] above the height where the cameras go blind, DESCEND holds on a doubted view
 DOUBT_DISTANCE = 0.012  # [m] a fused view this far from the prediction doubts it (3 sigma of a normal one)
+REACH_STEP = 0.1  # [s] between the predicted grasp points DESCEND checks for reach before it starts
 DOUBTED_VIEWS = 3  # recognitions in a row not fused on the way down: the cloth is not where predicted
 
 
@@ -145,12 +146,21 @@ class ServoStrategy:
         `HOLD_MARGIN` above the height where the cameras go blind (rising back to it if it
         was already lower) until a recognition is fused; `DOUBTED_VIEWS` in a row end
         DESCEND as lost (the loop looks again) instead of grasping where the cloth was.
+
+        Raises:
+            EpisodeAbortError: UNREACHABLE, before the hand moves down, when the predicted
+                grasp point leaves the arm's reach before the hand could be down on it (a
+                fast belt heading toward the base, where the PA10 cannot reach low).
         """
         s = self.settings
         online = self.online
         now = self.arm.cell.time
         speed = self._vertical_speed()
         self._height = self._height.to(s.grasp_height, now, speed)
+        problem = self._leaves_reach(self._height.end)
+        if problem is not None:
+            self._end(to_rest=True)
+            raise EpisodeAbortError(Outcome.UNREACHABLE, problem)
         hold = s.min_working_distance - self.camera_above_tcp + HOLD_MARGIN  # TCP above the cloth
         start, seen, doubted, blind_from = now, 0, 0, None
         while True:
@@ -187,6 +197,31 @@ class ServoStrategy:
                 self.note = f"grasp point not reached within {DESCEND_TIMEOUT:.0f} s"
                 self._end(to_rest=True)
                 return False
+
+    def _leaves_reach(self, down: float) -> str | None:
+        """Why the hand cannot be down on the moving grasp point by time `down` [s], or None.
+
+        The predicted grasp point (straight on at the filter's velocity) at the grasp
+        height, every `REACH_STEP` from now to `down`, must have an IK solution within the
+        joint limits (each seeded with the previous)."""
+        now = self.arm.cell.time
+        path = self.tracker.grasp_path(now)
+        seed = self.arm.command.q
+        for t in [*np.arange(now, down, REACH_STEP), down]:
+            point = path.at(float(t))
+            surface = min(max(point[2], self.table_z), self.table_z + CLOTH_SURFACE_MAX)
+            z = max(surface + self.settings.grasp_height, self.table_z + self.settings.min_table_clearance)
+            try:
+                seed = self.arm.solve_tcp([point[0], point[1], z], seed)
+            except EpisodeAbortError as abort:
+                if abort.outcome is not Outcome.IK_UNREACHABLE:
+                    raise
+                return (
+                    f"the cloth, moving at {path.speed * 1e3:.0f} mm/s, leaves the arm's reach at the grasp "
+                    f"height (x={point[0]:.2f}, y={point[1]:.2f} m) {t - now:.2f} s from now, before the "
+                    f"hand could be down on it ({down - now:.2f} s)"
+                )
+        return None
 
     def close(self) -> None:
         """Closes the fingers while the hand keeps moving with the cloth."""
