@@ -137,7 +137,11 @@ def test_latency_0_and_100_ms_both_succeed_at_25_mm_per_s(latency: float) -> Non
 @pytest.mark.xfail(
     strict=True,
     reason="known gap (#16): placed, but the fingers close 46 mm from the intended point while "
-    "still moving at the belt's 50 mm/s: the constant-velocity filter lags the stop",
+    "still moving at the belt's 50 mm/s. Not a filter lag: the belt brakes at 2.23-2.33 s, "
+    "while the hand is in DESCEND's blind segment (cameras nearer than loop.min_working_distance "
+    "from 2.0 s to the closure at 2.88-3.18 s); the last frame the cameras could take was "
+    "exposed at 1.98 s, so no recognition of the stop exists to filter. Needs a sensor that "
+    "sees the belt or the cloth below the working distance, or a shorter blind segment",
 )
 def test_a_belt_that_stops_halfway() -> None:
     """The belt runs 2 s (the cloth is being approached), brakes at 0.5 m/s^2 and stands."""
