@@ -23,6 +23,12 @@ the hand matches the cloth's position and velocity. DESCEND lowers the target wi
 smooth profile at `DESCEND_SPEED` while tracking; the cameras are triggered while they
 are at least `min_working_distance` from the cloth, and below that the last part is
 blind, on the prediction (frames taken above it still arrive and are fused). The
+blind segment starts only from a prediction the views confirm: a DESCEND recognition not
+fused, or fused `DOUBT_DISTANCE` or more from the prediction, holds the hand just above
+the blind height until one confirms it, and `DOUBTED_VIEWS` in a row make the loop look
+again (a cloth pushed out of the tracker's window). Before moving down, DESCEND checks
+that the predicted grasp point stays within the arm's reach until the hand is down
+(else outcome `unreachable`: a fast belt toward the base). The
 fingers close while the hand moves with the cloth; LIFT rises the same way and follows
 the belt until the hanging cloth is `lift_clearance` above it, then stops over it.
 """
