@@ -23,9 +23,10 @@ the hand matches the cloth's position and velocity. DESCEND lowers the target wi
 smooth profile at `DESCEND_SPEED` while tracking; the cameras are triggered while they
 are at least `min_working_distance` from the cloth, and below that the last part is
 blind, on the prediction (frames taken above it still arrive and are fused). The
-blind segment starts only from a prediction the views confirm: a DESCEND recognition not
-fused, or fused `DOUBT_DISTANCE` or more from the prediction, holds the hand just above
-the blind height until one confirms it, and `DOUBTED_VIEWS` in a row make the loop look
+blind segment does not start on a prediction the views doubt: a DESCEND recognition
+rejected by the filter's gates, turned poor where the cloth should be, or fused
+`DOUBT_DISTANCE` or more from the prediction holds the hand just above the blind height
+until one confirms it, and `DOUBTED_VIEWS` in a row make the loop look
 again (a cloth pushed out of the tracker's window). Before moving down, DESCEND checks
 that the predicted grasp point stays within the arm's reach until the hand is down
 (else outcome `unreachable`: a fast belt toward the base). The
@@ -144,13 +145,14 @@ class ServoStrategy:
     def descend(self) -> bool:
         """Tracks down to the grasp height (blind below the working distance); False if lost.
 
-        The blind segment starts only from a prediction the views confirm: a recognition
-        of DESCEND that the filter does not fuse (a poor view where the cloth should be, or
-        one beyond its gates: the cloth pushed out of the tracker's window), or fuses
+        The blind segment does not start on a prediction the views doubt: a recognition of
+        DESCEND that the filter rejects (beyond its gates), that is poor where the cloth
+        should be right after a fused one (the view turned poor on the way down: the cloth
+        pushed out of the tracker's window, which stays where it was), or that is fused
         `DOUBT_DISTANCE` or farther from the prediction (an untrusted view, fused with
         little weight, of a cloth pushed aside), holds the hand
         `HOLD_MARGIN` above the height where the cameras go blind (rising back to it if it
-        was already lower) until a recognition is fused; `DOUBTED_VIEWS` in a row end
+        was already lower) until a recognition confirms it; `DOUBTED_VIEWS` in a row end
         DESCEND as lost (the loop looks again) instead of grasping where the cloth was.
 
         Raises:
@@ -169,6 +171,7 @@ class ServoStrategy:
             raise EpisodeAbortError(Outcome.UNREACHABLE, problem)
         hold = s.min_working_distance - self.camera_above_tcp + HOLD_MARGIN  # TCP above the cloth
         start, seen, doubted, blind_from = now, 0, 0, None
+        fused_before = bool(self.tracker.recognitions and self.tracker.recognitions[-1].accepted)
         while True:
             in_view = self._in_view()
             if not in_view and blind_from is None:
@@ -181,13 +184,15 @@ class ServoStrategy:
                 return False
             for update in updates:
                 now = self.arm.cell.time
-                if _confirms(update) and doubted:
-                    doubted = 0
-                    self._height = self._height.to(s.grasp_height, now, speed)
-                elif not _confirms(update):
+                if _confirms(update):
+                    if doubted:
+                        doubted = 0
+                        self._height = self._height.to(s.grasp_height, now, speed)
+                elif _doubts(update, turned_poor=fused_before or doubted > 0):
                     doubted += 1
                     if self._height.last != hold:
                         self._height = self._height.to(hold, now, speed)
+                fused_before = update.accepted
             if doubted >= DOUBTED_VIEWS:
                 self.note = f"{doubted} recognitions in a row did not confirm the prediction on the way down"
                 self._end(to_rest=True)
@@ -429,6 +434,16 @@ def _confirms(update: FilterUpdate) -> bool:
     if not update.accepted:
         return False
     return update.reason is UpdateReason.RELOCATED or not update.distance >= DOUBT_DISTANCE
+
+
+def _doubts(update: FilterUpdate, *, turned_poor: bool) -> bool:
+    """True if a recognition that does not confirm the prediction doubts it. A poor view
+    where the cloth should be doubts it only if it `turned_poor` (it follows a fused view,
+    or a doubt); poor views standing since before (a cloth its close view scores low,
+    bench episode 10 at 100 mm/s) neither confirm nor doubt."""
+    if _confirms(update):
+        return False
+    return update.reason is not UpdateReason.LOW_FITNESS_CONSISTENT or turned_poor
 
 
 class _Profile:
