@@ -60,6 +60,7 @@ CAUGHT_UP = 0.02  # [m] the hand this close to the target ends the intercept: tr
 HOLD_MARGIN = 0.01  # [m] above the height where the cameras go blind, DESCEND holds on a doubted view
 DOUBT_DISTANCE = 0.012  # [m] a fused view this far from the prediction doubts it (3 sigma of a normal one)
 REACH_STEP = 0.1  # [s] between the predicted grasp points DESCEND checks for reach before it starts
+FITNESS_DROP = 0.5  # a poor view below this share of the previous view's fitness turned poor at once
 DOUBTED_VIEWS = 3  # recognitions in a row not fused on the way down: the cloth is not where predicted
 
 
@@ -147,8 +148,9 @@ class ServoStrategy:
 
         The blind segment does not start on a prediction the views doubt: a recognition of
         DESCEND that the filter rejects (beyond its gates), that is poor where the cloth
-        should be right after a fused one (the view turned poor on the way down: the cloth
-        pushed out of the tracker's window, which stays where it was), or that is fused
+        should be with less than `FITNESS_DROP` of the previous view's fitness (the view
+        turned poor at once: the cloth pushed out of the tracker's window, which stays
+        where it was; a fitness drifting across `min_fitness` is no sign), or that is fused
         `DOUBT_DISTANCE` or farther from the prediction (an untrusted view, fused with
         little weight, of a cloth pushed aside), holds the hand
         `HOLD_MARGIN` above the height where the cameras go blind (rising back to it if it
@@ -171,28 +173,32 @@ class ServoStrategy:
             raise EpisodeAbortError(Outcome.UNREACHABLE, problem)
         hold = s.min_working_distance - self.camera_above_tcp + HOLD_MARGIN  # TCP above the cloth
         start, seen, doubted, blind_from = now, 0, 0, None
-        fused_before = bool(self.tracker.recognitions and self.tracker.recognitions[-1].accepted)
+        records = self.tracker.recognitions
+        previous_fitness = records[-1].fitness if records else 0.0
         while True:
             in_view = self._in_view()
             if not in_view and blind_from is None:
                 blind_from = self._height_above_cloth()
             updates = self.tracker.poll(may_capture=in_view, sample_truth=True)
+            records = self.tracker.recognitions  # one row per update, in order
+            fitnesses = [r.fitness for r in records[len(records) - len(updates) :]]
             seen += sum(u.accepted for u in updates)
             if self.tracker.lost:
                 self.note = "lost while descending"
                 self._end(to_rest=True)
                 return False
-            for update in updates:
+            for update, fitness in zip(updates, fitnesses, strict=True):
                 now = self.arm.cell.time
+                turned_poor = doubted > 0 or fitness < FITNESS_DROP * previous_fitness
                 if _confirms(update):
                     if doubted:
                         doubted = 0
                         self._height = self._height.to(s.grasp_height, now, speed)
-                elif _doubts(update, turned_poor=fused_before or doubted > 0):
+                elif _doubts(update, turned_poor=turned_poor):
                     doubted += 1
                     if self._height.last != hold:
                         self._height = self._height.to(hold, now, speed)
-                fused_before = update.accepted
+                previous_fitness = fitness
             if doubted >= DOUBTED_VIEWS:
                 self.note = f"{doubted} recognitions in a row did not confirm the prediction on the way down"
                 self._end(to_rest=True)
@@ -438,9 +444,10 @@ def _confirms(update: FilterUpdate) -> bool:
 
 def _doubts(update: FilterUpdate, *, turned_poor: bool) -> bool:
     """True if a recognition that does not confirm the prediction doubts it. A poor view
-    where the cloth should be doubts it only if it `turned_poor` (it follows a fused view,
-    or a doubt); poor views standing since before (a cloth its close view scores low,
-    bench episode 10 at 100 mm/s) neither confirm nor doubt."""
+    where the cloth should be doubts it only if it `turned_poor` (its fitness fell below
+    `FITNESS_DROP` of the previous view's, or a doubt run is on); poor views standing since
+    before (a cloth its close view scores low, bench episode 10 at 100 mm/s) or drifting
+    across `min_fitness` (the occluded cloth of test_pick_place) neither confirm nor doubt."""
     if _confirms(update):
         return False
     return update.reason is not UpdateReason.LOW_FITNESS_CONSISTENT or turned_poor
