@@ -137,7 +137,11 @@ def test_latency_0_and_100_ms_both_succeed_at_25_mm_per_s(latency: float) -> Non
 @pytest.mark.xfail(
     strict=True,
     reason="known gap (#16): placed, but the fingers close 46 mm from the intended point while "
-    "still moving at the belt's 50 mm/s: the constant-velocity filter lags the stop",
+    "still moving at the belt's 50 mm/s. Not a filter lag: the belt brakes at 2.23-2.33 s, "
+    "while the hand is in DESCEND's blind segment (cameras nearer than loop.min_working_distance "
+    "from 2.0 s to the closure at 2.88-3.18 s); the last frame the cameras could take was "
+    "exposed at 1.98 s, so no recognition of the stop exists to filter. Needs a sensor that "
+    "sees the belt or the cloth below the working distance, or a shorter blind segment",
 )
 def test_a_belt_that_stops_halfway() -> None:
     """The belt runs 2 s (the cloth is being approached), brakes at 0.5 m/s^2 and stands."""
@@ -155,11 +159,6 @@ def test_a_belt_that_stops_halfway() -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="known gap (#16): placed, but grasped 31 mm (still) / 13 mm (25 mm/s) from the "
-    "intended point: a push late in DESCEND is not followed in time",
-)
 @pytest.mark.parametrize("speed", [0.0, 0.025])
 def test_a_cloth_pushed_30_mm_during_descend_is_still_grasped(speed: float) -> None:
     result = episode(
@@ -167,10 +166,26 @@ def test_a_cloth_pushed_30_mm_during_descend_is_still_grasped(speed: float) -> N
         "loop.vision_latency=0.06", "nudge.phase=descend", "nudge.after=0.05", "nudge.dx=0.03", "nudge.dy=0",
     )  # fmt: skip
     assert_placed(result)
-    assert result.grasp_attempts == 1  # in the same descent, not after a missed grasp
+    assert result.grasp_attempts == 1  # the fingers closed once: not blind where the cloth had been
     assert result.grasps[0].offset_mm is not None and result.grasps[0].offset_mm < 10.0
-    reasons = {r.reason for r in result.recognitions}
-    assert "relocated onto agreeing rejected measurements" in reasons  # the filter followed the push
+    # the push was seen (the filtered pose 20 mm or more off the truth) and the loop's
+    # estimate followed it before the fingers closed
+    assert any(t.error_xy_mm > 20.0 for t in result.tracking)
+    assert result.tracking[-1].error_xy_mm < 5.0
+
+
+@pytest.mark.slow
+def test_a_cloth_carried_toward_the_base_out_of_reach_is_reported_unreachable() -> None:
+    """bench_conveyor's servo 100 mm/s episode 21: No.13 heading at 170 deg toward the
+    robot's base, where the hand pointing down cannot get low; the descent ended in an
+    IK failure 0.9 s in. DESCEND now foresees it before the hand moves down."""
+    result = episode(
+        "seed=1600021", "scene.target=13", "scene.conveyor_direction_deg=170.3",
+        "scene.conveyor_speed=0.1", "loop.vision_latency=0.06",
+    )  # fmt: skip
+    assert result.outcome is Outcome.UNREACHABLE and not result.success
+    assert "leaves the arm's reach" in result.reason
+    assert result.grasp_attempts == 0 and result.limit_report.violations == 0 and result.collisions == 0
 
 
 @pytest.mark.slow

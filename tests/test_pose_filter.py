@@ -266,3 +266,24 @@ def test_two_looks_start_the_filter_moving_with_the_difference_covariance() -> N
     np.testing.assert_allclose(later.position, [0.525, 0.15, 0.0], atol=1e-12)
     with pytest.raises(ValueError):
         pose_filter.reset_from_two(first, 1.0, second, 1.0)
+
+
+def test_every_update_reports_its_distance_from_the_prediction() -> None:
+    """`distance` is the measured minus predicted x-y position, whatever the gates decided:
+    an untrusted view of a pushed cloth is fused with little weight, but is still far."""
+    pose_filter = PoseFilter()
+    truth = np.array([0.1, 0.2, 0.01, 0.3])
+    assert math.isnan(pose_filter.update(truth, 0.8, t=0.0).distance)  # nothing predicted yet
+    for k in range(1, 20):
+        update = pose_filter.update(truth, 0.8, t=0.1 * k)
+        assert update.distance == pytest.approx(0.0, abs=1e-6)
+    pushed = truth + np.array([0.024, -0.007, 0.0, 0.0])
+    fused_far = pose_filter.update(pushed, 0.8, t=2.0, trusted=False)  # within the widened gate
+    assert fused_far.accepted and fused_far.distance == pytest.approx(0.025, abs=1e-6)
+    estimate = fused_far.estimate
+    assert estimate is not None and np.hypot(estimate.x - pushed[0], estimate.y - pushed[1]) > 0.012
+    jumped = pose_filter.update(truth + np.array([0.2, 0.0, 0.0, 0.0]), 0.8, t=2.1)
+    assert not jumped.accepted and jumped.reason is UpdateReason.POSITION_JUMP
+    assert jumped.distance > 0.17
+    low = pose_filter.update(truth, SETTINGS.min_fitness - 0.01, t=2.2)
+    assert low.reason is UpdateReason.LOW_FITNESS_CONSISTENT and low.distance < 0.01

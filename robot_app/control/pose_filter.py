@@ -163,12 +163,16 @@ class FilterUpdate:
         nis: normalised innovation squared y^T S^-1 y [-]; nan if not computed (the
             filter was not initialised, or the fitness was too low).
         estimate: the estimate after the update, None if the filter is not initialised.
+        distance: horizontal distance of the measured position from the prediction at
+            its time [m] (the innovation's x-y length, whatever the gates decided); nan
+            if there was no prediction.
     """
 
     accepted: bool
     reason: UpdateReason
     nis: float
     estimate: PoseEstimate | None
+    distance: float = math.nan
 
 
 class PoseFilter:
@@ -325,10 +329,13 @@ class PoseFilter:
             if not self.initialised:
                 return self._reject(UpdateReason.LOW_FITNESS, math.nan)
             self.predict(t)
+            distance = self._distance(z)
             if not self.lost and self._consistent(z):  # a poor view of the cloth where it should be
                 self.rejected_count += 1
-                return FilterUpdate(False, UpdateReason.LOW_FITNESS_CONSISTENT, math.nan, self.estimate)
-            return self._reject(UpdateReason.LOW_FITNESS, math.nan)
+                return FilterUpdate(
+                    False, UpdateReason.LOW_FITNESS_CONSISTENT, math.nan, self.estimate, distance
+                )
+            return self._reject(UpdateReason.LOW_FITNESS, math.nan, distance)
         if not self.initialised or self.lost:
             reason = UpdateReason.REINITIALISED if self.initialised else UpdateReason.INITIALISED
             if self.initialised:
@@ -336,6 +343,7 @@ class PoseFilter:
             self.reset(z, t)
             return self._accept(reason, math.nan)
         self.predict(t)
+        distance = self._distance(z)
         kf = self._kf
         # the nearest branch, and the nearest of the cloth's symmetric yaws
         z[_YAW] = kf.x[_YAW, 0] + min(
@@ -346,7 +354,7 @@ class PoseFilter:
         S = kf.H @ kf.P @ kf.H.T + R
         nis = float(innovation @ np.linalg.solve(S, innovation))
         if np.linalg.norm(innovation[:3]) > self.settings.max_position_jump:
-            return self._reject(UpdateReason.POSITION_JUMP, nis)
+            return self._reject(UpdateReason.POSITION_JUMP, nis, distance)
         jump = None
         if abs(innovation[_YAW]) > self.settings.max_yaw_jump:
             jump = UpdateReason.YAW_JUMP
@@ -356,11 +364,15 @@ class PoseFilter:
             if not trusted:
                 self._jumps.clear()
             elif self._relocates(z, float(t)):
-                return self._relocate(z, nis)
-            return self._reject(jump, nis)
+                return self._relocate(z, nis, distance)
+            return self._reject(jump, nis, distance)
         kf.update(z, R=R)
         kf.x[_YAW, 0] = wrap_angle(kf.x[_YAW, 0])
-        return self._accept(UpdateReason.ACCEPTED, nis)
+        return self._accept(UpdateReason.ACCEPTED, nis, distance)
+
+    def _distance(self, z: FloatArray) -> float:
+        """The measurement's horizontal distance from the current prediction [m]."""
+        return float(np.hypot(z[0] - self._kf.x[0, 0], z[1] - self._kf.x[1, 0]))
 
     def _consistent(self, z: FloatArray) -> bool:
         """True if a measurement passes the position, yaw and Mahalanobis gates (not fused)."""
@@ -392,7 +404,7 @@ class PoseFilter:
         self._jumps.append((z.copy(), t))
         return len(self._jumps) >= s.relocate_after
 
-    def _relocate(self, z: FloatArray, nis: float) -> FilterUpdate:
+    def _relocate(self, z: FloatArray, nis: float, distance: float) -> FilterUpdate:
         """Restarts from the run of agreeing rejected measurements: at the newest, with the
         velocity between the first and the newest (a push leaves the belt running; a belt
         that stopped, or a cloth stopped at the belt's end, no longer moves)."""
@@ -403,21 +415,21 @@ class PoseFilter:
             velocity = self._kf.x[4:8, 0].copy()
             self.reset(z, t_last)
             self._kf.x[4:8, 0] = velocity
-        return self._accept(UpdateReason.RELOCATED, nis)
+        return self._accept(UpdateReason.RELOCATED, nis, distance)
 
-    def _accept(self, reason: UpdateReason, nis: float) -> FilterUpdate:
+    def _accept(self, reason: UpdateReason, nis: float, distance: float = math.nan) -> FilterUpdate:
         self.accepted_count += 1
         self.consecutive_rejections = 0
         if reason is not UpdateReason.RELOCATED:
             self._jumps.clear()
-        return FilterUpdate(True, reason, nis, self.estimate)
+        return FilterUpdate(True, reason, nis, self.estimate, distance)
 
-    def _reject(self, reason: UpdateReason, nis: float) -> FilterUpdate:
+    def _reject(self, reason: UpdateReason, nis: float, distance: float = math.nan) -> FilterUpdate:
         self.rejected_count += 1
         self.consecutive_rejections += 1
         if reason not in (UpdateReason.MAHALANOBIS, UpdateReason.YAW_JUMP):
             self._jumps.clear()
-        return FilterUpdate(False, reason, nis, self.estimate)
+        return FilterUpdate(False, reason, nis, self.estimate, distance)
 
     def _elapsed(self, t: float) -> float:
         if not self.initialised:
