@@ -3,7 +3,7 @@
     python scripts/pile_physics.py [--seeds 12 13 14] [--count 4 5] [--set key=value ...]
 
 Each seed lays a pile as the clear-table job does (configs/clear_table.yaml's world and
-pile settings, overlap >= 20 %, `--count` cloths), then `sim.pile_trial` grips the top
+pile settings, overlap >= 20 %, `--count` cloths), then `sim.checks.pile_trial` grips the top
 cloth where it lies on another (anchoring every cloth's nodes in the grasp radius, as
 the job's grasp does, so double picks happen), lifts it to 0.40 m, lowers it again to
 0.05 m, lets go and lets the pile settle. A blow-up: a node faster than 5 m/s, a node
@@ -20,8 +20,8 @@ from pathlib import Path
 from robot_app.config import load_config
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.sim import World
+from robot_app.sim.checks import pile_trial
 from robot_app.sim.pile import make_pile
-from robot_app.sim.pile_trial import pile_trial
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[1] / "configs" / "clear_table.yaml"
 

@@ -2,7 +2,7 @@
 
 The clear-table job lifted cloths from piles and put double picks back; pybullet's soft
 bodies then blew up (a mesh stretched across the view, nodes through the table, every
-cloth near it on the floor). `sim.pile_trial` repeats that motion with the arm driven
+cloth near it on the floor). `sim.checks.pile_trial` repeats that motion with the arm driven
 directly and measures node speeds, stretch, depth in the table and cloths off the table.
 """
 
@@ -15,8 +15,8 @@ from robot_app.config import load_config
 from robot_app.errors import ConfigError
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.sim import World, WorldConfig
+from robot_app.sim.checks import BLOW_UP_SPEED, PileTrialResult, pile_trial
 from robot_app.sim.pile import make_pile
-from robot_app.sim.pile_trial import BLOW_UP_SPEED, PileTrialResult, pile_trial
 
 CONFIG = "configs/clear_table.yaml"
 
