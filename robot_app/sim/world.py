@@ -90,6 +90,8 @@ class World:
         self.dt = 1.0 / c.physics_hz
         pb.setTimeStep(self.dt, physicsClientId=client)
         pb.setPhysicsEngineParameter(sparseSdfVoxelSize=c.cloth.sdf_voxel_size, physicsClientId=client)
+        if c.cloth.substeps > 1:  # 1: pybullet's default single step (pick-place's physics unchanged)
+            pb.setPhysicsEngineParameter(numSubSteps=c.cloth.substeps, physicsClientId=client)
         self.time = 0.0
         self._cache = cache_dir()
         top = c.table.top_z
