@@ -23,13 +23,9 @@ the hand matches the cloth's position and velocity. DESCEND lowers the target wi
 smooth profile at `DESCEND_SPEED` while tracking; the cameras are triggered while they
 are at least `min_working_distance` from the cloth, and below that the last part is
 blind, on the prediction (frames taken above it still arrive and are fused). The
-blind segment does not start on a prediction the views doubt: a DESCEND recognition
-rejected by the filter's gates, turned poor where the cloth should be, or fused
-`DOUBT_DISTANCE` or more from the prediction holds the hand just above the blind height
-until one confirms it, and `DOUBTED_VIEWS` in a row make the loop look
-again (a cloth pushed out of the tracker's window). Before moving down, DESCEND checks
-that the predicted grasp point stays within the arm's reach until the hand is down
-(else outcome `unreachable`: a fast belt toward the base). The
+blind segment starts only on a prediction the views confirm (`descent_doubt`), and
+before moving down DESCEND checks that the predicted grasp point stays within the arm's
+reach until the hand is down (`descent_reach`; else outcome `unreachable`). The
 fingers close while the hand moves with the cloth; LIFT rises the same way and follows
 the belt until the hanging cloth is `lift_clearance` above it, then stops over it.
 """
@@ -41,10 +37,12 @@ import numpy as np
 from robot_app.arrays import FloatArray
 from robot_app.control.arm_motion import ArmMotion
 from robot_app.control.cloth_tracker import ClothTracker
+from robot_app.control.descent_doubt import HOLD_MARGIN, DescentDoubt, Verdict
+from robot_app.control.descent_reach import leaves_reach
 from robot_app.control.episode import EpisodeAbortError, Outcome
+from robot_app.control.height_profile import HeightProfile, tcp_height
 from robot_app.control.intercept import JointFollower, TrackFilter, hanging_reach
 from robot_app.control.loop_settings import LoopSettings
-from robot_app.control.pose_filter import FilterUpdate, UpdateReason
 from robot_app.control.trajectory import OnlineTrajectory, time_optimal_duration
 
 CAMERA_FRAME = "camera_right_optical"
@@ -55,13 +53,7 @@ DESCEND_TIMEOUT = 4.0  # [s] of cell time for DESCEND before it counts as lost
 INTERCEPT_ITERATIONS = 4  # fixed-point iterations of the intercept time (converges in 2-3)
 LOOKAHEAD = 0.05  # [s] tracking aims at the target's state this far ahead, due then
 LIMIT_MARGIN = 2e-3  # [rad] joint targets stay this far inside the position limits
-CLOTH_SURFACE_MAX = 0.01  # [m] a cloth's surface on the belt is at most this above it (wrinkles)
 CAUGHT_UP = 0.02  # [m] the hand this close to the target ends the intercept: tracking from then on
-HOLD_MARGIN = 0.01  # [m] above the height where the cameras go blind, DESCEND holds on a doubted view
-DOUBT_DISTANCE = 0.012  # [m] a fused view this far from the prediction doubts it (3 sigma of a normal one)
-REACH_STEP = 0.1  # [s] between the predicted grasp points DESCEND checks for reach before it starts
-FITNESS_DROP = 0.5  # a poor view below this share of the previous view's fitness turned poor at once
-DOUBTED_VIEWS = 3  # recognitions in a row not fused on the way down: the cloth is not where predicted
 
 
 class ServoStrategy:
@@ -92,7 +84,7 @@ class ServoStrategy:
         self._online: OnlineTrajectory | None = None  # one online run from APPROACH to the end of LIFT
         self._track = TrackFilter(TRACK_BANDWIDTH)
         self._intercept: float | None = None  # absolute cell time [s]; None once tracking
-        self._height = _Profile(0.0, 0.0, 0.0, 1.0)  # TCP height above the grasp point over time
+        self._height = HeightProfile(0.0, 0.0, 0.0, 1.0)  # TCP height above the grasp point over time
 
     # ------------------------------------------------------------------ phases
     def approach(self) -> bool:
@@ -104,7 +96,7 @@ class ServoStrategy:
         self.tracker.start_tracking()
         now = self.arm.cell.time
         self._track.reset(self.tracker.grasp_path(now), now)
-        self._height = _Profile(s.track_height, s.track_height, now, 1.0)
+        self._height = HeightProfile(s.track_height, s.track_height, now, 1.0)
         try:
             self._intercept = self._plan_intercept(online)
         except EpisodeAbortError as abort:
@@ -146,16 +138,10 @@ class ServoStrategy:
     def descend(self) -> bool:
         """Tracks down to the grasp height (blind below the working distance); False if lost.
 
-        The blind segment does not start on a prediction the views doubt: a recognition of
-        DESCEND that the filter rejects (beyond its gates), that is poor where the cloth
-        should be with less than `FITNESS_DROP` of the previous view's fitness (the view
-        turned poor at once: the cloth pushed out of the tracker's window, which stays
-        where it was; a fitness drifting across `min_fitness` is no sign), or that is fused
-        `DOUBT_DISTANCE` or farther from the prediction (an untrusted view, fused with
-        little weight, of a cloth pushed aside), holds the hand
-        `HOLD_MARGIN` above the height where the cameras go blind (rising back to it if it
-        was already lower) until a recognition confirms it; `DOUBTED_VIEWS` in a row end
-        DESCEND as lost (the loop looks again) instead of grasping where the cloth was.
+        A doubt (`descent_doubt`) holds the hand `HOLD_MARGIN` above the height where the
+        cameras go blind (rising back to it if it was already lower) until a recognition
+        confirms the prediction; a lost doubt run ends DESCEND as lost (the loop looks again)
+        instead of grasping where the cloth was.
 
         Raises:
             EpisodeAbortError: UNREACHABLE, before the hand moves down, when the predicted
@@ -167,14 +153,14 @@ class ServoStrategy:
         now = self.arm.cell.time
         speed = self._vertical_speed()
         self._height = self._height.to(s.grasp_height, now, speed)
-        problem = self._leaves_reach(self._height.end)
+        problem = leaves_reach(self.arm, self.tracker.grasp_path(now), self._height.end, self.table_z, s)
         if problem is not None:
             self._end(to_rest=True)
             raise EpisodeAbortError(Outcome.UNREACHABLE, problem)
         hold = s.min_working_distance - self.camera_above_tcp + HOLD_MARGIN  # TCP above the cloth
-        start, seen, doubted, blind_from = now, 0, 0, None
+        start, seen, blind_from = now, 0, None
         records = self.tracker.recognitions
-        previous_fitness = records[-1].fitness if records else 0.0
+        doubt = DescentDoubt(records[-1].fitness if records else 0.0)
         while True:
             in_view = self._in_view()
             if not in_view and blind_from is None:
@@ -188,24 +174,20 @@ class ServoStrategy:
                 self._end(to_rest=True)
                 return False
             for update, fitness in zip(updates, fitnesses, strict=True):
-                now = self.arm.cell.time
-                turned_poor = doubted > 0 or fitness < FITNESS_DROP * previous_fitness
-                if _confirms(update):
-                    if doubted:
-                        doubted = 0
-                        self._height = self._height.to(s.grasp_height, now, speed)
-                elif _doubts(update, turned_poor=turned_poor):
-                    doubted += 1
-                    if self._height.last != hold:
-                        self._height = self._height.to(hold, now, speed)
-                previous_fitness = fitness
-            if doubted >= DOUBTED_VIEWS:
-                self.note = f"{doubted} recognitions in a row did not confirm the prediction on the way down"
+                verdict = doubt.judge(update, fitness)
+                if verdict is Verdict.CLEARED:
+                    self._height = self._height.to(s.grasp_height, self.arm.cell.time, speed)
+                elif verdict is Verdict.DOUBTED and self._height.last != hold:
+                    self._height = self._height.to(hold, self.arm.cell.time, speed)
+            if doubt.lost:
+                self.note = (
+                    f"{doubt.doubted} recognitions in a row did not confirm the prediction on the way down"
+                )
                 self._end(to_rest=True)
                 return False
             self._renew(online, any(u.accepted for u in updates))
             position_error, velocity_error = self._follow(online)
-            down = not doubted and self.arm.cell.time >= self._height.end
+            down = not doubt.standing and self.arm.cell.time >= self._height.end
             if down and position_error <= s.grasp_tolerance and velocity_error <= s.velocity_tolerance:
                 blind = "" if blind_from is None else f", blind below {blind_from * 1e3:.0f} mm"
                 self.note = f"{seen} fused recognitions on the way down{blind}"
@@ -214,31 +196,6 @@ class ServoStrategy:
                 self.note = f"grasp point not reached within {DESCEND_TIMEOUT:.0f} s"
                 self._end(to_rest=True)
                 return False
-
-    def _leaves_reach(self, down: float) -> str | None:
-        """Why the hand cannot be down on the moving grasp point by time `down` [s], or None.
-
-        The predicted grasp point (straight on at the filter's velocity) at the grasp
-        height, every `REACH_STEP` from now to `down`, must have an IK solution within the
-        joint limits (each seeded with the previous)."""
-        now = self.arm.cell.time
-        path = self.tracker.grasp_path(now)
-        seed = self.arm.command.q
-        for t in [*np.arange(now, down, REACH_STEP), down]:
-            point = path.at(float(t))
-            surface = min(max(point[2], self.table_z), self.table_z + CLOTH_SURFACE_MAX)
-            z = max(surface + self.settings.grasp_height, self.table_z + self.settings.min_table_clearance)
-            try:
-                seed = self.arm.solve_tcp([point[0], point[1], z], seed)
-            except EpisodeAbortError as abort:
-                if abort.outcome is not Outcome.IK_UNREACHABLE:
-                    raise
-                return (
-                    f"the cloth, moving at {path.speed * 1e3:.0f} mm/s, leaves the arm's reach at the grasp "
-                    f"height (x={point[0]:.2f}, y={point[1]:.2f} m) {t - now:.2f} s from now, before the "
-                    f"hand could be down on it ({down - now:.2f} s)"
-                )
-        return None
 
     def close(self) -> None:
         """Closes the fingers while the hand keeps moving with the cloth."""
@@ -296,11 +253,7 @@ class ServoStrategy:
     def _target_position(self, t: float) -> FloatArray:
         """The TCP target for time `t` [s]: the height profile above the smoothed grasp point."""
         point = self._track.at(t)
-        # the cloth lies on the belt: its surface is between the table and a wrinkle above it;
-        # a recognised depth outside is the depth error of a close view (up to 17 mm measured
-        # at the working distance for a navy napkin, which left the fingers 4 cm above it)
-        surface = min(max(point[2], self.table_z), self.table_z + CLOTH_SURFACE_MAX)
-        z = max(surface + self._height.at(t), self.table_z + self.settings.min_table_clearance)
+        z = tcp_height(point[2], self._height.at(t), self.table_z, self.settings.min_table_clearance)
         return np.array([point[0], point[1], z])
 
     def _target_velocity(self, t: float) -> FloatArray:
@@ -433,54 +386,6 @@ class ServoStrategy:
     def _in_view(self) -> bool:
         """True while the cameras are at least the working distance from the cloth."""
         return self._height_above_cloth() + self.camera_above_tcp >= self.settings.min_working_distance
-
-
-def _confirms(update: FilterUpdate) -> bool:
-    """True if a recognition confirms the prediction: fused, and near it or relocating it."""
-    if not update.accepted:
-        return False
-    return update.reason is UpdateReason.RELOCATED or not update.distance >= DOUBT_DISTANCE
-
-
-def _doubts(update: FilterUpdate, *, turned_poor: bool) -> bool:
-    """True if a recognition that does not confirm the prediction doubts it. A poor view
-    where the cloth should be doubts it only if it `turned_poor` (its fitness fell below
-    `FITNESS_DROP` of the previous view's, or a doubt run is on); poor views standing since
-    before (a cloth its close view scores low, bench episode 10 at 100 mm/s) or drifting
-    across `min_fitness` (the occluded cloth of test_pick_place) neither confirm nor doubt."""
-    if _confirms(update):
-        return False
-    return update.reason is not UpdateReason.LOW_FITNESS_CONSISTENT or turned_poor
-
-
-class _Profile:
-    """A height [m] going from `first` at `start` [s] to `last` over `duration` [s] along a
-    quintic smoothstep (zero velocity and acceleration at both ends)."""
-
-    def __init__(self, first: float, last: float, start: float, duration: float) -> None:
-        self.first, self.last, self.start = first, last, start
-        self.duration = max(duration, 1e-6)
-
-    @property
-    def end(self) -> float:
-        return self.start + self.duration
-
-    def to(self, last: float, now: float, speed: float = DESCEND_SPEED) -> _Profile:
-        """A new profile from this one's height at `now` to `last` at mean `speed` [m/s]."""
-        first = self.at(now)
-        return _Profile(first, last, now, abs(last - first) / speed)
-
-    def at(self, t: float) -> float:
-        u = min(1.0, max(0.0, (t - self.start) / self.duration))
-        return self.first + (self.last - self.first) * u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
-
-    def rate(self, t: float) -> float:
-        u = min(1.0, max(0.0, (t - self.start) / self.duration))
-        return (self.last - self.first) * 30.0 * u * u * (1.0 - u) ** 2 / self.duration
-
-    def acceleration(self, t: float) -> float:
-        u = min(1.0, max(0.0, (t - self.start) / self.duration))
-        return (self.last - self.first) * 60.0 * u * (1.0 - u) * (1.0 - 2.0 * u) / self.duration**2
 
 
 __all__ = ["ServoStrategy"]
