@@ -35,6 +35,7 @@ import cv2
 import numpy as np
 
 from robot_app.calibration import (
+    FLAT_FIELD_FOLDER,
     DetectionSettings,
     HandEyeSettings,
     calibrate_hand_eye,
@@ -42,6 +43,7 @@ from robot_app.calibration import (
     detect_views,
     find_image_pairs,
     load_board,
+    load_flat_field,
     match_robot_poses,
     read_robot_poses,
 )
@@ -60,11 +62,17 @@ SIZES = ((640, 480), (320, 240))
 FLATTEN_SIGMA = 0.0  # DetectionSettings.flatten_sigma, set by --flatten-sigma
 
 
-def calibrate_folder(folder: Path, truth: StereoRig) -> dict[str, object]:
-    """Runs both calibrations on a views folder and measures them against the truth."""
+def calibrate_folder(folder: Path, truth: StereoRig, flat_field: bool = False) -> dict[str, object]:
+    """Runs both calibrations on a views folder and measures them against the truth.
+
+    With `flat_field`, the corners are found after dividing out the flat field measured
+    from the folder's flat_field/ frames (as `robot-app calibrate` does by default).
+    """
     board = load_board(folder / "board.yaml")
     pairs = find_image_pairs(folder)
-    views, size = detect_views(pairs, board, DetectionSettings(flatten_sigma=FLATTEN_SIGMA))
+    flat = load_flat_field(folder / FLAT_FIELD_FOLDER) if flat_field else None
+    detection = DetectionSettings(flatten_sigma=FLATTEN_SIGMA)
+    views, size = detect_views(pairs, board, detection, flat_field=flat)
     assert size is not None
     stereo = calibrate_stereo(views, board, size)
     rig = stereo.rig
@@ -107,15 +115,22 @@ def calibrate_folder(folder: Path, truth: StereoRig) -> dict[str, object]:
     return row
 
 
-def accuracy(out: Path, seeds: int, views: int, first_seed: int = 0) -> list[dict[str, object]]:
+FLAT_CASES = {"none": False, "flat": True}  # corners found as they are / after the flat field
+
+
+def accuracy(
+    out: Path, seeds: int, views: int, first_seed: int = 0, sizes: tuple[tuple[int, int], ...] = SIZES
+) -> list[dict[str, object]]:
     rows = []
     print("\n== 1. accuracy on simulated views (each seed: new camera poses) ==")
+    print("flat: 'none' = corners found in the images as they are, 'flat' = after dividing out the")
+    print("flat field measured from the folder's flat_field/ frames (robot-app calibrate's default)")
     print(
-        f"{'size':>8} {'seed':>4} {'used':>5} {'RMS px':>7} {'max|df| %':>9} {'dbase mm':>9} {'R deg':>6} "
-        f"{'HE mm':>6} {'HE deg':>6} {'HE dz':>6} {'rig df%':>7} {'rig db':>6}  method  "
+        f"{'size':>8} {'seed':>4} {'flat':>4} {'used':>5} {'RMS px':>7} {'max|df| %':>9} {'dbase mm':>9} "
+        f"{'R deg':>6} {'HE mm':>6} {'HE deg':>6} {'HE dz':>6} {'rig df%':>7} {'rig db':>6}  method  "
         "| closed forms: tsai / park / daniilidis mm"
     )
-    for width, height in SIZES:
+    for width, height in sizes:
         world = load_world_config(None, (f"cameras.image_size=[{width},{height}]",))
         for seed in range(first_seed, first_seed + seeds):
             folder = out / f"views_{width}x{height}_seed{seed}"
@@ -123,38 +138,41 @@ def accuracy(out: Path, seeds: int, views: int, first_seed: int = 0) -> list[dic
             start = time.perf_counter()
             capture_calibration_views(world, CalibrationViewSettings(views=views, seed=seed), folder)
             captured = time.perf_counter() - start
-            row = calibrate_folder(folder, load_rig(folder / "truth" / "rig.yaml"))
-            row.update(size=f"{width}x{height}", seed=seed, capture_s=captured)
-            rows.append(row)
-            print(
-                f"{row['size']:>8} {seed:>4} {row['used']:>5} {row['rms_px']:7.3f} {row['focal_pct']:9.3f} "
-                f"{row['baseline_mm']:+9.3f} {row['stereo_R_deg']:6.3f} {row['hand_eye_mm']:6.2f} "
-                f"{row['hand_eye_deg']:6.3f} {row['hand_eye_dz_mm']:+6.2f} {row['rig_focal_pct']:7.3f} "
-                f"{row['rig_baseline_mm']:+6.3f}  {row['method']:<18}| "
-                f"{row['tsai_mm']:.2f} / {row['park_mm']:.2f} / {row['daniilidis_mm']:.2f}",
-                flush=True,
-            )
-    print("\nworst over the seeds against issue #20's targets:")
-    for width, height in SIZES:
+            for flat, use_flat in FLAT_CASES.items():
+                row = calibrate_folder(folder, load_rig(folder / "truth" / "rig.yaml"), use_flat)
+                row.update(size=f"{width}x{height}", seed=seed, flat=flat, capture_s=captured)
+                rows.append(row)
+                print(
+                    f"{row['size']:>8} {seed:>4} {flat:>4} {row['used']:>5} {row['rms_px']:7.3f} "
+                    f"{row['focal_pct']:9.3f} {row['baseline_mm']:+9.3f} {row['stereo_R_deg']:6.3f} "
+                    f"{row['hand_eye_mm']:6.2f} {row['hand_eye_deg']:6.3f} {row['hand_eye_dz_mm']:+6.2f} "
+                    f"{row['rig_focal_pct']:7.3f} {row['rig_baseline_mm']:+6.3f}  {row['method']:<18}| "
+                    f"{row['tsai_mm']:.2f} / {row['park_mm']:.2f} / {row['daniilidis_mm']:.2f}",
+                    flush=True,
+                )
+    print("\nworst and median over the seeds against issue #20's targets:")
+    for width, height in sizes:
         size = f"{width}x{height}"
-        chosen = [r for r in rows if r["size"] == size]
-        for key, target in TARGETS.items():
-            worst = max(abs(float(r[key])) for r in chosen)  # type: ignore[arg-type]
-            median = float(np.median([abs(float(r[key])) for r in chosen]))  # type: ignore[arg-type]
-            verdict = "PASS" if worst <= target else "MISS"
-            print(
-                f"  {size} {key:<13} worst {worst:7.3f}  median {median:7.3f}  "
-                f"target {target:5.2f}  {verdict}"
-            )
+        for flat in FLAT_CASES:
+            chosen = [r for r in rows if r["size"] == size and r["flat"] == flat]
+            for key, target in TARGETS.items():
+                worst = max(abs(float(r[key])) for r in chosen)  # type: ignore[arg-type]
+                median = float(np.median([abs(float(r[key])) for r in chosen]))  # type: ignore[arg-type]
+                verdict = "PASS" if worst <= target else "MISS"
+                print(
+                    f"  {size} {flat:>4} {key:<13} worst {worst:7.3f}  median {median:7.3f}  "
+                    f"target {target:5.2f}  {verdict}"
+                )
     print("  (focal and baseline above: the stereo calibration's; the rig file the hand-eye step writes:)")
-    for width, height in SIZES:
-        chosen = [r for r in rows if r["size"] == f"{width}x{height}"]
-        for key in ("rig_focal_pct", "rig_baseline_mm"):
-            values = [abs(float(r[key])) for r in chosen]  # type: ignore[arg-type]
-            print(
-                f"  {width}x{height} {key:<15} worst {max(values):7.3f}  "
-                f"median {float(np.median(values)):7.3f}"
-            )
+    for width, height in sizes:
+        for flat in FLAT_CASES:
+            chosen = [r for r in rows if r["size"] == f"{width}x{height}" and r["flat"] == flat]
+            for key in ("rig_focal_pct", "rig_baseline_mm"):
+                values = [abs(float(r[key])) for r in chosen]  # type: ignore[arg-type]
+                print(
+                    f"  {width}x{height} {flat:>4} {key:<15} worst {max(values):7.3f}  "
+                    f"median {float(np.median(values)):7.3f}"
+                )
     methods = ("tsai", "park", "daniilidis", "refined", "refined with the rig")
     print("\nhand-eye methods, median over all runs: error vs URDF (mm, deg), reprojection residual (px)")
     for m in methods:
@@ -338,6 +356,12 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=1, help="base seed of the pick-and-place episodes")
     parser.add_argument("--first-view-seed", type=int, default=0, help="seed of the first accuracy run")
     parser.add_argument(
+        "--size",
+        action="append",
+        choices=[f"{w}x{h}" for w, h in SIZES],
+        help="camera resolution(s) of the accuracy runs (default: all)",
+    )
+    parser.add_argument(
         "--flatten-sigma",
         type=float,
         default=0.0,
@@ -358,7 +382,8 @@ def main() -> None:
         "flatten_sigma": args.flatten_sigma,
     }
     if "accuracy" not in args.skip:
-        report["accuracy"] = accuracy(args.out, args.seeds, args.views, args.first_view_seed)
+        sizes = tuple(s for s in SIZES if args.size is None or f"{s[0]}x{s[1]}" in args.size)
+        report["accuracy"] = accuracy(args.out, args.seeds, args.views, args.first_view_seed, sizes)
     if "sensitivity" not in args.skip:
         report["sensitivity"] = sensitivity(args.out)
     if "pick-place" not in args.skip and args.episodes > 0:

@@ -14,6 +14,15 @@ from robot_app.calibration.files import (
     read_robot_poses,
     robot_poses_csv,
 )
+from robot_app.calibration.flat_field import (
+    FLAT_FIELD_FOLDER,
+    FlatField,
+    apply_flat_field,
+    check_flat_field_size,
+    flat_field_for,
+    load_flat_field,
+    measure_flat_field,
+)
 from robot_app.calibration.hand_eye import (
     HandEyeCalibration,
     HandEyeMethod,
@@ -47,6 +56,7 @@ from robot_app.calibration.stereo import (
 from robot_app.calibration.views import DetectedView, detect_views, reason_kind, require_views
 
 __all__ = [
+    "FLAT_FIELD_FOLDER",
     "HAND_EYE_METHODS",
     "POSE_COLUMNS",
     "BoardConfig",
@@ -56,6 +66,7 @@ __all__ = [
     "CameraFit",
     "DetectedView",
     "DetectionSettings",
+    "FlatField",
     "HandEyeCalibration",
     "HandEyeMethod",
     "HandEyeSettings",
@@ -65,20 +76,25 @@ __all__ = [
     "StereoCalibrationSettings",
     "ViewError",
     "ViewResidual",
+    "apply_flat_field",
     "board_image",
     "calibrate_hand_eye",
     "calibrate_stereo",
+    "check_flat_field_size",
     "coverage_fraction",
     "coverage_picture",
     "detect_board",
     "detect_views",
     "edge_width",
     "find_image_pairs",
+    "flat_field_for",
     "hand_eye_daniilidis",
     "hand_eye_park",
     "hand_eye_tsai",
     "load_board",
+    "load_flat_field",
     "match_robot_poses",
+    "measure_flat_field",
     "motion_pairs",
     "prepare_folder",
     "read_robot_poses",

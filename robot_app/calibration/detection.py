@@ -7,11 +7,13 @@ board frame between views.
 
 Brightness that varies across a corner (vignetting, a lamp from the side) moves the
 detector's corners: through the realistic camera model at 320x240 (25 % vignetting) the
-hand-eye X came out 0.5-1.1 mm off along the optical axis, 0.1-0.7 mm with the known
-vignetting divided out. `flatten_sigma` > 0 detects a found board a second time in the
-image divided by its local mean (a Gaussian of that many corner spacings; 0.4-0.6
-measured as good, 1.5 no better than none), which evens out the black and white levels
-around each corner (the first detection stays if the second fails). It is off by
+hand-eye X came out 0.5-1.1 mm off along the optical axis. The remedy a real rig uses is a
+measured flat field divided out of the images before they get here
+(`robot_app.calibration.flat_field`, what `robot-app calibrate` does when it has one).
+`flatten_sigma` > 0 is an older, image-only alternative: it detects a found board a
+second time in the image divided by its local mean (a Gaussian of that many corner
+spacings; 0.4-0.6 measured as good, 1.5 no better than none), which evens out the black
+and white levels around each corner (the first detection stays if the second fails). It is off by
 default: without vignetting it shrinks the corner grid by ~0.035 % (measured on the
 anti-aliased test views), enough to move a calibrated lens model 1.1 px at the image
 edge. That shrink (~0.2 mm of depth at 0.6 m) may be part of why it helps in the cell:

@@ -18,6 +18,7 @@ from robot_app.arrays import FloatArray
 from robot_app.calibration.board import BoardConfig
 from robot_app.calibration.detection import BoardDetection, DetectionSettings, detect_board
 from robot_app.calibration.files import ImagePair
+from robot_app.calibration.flat_field import FlatField, apply_flat_field, check_flat_field_size
 from robot_app.errors import CalibrationError
 from robot_app.input_files import read_image
 
@@ -62,6 +63,7 @@ def detect_views(
     board: BoardConfig,
     settings: DetectionSettings,
     progress: Callable[[int, int], None] | None = None,
+    flat_field: FlatField | None = None,
 ) -> tuple[list[DetectedView], tuple[int, int] | None]:
     """Detects the board in both images of every pair.
 
@@ -70,10 +72,15 @@ def detect_views(
         board: the board file's board.
         settings: detection limits.
         progress: called with (views done, views).
+        flat_field: each camera's measured relative illumination, divided out of its
+            images before detection (None: the images as they are).
 
     Returns:
         The views (in order) and the image size (width, height) [px] of the first
         readable image, None if no image could be read.
+
+    Raises:
+        CalibrationError: the first image is not the flat field's size.
     """
     views: list[DetectedView] = []
     size: tuple[int, int] | None = None
@@ -85,11 +92,15 @@ def detect_views(
                 continue
             image = read_image(path).bgr
             shape = (image.shape[1], image.shape[0])
+            if size is None and flat_field is not None:
+                check_flat_field_size(flat_field, shape)
             size = size or shape
             if shape != size:
                 detail = f"{shape[0]}x{shape[1]} px, the first image {size[0]}x{size[1]} px"
                 detections[side] = BoardDetection.refused(f"image size differs: {detail}")
                 continue
+            if flat_field is not None:
+                image = apply_flat_field(image, flat_field.side(side))
             found = detect_board(image, board, settings)
             if found.usable and board.type == "checkerboard":
                 found = _check_squares(found, board, image)

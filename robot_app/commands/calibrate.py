@@ -6,12 +6,15 @@ import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from robot_app.errors import CalibrationError
 from robot_app.outputs import check_output_file
+
+if TYPE_CHECKING:
+    from robot_app.calibration.flat_field import FlatField
 
 calibrate_app = typer.Typer(
     help="Calibrate the hand cameras from board images: stereo first, then hand-eye.", no_args_is_help=True
@@ -26,6 +29,14 @@ BoardOption = Annotated[
 ReportOption = Annotated[
     Path | None,
     typer.Option("--report", help="Folder for views.csv, summary.json (default: next to the rig)."),
+]
+FlatFieldOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--flat-field",
+        help="Folder of left_<n>.png / right_<n>.png frames of a uniformly lit white card, divided "
+        "out of the images before the corners are found (default: the images' flat_field/ if it exists).",
+    ),
 ]
 MaxBlurOption = Annotated[
     float, typer.Option("--max-edge-width", help="Refuse views whose edges rise over more pixels (blur).")
@@ -47,6 +58,7 @@ def stereo(
         ),
     ] = 1.0,
     fit_k3: Annotated[bool, typer.Option("--fit-k3", help="Also fit k3 (wide-angle lenses).")] = False,
+    flat_field: FlatFieldOption = None,
 ) -> None:
     """Intrinsics, distortion and the left-to-right pose of the two cameras (OpenCV stereoCalibrate).
 
@@ -75,7 +87,8 @@ def stereo(
         max_view_error_px=max_view_error,
     )
     pairs = find_image_pairs(images)
-    views, size = _detect(pairs, board_config, settings.detection)
+    flat = _flat_field(images, flat_field)
+    views, size = _detect(pairs, board_config, settings.detection, flat)
     if size is None:
         raise CalibrationError(f"no image in {images} could be read", path=images, key="--images")
     with _naming_board(board):
@@ -88,6 +101,7 @@ def stereo(
             f"robot-app calibrate stereo: {len(result.used)} of {len(views)} views",
             f"board: {board_config.describe()}",
             f"reprojection RMS {result.rms_px:.3f} px; no transform_right_camera_to_hand: calibrate hand-eye",
+            _flat_note(flat),
         ),
     )
     paths = write_stereo_report(report_dir, result, board_config)
@@ -142,6 +156,7 @@ def hand_eye(
     ] = True,
     min_views: Annotated[int, typer.Option("--min-views", help="Fewest usable views.")] = 6,
     max_edge_width: MaxBlurOption = 4.0,
+    flat_field: FlatFieldOption = None,
 ) -> None:
     """The right camera's pose on the hand from views of a fixed board at several arm poses.
 
@@ -181,7 +196,8 @@ def hand_eye(
     report_dir = prepare_folder(report or rig_path.with_name(f"{rig_path.stem}_hand_eye_report"))
     pairs = find_image_pairs(images)
     poses = match_robot_poses(pairs, read_robot_poses(robot_poses), str(robot_poses))
-    views, size = _detect(pairs, board_config, settings.detection)
+    flat = _flat_field(images, flat_field)
+    views, size = _detect(pairs, board_config, settings.detection, flat)
     if size is not None and size != stereo_rig.image_size:
         raise CalibrationError(
             f"the images are {size[0]}x{size[1]} px but {rig} is for {stereo_rig.image_size[0]}x"
@@ -200,6 +216,7 @@ def hand_eye(
             f"robot-app calibrate hand-eye: {len(result.residuals)} views, method {result.method}",
             f"reprojection RMS {result.reprojection_rms_px:.3f} px",
             result.rig_note,
+            _flat_note(flat),
         ),
     )
     paths = write_hand_eye_report(report_dir, result)
@@ -228,7 +245,26 @@ def hand_eye(
     typer.echo(f"wrote {rig_path}; report {', '.join(str(p) for p in paths)}")
 
 
-def _detect(pairs, board_config, detection):
+def _flat_field(images: Path, given: Path | None) -> FlatField | None:
+    """The measured flat field of --flat-field, or of the images' flat_field/ folder, or None."""
+    from robot_app.calibration import flat_field_for, load_flat_field
+
+    folder = flat_field_for(images, given)
+    if folder is None:
+        return None
+    flat = load_flat_field(folder)
+    typer.echo(f"{flat.describe()}: divided out before the corners are found")
+    return flat
+
+
+def _flat_note(flat: FlatField | None) -> str:
+    """The rig file's header line about the flat field."""
+    if flat is None:
+        return "corners found in the images as they are (no flat field)"
+    return f"corners found after dividing out the {flat.describe()}"
+
+
+def _detect(pairs, board_config, detection, flat):
     """Detects the board in every pair with a progress bar on stderr."""
     from robot_app.calibration import detect_views
 
@@ -237,7 +273,7 @@ def _detect(pairs, board_config, detection):
         def progress(done: int, total: int) -> None:
             bar.update(1)
 
-        return detect_views(pairs, board_config, detection, progress=progress)
+        return detect_views(pairs, board_config, detection, progress=progress, flat_field=flat)
 
 
 @contextmanager

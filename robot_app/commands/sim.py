@@ -121,7 +121,9 @@ def calibration_views(
 ) -> None:
     """Board views for `robot-app calibrate`: a checkerboard on the table, the arm over it.
 
-    Writes left_<n>.png, right_<n>.png, robot_poses.csv (flange in base), board.yaml and
+    Writes left_<n>.png, right_<n>.png, robot_poses.csv (flange in base), board.yaml,
+    flat_field/ (8 frames per camera of a uniformly lit card, through the same camera
+    model: `calibrate` measures the vignetting from them and divides it out) and
     truth/rig.yaml (the URDF's rig, to compare a calibration with). The cameras are the
     world config's (set world.cameras.image_size to the resolution you will run at).
     """

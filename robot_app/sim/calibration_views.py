@@ -6,7 +6,9 @@ stops at each, lets it settle and captures the stereo pair through the cell's ow
 `StereoCamera.render()` (so whatever camera model the cell has, noise and all, is what
 the calibration sees) together with the flange pose the robot measures. The folder it
 writes is what a real rig would give `robot-app calibrate stereo` and `calibrate
-hand-eye`: `left_<n>.png`, `right_<n>.png`, `robot_poses.csv` and `board.yaml`, plus
+hand-eye`: `left_<n>.png`, `right_<n>.png`, `robot_poses.csv`, `board.yaml` and
+`flat_field/` (frames of a uniformly lit card through the same cameras, to measure their
+vignetting from, as a real rig would: `robot_app.calibration.flat_field`), plus
 `truth/rig.yaml`, the URDF's rig, for benchmarks only.
 """
 
@@ -23,6 +25,7 @@ from pydantic import Field
 from robot_app.arrays import FloatArray
 from robot_app.calibration.board import BoardConfig, save_board
 from robot_app.calibration.files import robot_poses_csv
+from robot_app.calibration.flat_field import FLAT_FIELD_FOLDER
 from robot_app.calibration.rig_file import write_rig
 from robot_app.config import StrictModel
 from robot_app.errors import IKError, OutputError, SimulationError
@@ -36,6 +39,7 @@ from robot_app.vision.camera import StereoRig
 
 FACE_UP = np.diag([1.0, -1.0, -1.0])  # Σ_B of a board lying face up: z into the table
 BLACK, WHITE = (0.04, 0.04, 0.04), (0.92, 0.92, 0.92)
+FLAT_FRAME_INTERVAL = 0.1  # [s] between flat-field frames (the auto-exposure settles on the card)
 DEFAULT_BOARD = BoardConfig(type="checkerboard", rows=7, cols=10, square_size=0.03)
 
 
@@ -60,6 +64,9 @@ class CalibrationViewSettings(StrictModel):
     edge_margin_px: float = Field(6.0, ge=0.0, description="board corners at least this far inside [px]")
     settle_time: float = Field(0.25, ge=0.0, description="arm standstill before each capture [s]")
     max_tries_per_view: int = Field(60, ge=1)
+    flat_field_frames: int = Field(
+        8, ge=0, le=100, description="frames of a uniformly lit card per camera, in flat_field/ (0: none)"
+    )
 
 
 @dataclass(frozen=True)
@@ -215,9 +222,18 @@ def capture_calibration_views(
         write_rig(
             rig, folder / "truth" / "rig.yaml", ("the URDF's rig: the truth a calibration is compared with",)
         )
+        flat_frames = []
+        for _ in range(settings.flat_field_frames):  # a lit card held over the lenses, frame after frame
+            world.step(max(1, round(FLAT_FRAME_INTERVAL / world.dt)))
+            flat_frames.append(world.stereo.expose_uniform_card())
     for n, (left, right) in enumerate(images):
         atomic_write_image(folder / f"left_{n:03d}.png", left)
         atomic_write_image(folder / f"right_{n:03d}.png", right)
+    if flat_frames:
+        (folder / FLAT_FIELD_FOLDER).mkdir(exist_ok=True)
+    for n, (left, right) in enumerate(flat_frames):
+        atomic_write_image(folder / FLAT_FIELD_FOLDER / f"left_{n:03d}.png", left)
+        atomic_write_image(folder / FLAT_FIELD_FOLDER / f"right_{n:03d}.png", right)
     atomic_write_text(folder / "robot_poses.csv", robot_poses_csv(dict(enumerate(poses))))
     save_board(settings.board, folder / "board.yaml")
     return CalibrationViews(folder, len(images), tried, np.array(poses), board_to_world)

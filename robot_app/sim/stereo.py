@@ -128,6 +128,24 @@ class StereoCamera:
             right_pose = self._robot.frame_pose(HAND_FRAME) @ self.rig.transform_right_camera_to_hand
         return StereoFrame(images[0], images[1], time, right_pose, timing.available_time, timing.dropped)
 
+    def expose_uniform_card(self, level: float = 0.8) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]]:
+        """Both cameras looking into a uniformly lit white card that fills their view.
+
+        A flat-field frame, as a real rig takes one (a diffuser over the lenses, or a
+        matte card under even light): every pixel receives the same light, `level` of
+        full scale at unit gain in the lamp's colour; each camera's own model then adds
+        what it adds to every capture (vignetting, exposure, noise, white balance, JPEG).
+        The card is ideally even here, which a real one never quite is.
+        """
+        width, height = self._config.cameras.image_size
+        lamp = np.asarray(self._config.lighting.key_rgb, dtype=float)
+        bgr = 255.0 * level * lamp[::-1] / float(lamp.max())
+        card = np.broadcast_to(np.rint(bgr).astype(np.uint8), (height, width, 3)).copy()
+        time = self._clock.time
+        left, _ = self._models[0].expose(card, time)
+        right, _ = self._models[1].expose(card, time)
+        return left, right
+
     def save_rig(self, path: str | Path) -> Path:
         """Writes the true rig YAML (docs/architecture.md format) and returns its path."""
         save_rig(self.true_rig, path)
