@@ -35,6 +35,7 @@ from robot_app.vision.propose import Candidate, Proposal, ProposalSettings, Prop
 from robot_app.vision.recognition import Peak, Recognition
 from robot_app.vision.recognizer import RecognitionSettings, Recognizer
 from robot_app.vision.refinement import Refinement, RefinementSettings, Refiner, cma_search, compass_search
+from robot_app.vision.rivals import RivalSettings, RivalVerdict
 from robot_app.vision.sampling import ModelSamples, sample_model
 from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
 from robot_app.vision.synthetic import (
@@ -85,6 +86,8 @@ __all__ = [
     "Refinement",
     "RefinementSettings",
     "Refiner",
+    "RivalSettings",
+    "RivalVerdict",
     "SearchBoundsSettings",
     "StereoDepth",
     "StereoRig",

@@ -38,7 +38,8 @@ class Recognition:
     """Result of one recognition.
 
     Attributes:
-        found: the decision: confidence >= `decide.threshold`, the intended cloth is in view.
+        found: the decision: confidence >= `decide.threshold` (and, with rivals, no rival
+            explains the region better: `rival`), the intended cloth is in view.
         fitness: normalised hue fitness (`RecognitionSettings.fitness`, eqs. 9-11) of the
             reported pose (1.0 = perfect match).
         transform_model_to_camera: (4, 4) ^CR T_M, Σ_M in the right camera.
@@ -57,6 +58,9 @@ class Recognition:
             cells (`verify.Verification.interleaved`).
         agreeing: the verification's share of compared cells that agree
             (`verify.Verification.agreeing`).
+        rival: the catalogue model that explains the recognised region better (`rivals.py`;
+            then `found` is False), "" if none did or none was asked.
+        rivals_asked: rivals recognised in the pair for this decision (0: not asked).
     """
 
     found: bool
@@ -73,6 +77,8 @@ class Recognition:
     depth_offset: float = float("nan")
     interleaved: float = 0.0
     agreeing: float = float("nan")
+    rival: str = ""
+    rivals_asked: int = 0
 
     @property
     def position(self) -> FloatArray:

@@ -1,0 +1,154 @@
+"""Rivals: does another catalogue model explain the accepted region better?
+
+One model's decision alone cannot tell its cloth from a region of another cloth that
+shows the model's colours: a plain red model lying on the red patch of a patchwork cloth
+(the other patches of foreign colours taken as hidden) scores like a red cloth half
+under a sheet. Where the catalogue is known (in a pick-and-place cell it is: the cloths
+the cell handles), the decision asks the catalogue, as `identify` does among all models:
+each *rival* (a catalogue model whose main colours share a hue band with the target's,
+`overlapping`) is recognised in the same pair, and a rival that is more confident than
+the target and explains more than `shared_limit` of the target's explained pixels
+(`regions.explained`: the footprint pixels whose colour agrees with the model photo)
+describes the same cloth region better: the target is not found there.
+
+The cost is bounded: only rivals of overlapping hue bands, only for a target the decision
+accepted, and only when its confidence is below `decisive_confidence`. Without rivals
+(the default, and the paper's mode) or with `enabled: false` the decision is the
+single-model one exactly.
+
+Rivals are not the only thing that rejects an absent cloth: a look-alike outside the
+catalogue has no rival, and the single-model decision still has to reject it
+(`scripts/bench_recognition.py --rivals leave-out` measures that).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+from pydantic import Field
+
+from robot_app.config import StrictModel
+from robot_app.vision.camera import PinholeCamera
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.fitness_scores import FitnessSettings
+from robot_app.vision.hue import COLOUR_CODES, colours_match
+from robot_app.vision.recognition import Recognition
+from robot_app.vision.regions import Codes, explained, main_codes
+
+
+class RivalSettings(StrictModel):
+    """The rival test of an accepted recognition.
+
+    Attributes:
+        enabled: ask the rivals (when the recogniser has any; `Recognizer.set_rivals`).
+        decisive_confidence: from this confidence the target is accepted without asking [0-1].
+        min_confidence: a rival counts from this confidence (`identify`'s candidate level) [0-1].
+        shared_limit: a rival explaining more than this share of the target's explained
+            pixels describes the same region [-].
+        coverage: the main colours of a model are those of this share of its S_in points [-].
+    """
+
+    enabled: bool = True
+    decisive_confidence: float = Field(default=0.999, gt=0.0, le=1.0)
+    min_confidence: float = Field(default=0.15, ge=0.0, le=1.0)
+    shared_limit: float = Field(default=0.5, gt=0.0, le=1.0)
+    coverage: float = Field(default=0.8, gt=0.0, le=1.0)
+
+
+@dataclass(frozen=True)
+class RivalVerdict:
+    """What the rivals said about an accepted recognition.
+
+    Attributes:
+        asked: names of the rivals recognised in the pair (empty: none asked).
+        winner: the rival that explains the region better ("" if none).
+        shared: share of the target's explained pixels the winner explains [-] (NaN: none).
+        winner_confidence: the winner's confidence (NaN: none).
+    """
+
+    asked: tuple[str, ...] = ()
+    winner: str = ""
+    shared: float = float("nan")
+    winner_confidence: float = float("nan")
+
+
+def overlapping(
+    model: ClothModel, candidates: Sequence[ClothModel], hue_threshold: int, coverage: float = 0.8
+) -> list[int]:
+    """Indices of the candidates (not `model` itself, by name) whose main colours match one
+    of the model's main colours (`hue.colours_match` within `hue_threshold`)."""
+    own = main_codes(model, coverage)
+    kept = []
+    for k, other in enumerate(candidates):
+        if other.name == model.name:
+            continue
+        theirs = main_codes(other, coverage)
+        if np.any(colours_match(own[:, None], theirs[None, :], hue_threshold)):
+            kept.append(k)
+    return kept
+
+
+def judge(
+    model: ClothModel,
+    target: Recognition,
+    rivals: Sequence[Rival],
+    camera: PinholeCamera,
+    codes: Codes,
+    fitness: FitnessSettings,
+    settings: RivalSettings,
+) -> RivalVerdict:
+    """The rival (if any) that explains the target's region better (module docstring).
+
+    A rival is recognised only if its main colours match more than `shared_limit` of the
+    target's explained pixels (else it cannot explain that much of them); those are asked
+    in order of that share, and the first that explains the region better ends the test.
+
+    Args:
+        model: the target's model (with its photo's texture).
+        target: the target's recognition in the pair.
+        rivals: the rivals, each able to recognise itself in the same pair.
+        camera: the (undistorted) right camera the codes are of.
+        codes: (H, W) the right image's colour codes.
+        fitness: hue threshold and tone settings of the codes.
+        settings: the test's limits.
+    """
+    if model.texture_mask is None:
+        return RivalVerdict()  # without its photo the target cannot say which pixels it explains
+    _, own = explained(model, camera, target.transform_model_to_camera, codes, fitness)
+    count = max(int(np.count_nonzero(own)), 1)
+    seen = codes[own].astype(np.int64)
+    present = np.bincount(seen, minlength=COLOUR_CODES)[:COLOUR_CODES]
+    palette = np.arange(COLOUR_CODES)
+    reachable = []
+    for rival in rivals:
+        colours = main_codes(rival.model, settings.coverage)
+        matching = np.any(colours_match(palette[:, None], colours[None, :], fitness.hue_threshold_in), axis=1)
+        share = present[matching].sum() / count
+        if share > settings.shared_limit and rival.model.texture_mask is not None:
+            reachable.append((share, rival))
+    asked: list[str] = []
+    for _, rival in sorted(reachable, key=lambda pair: -pair[0]):
+        asked.append(rival.model.name)
+        answer = rival.recognize_alone()
+        if answer.confidence < max(settings.min_confidence, target.confidence):
+            continue
+        _, theirs = explained(rival.model, camera, answer.transform_model_to_camera, codes, fitness)
+        shared = np.count_nonzero(own & theirs) / count
+        if shared > settings.shared_limit:
+            return RivalVerdict(tuple(asked), rival.model.name, float(shared), answer.confidence)
+    return RivalVerdict(tuple(asked))
+
+
+class Rival(Protocol):
+    """A rival as `judge` asks it: its model, and its recognition in the pair at hand."""
+
+    @property
+    def model(self) -> ClothModel: ...
+
+    def recognize_alone(self) -> Recognition: ...
+
+
+__all__ = ["Rival", "RivalSettings", "RivalVerdict", "judge", "overlapping"]
