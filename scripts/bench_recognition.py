@@ -420,7 +420,7 @@ def report_identification(
     recognition; with `wrong`, the (index, recognition, None) of every i != j (negatives
     for `--calibrate`)."""
     rng = seeds(args, calibration)
-    false_accepts, missed = [], []
+    false_accepts, missed, rejected_by_rival, times = [], [], 0, {True: [], False: []}
     for j in range(size):
         left, right, truth = scenes.present("flat", j, rng(f"identification{size}", j))
         for i in range(size):
@@ -432,6 +432,8 @@ def report_identification(
                 )
             if wrong is not None and i != j:
                 wrong.append((i, result, None))
+            rejected_by_rival += bool(result.rival)
+            times[bool(result.rivals_asked)].append(result.time_s * 1e3)
             if result.found and i != j:
                 false_accepts.append((i, j, round(result.confidence, 3)))
             if not result.found and i == j:
@@ -439,6 +441,10 @@ def report_identification(
     print(f"{size}x{size} identification (model i on a scene of cloth j alone, realistic camera): "
           f"false accepts {len(false_accepts)} (goal 0: {verdict(not false_accepts)}) {false_accepts[:6]}; "
           f"own cloth missed {len(missed)} {missed}")  # fmt: skip
+    if times[True]:
+        print(f"  rivals ({args.rivals}): asked in {len(times[True])} of {size * size}, rejected by a rival "
+              f"{rejected_by_rival}; wall time median {np.median(times[True]):.1f} ms when asked, "
+              f"{np.median(times[False]):.1f} ms otherwise")  # fmt: skip
 
 
 def report_identification_among(scenes: Scenes, recognizers: list[Recognizer], args, size: int) -> None:

@@ -5,11 +5,14 @@ the recogniser with rivals on a real search."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 import pytest
 
+from robot_app.cli import main
 from robot_app.geometry import make_transform, rotation_about_z
 from robot_app.vision import (
     ClothModel,
@@ -20,6 +23,7 @@ from robot_app.vision import (
     Recognizer,
     StereoRig,
     make_model,
+    save_rig,
 )
 from robot_app.vision.regions import image_codes
 from robot_app.vision.rivals import RivalSettings, judge, overlapping
@@ -135,3 +139,23 @@ def test_a_plain_model_on_part_of_a_catalogue_cloth_is_rejected_by_it(models, st
     assert result.confidence == alone.confidence  # the rival test decides, it does not re-score
     assert not result.found
     assert result.rival == models[STRIPES].name and result.rivals_asked == 1
+
+
+def test_recognize_cli_takes_rival_models(models, stripes_pair, tmp_path, capsys) -> None:
+    left, right = stripes_pair
+    models[RED].save(tmp_path / "red.npz")
+    models[STRIPES].save(tmp_path / "stripes.npz")
+    save_rig(RIG, tmp_path / "rig.yaml")
+    cv2.imwrite(str(tmp_path / "left.png"), left)
+    cv2.imwrite(str(tmp_path / "right.png"), right)
+    common = ["recognize", "--model", str(tmp_path / "red.npz"), "--rig", str(tmp_path / "rig.yaml"),
+              "--left", str(tmp_path / "left.png"), "--right", str(tmp_path / "right.png"), "--seed", "1",
+              "--json", "--set", "rivals.decisive_confidence=1.0"]  # fmt: skip
+    assert main(common) == 0
+    alone = json.loads(capsys.readouterr().out)
+    assert alone["found"] is True and "rival" not in alone
+    assert main([*common, "--rival", str(tmp_path / "stripes.npz")]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["found"] is False and record["rival"] == models[STRIPES].name
+    assert record["rivals_asked"] == 1
+    assert main([*common, "--rival", str(tmp_path / "missing.npz")]) == 2

@@ -96,7 +96,8 @@ class Recognition:
         return yaw_of(self.transform_model_to_camera[:3, :3])
 
     def to_json(self) -> dict[str, object]:
-        """The DESIGN.md recognition record (plus `appearance`, and `peaks` when there are any)."""
+        """The DESIGN.md recognition record (plus `appearance`, `rival` and `rivals_asked` when
+        rivals were asked, and `peaks` when there are any)."""
         data: dict[str, object] = {
             "found": bool(self.found),
             "fitness": float(self.fitness),
@@ -111,6 +112,9 @@ class Recognition:
             "visible_fraction": float(self.visible_fraction),
             "appearance": None if np.isnan(self.appearance) else float(self.appearance),
         }
+        if self.rivals_asked:
+            data["rival"] = self.rival or None
+            data["rivals_asked"] = int(self.rivals_asked)
         if self.peaks:
             data["peaks"] = [
                 {
