@@ -34,7 +34,7 @@ CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
 STATION = ModelCamera(PinholeCamera.from_fov((480, 360), np.deg2rad(48)), 0.40)
 STRIPES_POSE = make_transform(rotation_about_z(0.3), [0.02, -0.01, 0.58])
-RED, YELLOW, STRIPES, CYAN = 0, 1, 2, 6
+RED, YELLOW, STRIPES, CYAN, PATCHWORK = 0, 1, 2, 6, 11
 
 
 def _model(index: int) -> ClothModel:
@@ -44,7 +44,7 @@ def _model(index: int) -> ClothModel:
 
 @pytest.fixture(scope="module")
 def models() -> dict[int, ClothModel]:
-    return {k: _model(k) for k in (RED, YELLOW, STRIPES, CYAN)}
+    return {k: _model(k) for k in (RED, YELLOW, STRIPES, CYAN, PATCHWORK)}
 
 
 @pytest.fixture(scope="module")
@@ -98,6 +98,11 @@ def test_a_rival_that_explains_the_region_better_wins(models, stripes_pair) -> N
     cyan = _Fixed(models[CYAN], _recognition(STRIPES_POSE, 0.99))
     verdict = judge(models[RED], target, [cyan], CAMERA, codes, fitness, settings)
     assert verdict.asked == () and verdict.winner == ""
+    # nor one most of whose colours the image does not show (the patchwork's red matches the
+    # region, its other patches are nowhere): it could not be the more confident
+    patchwork = _Fixed(models[PATCHWORK], _recognition(STRIPES_POSE, 0.99))
+    verdict = judge(models[RED], target, [patchwork, stripes], CAMERA, codes, fitness, settings)
+    assert verdict.asked == (models[STRIPES].name,) and verdict.winner == models[STRIPES].name
 
 
 def test_rivals_must_be_on_the_same_rig(models) -> None:

@@ -12,7 +12,10 @@ the target and explains more than `shared_limit` of the target's explained pixel
 describes the same cloth region better: the target is not found there.
 
 The cost is bounded: only rivals of overlapping hue bands, only for a target the decision
-accepted, and only when its confidence is below `decisive_confidence`. Without rivals
+accepted, only when its confidence is below `decisive_confidence`, and only rivals whose
+colours the image shows in the target's region and, for most of the rival, in the
+foreground (`judge`). A rival search costs about a one-shot recognition (more when its
+cloth is absent: restarts). Without rivals
 (the default, and the paper's mode) or with `enabled: false` the decision is the
 single-model one exactly.
 
@@ -36,7 +39,7 @@ from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.fitness_scores import FitnessSettings
 from robot_app.vision.hue import COLOUR_CODES, colours_match
 from robot_app.vision.recognition import Recognition
-from robot_app.vision.regions import Codes, explained, main_codes
+from robot_app.vision.regions import Codes, explained, main_codes, model_area
 
 
 class RivalSettings(StrictModel):
@@ -49,6 +52,11 @@ class RivalSettings(StrictModel):
         shared_limit: a rival explaining more than this share of the target's explained
             pixels describes the same region [-].
         coverage: the main colours of a model are those of this share of its S_in points [-].
+        min_colour_cover: a rival is asked only if the image's foreground (not the sheet)
+            holds enough pixels of its main colours to show at least this share of it, at
+            the target's depth (a rival mostly absent from the image cannot be the more
+            confident: not worth its search) [-].
+        sheet_tolerance: pixels within this of the sheet's hue are the sheet [HSV_FULL steps].
     """
 
     enabled: bool = True
@@ -56,6 +64,8 @@ class RivalSettings(StrictModel):
     min_confidence: float = Field(default=0.15, ge=0.0, le=1.0)
     shared_limit: float = Field(default=0.5, gt=0.0, le=1.0)
     coverage: float = Field(default=0.8, gt=0.0, le=1.0)
+    min_colour_cover: float = Field(default=0.5, ge=0.0, le=1.0)
+    sheet_tolerance: int = Field(default=25, ge=1, le=64)
 
 
 @dataclass(frozen=True)
@@ -103,8 +113,9 @@ def judge(
     """The rival (if any) that explains the target's region better (module docstring).
 
     A rival is recognised only if its main colours match more than `shared_limit` of the
-    target's explained pixels (else it cannot explain that much of them); those are asked
-    in order of that share, and the first that explains the region better ends the test.
+    target's explained pixels (else it cannot explain that much of them) and the image's
+    foreground holds its colours for at least `min_colour_cover` of it; those are asked in
+    order of that share, and the first that explains the region better ends the test.
 
     Args:
         model: the target's model (with its photo's texture).
@@ -129,6 +140,10 @@ def judge(
         share = present[matching].sum() / count
         if share > settings.shared_limit and rival.model.texture_mask is not None:
             reachable.append((share, rival))
+    cover = _colour_cover(model, target, rivals, camera, codes, fitness, settings)
+    reachable = [
+        (share, rival) for share, rival in reachable if cover[rival.model.name] >= settings.min_colour_cover
+    ]
     asked: list[str] = []
     for _, rival in sorted(reachable, key=lambda pair: -pair[0]):
         asked.append(rival.model.name)
@@ -140,6 +155,38 @@ def judge(
         if shared > settings.shared_limit:
             return RivalVerdict(tuple(asked), rival.model.name, float(shared), answer.confidence)
     return RivalVerdict(tuple(asked))
+
+
+def _colour_cover(
+    model: ClothModel,
+    target: Recognition,
+    rivals: Sequence[Rival],
+    camera: PinholeCamera,
+    codes: Codes,
+    fitness: FitnessSettings,
+    settings: RivalSettings,
+) -> dict[str, float]:
+    """Per rival, the share of it the image's foreground could show by colour: the sum over
+    its main colours c (share p_c of its S_in points) of p_c · min(1, n_c / (p_c · A)), with
+    n_c the foreground pixels matching c and A the rival's area in pixels at the target's depth."""
+    codes64 = codes.astype(np.int64)
+    sheet = np.asarray(colours_match(codes64, round(model.background_hue) % 256, settings.sheet_tolerance))
+    histogram = np.bincount(codes64[~sheet], minlength=COLOUR_CODES + 1)[:COLOUR_CODES]
+    palette = np.arange(COLOUR_CODES)
+    depth = max(float(target.transform_model_to_camera[2, 3]), 1e-3)
+    scale = (float(camera.camera_matrix[0, 0]) / depth) ** 2
+    cover: dict[str, float] = {}
+    for rival in rivals:
+        area = model_area(rival.model) * scale  # [px]
+        codes_in, counts = np.unique(np.asarray(rival.model.hues_in), return_counts=True)
+        shares = counts / counts.sum()
+        total = 0.0
+        for c in main_codes(rival.model, settings.coverage):
+            p = float(shares[np.searchsorted(codes_in, c)])
+            matching = np.asarray(colours_match(palette, int(c), fitness.hue_threshold_in))
+            total += p * min(1.0, float(histogram[matching].sum()) / max(p * area, 1.0))
+        cover[rival.model.name] = total
+    return cover
 
 
 class Rival(Protocol):
