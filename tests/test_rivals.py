@@ -105,6 +105,19 @@ def test_a_rival_that_explains_the_region_better_wins(models, stripes_pair) -> N
     assert verdict.asked == (models[STRIPES].name,) and verdict.winner == models[STRIPES].name
 
 
+def test_a_rival_explaining_only_part_of_the_target_does_not_win(models, stripes_pair) -> None:
+    # the stripes found (a covered target, say), the plain red model more confident on its
+    # red stripes: they share the region, but red explains only part of what the stripes do
+    _, right = stripes_pair
+    fitness = RecognitionSettings().fitness
+    codes = image_codes(right, np.ones(3), fitness)
+    settings = RivalSettings(shared_limit=0.3)
+    target = _recognition(STRIPES_POSE, 0.9)
+    red = _Fixed(models[RED], _recognition(STRIPES_POSE, 0.95))
+    verdict = judge(models[STRIPES], target, [red], CAMERA, codes, fitness, settings)
+    assert verdict.asked == (models[RED].name,) and verdict.winner == ""
+
+
 def test_rivals_must_be_on_the_same_rig(models) -> None:
     other = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.12, 0.0, 0.0]))
     recognizer = Recognizer(models[RED], RIG)
