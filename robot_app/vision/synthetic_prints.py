@@ -215,7 +215,7 @@ def folded_corner(cloth: SyntheticCloth, fraction: float, direction: float) -> S
 
 
 def crumpled(cloth: SyntheticCloth, rng: np.random.Generator) -> SyntheticCloth:
-    """The cloth as it lies after a drop: two corners turned over (10-25 % of the area each,
+    """The cloth as it might lie after a drop (a guess at it, not a model of the physics): two corners turned over (10-25 % of the area each,
     their directions at least 90° apart; the second may fold over the first's back) and
     heavy wrinkles (ridges of 4-8 mm, shading up to 0.5). The frame stays the flat cloth's."""
     first = float(rng.uniform(0, 2 * np.pi))
