@@ -195,7 +195,9 @@ class Recognizer:
         """The catalogue the cloth could be confused with (`rivals.py`): each a recogniser of
         another model on the same rig; only those whose main colours share a hue band with
         this model's are kept (this model's own is left out by name). An empty catalogue:
-        the single-model decision.
+        the single-model decision. Asking a rival runs its one-shot search, which replaces
+        the poses it keeps for tracking: do not give a recogniser that tracks as a rival.
+        The rival test is of one-shot recognitions (`recognize`), not of `check` or `track`.
 
         Raises:
             ValueError: a rival on another rig.
