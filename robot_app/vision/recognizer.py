@@ -157,6 +157,7 @@ class _PairRival:
     image_left_bgr: npt.NDArray[np.uint8]
     image_right_bgr: npt.NDArray[np.uint8]
     seed: int | None
+    restarts: int | None
 
     @property
     def model(self) -> ClothModel:
@@ -164,7 +165,8 @@ class _PairRival:
 
     def recognize_alone(self) -> Recognition:
         r = self.recognizer
-        return r._recognize_alone(self.image_left_bgr, self.image_right_bgr, self.seed, False)
+        restarts = self.restarts
+        return r._recognize_alone(self.image_left_bgr, self.image_right_bgr, self.seed, False, restarts)
 
 
 class Recognizer:
@@ -287,7 +289,8 @@ class Recognizer:
         width, height = camera.image_size
         framed = self.evaluator.codes[1].reshape(height + 3, width + 3)  # see `pixel_codes`
         codes = framed[1 : height + 1, 1 : width + 1]
-        rivals = [_PairRival(r, image_left_bgr, image_right_bgr, seed) for r in self._rivals]
+        cap = self.settings.rivals.restarts
+        rivals = [_PairRival(r, image_left_bgr, image_right_bgr, seed, cap) for r in self._rivals]
         return judge(self.model, result, rivals, camera, codes, self.settings.fitness, self.settings.rivals)
 
     def _recognize_alone(
@@ -296,13 +299,14 @@ class Recognizer:
         image_right_bgr: npt.NDArray[np.uint8],
         seed: int | None,
         report_peaks: bool,
+        restarts: int | None = None,
     ) -> Recognition:
-        """`recognize` without the rivals."""
+        """`recognize` without the rivals (`restarts`: cap on the GA's restarts, None: the settings')."""
         start = time.perf_counter()
         self._take(image_left_bgr, image_right_bgr)
         before = self.evaluator.evaluations
         rng = np.random.default_rng(seed) if seed is not None else self.proposer.rng
-        proposal = self.proposer.propose(rng, peaks=report_peaks)
+        proposal = self.proposer.propose(rng, peaks=report_peaks, restarts=restarts)
         chosen, measurement = self._depth_checked(
             self._most_confident(proposal.best, proposal.candidates, rng)
         )

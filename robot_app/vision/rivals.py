@@ -64,6 +64,8 @@ class RivalSettings(StrictModel):
             the target's depth (a rival mostly absent from the image cannot be the more
             confident: not worth its search) [-].
         sheet_tolerance: pixels within this of the sheet's hue are the sheet [HSV_FULL steps].
+        restarts: cap on a rival search's GA restarts (None: the rival's own
+            `propose.restarts`); a rival whose cloth is absent restarts the most.
     """
 
     enabled: bool = True
@@ -73,6 +75,7 @@ class RivalSettings(StrictModel):
     coverage: float = Field(default=0.8, gt=0.0, le=1.0)
     min_colour_cover: float = Field(default=0.5, ge=0.0, le=1.0)
     sheet_tolerance: int = Field(default=25, ge=1, le=64)
+    restarts: int | None = Field(default=None, ge=0)
 
 
 @dataclass(frozen=True)
