@@ -25,8 +25,8 @@ from robot_app.vision import (
     make_model,
     save_rig,
 )
+from robot_app.vision.decide import RivalSettings, judge, overlapping
 from robot_app.vision.regions import image_codes
-from robot_app.vision.rivals import RivalSettings, judge, overlapping
 from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
 from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
@@ -55,7 +55,7 @@ def stripes_pair() -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class _Fixed:
-    """A rival whose recognition is given (`rivals.Rival`)."""
+    """A rival whose recognition is given (`decide.Rival`)."""
 
     model: ClothModel
     answer: Recognition

@@ -10,7 +10,15 @@ from robot_app.vision.camera import (
     save_rig,
 )
 from robot_app.vision.cloth_model import ClothModel
-from robot_app.vision.decide import Decision, DecisionSettings, Evidence, confidence, decide
+from robot_app.vision.decide import (
+    Decision,
+    DecisionSettings,
+    Evidence,
+    RivalSettings,
+    RivalVerdict,
+    confidence,
+    decide,
+)
 from robot_app.vision.exposure import ExposureSettings, sheet_gains
 from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
 from robot_app.vision.fitness_scores import FitnessSettings
@@ -35,7 +43,6 @@ from robot_app.vision.propose import Candidate, Proposal, ProposalSettings, Prop
 from robot_app.vision.recognition import Peak, Recognition
 from robot_app.vision.recognizer import RecognitionSettings, Recognizer
 from robot_app.vision.refinement import Refinement, RefinementSettings, Refiner, cma_search, compass_search
-from robot_app.vision.rivals import RivalSettings, RivalVerdict
 from robot_app.vision.sampling import ModelSamples, sample_model
 from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
 from robot_app.vision.synthetic import (

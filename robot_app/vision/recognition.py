@@ -58,7 +58,7 @@ class Recognition:
             cells (`verify.Verification.interleaved`).
         agreeing: the verification's share of compared cells that agree
             (`verify.Verification.agreeing`).
-        rival: the catalogue model that explains the recognised region better (`rivals.py`;
+        rival: the catalogue model that explains the recognised region better (`decide.judge`;
             then `found` is False), "" if none did or none was asked.
         rivals_asked: rivals recognised in the pair for this decision (0: not asked).
     """

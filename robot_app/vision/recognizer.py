@@ -43,7 +43,16 @@ from robot_app.config import SettingValueError, StrictModel
 from robot_app.geometry import rotation_about_z
 from robot_app.vision.camera import StereoRig
 from robot_app.vision.cloth_model import ClothModel
-from robot_app.vision.decide import DecisionSettings, Evidence, decide, logit
+from robot_app.vision.decide import (
+    DecisionSettings,
+    Evidence,
+    RivalSettings,
+    RivalVerdict,
+    decide,
+    judge,
+    logit,
+    overlapping,
+)
 from robot_app.vision.exposure import ExposureSettings, scene_exposure
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.fitness_scores import FitnessSettings
@@ -53,7 +62,6 @@ from robot_app.vision.poses import moved
 from robot_app.vision.propose import HALF_TURN, Candidate, ProposalSettings, Proposer
 from robot_app.vision.recognition import Peak, Recognition
 from robot_app.vision.refinement import RefinementSettings, Refiner
-from robot_app.vision.rivals import RivalSettings, RivalVerdict, judge, overlapping
 from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
 from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
@@ -85,7 +93,7 @@ class RecognitionSettings(StrictModel):
         verify: the appearance check and the ambiguity margin.
         depth: the stereo depth check of the final pose.
         decide: the confidence and THE acceptance threshold.
-        rivals: the rival test of an accepted one-shot recognition (`rivals.py`; only with
+        rivals: the rival test of an accepted one-shot recognition (`decide.py`'s rivals; only with
             rivals given, `Recognizer.set_rivals`).
         pause_garbage_collector: switch Python's cyclic garbage collector off during a
             recognition (it runs again afterwards; a recognition makes no reference
@@ -151,7 +159,7 @@ class _Verified:
 
 @dataclass(frozen=True)
 class _PairRival:
-    """A rival recogniser bound to the pair at hand (`rivals.Rival`)."""
+    """A rival recogniser bound to the pair at hand (`decide.Rival`)."""
 
     recognizer: Recognizer
     image_left_bgr: npt.NDArray[np.uint8]
@@ -194,7 +202,7 @@ class Recognizer:
         return self._rivals
 
     def set_rivals(self, catalogue: Sequence[Recognizer]) -> None:
-        """The catalogue the cloth could be confused with (`rivals.py`): each a recogniser of
+        """The catalogue the cloth could be confused with (`decide.py`, rivals): each a recogniser of
         another model on the same rig; only those whose main colours share a hue band with
         this model's are kept (this model's own is left out by name). An empty catalogue:
         the single-model decision. Asking a rival runs its one-shot search, which replaces
@@ -284,7 +292,7 @@ class Recognizer:
         image_right_bgr: npt.NDArray[np.uint8],
         seed: int | None,
     ) -> RivalVerdict:
-        """`rivals.judge` of `result`; a rival asked recognises itself in the pair (alone, the same seed)."""
+        """`decide.judge` of `result`; a rival asked recognises itself in the pair (alone, the same seed)."""
         camera = self.rig.right
         width, height = camera.image_size
         framed = self.evaluator.codes[1].reshape(height + 3, width + 3)  # see `pixel_codes`
