@@ -22,6 +22,12 @@ weights and threshold on them and prints them) and reported on the test seeds (t
         # a lean accuracy run; d.csv holds every recognition's evidence (study the misses)
     taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-accuracy --skip-fullsearch --identify
         # identification alone, and by vision.identify (every model together: the relative test)
+    taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-fullsearch --scenes 60 \
+        --rivals catalogue
+        # the single-model decision with the catalogue's rivals (decide.judge)
+    taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-fullsearch --scenes 60 \
+        --rivals leave-out --kinds absent_family,absent_other
+        # the same without the absent cloth's own model among the rivals (a look-alike not in the catalogue)
 """
 
 from __future__ import annotations
