@@ -76,6 +76,14 @@ def recognize(
         bool, typer.Option("--json", help="One compact JSON line instead of indented.")
     ] = False,
     peaks: Annotated[bool, typer.Option("--peaks", help="Also report the best pose of each peak.")] = False,
+    rival: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--rival",
+            help="A catalogue model the cloth could be confused with (repeatable): an accepted "
+            "recognition is rejected if one explains its region better (config: rivals.*).",
+        ),
+    ] = None,
     config: ConfigOption = None,
     overrides: SetOption = None,
     max_memory_gb: MaxMemoryOption = None,
@@ -100,7 +108,7 @@ def recognize(
         cloth_model = ClothModel.load(model)
         check_model_size(cloth_model, "--model", limits)
         check_recognition_settings(settings, limits)
-        recognizer = Recognizer(cloth_model, load_rig(rig), settings)
+        recognizer = _with_rivals(Recognizer(cloth_model, load_rig(rig), settings), rival or [], limits)
         summary = recognize_pairs(recognizer, rows, seed=seed, report_peaks=peaks)
         if summary.failed:  # a result, not bad input: exit 1 after every row has printed
             raise RobotAppError(f"{summary.failed} of {summary.rows} pairs failed (their rows say why)")
@@ -108,9 +116,20 @@ def recognize(
     if left is None or right is None:  # unreachable (checked above); narrows the types
         raise InputError("give --left and --right", key="--left")
     cloth_model = check_recognition_inputs(model, left, right, settings, limits)
-    recognizer = Recognizer(cloth_model, load_rig(rig), settings)
+    recognizer = _with_rivals(Recognizer(cloth_model, load_rig(rig), settings), rival or [], limits)
     result = recognizer.recognize(load_photo(left), load_photo(right), seed=seed, report_peaks=peaks)
     typer.echo(json.dumps(result.to_json(), indent=None if as_json else 2))
+
+
+def _with_rivals(recognizer: Recognizer, paths: list[Path], limits: ResourceLimits) -> Recognizer:
+    """The recogniser with the rival models of `--rival` (each loaded and size-checked)."""
+    rivals = []
+    for path in paths:
+        rival_model = ClothModel.load(path)
+        check_model_size(rival_model, "--rival", limits)
+        rivals.append(Recognizer(rival_model, recognizer.rig, recognizer.settings))
+    recognizer.set_rivals(rivals)
+    return recognizer
 
 
 def fullsearch(

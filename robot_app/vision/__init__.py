@@ -10,7 +10,15 @@ from robot_app.vision.camera import (
     save_rig,
 )
 from robot_app.vision.cloth_model import ClothModel
-from robot_app.vision.decide import Decision, DecisionSettings, Evidence, confidence, decide
+from robot_app.vision.decide import (
+    Decision,
+    DecisionSettings,
+    Evidence,
+    RivalSettings,
+    RivalVerdict,
+    confidence,
+    decide,
+)
 from robot_app.vision.exposure import ExposureSettings, sheet_gains
 from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
 from robot_app.vision.fitness_scores import FitnessSettings
@@ -85,6 +93,8 @@ __all__ = [
     "Refinement",
     "RefinementSettings",
     "Refiner",
+    "RivalSettings",
+    "RivalVerdict",
     "SearchBoundsSettings",
     "StereoDepth",
     "StereoRig",

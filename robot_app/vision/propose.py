@@ -173,8 +173,11 @@ class Proposer:
             float(np.deg2rad(b.max_yaw_deg)) if b.max_yaw_deg < 180.0 else np.inf,
         )
 
-    def propose(self, rng: np.random.Generator | None = None, *, peaks: bool = False) -> Proposal:
-        """One-shot proposal on the evaluator's current pair (see the module docstring)."""
+    def propose(
+        self, rng: np.random.Generator | None = None, *, peaks: bool = False, restarts: int | None = None
+    ) -> Proposal:
+        """One-shot proposal on the evaluator's current pair (see the module docstring);
+        `restarts` caps the restarts below `settings.restarts` (None: the settings')."""
         s = self.settings
         rng = self.rng if rng is None else rng
         found: list[Candidate] = []
@@ -182,7 +185,7 @@ class Proposer:
         generations = 0
         for _ in range(s.max_peaks if peaks else 1):
             centres = np.array([[*p.transform_model_to_camera[:2, 3], np.nan] for p in found]).reshape(-1, 3)
-            best, run_ends, best_ga, count = self._runs(rng, centres)
+            best, run_ends, best_ga, count = self._runs(rng, centres, restarts)
             generations += count
             if found and best.search_fitness < s.peak_min_fitness:
                 break
@@ -269,7 +272,7 @@ class Proposer:
 
     # ------------------------------------------------------------------ one-shot internals
     def _runs(
-        self, rng: np.random.Generator, centres: FloatArray
+        self, rng: np.random.Generator, centres: FloatArray, restarts: int | None = None
     ) -> tuple[Candidate, list[Candidate], GeneticAlgorithm, int]:
         """GA runs with restarts away from `centres`: the best end, every end, the best run's
         GA and the generations run."""
@@ -278,7 +281,7 @@ class Proposer:
         best = self._finish(ga, rng, centres)
         generations = s.ga.generations
         ends, avoid = [best], centres
-        for _ in range(s.restarts):
+        for _ in range(s.restarts if restarts is None else min(restarts, s.restarts)):
             if best.search_fitness >= s.restart_below:
                 break
             again = self._search(rng, avoid)

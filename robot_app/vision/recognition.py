@@ -38,7 +38,8 @@ class Recognition:
     """Result of one recognition.
 
     Attributes:
-        found: the decision: confidence >= `decide.threshold`, the intended cloth is in view.
+        found: the decision: confidence >= `decide.threshold` (and, with rivals, no rival
+            explains the region better: `rival`), the intended cloth is in view.
         fitness: normalised hue fitness (`RecognitionSettings.fitness`, eqs. 9-11) of the
             reported pose (1.0 = perfect match).
         transform_model_to_camera: (4, 4) ^CR T_M, Σ_M in the right camera.
@@ -57,6 +58,9 @@ class Recognition:
             cells (`verify.Verification.interleaved`).
         agreeing: the verification's share of compared cells that agree
             (`verify.Verification.agreeing`).
+        rival: the catalogue model that explains the recognised region better (`decide.judge`;
+            then `found` is False), "" if none did or none was asked.
+        rivals_asked: rivals recognised in the pair for this decision (0: not asked).
     """
 
     found: bool
@@ -73,6 +77,8 @@ class Recognition:
     depth_offset: float = float("nan")
     interleaved: float = 0.0
     agreeing: float = float("nan")
+    rival: str = ""
+    rivals_asked: int = 0
 
     @property
     def position(self) -> FloatArray:
@@ -90,7 +96,8 @@ class Recognition:
         return yaw_of(self.transform_model_to_camera[:3, :3])
 
     def to_json(self) -> dict[str, object]:
-        """The DESIGN.md recognition record (plus `appearance`, and `peaks` when there are any)."""
+        """The DESIGN.md recognition record (plus `appearance`, `rival` and `rivals_asked` when
+        rivals were asked, and `peaks` when there are any)."""
         data: dict[str, object] = {
             "found": bool(self.found),
             "fitness": float(self.fitness),
@@ -105,6 +112,9 @@ class Recognition:
             "visible_fraction": float(self.visible_fraction),
             "appearance": None if np.isnan(self.appearance) else float(self.appearance),
         }
+        if self.rivals_asked:
+            data["rival"] = self.rival or None
+            data["rivals_asked"] = int(self.rivals_asked)
         if self.peaks:
             data["peaks"] = [
                 {

@@ -30,8 +30,8 @@ from __future__ import annotations
 import functools
 import gc
 import time
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from typing import Any, TypeVar, cast
 
 import numpy as np
@@ -43,7 +43,16 @@ from robot_app.config import SettingValueError, StrictModel
 from robot_app.geometry import rotation_about_z
 from robot_app.vision.camera import StereoRig
 from robot_app.vision.cloth_model import ClothModel
-from robot_app.vision.decide import DecisionSettings, Evidence, decide, logit
+from robot_app.vision.decide import (
+    DecisionSettings,
+    Evidence,
+    RivalSettings,
+    RivalVerdict,
+    decide,
+    judge,
+    logit,
+    overlapping,
+)
 from robot_app.vision.exposure import ExposureSettings, scene_exposure
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.fitness_scores import FitnessSettings
@@ -84,6 +93,8 @@ class RecognitionSettings(StrictModel):
         verify: the appearance check and the ambiguity margin.
         depth: the stereo depth check of the final pose.
         decide: the confidence and THE acceptance threshold.
+        rivals: the rival test of an accepted one-shot recognition (`decide.py`'s rivals; only with
+            rivals given, `Recognizer.set_rivals`).
         pause_garbage_collector: switch Python's cyclic garbage collector off during a
             recognition (it runs again afterwards; a recognition makes no reference
             cycles). A full collection inside a recognition costs 10-20 ms.
@@ -105,6 +116,7 @@ class RecognitionSettings(StrictModel):
     verify: VerificationSettings = VerificationSettings()
     depth: DepthCheckSettings = DepthCheckSettings()
     decide: DecisionSettings = DecisionSettings()
+    rivals: RivalSettings = RivalSettings()
     pause_garbage_collector: bool = True
 
     @model_validator(mode="after")
@@ -145,6 +157,26 @@ class _Verified:
     score: float  # the decision's logit: how the alternatives are ranked
 
 
+@dataclass(frozen=True)
+class _PairRival:
+    """A rival recogniser bound to the pair at hand (`decide.Rival`)."""
+
+    recognizer: Recognizer
+    image_left_bgr: npt.NDArray[np.uint8]
+    image_right_bgr: npt.NDArray[np.uint8]
+    seed: int | None
+    restarts: int | None
+
+    @property
+    def model(self) -> ClothModel:
+        return self.recognizer.model
+
+    def recognize_alone(self) -> Recognition:
+        r = self.recognizer
+        restarts = self.restarts
+        return r._recognize_alone(self.image_left_bgr, self.image_right_bgr, self.seed, False, restarts)
+
+
 class Recognizer:
     """Recognises one cloth model in stereo pairs; keeps the best poses for tracking."""
 
@@ -162,6 +194,31 @@ class Recognizer:
         self.depth = StereoDepth(model, rig, s.depth)
         self._frames_since_verified = 0
         self._last_verification: Verification | None = None
+        self._rivals: tuple[Recognizer, ...] = ()
+
+    @property
+    def rivals(self) -> tuple[Recognizer, ...]:
+        """The rivals the decision asks (`set_rivals`), of hue bands overlapping the model's."""
+        return self._rivals
+
+    def set_rivals(self, catalogue: Sequence[Recognizer]) -> None:
+        """The catalogue the cloth could be confused with (`decide.py`, rivals): each a recogniser of
+        another model on the same rig; only those whose main colours share a hue band with
+        this model's are kept (this model's own is left out by name). An empty catalogue:
+        the single-model decision. Asking a rival runs its one-shot search, which replaces
+        the poses it keeps for tracking: do not give a recogniser that tracks as a rival.
+        The rival test is of one-shot recognitions (`recognize`), not of `check` or `track`.
+
+        Raises:
+            ValueError: a rival on another rig.
+        """
+        if any(r.rig is not self.rig for r in catalogue):
+            raise ValueError("every rival must be a recogniser on the same rig")
+        s = self.settings
+        kept = overlapping(
+            self.model, [r.model for r in catalogue], s.fitness.hue_threshold_in, s.rivals.coverage
+        )
+        self._rivals = tuple(catalogue[k] for k in kept)
 
     @property
     def population(self) -> FloatArray | None:
@@ -215,10 +272,49 @@ class Recognizer:
             InputError: images of the wrong type or size.
         """
         start = time.perf_counter()
+        result = self._recognize_alone(image_left_bgr, image_right_bgr, seed, report_peaks)
+        s = self.settings.rivals
+        if not (s.enabled and self._rivals and result.found and result.confidence < s.decisive_confidence):
+            return result
+        verdict = self._ask_rivals(result, image_left_bgr, image_right_bgr, seed)
+        return replace(
+            result,
+            found=not verdict.winner,
+            rival=verdict.winner,
+            rivals_asked=len(verdict.asked),
+            time_s=time.perf_counter() - start,
+        )
+
+    def _ask_rivals(
+        self,
+        result: Recognition,
+        image_left_bgr: npt.NDArray[np.uint8],
+        image_right_bgr: npt.NDArray[np.uint8],
+        seed: int | None,
+    ) -> RivalVerdict:
+        """`decide.judge` of `result`; a rival asked recognises itself in the pair (alone, the same seed)."""
+        camera = self.rig.right
+        width, height = camera.image_size
+        framed = self.evaluator.codes[1].reshape(height + 3, width + 3)  # see `pixel_codes`
+        codes = framed[1 : height + 1, 1 : width + 1]
+        cap = self.settings.rivals.restarts
+        rivals = [_PairRival(r, image_left_bgr, image_right_bgr, seed, cap) for r in self._rivals]
+        return judge(self.model, result, rivals, camera, codes, self.settings.fitness, self.settings.rivals)
+
+    def _recognize_alone(
+        self,
+        image_left_bgr: npt.NDArray[np.uint8],
+        image_right_bgr: npt.NDArray[np.uint8],
+        seed: int | None,
+        report_peaks: bool,
+        restarts: int | None = None,
+    ) -> Recognition:
+        """`recognize` without the rivals (`restarts`: cap on the GA's restarts, None: the settings')."""
+        start = time.perf_counter()
         self._take(image_left_bgr, image_right_bgr)
         before = self.evaluator.evaluations
         rng = np.random.default_rng(seed) if seed is not None else self.proposer.rng
-        proposal = self.proposer.propose(rng, peaks=report_peaks)
+        proposal = self.proposer.propose(rng, peaks=report_peaks, restarts=restarts)
         chosen, measurement = self._depth_checked(
             self._most_confident(proposal.best, proposal.candidates, rng)
         )

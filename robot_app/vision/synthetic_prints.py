@@ -214,9 +214,30 @@ def folded_corner(cloth: SyntheticCloth, fraction: float, direction: float) -> S
     )
 
 
+def crumpled(cloth: SyntheticCloth, rng: np.random.Generator) -> SyntheticCloth:
+    """The cloth as it might lie after a drop (a guess, not a model of the physics): two
+    corners turned over (10-25 % of the area each, their directions at least 90° apart; the
+    second may fold over the first's back) and heavy wrinkles (ridges of 4-8 mm, shading up
+    to 0.5). The frame stays the flat cloth's."""
+    first = float(rng.uniform(0, 2 * np.pi))
+    second = first + float(rng.uniform(np.pi / 2, 3 * np.pi / 2))
+    folded = folded_corner(cloth, float(rng.uniform(0.1, 0.25)), first)
+    folded = folded_corner(folded, float(rng.uniform(0.1, 0.25)), second)
+    out = wrinkled(folded, rng, amplitude=float(rng.uniform(0.004, 0.008)), shading=0.5)
+    centroid = cloth.centroid
+    return SyntheticCloth(
+        f"{cloth.name}_crumpled",
+        out.texture_bgr,
+        out.alpha,
+        out.size,
+        (float(centroid[0]), float(centroid[1])),
+    )
+
+
 __all__ = [
     "EXTENDED_CATALOGUE_SIZE",
     "FAMILIES",
+    "crumpled",
     "extended_cloth",
     "family_of",
     "folded_corner",
