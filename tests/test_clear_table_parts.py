@@ -155,6 +155,11 @@ def test_pile_grasp_keeps_away_from_the_cloth_underneath() -> None:
     assert chosen.clearance >= 0.06 - 1e-9 and chosen.edge_gap >= 0.02
     assert chosen.point_model[0] <= -0.03 + 1e-9  # on the free half
     np.testing.assert_allclose(chosen.point_world, pose[:3, :3] @ chosen.point_model + pose[:3, 3])
+    # ... but not where the cloth would hang lower than max_reach below the fingers
+    short = choose_pile_grasp(model, pose, seen, under, PileGraspSettings(clearance=0.06, max_reach=0.15))
+    assert short is not None and short.clearance < 0.06
+    corners = np.array([[x, y] for x in (-0.1, 0.1) for y in (-0.1, 0.1)])
+    assert np.max(np.linalg.norm(corners - short.point_model[:2], axis=1)) <= 0.15 + 1e-9
     # the whole target lies on the other cloth: the farthest point from it, still inside the edge
     everywhere = np.column_stack([xs.ravel() + 0.3, ys.ravel() + 0.1])  # under x_M in [-0.17, 0.05]
     cornered = choose_pile_grasp(model, pose, seen, np.concatenate([under, everywhere]), settings)

@@ -10,18 +10,20 @@ The survey knows more than the loop: every identified cloth's whole footprint at
 surveyed pose (hidden parts included: where it lies *under* the target) and the foreground
 no model explains (unknown regions, laid onto the table plane). These are the obstacles.
 Among the target's visible points at least `min_edge_gap` inside its own edge (S_out and
-its hidden points), the chosen point is the one farthest from every obstacle, counted up
-to `clearance`; among points that all reach `clearance`, the one deepest inside its edge.
+its hidden points) and from which it hangs at most `max_reach`, the chosen point is the
+one farthest from every obstacle, counted up to `clearance`; among points that all reach
+`clearance`, the one deepest inside its edge.
 """
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 from pydantic import Field
-from scipy.spatial import cKDTree
+from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
@@ -40,12 +42,16 @@ class PileGraspSettings(StrictModel):
         min_edge_gap: the grasp point lies at least this far inside the target's visible
             edge when any point does [m].
         obstacle_step_px: unknown regions are sampled every this many pixels [px].
+        max_reach: the cloth hangs at most this far below the fingers from the chosen
+            point (its farthest S_in point), when any visible point allows it: a cloth
+            held near a corner hangs low enough to drag over a box wall [m].
     """
 
     enabled: bool = True
     clearance: float = Field(0.06, gt=0.0, le=0.3)
     min_edge_gap: float = Field(0.02, ge=0.0, le=0.2)
     obstacle_step_px: int = Field(3, ge=1, le=20)
+    max_reach: float = Field(0.24, gt=0.0, le=1.0)
 
 
 @dataclass(frozen=True)
@@ -131,8 +137,11 @@ def choose_pile_grasp(
     world = transform_points(T, candidates)
     obstacles = np.asarray(obstacles_xy, dtype=float).reshape(-1, 2)
     clear = _nearest(world[:, :2], obstacles)
+    reach = _farthest(candidates[:, :2], points_in[:, :2])
     inside = edge >= s.min_edge_gap
     pool = np.flatnonzero(inside) if np.any(inside) else np.arange(len(candidates))
+    short = pool[reach[pool] <= s.max_reach]
+    pool = short if len(short) else pool
     # farthest from the obstacles (up to `clearance`), then deepest inside its own edge
     score = np.minimum(clear[pool], s.clearance) * 1e3 + np.minimum(edge[pool], 1.0) * 1e-3
     best = int(pool[int(np.argmax(score))])
@@ -144,6 +153,14 @@ def choose_pile_grasp(
         float(edge[best]),
         share,
     )
+
+
+def _farthest(points: FloatArray, others: FloatArray) -> FloatArray:
+    """(N,) distance from each point to the farthest of `others` (on their convex hull)."""
+    if len(others) >= 4:
+        with contextlib.suppress(QhullError):  # collinear points: all of them
+            others = others[ConvexHull(others).vertices]
+    return np.asarray(np.sqrt(((points[:, None, :] - others[None, :, :]) ** 2).sum(axis=2)).max(axis=1))
 
 
 def _nearest(points: FloatArray, others: FloatArray) -> FloatArray:
