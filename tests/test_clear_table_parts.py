@@ -8,10 +8,10 @@ import pytest
 
 from robot_app.config import load_config
 from robot_app.control.box_check import BoxCheckSettings, BoxView, check_box
+from robot_app.control.grasp_point import PileGraspSettings, choose_pile_grasp, points_in_mask
+from robot_app.control.job_motion import PutBackSettings, lay_out_paths
 from robot_app.control.limits import JointLimits, TrajectorySettings
 from robot_app.control.logged_cell import LoggedCell
-from robot_app.control.pile_grasp import PileGraspSettings, choose_pile_grasp, points_in_mask
-from robot_app.control.put_back import PutBackSettings, lay_out_paths
 from robot_app.control.sort_rule import SortSettings
 from robot_app.errors import ConfigError
 from robot_app.experiments.clear_table import ClearTableConfig

@@ -12,9 +12,9 @@ from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.control.box_check import BoxCheck
 from robot_app.control.episode import EpisodeResult
+from robot_app.control.grasp_point import PileGraspSettings
+from robot_app.control.job_motion import PutBackSettings
 from robot_app.control.limits import LimitReport
-from robot_app.control.pile_grasp import PileGraspSettings
-from robot_app.control.put_back import PutBackSettings
 
 
 class ClearTableSettings(StrictModel):

@@ -52,16 +52,15 @@ from robot_app.control.clear_table_records import (
     TableResult,
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
+from robot_app.control.grasp_point import PileGrasp, choose_pile_grasp, points_in_mask
 from robot_app.control.intercept import hanging_reach
-from robot_app.control.job_motion import JobMotion
+from robot_app.control.job_motion import JobMotion, lay_out_paths
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
 from robot_app.control.logged_cell import LoggedCell
 from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_posture
-from robot_app.control.pile_grasp import PileGrasp, choose_pile_grasp, points_in_mask
 from robot_app.control.pose_filter import PoseFilterSettings
-from robot_app.control.put_back import lay_out_paths
 from robot_app.control.sort_rule import SortSettings
 from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.geometry import invert_transform, transform_points
@@ -484,7 +483,7 @@ class TableClearer:
         self, target: Detection, ident: Identification, pose_world: FloatArray
     ) -> PileGrasp | None:
         """Where on `target` to grasp: seen by the survey and away from every other cloth
-        it saw (`pile_grasp`)."""
+        it saw (`grasp_point.choose_pile_grasp`)."""
         model = self.recognizers[target.name].model
         K = self.rig.right.camera_matrix
         seen = points_in_mask(model.points_in, target.transform_model_to_camera, K, target.explained)
@@ -611,7 +610,7 @@ class TableClearer:
 
     def _put_back(self, attempt: _Attempt) -> None:
         """Lays what the gripper holds back onto the table, spread out over free table in
-        the survey's view (`put_back.py`); if no such path is reachable, lowers it while
+        the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers it while
         moving away from the view's middle. Lets go and returns to the lift pose."""
         self._phase = "put back"
         lifted = self.motion.q
