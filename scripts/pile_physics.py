@@ -1,6 +1,6 @@
 """Pile physics check: lift from a pile and put back, per seed; counts soft-body blow-ups.
 
-    python scripts/pile_physics.py [--seeds 12 13 14] [--count 4 5] [--set key=value ...]
+    python scripts/pile_physics.py [--seeds 12 13 14] [--count 4 5] [--lay-out M] [--set key=value ...]
 
 Each seed lays a pile as the clear-table job does (configs/clear_table.yaml's world and
 pile settings, overlap >= 20 %, `--count` cloths), then `sim.checks.pile_trial` grips the top
@@ -20,7 +20,7 @@ from pathlib import Path
 from robot_app.config import load_config
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.sim import World
-from robot_app.sim.checks import pile_trial
+from robot_app.sim.checks import PileTrialSettings, pile_trial
 from robot_app.sim.pile import make_pile
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[1] / "configs" / "clear_table.yaml"
@@ -32,6 +32,9 @@ def main() -> None:
     parser.add_argument("--count", type=int, nargs=2, default=(4, 5), metavar=("FEWEST", "MOST"))
     parser.add_argument("--config", default=str(DEFAULT_CONFIG))
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
+    parser.add_argument(
+        "--lay-out", type=float, default=0.0, metavar="M", help="put down laid out over M metres (0: slid)"
+    )
     args = parser.parse_args()
     blown = 0
     for seed in args.seeds:
@@ -46,10 +49,11 @@ def main() -> None:
         start = time.perf_counter()
         with World(config.world) as world:
             pile = make_pile(world, config.pile, seed=seed)
-            result = pile_trial(world, pile)
+            result = pile_trial(world, pile, PileTrialSettings(lay_out=args.lay_out))
         blown += result.blew_up
         print(f"seed {seed}: {result.line()}  [{time.perf_counter() - start:.0f} s wall]", flush=True)
-    print(f"blow-ups: {blown} of {len(args.seeds)} (settings: {' '.join(args.set) or 'config'})")
+    shown = " ".join([*args.set, *([f"--lay-out {args.lay_out}"] if args.lay_out else [])]) or "config"
+    print(f"blow-ups: {blown} of {len(args.seeds)} (settings: {shown})")
 
 
 if __name__ == "__main__":

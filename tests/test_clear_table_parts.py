@@ -8,6 +8,8 @@ import pytest
 
 from robot_app.config import load_config
 from robot_app.control.box_check import BoxCheckSettings, BoxView, check_box
+from robot_app.control.grasp_point import PileGraspSettings, choose_pile_grasp, points_in_mask
+from robot_app.control.job_motion import PutBackSettings, lay_out_paths
 from robot_app.control.limits import JointLimits, TrajectorySettings
 from robot_app.control.logged_cell import LoggedCell
 from robot_app.control.sort_rule import SortSettings
@@ -118,3 +120,91 @@ def test_box_check_needs_a_change_with_the_models_colours() -> None:
     unseen = BoxView(after_image, np.zeros((96, 96), bool))
     result = check_box(before, unseen, red, fitness, settings)
     assert not result.confirmed and result.in_view == 0.0
+
+
+def _square(side: float = 0.2, step: float = 0.005) -> ClothModel:
+    """A square cloth of `side` [m]: S_in on a grid, S_out a band 10 mm outside its edge."""
+    grid = np.arange(-side / 2, side / 2 + 1e-9, step)
+    u, v = np.meshgrid(grid, grid)
+    points = np.column_stack([u.ravel(), v.ravel(), np.zeros(u.size)])
+    ring = np.arange(-side / 2 - 0.01, side / 2 + 0.01 + 1e-9, step)
+    edge = side / 2 + 0.01
+    out = np.concatenate(
+        [np.column_stack([ring, np.full(ring.size, s * edge)]) for s in (-1, 1)]
+        + [np.column_stack([np.full(ring.size, s * edge), ring]) for s in (-1, 1)]
+    )
+    out = np.column_stack([out, np.zeros(len(out))])
+    hues = np.full(len(points), 10, np.uint16)
+    return ClothModel("sq", points, hues, out, 85.0, np.zeros(3), (side, side))
+
+
+def test_pile_grasp_keeps_away_from_the_cloth_underneath() -> None:
+    model = _square()
+    pose = np.eye(4)
+    pose[:3, 3] = (0.5, 0.1, 0.72)
+    seen = np.ones(len(model.points_in), bool)
+    alone = choose_pile_grasp(model, pose, seen, np.empty((0, 2)))
+    assert alone is not None and np.isinf(alone.clearance)
+    np.testing.assert_allclose(alone.point_model[:2], [0.0, 0.0], atol=1e-9)  # the middle, as the loop's
+    # another cloth lies under the target's half x > 0.03 (Σ_M): its points, in Σ_W
+    xs, ys = np.meshgrid(np.arange(0.03, 0.25, 0.005), np.arange(-0.1, 0.1, 0.005))
+    under = np.column_stack([xs.ravel() + 0.5, ys.ravel() + 0.1])
+    settings = PileGraspSettings(clearance=0.06, min_edge_gap=0.02)
+    chosen = choose_pile_grasp(model, pose, seen, under, settings)
+    assert chosen is not None
+    assert chosen.clearance >= 0.06 - 1e-9 and chosen.edge_gap >= 0.02
+    assert chosen.point_model[0] <= -0.03 + 1e-9  # on the free half
+    np.testing.assert_allclose(chosen.point_world, pose[:3, :3] @ chosen.point_model + pose[:3, 3])
+    # ... but not where the cloth would hang lower than max_reach below the fingers
+    short = choose_pile_grasp(model, pose, seen, under, PileGraspSettings(clearance=0.06, max_reach=0.15))
+    assert short is not None and short.clearance < 0.06
+    corners = np.array([[x, y] for x in (-0.1, 0.1) for y in (-0.1, 0.1)])
+    assert np.max(np.linalg.norm(corners - short.point_model[:2], axis=1)) <= 0.15 + 1e-9
+    # the whole target lies on the other cloth: the farthest point from it, still inside the edge
+    everywhere = np.column_stack([xs.ravel() + 0.3, ys.ravel() + 0.1])  # under x_M in [-0.17, 0.05]
+    cornered = choose_pile_grasp(model, pose, seen, np.concatenate([under, everywhere]), settings)
+    assert cornered is not None and cornered.edge_gap >= 0.02 - 1e-9 and cornered.clearance < 0.01
+    # hidden points are edge too; too little seen: the loop's own choice stands
+    half = model.points_in[:, 0] < 0.0
+    hidden = choose_pile_grasp(model, pose, half, np.empty((0, 2)))
+    assert hidden is not None and hidden.point_model[0] < 0.0
+    assert choose_pile_grasp(model, pose, np.zeros(len(model.points_in), bool), under) is None
+    with pytest.raises(ValueError, match="flags"):
+        choose_pile_grasp(model, pose, seen[:-1], under)
+
+
+def test_points_in_mask_projects_through_the_pinhole() -> None:
+    K = np.array([[100.0, 0.0, 32.0], [0.0, 100.0, 24.0], [0.0, 0.0, 1.0]])
+    mask = np.zeros((48, 64), bool)
+    mask[24, 42] = True  # 10 px right of the centre: x = 0.1 * z
+    pose = np.eye(4)
+    pose[2, 3] = 0.5
+    points = np.array([[0.05, 0.0, 0.0], [0.0, 0.0, 0.0], [0.05, 0.0, -1.0]])  # the last behind the camera
+    np.testing.assert_array_equal(points_in_mask(points, pose, K, mask), [True, False, False])
+
+
+def test_put_back_lays_out_over_free_table_inside_the_view() -> None:
+    view = np.array([[0.3, -0.3], [0.8, -0.3], [0.8, 0.3], [0.3, 0.3]])
+    # another cloth lies on the +y side of the hand
+    xs, ys = np.meshgrid(np.arange(0.4, 0.7, 0.01), np.arange(0.05, 0.25, 0.01))
+    others = np.column_stack([xs.ravel(), ys.ravel()])
+    settings = PutBackSettings(directions=8, max_length=0.25, view_margin=0.04, waypoints=3)
+    paths = lay_out_paths((0.55, 0.0), 0.2, 0.7, 0.05, others, view, settings)
+    assert paths, "some direction fits the view"
+    best = paths[0]
+    assert best.direction[1] < -0.5  # away from the other cloth
+    assert [p.freedom for p in paths] == sorted((p.freedom for p in paths), reverse=True)
+    w = best.waypoints
+    assert w.shape == (4, 3)
+    np.testing.assert_allclose(w[0], [0.55, 0.0, 0.7 + 0.2])  # the hanging cloth just touches
+    np.testing.assert_allclose(w[-1, 2], 0.7 + 0.05)  # let go at the release height
+    np.testing.assert_allclose(np.linalg.norm(w[-1, :2] - w[0, :2]), 0.2)  # laid its reach long
+    for path in paths:  # every strip stays inside the view by the margin
+        end = path.waypoints[-1, :2]
+        assert 0.34 - 1e-9 <= end[0] <= 0.76 + 1e-9 and -0.26 - 1e-9 <= end[1] <= 0.26 + 1e-9
+    # near the view's edge, directions that leave it are not offered; a long cloth is laid max_length
+    edge = lay_out_paths((0.36, 0.0), 0.4, 0.7, 0.05, np.empty((0, 2)), view, settings)
+    assert edge and all(p.direction[0] > -1e-9 for p in edge) and edge[0].freedom == settings.free_distance
+    np.testing.assert_allclose(np.linalg.norm(edge[0].waypoints[-1, :2] - [0.36, 0.0]), 0.25)
+    with pytest.raises(ValueError, match="corners"):
+        lay_out_paths((0.5, 0.0), 0.2, 0.7, 0.05, others, view[:3], settings)

@@ -12,6 +12,8 @@ from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.control.box_check import BoxCheck
 from robot_app.control.episode import EpisodeResult
+from robot_app.control.grasp_point import PileGraspSettings
+from robot_app.control.job_motion import PutBackSettings
 from robot_app.control.limits import LimitReport
 
 
@@ -47,6 +49,13 @@ class ClearTableSettings(StrictModel):
             checks after placing compare with; without it the first check takes the box to
             be empty, of the table's colour around it).
         box_view_height: camera above the box floor for that look.
+        pile_grasp: where on the chosen cloth to grasp (away from the other cloths).
+        put_back: how a rejected lift is laid back onto the table.
+        look_around: when a survey leaves nothing to pick, look again from up to this
+            many other poses (the cameras at the observation height over a put-back
+            spot, an unknown region, a cloth seen before and not put away) before the
+            job stops; counted anew after every pick attempt.
+        look_apart: places to look at closer together than this are one [m].
     """
 
     max_picks: int = Field(15, ge=1)
@@ -63,6 +72,10 @@ class ClearTableSettings(StrictModel):
     survey_latency: float | None = Field(None, ge=0.0)
     look_at_boxes: bool = False
     box_view_height: float = Field(0.42, gt=0.1)
+    pile_grasp: PileGraspSettings = Field(default_factory=PileGraspSettings)
+    put_back: PutBackSettings = Field(default_factory=PutBackSettings)
+    look_around: int = Field(2, ge=0, le=10)
+    look_apart: float = Field(0.08, gt=0.0)
 
 
 @dataclass(frozen=True)
@@ -108,6 +121,8 @@ class PickAttempt:
         dropped: the cloth was found gone from the gripper at the end of the transfer.
         box_check: the look into the box after releasing (None: not released).
         check_wall_s: computation time of the checks [s].
+        grasp_clearance: the job's grasp point's distance to the nearest other cloth the
+            survey saw [m] (None: the loop's own grasp point; inf: no other cloth).
     """
 
     name: str
@@ -123,6 +138,7 @@ class PickAttempt:
     dropped: bool = False
     box_check: BoxCheck | None = None
     check_wall_s: float = 0.0
+    grasp_clearance: float | None = None
 
     @property
     def lift_rejected(self) -> bool:

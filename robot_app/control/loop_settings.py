@@ -82,6 +82,14 @@ class LoopSettings(StrictModel):
         0.02, ge=0.0, description="lowest point of the hanging cloth above the box floor when let go [m]"
     )
     min_release_height: float = Field(0.06, gt=0.0, description="TCP never lower than this over the box")
+    release_fold: float = Field(
+        0.0,
+        ge=0.0,
+        le=0.5,
+        description="lower the hand this much further once the hanging cloth's lowest point is "
+        "release_clearance above the box floor, so that it folds onto the floor under the fingers "
+        "instead of toppling over a wall when let go [m] (0: let go there)",
+    )
     release_speed: float = Field(0.3, gt=0.0, le=1.0, description="limit scale for lowering into the box")
     release_wait: float = Field(1.0, ge=0.0, description="time for the cloth to fall and settle")
     gripper_open: float = Field(0.08, gt=0.0, le=0.08)

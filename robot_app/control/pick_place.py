@@ -326,10 +326,11 @@ class PickPlaceLoop:
         s = self.settings
         # Lower the cloth until its lowest point (at most its longest reach from the grasp
         # point below the fingers) is just above the floor, slowly: a soft body that hits
-        # the table fast goes through it.
+        # the table fast goes through it; `release_fold` lower still, folding it onto the floor.
         reach = hanging_reach(self.model.points_in, self.tracker.grasp_point_model)
         low = self.place_position.copy()
-        low[2] = self.table_z + max(s.min_release_height, s.grasp_height + reach + s.release_clearance)
+        above = s.grasp_height + reach + s.release_clearance - s.release_fold
+        low[2] = self.table_z + max(s.min_release_height, above)
         self.arm.move_to_joints(self.arm.solve_tcp(low), speed=s.release_speed)
         self.cell.release()
         self.arm.hold(s.release_wait)  # let the cloth fall clear before the fingers open

@@ -52,7 +52,9 @@ from robot_app.control.clear_table_records import (
     TableResult,
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
-from robot_app.control.job_motion import JobMotion
+from robot_app.control.grasp_point import PileGrasp, choose_pile_grasp, points_in_mask
+from robot_app.control.intercept import hanging_reach
+from robot_app.control.job_motion import JobMotion, lay_out_paths
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
 from robot_app.control.logged_cell import LoggedCell
@@ -61,7 +63,7 @@ from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_post
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
 from robot_app.errors import IKError, InterruptError, TrajectoryError
-from robot_app.geometry import invert_transform
+from robot_app.geometry import invert_transform, transform_points
 from robot_app.vision import Recognition, Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
 
@@ -78,6 +80,10 @@ class _Attempt:
     transform_target_to_world: FloatArray
     start_time: float
     others: tuple[Detection, ...] = ()  # the survey's other detections
+    grasp: PileGrasp | None = None  # where to grasp, away from the other cloths (Σ_W)
+    grasp_used: bool = False
+    grasp_point_model: FloatArray | None = None  # the loop's grasp point in Σ_M (last search)
+    obstacles_xy: FloatArray | None = None  # (M, 2) the other cloths the survey saw [m]
     came_along: tuple[str, ...] = ()
     lift_check: str = ""
     weighed: float | None = None
@@ -193,6 +199,10 @@ class TableClearer:
         self._seen_in_box: set[str] = set()
         self._placed_order: list[str] = []
         self._collisions = 0
+        self._looked: list[FloatArray] = []  # places looked at since the last pick attempt
+        self._put_back_spots: list[FloatArray] = []
+        self._last_seen: dict[str, FloatArray] = {}  # (x, y) [m] where each cloth was last surveyed
+        self._survey_camera_pose = self.observation_camera_pose.copy()
         interrupted, stop_reason = False, ""
         last: Identification | None = None
         try:
@@ -200,8 +210,17 @@ class TableClearer:
             if self.settings.look_at_boxes:
                 self._look_at_boxes()
             while True:
+                self._back_to_observation()
                 last = self._survey()
                 target = self._choose(last)
+                for place in self._places_to_look(last) if target is None else ():
+                    self._record_survey(last, None)
+                    if not self._look_from(place):
+                        continue
+                    last = self._survey()
+                    target = self._choose(last)
+                    if target is not None:
+                        break
                 self._record_survey(last, target)
                 if target is None:
                     stop_reason = (
@@ -241,6 +260,12 @@ class TableClearer:
         )
         self._wait(time.process_time() - cpu)
         self._survey_capture, self._survey_wall = capture, time.perf_counter() - wall
+        at_observation = np.allclose(self.motion.q, self.observation_joints, atol=1e-6)
+        self._survey_camera_pose = (
+            self.observation_camera_pose
+            if at_observation
+            else self.kinematics.frame_pose(self.motion.q, "camera_right_optical")
+        )
         return ident
 
     def _choose(self, ident: Identification) -> Detection | None:
@@ -264,6 +289,7 @@ class TableClearer:
         for d in ident.detections:
             pose = self._to_world(capture, d.transform_model_to_camera)
             detections.append((d.name, float(d.confidence), *(float(v) for v in pose[:3, 3])))
+            self._last_seen[d.name] = pose[:2, 3].copy()
             self._records.setdefault(d.name, {"attempts": 0, "sim_time": 0.0, "notes": []})
         record = SurveyRecord(
             capture.time,
@@ -286,6 +312,9 @@ class TableClearer:
         pose = self._to_world(capture, target.transform_model_to_camera)
         others = tuple(d for d in ident.detections if d.name != target.name)
         attempt = _Attempt(target, box, pose, self.cell.time, others)
+        attempt.obstacles_xy = self._obstacles(target, ident)
+        if self.settings.pile_grasp.enabled:
+            attempt.grasp = self._pile_grasp(target, ident, pose)
         recognizer = self._pick_recognizer(target)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
         loop = PickPlaceLoop(
@@ -293,17 +322,18 @@ class TableClearer:
             self.kinematics,
             recognizer,
             self.limits,
-            self.observation_camera_pose,
+            self._survey_camera_pose,
             box.centre,
             self.table_z,
             self._loop_settings(target.name),
             self.filter_settings,
             on_phase=lambda record: self._loop_phase(record, attempt),
             on_step=lambda _cell, _capture: self._loop_step(loop, target.name),
-            on_recognition=lambda cycle: self._loop_vision(cycle, attempt),
+            on_recognition=lambda cycle: self._loop_vision(cycle, attempt, loop),
             ground_truth=truth,
-            posture_seed=self.observation_joints,
+            posture_seed=self.motion.q,
         )
+        self._looked.clear()
         self._phase, self._meant = "observe", target.name
         result = loop.run()
         self._collisions += result.collisions
@@ -333,6 +363,7 @@ class TableClearer:
                 attempt.dropped,
                 attempt.box_check,
                 attempt.check_wall_s,
+                attempt.grasp.clearance if attempt.grasp is not None and attempt.grasp_used else None,
             )
         )
         if result.outcome is Outcome.PLACED:
@@ -370,7 +401,7 @@ class TableClearer:
         self._phase, self._meant = loop.current_phase.value, name
         self._step()
 
-    def _loop_vision(self, cycle: VisionCycle, attempt: _Attempt) -> None:
+    def _loop_vision(self, cycle: VisionCycle, attempt: _Attempt, loop: PickPlaceLoop) -> None:
         if self.on_recognition is not None:
             self.on_recognition(cycle, attempt.target.name)
         record = cycle.record
@@ -387,6 +418,7 @@ class TableClearer:
                     f"{attempt.target.name} found {distance * 1000:.0f} mm from where the survey saw it "
                     "(another cloth of its look?)",
                 )
+            self._use_pile_grasp(loop, cycle.transform_model_to_world, attempt)
 
     def _loop_phase(self, record: PhaseRecord, attempt: _Attempt) -> None:
         if self.on_phase is not None:
@@ -401,6 +433,98 @@ class TableClearer:
             )
         elif record.phase == "release":
             self._after_release(attempt)
+
+    # ------------------------------------------------------------------ looking around
+    def _back_to_observation(self) -> None:
+        if not np.allclose(self.motion.q, self.observation_joints, atol=1e-6):
+            self._phase, self._meant = "observe", None
+            self.motion.move_to_joints(self.observation_joints)
+
+    def _places_to_look(self, ident: Identification) -> list[FloatArray]:
+        """Where to look again when a survey left nothing to pick (`look_around`): put-back
+        spots, then cloths seen before and not put away, then unknown regions; none
+        within `look_apart` of one another or of a place already looked at."""
+        capture = self._survey_capture
+        placed = set(self._placed_order)
+        candidates = [
+            *reversed(self._put_back_spots),
+            *(xy for name, xy in self._last_seen.items() if name not in placed and self._untried(name)),
+            *(np.array(self._on_table(capture, region.centroid)) for region in ident.unknown),
+        ]
+        places: list[FloatArray] = []
+        here = capture.transform_right_camera_to_world[:2, 3]
+        for xy in candidates:
+            taken = [here, *self._looked, *places]
+            if all(float(np.hypot(*(xy - other))) > self.settings.look_apart for other in taken):
+                places.append(np.asarray(xy, dtype=float))
+        return places[: max(0, self.settings.look_around - len(self._looked))]
+
+    def _untried(self, name: str) -> bool:
+        tried = int(self._records.get(name, {}).get("attempts", 0))  # type: ignore[call-overload]
+        return tried < self.settings.max_attempts
+
+    def _look_from(self, place: FloatArray) -> bool:
+        """Moves the right camera over `place` at the observation height (cameras looking
+        down); False if the arm cannot reach that pose."""
+        self._looked.append(place)
+        offset = self._camera_offset()
+        camera = self.observation_camera_pose[:3, 3]
+        tcp = np.array([place[0] - offset[0], place[1] - offset[1], camera[2] - offset[2]])
+        self._phase, self._meant = "look around", None
+        try:
+            self.motion.move_tcp(tcp)
+        except IKError:
+            return False
+        self.motion.hold(self.loop_settings.settle_time)
+        return True
+
+    # ------------------------------------------------------------------ grasp point
+    def _pile_grasp(
+        self, target: Detection, ident: Identification, pose_world: FloatArray
+    ) -> PileGrasp | None:
+        """Where on `target` to grasp: seen by the survey and away from every other cloth
+        it saw (`grasp_point.choose_pile_grasp`)."""
+        model = self.recognizers[target.name].model
+        K = self.rig.right.camera_matrix
+        seen = points_in_mask(model.points_in, target.transform_model_to_camera, K, target.explained)
+        return choose_pile_grasp(
+            model, pose_world, seen, self._obstacles(target, ident), self.settings.pile_grasp
+        )
+
+    def _obstacles(self, target: Detection, ident: Identification) -> FloatArray:
+        """(M, 2) table points [m] of every cloth the survey saw but `target`: identified
+        ones (their whole footprint, hidden parts included) and unknown regions."""
+        capture = self._survey_capture
+        step = self.settings.pile_grasp.obstacle_step_px
+        xy = [
+            transform_points(
+                self._to_world(capture, d.transform_model_to_camera), self.recognizers[d.name].model.points_in
+            )[:, :2]
+            for d in ident.detections
+            if d.name != target.name
+        ]
+        for region in ident.unknown:
+            v, u = np.nonzero(region.mask[::step, ::step])
+            if len(u):
+                xy.append(self._pixels_on_table(capture, u * step, v * step))
+        return np.concatenate(xy) if xy else np.empty((0, 2))
+
+    def _use_pile_grasp(
+        self, loop: PickPlaceLoop, transform_model_to_world: FloatArray, attempt: _Attempt
+    ) -> None:
+        """Hands the job's grasp point to the loop, in the frame of the loop's own recognition
+        (a symmetric cloth may have been seen turned), if it lies on the recognised cloth."""
+        if attempt.grasp is None:
+            attempt.grasp_point_model = loop.tracker.grasp_point_model.copy()
+            return
+        point = (invert_transform(transform_model_to_world) @ np.append(attempt.grasp.point_world, 1.0))[:3]
+        point[2] = 0.0
+        model = self.recognizers[attempt.target.name].model
+        nearest = float(np.min(np.hypot(*(np.asarray(model.points_in)[:, :2] - point[:2]).T)))
+        if nearest <= self.settings.pile_grasp.min_edge_gap:
+            loop.tracker.grasp_point_model = point
+            attempt.grasp_used = True
+        attempt.grasp_point_model = loop.tracker.grasp_point_model.copy()
 
     # ------------------------------------------------------------------ checks
     def _after_lift(self, attempt: _Attempt) -> None:
@@ -439,7 +563,7 @@ class TableClearer:
                 attempt.notes.append(f"double pick ({what}): {companion} came along, same box: both placed")
                 return
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
-        self._put_back()
+        self._put_back(attempt)
         attempt.put_back = True
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
 
@@ -484,24 +608,66 @@ class TableClearer:
     def _threshold(self, name: str) -> float:
         return self.recognizers[name].settings.decide.threshold
 
-    def _put_back(self) -> None:
-        """Lays what the gripper holds back onto the table (lowering while moving away from
-        the pile's middle, so that it lies out rather than in a heap), lets go, and returns
-        to the lift pose."""
+    def _put_back(self, attempt: _Attempt) -> None:
+        """Lays what the gripper holds back onto the table, spread out over free table in
+        the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers it while
+        moving away from the view's middle. Lets go and returns to the lift pose."""
         self._phase = "put back"
         lifted = self.motion.q
         above = self.motion.tcp_position()
-        outward = above[:2] - self._survey_capture.transform_right_camera_to_world[:2, 3]
-        outward = outward / max(float(np.linalg.norm(outward)), 1e-9)
-        down = above.copy()
-        down[:2] += self.settings.put_down_slide * outward
-        down[2] = self.table_z + self.settings.put_down_height
-        self.motion.move_tcp(down, speed=self.settings.put_down_speed)
+        path = self._lay_out_joints(attempt, above) if self.settings.put_back.lay_out else None
+        if path is not None:
+            for q in path:
+                self.motion.move_to_joints(q, speed=self.settings.put_down_speed)
+        else:
+            outward = above[:2] - self._survey_capture.transform_right_camera_to_world[:2, 3]
+            outward = outward / max(float(np.linalg.norm(outward)), 1e-9)
+            down = above.copy()
+            down[:2] += self.settings.put_down_slide * outward
+            down[2] = self.table_z + self.settings.put_down_height
+            self.motion.move_tcp(down, speed=self.settings.put_down_speed)
         self.cell.release()
+        self._put_back_spots.append(self.motion.tcp_position()[:2])
         self.motion.hold(self.loop_settings.release_wait)
         self.cell.set_gripper(self.loop_settings.gripper_open)
         self.motion.hold(self.loop_settings.close_time)
+        if path is not None:  # straight up first: the open fingers leave the laid cloth alone
+            up = self.motion.tcp_position()
+            up[2] = self.table_z + self.settings.put_down_height + self.settings.put_back.max_length
+            self.motion.move_tcp(up)
         self.motion.move_to_joints(lifted)
+
+    def _lay_out_joints(self, attempt: _Attempt, above: FloatArray) -> list[FloatArray] | None:
+        """Joints of the first reachable lay-out path (most free first), or None."""
+        model = self.recognizers[attempt.target.name].model
+        grasp = attempt.grasp_point_model if attempt.grasp_point_model is not None else model.grasp_point
+        reach = hanging_reach(model.points_in, grasp)
+        capture = self._survey_capture
+        width, height = self.rig.right.image_size
+        view = self._pixels_on_table(capture, [0, width - 1, width - 1, 0], [0, 0, height - 1, height - 1])
+        obstacles = attempt.obstacles_xy if attempt.obstacles_xy is not None else np.empty((0, 2))
+        paths = lay_out_paths(
+            above[:2],
+            reach,
+            self.table_z,
+            self.settings.put_down_height,
+            obstacles,
+            view,
+            self.settings.put_back,
+        )
+        for path in paths:
+            joints: list[FloatArray] = []
+            try:
+                for point in path.waypoints:
+                    joints.append(self.motion.solve_tcp(point))
+            except IKError:
+                continue
+            attempt.notes.append(
+                f"put back laid out over {min(reach, self.settings.put_back.max_length) * 1000:.0f} mm "
+                f"towards ({path.direction[0]:+.2f}, {path.direction[1]:+.2f})"
+            )
+            return joints
+        return None
 
     def _after_release(self, attempt: _Attempt) -> None:
         self._phase = "box check"
@@ -564,14 +730,20 @@ class TableClearer:
 
     def _on_table(self, capture: StereoCapture, pixel: tuple[float, float]) -> tuple[float, float]:
         """Where the ray through a right-image pixel meets the table plane, (x, y) [m]."""
+        x, y = self._pixels_on_table(capture, np.array([pixel[0]]), np.array([pixel[1]]))[0]
+        return float(x), float(y)
+
+    def _pixels_on_table(self, capture: StereoCapture, u: npt.ArrayLike, v: npt.ArrayLike) -> FloatArray:
+        """(N, 2) where the rays through right-image pixels (u, v) meet the table plane [m]."""
         K = self.rig.right.camera_matrix
-        ray = np.linalg.solve(K, np.array([pixel[0], pixel[1], 1.0]))
+        u, v = np.asarray(u, dtype=float).ravel(), np.asarray(v, dtype=float).ravel()
+        rays = np.linalg.solve(K, np.stack([u, v, np.ones_like(u)]))
         T = capture.transform_right_camera_to_world
-        direction = T[:3, :3] @ ray
-        origin = T[:3, 3]
-        scale = (self.table_z - origin[2]) / direction[2] if abs(direction[2]) > 1e-9 else 0.0
-        point = origin + scale * direction
-        return float(point[0]), float(point[1])
+        directions = T[:3, :3] @ rays
+        origin = T[:3, 3:4]
+        dz = directions[2]
+        scale = np.where(np.abs(dz) > 1e-9, (self.table_z - origin[2]) / np.where(dz == 0, 1.0, dz), 0.0)
+        return np.asarray((origin + scale * directions)[:2].T, dtype=float)
 
     def _result(
         self,

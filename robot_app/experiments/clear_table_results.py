@@ -59,6 +59,12 @@ def cloth_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
     return rows
 
 
+def _millimetres(metres: float | None) -> float | str | None:
+    if metres is None:
+        return None
+    return "inf" if np.isinf(metres) else round(1000 * metres, 1)
+
+
 def pick_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
     """One row per pick attempt."""
     rows = []
@@ -81,6 +87,7 @@ def pick_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 "box_confirmed": None if check is None else check.confirmed,
                 "box_changed": None if check is None else round(check.changed, 3),
                 "box_model_share": None if check is None else round(check.model_share, 3),
+                "grasp_clearance_mm": _millimetres(a.grasp_clearance),
                 "limit_violations": a.result.limit_report.violations,
                 "collisions": a.result.collisions,
             }

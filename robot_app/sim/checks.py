@@ -168,6 +168,9 @@ class PileTrialSettings:
     Defaults follow the clear-table job: grasp 22 mm above the cloth (loop.grasp_height),
     35 mm grasp radius, lift to 0.40 m in about the loop's time, put back down to 0.05 m
     (clear.put_down_height) 0.06 m outward (clear.put_down_slide) at 0.3 of the speed.
+    With `lay_out` > 0 the put-down is the job's laid-out one (`control.put_back`): straight
+    down until the TCP is `lay_out` above the table (the hanging cloth touches it), then
+    `lay_out` outward while lowering to `put_down_height`, before letting go.
     """
 
     grasp_height: float = 0.022
@@ -184,6 +187,7 @@ class PileTrialSettings:
     release_wait: float = 1.0
     away_time: float = 1.1
     settle_time: float = 1.0
+    lay_out: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -341,10 +345,18 @@ def pile_trial(
     centre = np.asarray(world.config.range.centre_xy, dtype=float)
     outward = point[:2] - centre
     outward = outward / max(float(np.linalg.norm(outward)), 1e-9)
-    down = [*(point[:2] + s.put_down_slide * outward), top_z + s.put_down_height]
-    q_down = solve(down, q_lifted)
     monitor.phase = "put down"
-    monitor.move(q_lifted, q_down, s.put_down_time)
+    if s.lay_out > 0:
+        touch = [point[0], point[1], top_z + max(s.put_down_height, s.lay_out)]
+        q_touch = solve(touch, q_lifted)
+        monitor.move(q_lifted, q_touch, s.put_down_time)
+        down = [*(point[:2] + s.lay_out * outward), top_z + s.put_down_height]
+        q_down = solve(down, q_touch)
+        monitor.move(q_touch, q_down, s.put_down_time)
+    else:
+        down = [*(point[:2] + s.put_down_slide * outward), top_z + s.put_down_height]
+        q_down = solve(down, q_lifted)
+        monitor.move(q_lifted, q_down, s.put_down_time)
     monitor.phase = "release"
     cell.release()
     monitor.hold(s.release_wait)
