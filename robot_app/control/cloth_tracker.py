@@ -131,19 +131,34 @@ class ClothTracker:
         self._record(result, found, reason)
         return found
 
-    def take_second_look(self, first: VisionResult, second: VisionResult) -> bool:
+    def take_second_look(
+        self, first: VisionResult, second: VisionResult, check: VisionResult | None = None
+    ) -> bool:
         """Starts the filter from two one-shot recognitions at the observation pose, with
         the velocity between them (a moving cloth's first tracking frame is then predicted
         where it is, not where the search saw it a latency ago).
 
-        The second look is used if the decision trusts it, it is on the first's yaw branch
-        (within the filter's yaw gate) and it moved no faster than MAX_LOOK_SPEED; else the
-        filter keeps the first. Returns whether it was used.
+        `check` is the first look's pose polished on the second look's frame
+        (`VisionPipeline.check`). Where it fits that frame better than the second look, the
+        second look's GA settled on a worse peak (a periodic print shifted by one period
+        fits its hue nearly as well): the check is the second measurement instead, and the
+        tracker starts from the filter, not from the second look's peak. (Taken as it
+        came, a still No.4 "moved" 20 mm between the looks, bench_conveyor episode 20.)
+
+        The second measurement is used if the decision trusts it, it is on the first's yaw
+        branch (within the filter's yaw gate) and it moved no faster than MAX_LOOK_SPEED;
+        else the filter keeps the first. Returns whether it was used.
         """
-        recognition = second.recognition
         self.last_capture = second.capture
-        pose = self._on_branch(second.transform_model_to_world, second.capture.time, recognition.found)
-        dt = second.capture.time - first.capture.time
+        fits_better = (
+            check is not None
+            and bool(check.recognition.found)
+            and check.recognition.fitness > second.recognition.fitness
+        )
+        measured = check if fits_better and check is not None else second
+        recognition = measured.recognition
+        pose = self._on_branch(measured.transform_model_to_world, measured.capture.time, recognition.found)
+        dt = measured.capture.time - first.capture.time
         moved = float(np.linalg.norm(pose[:2, 3] - first.transform_model_to_world[:2, 3]))
         turned = abs(float(wrap_angle(yaw_of(pose[:3, :3]) - yaw_of(first.transform_model_to_world[:3, :3]))))
         used = (
@@ -154,9 +169,34 @@ class ClothTracker:
         )
         if used:
             self.filter.reset_from_two(
-                first.transform_model_to_world, first.capture.time, pose, second.capture.time
+                first.transform_model_to_world, first.capture.time, pose, measured.capture.time
             )
-        self._record(second, used, "second look: velocity" if used else "second look: not used", pose=pose)
+        verdict = "second look: velocity" if used else "second look: not used"
+        if check is None:
+            self._record(second, used, verdict, pose=pose)
+            return used
+        second_pose = self._on_branch(
+            second.transform_model_to_world, second.capture.time, second.recognition.found
+        )
+        self._record(
+            second,
+            used and not fits_better,
+            verdict if not fits_better else "second look: worse peak",
+            pose=second_pose,
+        )
+        check_pose = (
+            pose
+            if fits_better
+            else self._on_branch(check.transform_model_to_world, check.capture.time, check.recognition.found)
+        )
+        self._record(
+            check,
+            used and fits_better,
+            verdict if fits_better else "check: second look fits better",
+            pose=check_pose,
+        )
+        if fits_better:
+            self.pipeline.reseed(self._predicted_pose)  # the kept poses are the second look's peak
         return used
 
     # ------------------------------------------------------------------ tracking
@@ -278,7 +318,7 @@ class ClothTracker:
         pose = result.transform_model_to_world if pose is None else pose
         recognition = result.recognition
         errors: dict[str, float] = {}
-        truth = self._exposure_truth.pop(result.capture.time, None)
+        truth = self._exposure_truth.get(result.capture.time)  # a check shares its frame's
         if truth is not None:
             error = pose_error(pose, truth, tuple(self.model.symmetry_angles))
             errors = {
