@@ -115,7 +115,7 @@ def test_a_still_cloth_whose_second_look_took_a_neighbouring_peak_is_placed() ->
     loop looks again instead of ending the episode. With the regenerated rig files a later look
     then settled on that peak (turned half round) and the fingers closed 140 mm off; the first
     look's pose, polished on the second look's frame, fits it better (0.904 against 0.818), so the
-    search now takes that as the second measurement: a still cloth, grasped 0.8 mm off."""
+    search now takes that as the second measurement (`ClothTracker.take_second_look`)."""
     result = episode(
         "seed=1600020", "scene.target=4", "scene.conveyor_direction_deg=109.5", "scene.conveyor_speed=0.0",
     )  # fmt: skip
