@@ -39,6 +39,7 @@ RESEED = (UpdateReason.YAW_JUMP, UpdateReason.POSITION_JUMP)
 MOTION_SIGNIFICANCE = 3.0  # standard deviations of the filter's velocity that count as moving
 MAX_LOOK_SPEED = 0.5  # [m/s] a cloth seen to move faster between two looks was not the same find
 QUARTER_TURNS = (np.pi / 2, np.pi, 3 * np.pi / 2)
+FIT_MARGIN = 0.02  # fitness a look's peak must gain on the other's frame (seen noise 0.005, neighbours 0.08)
 BRANCH_TOLERANCE = np.deg2rad(10.0)  # a trusted yaw this close to a quarter turn off is that turn
 
 
@@ -164,12 +165,12 @@ class ClothTracker:
         if on_second is not None and on_first is not None:
             # a peak explains both frames if it fits the other look's frame better than that look
             first_fits = bool(on_second.recognition.found) and (
-                on_second.recognition.fitness > second.recognition.fitness
+                on_second.recognition.fitness > second.recognition.fitness + FIT_MARGIN
             )
             second_fits = (
                 bool(on_first.recognition.found)
                 and bool(second.recognition.found)
-                and on_first.recognition.fitness > first.recognition.fitness
+                and on_first.recognition.fitness > first.recognition.fitness + FIT_MARGIN
             )
             first_peak = first.recognition.fitness + on_second.recognition.fitness
             second_peak = on_first.recognition.fitness + second.recognition.fitness
@@ -205,7 +206,7 @@ class ClothTracker:
             self._record(second, used, verdict, pose=pose)
             return used
         peak = "first look's peak" if later is on_second else "second look's peak"
-        for result in (second, on_second, on_first):
+        for result in (on_first, second, on_second):  # rows in exposure order (recordings)
             kept = result is later or result is earlier
             branch = (
                 pose
