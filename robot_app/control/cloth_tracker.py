@@ -39,6 +39,7 @@ RESEED = (UpdateReason.YAW_JUMP, UpdateReason.POSITION_JUMP)
 MOTION_SIGNIFICANCE = 3.0  # standard deviations of the filter's velocity that count as moving
 MAX_LOOK_SPEED = 0.5  # [m/s] a cloth seen to move faster between two looks was not the same find
 QUARTER_TURNS = (np.pi / 2, np.pi, 3 * np.pi / 2)
+FIT_MARGIN = 0.02  # fitness a look's peak must gain on the other's frame (seen noise 0.005, neighbours 0.08)
 BRANCH_TOLERANCE = np.deg2rad(10.0)  # a trusted yaw this close to a quarter turn off is that turn
 
 
@@ -131,21 +132,67 @@ class ClothTracker:
         self._record(result, found, reason)
         return found
 
-    def take_second_look(self, first: VisionResult, second: VisionResult) -> bool:
+    def take_second_look(
+        self,
+        first: VisionResult,
+        second: VisionResult,
+        checks: tuple[VisionResult, VisionResult] | None = None,
+    ) -> bool:
         """Starts the filter from two one-shot recognitions at the observation pose, with
         the velocity between them (a moving cloth's first tracking frame is then predicted
         where it is, not where the search saw it a latency ago).
 
-        The second look is used if the decision trusts it, it is on the first's yaw branch
-        (within the filter's yaw gate) and it moved no faster than MAX_LOOK_SPEED; else the
-        filter keeps the first. Returns whether it was used.
+        `checks` are each look's pose polished on the other look's frame
+        (`VisionPipeline.check`): the first's on the second frame, the second's on the
+        first frame. Two looks that disagree may be one cloth that moved or one look on a
+        worse peak (a periodic print shifted by a period, or turned a quarter, fits its hue
+        nearly as well). A look's peak that fits the other look's frame better than that
+        look did explains both frames (the higher fitness over the two wins if both do) and
+        gives both measurements; else (a moving cloth the polish did not follow) the two
+        looks do. A still No.4 took a 20 mm "velocity" from a second look one period off
+        (bench_conveyor episode 20), and a first look a quarter turn off turned every later
+        view onto its branch (grasp 70 mm off).
+        The tracker starts from the filter when the first look's peak wins (its kept poses
+        are the second look's), and the grasp point is chosen anew when the second's wins.
+
+        The measurements are used if the decision trusts the later one, it is on the
+        earlier one's yaw branch (within the filter's yaw gate) and it moved no faster than
+        MAX_LOOK_SPEED; else the filter keeps the earlier one. Returns whether they were used.
         """
-        recognition = second.recognition
         self.last_capture = second.capture
-        pose = self._on_branch(second.transform_model_to_world, second.capture.time, recognition.found)
-        dt = second.capture.time - first.capture.time
-        moved = float(np.linalg.norm(pose[:2, 3] - first.transform_model_to_world[:2, 3]))
-        turned = abs(float(wrap_angle(yaw_of(pose[:3, :3]) - yaw_of(first.transform_model_to_world[:3, :3]))))
+        on_second, on_first = checks if checks is not None else (None, None)
+        earlier, later = first, second
+        if on_second is not None and on_first is not None:
+            # a peak explains both frames if it fits the other look's frame better than that look
+            first_fits = bool(on_second.recognition.found) and (
+                on_second.recognition.fitness > second.recognition.fitness + FIT_MARGIN
+            )
+            second_fits = (
+                bool(on_first.recognition.found)
+                and bool(second.recognition.found)
+                and on_first.recognition.fitness > first.recognition.fitness + FIT_MARGIN
+            )
+            first_peak = first.recognition.fitness + on_second.recognition.fitness
+            second_peak = on_first.recognition.fitness + second.recognition.fitness
+            if first_fits and not (second_fits and second_peak > first_peak):
+                later = on_second
+            elif second_fits:
+                earlier = on_first
+        if earlier is on_first:
+            self.filter.reset(on_first.transform_model_to_world, on_first.capture.time)
+            self.grasp_point_model = visible_grasp_point(
+                self.model,
+                self.recognizer.rig,
+                second.recognition.transform_model_to_camera,
+                second.capture,
+                self.recognizer.settings.fitness,
+            )
+        recognition = later.recognition
+        pose = self._on_branch(later.transform_model_to_world, later.capture.time, recognition.found)
+        dt = later.capture.time - earlier.capture.time
+        start = earlier.transform_model_to_world
+        moved = float(np.linalg.norm(pose[:2, 3] - start[:2, 3]))
+        turned = abs(float(wrap_angle(yaw_of(pose[:3, :3]) - yaw_of(start[:3, :3]))))
         used = (
             bool(recognition.found)
             and dt > 0.0
@@ -153,10 +200,26 @@ class ClothTracker:
             and turned <= self.filter.settings.max_yaw_jump
         )
         if used:
-            self.filter.reset_from_two(
-                first.transform_model_to_world, first.capture.time, pose, second.capture.time
+            self.filter.reset_from_two(start, earlier.capture.time, pose, later.capture.time)
+        verdict = "second look: velocity" if used else "second look: not used"
+        if on_second is None or on_first is None:
+            self._record(second, used, verdict, pose=pose)
+            return used
+        peak = "first look's peak" if later is on_second else "second look's peak"
+        for result in (on_first, second, on_second):  # rows in exposure order (recordings)
+            kept = result is later or result is earlier
+            branch = (
+                pose
+                if result is later
+                else self._on_branch(
+                    result.transform_model_to_world, result.capture.time, result.recognition.found
+                )
             )
-        self._record(second, used, "second look: velocity" if used else "second look: not used", pose=pose)
+            self._record(
+                result, used and kept, f"{verdict} ({peak})" if kept else f"not the {peak}", pose=branch
+            )
+        if later is on_second:
+            self.pipeline.reseed(self._predicted_pose)  # the kept poses are the second look's peak
         return used
 
     # ------------------------------------------------------------------ tracking
@@ -278,7 +341,7 @@ class ClothTracker:
         pose = result.transform_model_to_world if pose is None else pose
         recognition = result.recognition
         errors: dict[str, float] = {}
-        truth = self._exposure_truth.pop(result.capture.time, None)
+        truth = self._exposure_truth.get(result.capture.time)  # a check shares its frame's
         if truth is not None:
             error = pose_error(pose, truth, tuple(self.model.symmetry_angles))
             errors = {

@@ -99,7 +99,7 @@ class RecognitionRecord:
 
     time: float  # exposure of the capture [s]
     phase: str  # the phase the result arrived in
-    mode: str  # "search" (one-shot GA) or "track" (multi-step GA)
+    mode: str  # "search" (one-shot GA), "track" (multi-step GA) or "check" (near a known pose, no GA)
     found: bool
     fitness: float
     accepted: bool

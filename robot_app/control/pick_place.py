@@ -261,7 +261,12 @@ class PickPlaceLoop:
                 )
                 if s.strategy is Strategy.SERVO:  # a second look gives the cloth's velocity
                     second = self._searched(seed=attempt + 2 * s.search_attempts)
-                    if self.tracker.take_second_look(result, second):
+                    # each look's pose on the other's frame: did the cloth move, or one GA run?
+                    pipeline, seed = self.tracker.pipeline, attempt + 3 * s.search_attempts
+                    on_second = pipeline.check(second.capture, result.transform_model_to_world, seed)
+                    on_first = pipeline.check(result.capture, second.transform_model_to_world, seed)
+                    self.arm.hold_until(on_first.available_time)
+                    if self.tracker.take_second_look(result, second, (on_second, on_first)):
                         speed = np.linalg.norm(self.tracker.estimate_at(self.cell.time).velocity[:2])
                         self._note += f", moving at {speed * 1e3:.0f} mm/s"
                 return True

@@ -43,7 +43,7 @@ class VisionResult:
         capture: the frame (exposure `capture.time`, camera pose at the exposure).
         recognition: the recogniser's result (^CR T_M, fitness, confidence, found).
         transform_model_to_world: (4, 4) ^W T_M = ^W T_CR(exposure) ^CR T_M [m], read-only.
-        mode: "search" (one-shot) or "track" (multi-step).
+        mode: "search" (one-shot), "track" (multi-step) or "check" (near a known pose).
         start_time: cell time the recogniser took the frame [s].
         available_time: cell time the result reached the loop [s].
         compute_s: wall time of the recognition [s].
@@ -120,6 +120,23 @@ class VisionPipeline:
         result = self._result(capture, recognition, "search", start, time.perf_counter() - wall)
         self.busy_until = result.available_time
         self._previous = capture
+        return result
+
+    def check(self, capture: StereoCapture, transform_model_to_world: FloatArray, seed: int) -> VisionResult:
+        """Recognises an arrived frame near a known pose (`Recognizer.check`, no GA), once
+        the recogniser is free; the result is stamped like a search's (the caller waits).
+
+        Args:
+            capture: a frame already taken (e.g. the second look's).
+            transform_model_to_world: (4, 4) where the cloth is expected in Σ_W [m].
+            seed: seed of the polish.
+        """
+        start = max(capture.available_time, self.busy_until, self.cell.time)
+        expected = invert_transform(capture.transform_right_camera_to_world) @ transform_model_to_world
+        wall = time.perf_counter()
+        recognition = self.recognizer.check(capture.left_bgr, capture.right_bgr, expected, seed=seed)
+        result = self._result(capture, recognition, "check", start, time.perf_counter() - wall)
+        self.busy_until = result.available_time
         return result
 
     # ------------------------------------------------------------------ tracking
