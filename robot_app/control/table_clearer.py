@@ -62,8 +62,9 @@ from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_posture
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
+from robot_app.control.table_survey import TablePlane, choose_target, obstacles_on_table, to_world
 from robot_app.errors import IKError, InterruptError, TrajectoryError
-from robot_app.geometry import invert_transform, transform_points
+from robot_app.geometry import invert_transform
 from robot_app.vision import Recognition, Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
 
@@ -176,6 +177,7 @@ class TableClearer:
         self.weigh = weigh
         self.weights = dict(weights or {})
         self.rig = next(iter(self.recognizers.values())).rig
+        self.table = TablePlane(self.rig.right.camera_matrix, self.table_z)
         self._phase: str = "survey"
         self._meant: str | None = None
         self.motion = JobMotion(
@@ -212,13 +214,13 @@ class TableClearer:
             while True:
                 self._back_to_observation()
                 last = self._survey()
-                target = self._choose(last)
+                target = choose_target(last, self._records, self.settings.max_attempts)
                 for place in self._places_to_look(last) if target is None else ():
                     self._record_survey(last, None)
                     if not self._look_from(place):
                         continue
                     last = self._survey()
-                    target = self._choose(last)
+                    target = choose_target(last, self._records, self.settings.max_attempts)
                     if target is not None:
                         break
                 self._record_survey(last, target)
@@ -268,26 +270,11 @@ class TableClearer:
         )
         return ident
 
-    def _choose(self, ident: Identification) -> Detection | None:
-        def eligible(d: Detection) -> bool:
-            tried = int(self._records.get(d.name, {}).get("attempts", 0))  # type: ignore[call-overload]
-            if tried >= self.settings.max_attempts:
-                return False
-            # a candidate below the recogniser's threshold gets one closer look by the loop
-            unconfirmed = bool(self._records.get(d.name, {}).get("unconfirmed", False))
-            return d.found or not unconfirmed
-
-        free = [d for d in ident.free() if eligible(d)]
-        if free:
-            return free[0]
-        rest = [d for d in ident.detections if eligible(d)]
-        return max(rest, key=lambda d: d.recognition.visible_fraction) if rest else None
-
     def _record_survey(self, ident: Identification, chosen: Detection | None) -> None:
         capture = self._survey_capture
         detections = []
         for d in ident.detections:
-            pose = self._to_world(capture, d.transform_model_to_camera)
+            pose = to_world(capture, d.transform_model_to_camera)
             detections.append((d.name, float(d.confidence), *(float(v) for v in pose[:3, 3])))
             self._last_seen[d.name] = pose[:2, 3].copy()
             self._records.setdefault(d.name, {"attempts": 0, "sim_time": 0.0, "notes": []})
@@ -297,7 +284,7 @@ class TableClearer:
             tuple(detections),  # type: ignore[arg-type]
             ident.dropped,
             ident.above,
-            tuple(self._on_table(capture, region.centroid) for region in ident.unknown),
+            tuple(self.table.point(capture, region.centroid) for region in ident.unknown),
             None if chosen is None else chosen.name,
         )
         self._surveys.append(record)
@@ -309,10 +296,10 @@ class TableClearer:
         """One loop run for `target`; True if the user stopped it."""
         capture = self._survey_capture
         box = self.boxes[self.sort.box_for(target.name)]
-        pose = self._to_world(capture, target.transform_model_to_camera)
+        pose = to_world(capture, target.transform_model_to_camera)
         others = tuple(d for d in ident.detections if d.name != target.name)
         attempt = _Attempt(target, box, pose, self.cell.time, others)
-        attempt.obstacles_xy = self._obstacles(target, ident)
+        attempt.obstacles_xy = self._obstacles_of(target, ident)
         if self.settings.pile_grasp.enabled:
             attempt.grasp = self._pile_grasp(target, ident, pose)
         recognizer = self._pick_recognizer(target)
@@ -449,7 +436,7 @@ class TableClearer:
         candidates = [
             *reversed(self._put_back_spots),
             *(xy for name, xy in self._last_seen.items() if name not in placed and self._untried(name)),
-            *(np.array(self._on_table(capture, region.centroid)) for region in ident.unknown),
+            *(np.array(self.table.point(capture, region.centroid)) for region in ident.unknown),
         ]
         places: list[FloatArray] = []
         here = capture.transform_right_camera_to_world[:2, 3]
@@ -488,26 +475,8 @@ class TableClearer:
         K = self.rig.right.camera_matrix
         seen = points_in_mask(model.points_in, target.transform_model_to_camera, K, target.explained)
         return choose_pile_grasp(
-            model, pose_world, seen, self._obstacles(target, ident), self.settings.pile_grasp
+            model, pose_world, seen, self._obstacles_of(target, ident), self.settings.pile_grasp
         )
-
-    def _obstacles(self, target: Detection, ident: Identification) -> FloatArray:
-        """(M, 2) table points [m] of every cloth the survey saw but `target`: identified
-        ones (their whole footprint, hidden parts included) and unknown regions."""
-        capture = self._survey_capture
-        step = self.settings.pile_grasp.obstacle_step_px
-        xy = [
-            transform_points(
-                self._to_world(capture, d.transform_model_to_camera), self.recognizers[d.name].model.points_in
-            )[:, :2]
-            for d in ident.detections
-            if d.name != target.name
-        ]
-        for region in ident.unknown:
-            v, u = np.nonzero(region.mask[::step, ::step])
-            if len(u):
-                xy.append(self._pixels_on_table(capture, u * step, v * step))
-        return np.concatenate(xy) if xy else np.empty((0, 2))
 
     def _use_pile_grasp(
         self, loop: PickPlaceLoop, transform_model_to_world: FloatArray, attempt: _Attempt
@@ -602,7 +571,7 @@ class TableClearer:
     ) -> bool:
         if recognition.confidence < threshold:
             return False
-        where = self._to_world(capture, recognition.transform_model_to_camera)
+        where = to_world(capture, recognition.transform_model_to_camera)
         return bool(np.hypot(*(where[:2, 3] - pose_world[:2, 3])) <= self.settings.same_place)
 
     def _threshold(self, name: str) -> float:
@@ -644,7 +613,7 @@ class TableClearer:
         reach = hanging_reach(model.points_in, grasp)
         capture = self._survey_capture
         width, height = self.rig.right.image_size
-        view = self._pixels_on_table(capture, [0, width - 1, width - 1, 0], [0, 0, height - 1, height - 1])
+        view = self.table.pixels(capture, [0, width - 1, width - 1, 0], [0, 0, height - 1, height - 1])
         obstacles = attempt.obstacles_xy if attempt.obstacles_xy is not None else np.empty((0, 2))
         paths = lay_out_paths(
             above[:2],
@@ -724,26 +693,9 @@ class TableClearer:
         if self.on_step is not None:
             self.on_step(self._phase, self._meant)
 
-    @staticmethod
-    def _to_world(capture: StereoCapture, transform_model_to_camera: FloatArray) -> FloatArray:
-        return np.asarray(capture.transform_right_camera_to_world @ transform_model_to_camera, dtype=float)
-
-    def _on_table(self, capture: StereoCapture, pixel: tuple[float, float]) -> tuple[float, float]:
-        """Where the ray through a right-image pixel meets the table plane, (x, y) [m]."""
-        x, y = self._pixels_on_table(capture, np.array([pixel[0]]), np.array([pixel[1]]))[0]
-        return float(x), float(y)
-
-    def _pixels_on_table(self, capture: StereoCapture, u: npt.ArrayLike, v: npt.ArrayLike) -> FloatArray:
-        """(N, 2) where the rays through right-image pixels (u, v) meet the table plane [m]."""
-        K = self.rig.right.camera_matrix
-        u, v = np.asarray(u, dtype=float).ravel(), np.asarray(v, dtype=float).ravel()
-        rays = np.linalg.solve(K, np.stack([u, v, np.ones_like(u)]))
-        T = capture.transform_right_camera_to_world
-        directions = T[:3, :3] @ rays
-        origin = T[:3, 3:4]
-        dz = directions[2]
-        scale = np.where(np.abs(dz) > 1e-9, (self.table_z - origin[2]) / np.where(dz == 0, 1.0, dz), 0.0)
-        return np.asarray((origin + scale * directions)[:2].T, dtype=float)
+    def _obstacles_of(self, target: Detection, ident: Identification) -> FloatArray:
+        step = self.settings.pile_grasp.obstacle_step_px
+        return obstacles_on_table(target, ident, self._survey_capture, self.recognizers, self.table, step)
 
     def _result(
         self,
