@@ -33,15 +33,14 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
 from robot_app.control.anchored_recognizer import AnchoredRecognizer
-from robot_app.control.box_check import BoxCheck, BoxCheckSettings, BoxView, box_view, check_box
-from robot_app.control.cell import Cell, StereoCapture
+from robot_app.control.box_check import BoxCheckSettings, BoxView, box_view
+from robot_app.control.cell import Cell
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
@@ -59,40 +58,23 @@ from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
 from robot_app.control.logged_cell import LoggedCell
 from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.pick_checks import (
+    DROPPED,
+    PUT_BACK,
+    AttemptState,
+    check_release,
+    companion,
+    still_there,
+    weight_verdict,
+)
 from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_posture
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_survey import TablePlane, choose_target, obstacles_on_table, to_world
 from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.geometry import invert_transform
-from robot_app.vision import Recognition, Recognizer
+from robot_app.vision import Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
-
-PUT_BACK = "put back"  # in a GRASP_FAILED reason: the job lowered the lift back
-DROPPED = "dropped"  # in a LOST reason: the gripper came empty over the box
-
-
-@dataclass
-class _Attempt:
-    """What the job knows during one loop run."""
-
-    target: Detection
-    box: BoxPlace
-    transform_target_to_world: FloatArray
-    start_time: float
-    others: tuple[Detection, ...] = ()  # the survey's other detections
-    grasp: PileGrasp | None = None  # where to grasp, away from the other cloths (Σ_W)
-    grasp_used: bool = False
-    grasp_point_model: FloatArray | None = None  # the loop's grasp point in Σ_M (last search)
-    obstacles_xy: FloatArray | None = None  # (M, 2) the other cloths the survey saw [m]
-    came_along: tuple[str, ...] = ()
-    lift_check: str = ""
-    weighed: float | None = None
-    put_back: bool = False
-    dropped: bool = False
-    box_check: BoxCheck | None = None
-    check_wall_s: float = 0.0
-    notes: list[str] = field(default_factory=list)
 
 
 class TableClearer:
@@ -298,7 +280,7 @@ class TableClearer:
         box = self.boxes[self.sort.box_for(target.name)]
         pose = to_world(capture, target.transform_model_to_camera)
         others = tuple(d for d in ident.detections if d.name != target.name)
-        attempt = _Attempt(target, box, pose, self.cell.time, others)
+        attempt = AttemptState(target, box, pose, self.cell.time, others)
         attempt.obstacles_xy = self._obstacles_of(target, ident)
         if self.settings.pile_grasp.enabled:
             attempt.grasp = self._pile_grasp(target, ident, pose)
@@ -388,7 +370,7 @@ class TableClearer:
         self._phase, self._meant = loop.current_phase.value, name
         self._step()
 
-    def _loop_vision(self, cycle: VisionCycle, attempt: _Attempt, loop: PickPlaceLoop) -> None:
+    def _loop_vision(self, cycle: VisionCycle, attempt: AttemptState, loop: PickPlaceLoop) -> None:
         if self.on_recognition is not None:
             self.on_recognition(cycle, attempt.target.name)
         record = cycle.record
@@ -407,7 +389,7 @@ class TableClearer:
                 )
             self._use_pile_grasp(loop, cycle.transform_model_to_world, attempt)
 
-    def _loop_phase(self, record: PhaseRecord, attempt: _Attempt) -> None:
+    def _loop_phase(self, record: PhaseRecord, attempt: AttemptState) -> None:
         if self.on_phase is not None:
             self.on_phase(record, attempt.target.name)
         if record.phase == "lift" and record.note.startswith(LIFTED):
@@ -479,7 +461,7 @@ class TableClearer:
         )
 
     def _use_pile_grasp(
-        self, loop: PickPlaceLoop, transform_model_to_world: FloatArray, attempt: _Attempt
+        self, loop: PickPlaceLoop, transform_model_to_world: FloatArray, attempt: AttemptState
     ) -> None:
         """Hands the job's grasp point to the loop, in the frame of the loop's own recognition
         (a symmetric cloth may have been seen turned), if it lies on the recognised cloth."""
@@ -496,88 +478,49 @@ class TableClearer:
         attempt.grasp_point_model = loop.tracker.grasp_point_model.copy()
 
     # ------------------------------------------------------------------ checks
-    def _after_lift(self, attempt: _Attempt) -> None:
+    def _after_lift(self, attempt: AttemptState) -> None:
         """Did the meant cloth, and only it, leave the table? Else put it back."""
         self._phase = "lift check"
         capture = self.cell.capture()
         wall, cpu = time.perf_counter(), time.process_time()
         name = attempt.target.name
-        stayed = self._still_there(capture, name, attempt.transform_target_to_world, self._threshold(name))
+        recognizer = self.recognizers[name]
+        stayed = still_there(recognizer, capture, attempt.transform_target_to_world, self.settings.same_place)
         attempt.check_wall_s += time.perf_counter() - wall
         self._wait(time.process_time() - cpu)
         expected = self.weights.get(name)
         verdict, what = "ok", ""
         if self.weigh is not None and expected is not None:
-            attempt.weighed = weighed = float(self.weigh())
-            s = self.settings
-            if weighed > expected * (1 + s.weight_tolerance) + s.weight_floor:
-                verdict, what = (
-                    "double",
-                    f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g",
-                )
-            elif weighed < expected * (1 - s.weight_tolerance) - s.weight_floor:
-                verdict, what = (
-                    "wrong",
-                    f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g",
-                )
+            attempt.weighed = float(self.weigh())
+            verdict, what = weight_verdict(attempt.weighed, expected, name, self.settings)
         if stayed:
             verdict, what = "wrong", f"{name} still in its place" + (f"; {what}" if what else "")
         attempt.lift_check = verdict
         if verdict == "ok":
             return
         if verdict == "double" and attempt.weighed is not None and expected is not None:
-            companion = self._companion(attempt, attempt.weighed - expected)
-            if companion is not None and self.sort.box_for(companion) == attempt.box.name:
-                attempt.came_along = (companion,)
-                attempt.notes.append(f"double pick ({what}): {companion} came along, same box: both placed")
+            grasp = self.motion.tcp_position()
+            grasp[2] = self.table_z
+            extra = attempt.weighed - expected
+            other = companion(
+                self._survey_capture,
+                self.rig.right,
+                grasp,
+                attempt.others,
+                extra,
+                self.weights,
+                self.settings,
+            )
+            if other is not None and self.sort.box_for(other) == attempt.box.name:
+                attempt.came_along = (other,)
+                attempt.notes.append(f"double pick ({what}): {other} came along, same box: both placed")
                 return
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
         self._put_back(attempt)
         attempt.put_back = True
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
 
-    def _companion(self, attempt: _Attempt, extra: float) -> str | None:
-        """The one surveyed cloth under the grasp point whose weight is the `extra` [kg]
-        the load cell read, or None (none, or more than one, fits)."""
-        survey = self._survey_capture
-        grasp = self.motion.tcp_position()
-        grasp[2] = self.table_z
-        to_camera = invert_transform(survey.transform_right_camera_to_world)
-        u, v = self.rig.right.project((to_camera[:3, :3] @ grasp + to_camera[:3, 3])[None])[0]
-        s = self.settings
-        fits = []
-        for d in attempt.others:
-            height, width = d.footprint.shape
-            reach = int(s.companion_reach_px)
-            u0, u1 = max(0, round(u) - reach), min(width, round(u) + reach + 1)
-            v0, v1 = max(0, round(v) - reach), min(height, round(v) + reach + 1)
-            if u0 >= u1 or v0 >= v1 or not np.any(d.footprint[v0:v1, u0:u1]):
-                continue
-            weight = self.weights.get(d.name)
-            if weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor:
-                fits.append(d.name)
-        return fits[0] if len(fits) == 1 else None
-
-    def _still_there(
-        self, capture: StereoCapture, name: str, pose_world: FloatArray, threshold: float
-    ) -> bool:
-        """Does the cloth's recogniser still find it where the survey saw it?"""
-        expected = invert_transform(capture.transform_right_camera_to_world) @ pose_world
-        checked = self.recognizers[name].check(capture.left_bgr, capture.right_bgr, expected, seed=0)
-        return self._agrees(checked, capture, pose_world, threshold)
-
-    def _agrees(
-        self, recognition: Recognition, capture: StereoCapture, pose_world: FloatArray, threshold: float
-    ) -> bool:
-        if recognition.confidence < threshold:
-            return False
-        where = to_world(capture, recognition.transform_model_to_camera)
-        return bool(np.hypot(*(where[:2, 3] - pose_world[:2, 3])) <= self.settings.same_place)
-
-    def _threshold(self, name: str) -> float:
-        return self.recognizers[name].settings.decide.threshold
-
-    def _put_back(self, attempt: _Attempt) -> None:
+    def _put_back(self, attempt: AttemptState) -> None:
         """Lays what the gripper holds back onto the table, spread out over free table in
         the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers it while
         moving away from the view's middle. Lets go and returns to the lift pose."""
@@ -606,7 +549,7 @@ class TableClearer:
             self.motion.move_tcp(up)
         self.motion.move_to_joints(lifted)
 
-    def _lay_out_joints(self, attempt: _Attempt, above: FloatArray) -> list[FloatArray] | None:
+    def _lay_out_joints(self, attempt: AttemptState, above: FloatArray) -> list[FloatArray] | None:
         """Joints of the first reachable lay-out path (most free first), or None."""
         model = self.recognizers[attempt.target.name].model
         grasp = attempt.grasp_point_model if attempt.grasp_point_model is not None else model.grasp_point
@@ -638,21 +581,11 @@ class TableClearer:
             return joints
         return None
 
-    def _after_release(self, attempt: _Attempt) -> None:
+    def _after_release(self, attempt: AttemptState) -> None:
         self._phase = "box check"
         capture = self.cell.capture()
-        view = box_view(capture, self.rig, attempt.box.centre, attempt.box.inner_size, self.box_settings)
-        model = self.recognizers[attempt.target.name].model
-        fitness = self.recognizers[attempt.target.name].settings.fitness
-        attempt.box_check = check_box(self._views[attempt.box.name], view, model, fitness, self.box_settings)
-        if attempt.box_check.in_view >= self.box_settings.min_in_view:
-            self._views[attempt.box.name] = view
-        if not attempt.box_check.confirmed:
-            c = attempt.box_check
-            attempt.notes.append(
-                f"box check: not confirmed (changed {c.changed:.0%}, model colours {c.model_share:.0%}, "
-                f"seen {c.in_view:.0%})"
-            )
+        recognizer = self.recognizers[attempt.target.name]
+        check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings)
 
     def _look_at_boxes(self) -> None:
         """Looks into every box once (the reference of the checks after placing)."""
