@@ -52,8 +52,7 @@ from robot_app.control.clear_table_records import (
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
 from robot_app.control.grasp_point import PileGrasp, choose_pile_grasp, points_in_mask
-from robot_app.control.intercept import hanging_reach
-from robot_app.control.job_motion import JobMotion, lay_out_paths
+from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
 from robot_app.control.logged_cell import LoggedCell
@@ -70,6 +69,7 @@ from robot_app.control.pick_checks import (
 from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_posture
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
+from robot_app.control.table_recovery import TableRecovery
 from robot_app.control.table_survey import TablePlane, choose_target, obstacles_on_table, to_world
 from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.geometry import invert_transform
@@ -170,6 +170,9 @@ class TableClearer:
             on_step=lambda: self._step(),
             ik_time_budget=5 * self.loop_settings.ik_time_budget,
         )
+        self.recovery = TableRecovery(
+            self.motion, self.cell, self.table, self.rig.right, self.settings, self.loop_settings
+        )
 
     # ------------------------------------------------------------------ job
     def run(self) -> TableResult:
@@ -183,8 +186,7 @@ class TableClearer:
         self._seen_in_box: set[str] = set()
         self._placed_order: list[str] = []
         self._collisions = 0
-        self._looked: list[FloatArray] = []  # places looked at since the last pick attempt
-        self._put_back_spots: list[FloatArray] = []
+        self.recovery.forget()
         self._last_seen: dict[str, FloatArray] = {}  # (x, y) [m] where each cloth was last surveyed
         self._survey_camera_pose = self.observation_camera_pose.copy()
         interrupted, stop_reason = False, ""
@@ -302,7 +304,7 @@ class TableClearer:
             ground_truth=truth,
             posture_seed=self.motion.q,
         )
-        self._looked.clear()
+        self.recovery.looked.clear()
         self._phase, self._meant = "observe", target.name
         result = loop.run()
         self._collisions += result.collisions
@@ -410,42 +412,23 @@ class TableClearer:
             self.motion.move_to_joints(self.observation_joints)
 
     def _places_to_look(self, ident: Identification) -> list[FloatArray]:
-        """Where to look again when a survey left nothing to pick (`look_around`): put-back
-        spots, then cloths seen before and not put away, then unknown regions; none
-        within `look_apart` of one another or of a place already looked at."""
-        capture = self._survey_capture
         placed = set(self._placed_order)
-        candidates = [
-            *reversed(self._put_back_spots),
-            *(xy for name, xy in self._last_seen.items() if name not in placed and self._untried(name)),
-            *(np.array(self.table.point(capture, region.centroid)) for region in ident.unknown),
-        ]
-        places: list[FloatArray] = []
-        here = capture.transform_right_camera_to_world[:2, 3]
-        for xy in candidates:
-            taken = [here, *self._looked, *places]
-            if all(float(np.hypot(*(xy - other))) > self.settings.look_apart for other in taken):
-                places.append(np.asarray(xy, dtype=float))
-        return places[: max(0, self.settings.look_around - len(self._looked))]
+        return self.recovery.places_to_look(
+            self._survey_capture,
+            ident,
+            self._last_seen,
+            lambda name: name not in placed and self._untried(name),
+        )
 
     def _untried(self, name: str) -> bool:
         tried = int(self._records.get(name, {}).get("attempts", 0))  # type: ignore[call-overload]
         return tried < self.settings.max_attempts
 
     def _look_from(self, place: FloatArray) -> bool:
-        """Moves the right camera over `place` at the observation height (cameras looking
-        down); False if the arm cannot reach that pose."""
-        self._looked.append(place)
+        self.recovery.looked.append(place)
         offset = self._camera_offset()
-        camera = self.observation_camera_pose[:3, 3]
-        tcp = np.array([place[0] - offset[0], place[1] - offset[1], camera[2] - offset[2]])
         self._phase, self._meant = "look around", None
-        try:
-            self.motion.move_tcp(tcp)
-        except IKError:
-            return False
-        self.motion.hold(self.loop_settings.settle_time)
-        return True
+        return self.recovery.look_from(place, offset, self.observation_camera_pose[2, 3])
 
     # ------------------------------------------------------------------ grasp point
     def _pile_grasp(
@@ -516,70 +499,13 @@ class TableClearer:
                 attempt.notes.append(f"double pick ({what}): {other} came along, same box: both placed")
                 return
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
-        self._put_back(attempt)
+        self._phase = "put back"
+        model = self.recognizers[name].model
+        self.recovery.put_back(
+            self._survey_capture, model, attempt.grasp_point_model, attempt.obstacles_xy, attempt.notes
+        )
         attempt.put_back = True
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
-
-    def _put_back(self, attempt: AttemptState) -> None:
-        """Lays what the gripper holds back onto the table, spread out over free table in
-        the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers it while
-        moving away from the view's middle. Lets go and returns to the lift pose."""
-        self._phase = "put back"
-        lifted = self.motion.q
-        above = self.motion.tcp_position()
-        path = self._lay_out_joints(attempt, above) if self.settings.put_back.lay_out else None
-        if path is not None:
-            for q in path:
-                self.motion.move_to_joints(q, speed=self.settings.put_down_speed)
-        else:
-            outward = above[:2] - self._survey_capture.transform_right_camera_to_world[:2, 3]
-            outward = outward / max(float(np.linalg.norm(outward)), 1e-9)
-            down = above.copy()
-            down[:2] += self.settings.put_down_slide * outward
-            down[2] = self.table_z + self.settings.put_down_height
-            self.motion.move_tcp(down, speed=self.settings.put_down_speed)
-        self.cell.release()
-        self._put_back_spots.append(self.motion.tcp_position()[:2])
-        self.motion.hold(self.loop_settings.release_wait)
-        self.cell.set_gripper(self.loop_settings.gripper_open)
-        self.motion.hold(self.loop_settings.close_time)
-        if path is not None:  # straight up first: the open fingers leave the laid cloth alone
-            up = self.motion.tcp_position()
-            up[2] = self.table_z + self.settings.put_down_height + self.settings.put_back.max_length
-            self.motion.move_tcp(up)
-        self.motion.move_to_joints(lifted)
-
-    def _lay_out_joints(self, attempt: AttemptState, above: FloatArray) -> list[FloatArray] | None:
-        """Joints of the first reachable lay-out path (most free first), or None."""
-        model = self.recognizers[attempt.target.name].model
-        grasp = attempt.grasp_point_model if attempt.grasp_point_model is not None else model.grasp_point
-        reach = hanging_reach(model.points_in, grasp)
-        capture = self._survey_capture
-        width, height = self.rig.right.image_size
-        view = self.table.pixels(capture, [0, width - 1, width - 1, 0], [0, 0, height - 1, height - 1])
-        obstacles = attempt.obstacles_xy if attempt.obstacles_xy is not None else np.empty((0, 2))
-        paths = lay_out_paths(
-            above[:2],
-            reach,
-            self.table_z,
-            self.settings.put_down_height,
-            obstacles,
-            view,
-            self.settings.put_back,
-        )
-        for path in paths:
-            joints: list[FloatArray] = []
-            try:
-                for point in path.waypoints:
-                    joints.append(self.motion.solve_tcp(point))
-            except IKError:
-                continue
-            attempt.notes.append(
-                f"put back laid out over {min(reach, self.settings.put_back.max_length) * 1000:.0f} mm "
-                f"towards ({path.direction[0]:+.2f}, {path.direction[1]:+.2f})"
-            )
-            return joints
-        return None
 
     def _after_release(self, attempt: AttemptState) -> None:
         self._phase = "box check"
