@@ -44,9 +44,6 @@ from robot_app.control.cell import Cell
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
-    ClothOutcome,
-    ClothRecord,
-    PickAttempt,
     SurveyRecord,
     TableResult,
 )
@@ -69,6 +66,7 @@ from robot_app.control.pick_checks import (
 from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_posture
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
+from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_recovery import TableRecovery
 from robot_app.control.table_survey import TablePlane, choose_target, obstacles_on_table, to_world
 from robot_app.errors import IKError, InterruptError, TrajectoryError
@@ -179,15 +177,10 @@ class TableClearer:
         """Clears the table; never raises for a failed pick. A stop the user asked for
         (`InterruptError` from `on_step`) ends the job where it is, `interrupted`."""
         wall_start, start = time.perf_counter(), self.cell.time
-        self._records: dict[str, dict[str, object]] = {}
-        self._attempts: list[PickAttempt] = []
-        self._surveys: list[SurveyRecord] = []
+        self.ledger = TableLedger()
         self._views: dict[str, BoxView | None] = dict.fromkeys(self.boxes)
-        self._seen_in_box: set[str] = set()
-        self._placed_order: list[str] = []
         self._collisions = 0
         self.recovery.forget()
-        self._last_seen: dict[str, FloatArray] = {}  # (x, y) [m] where each cloth was last surveyed
         self._survey_camera_pose = self.observation_camera_pose.copy()
         interrupted, stop_reason = False, ""
         last: Identification | None = None
@@ -198,13 +191,13 @@ class TableClearer:
             while True:
                 self._back_to_observation()
                 last = self._survey()
-                target = choose_target(last, self._records, self.settings.max_attempts)
+                target = choose_target(last, self.ledger.records, self.settings.max_attempts)
                 for place in self._places_to_look(last) if target is None else ():
                     self._record_survey(last, None)
                     if not self._look_from(place):
                         continue
                     last = self._survey()
-                    target = choose_target(last, self._records, self.settings.max_attempts)
+                    target = choose_target(last, self.ledger.records, self.settings.max_attempts)
                     if target is not None:
                         break
                 self._record_survey(last, target)
@@ -215,7 +208,7 @@ class TableClearer:
                         else ("every cloth still seen has used its attempts")
                     )
                     break
-                if len(self._attempts) >= self.settings.max_picks:
+                if len(self.ledger.attempts) >= self.settings.max_picks:
                     stop_reason = f"{self.settings.max_picks} pick attempts used"
                     break
                 if self._pick(target, last):
@@ -231,7 +224,7 @@ class TableClearer:
     def _survey(self) -> Identification:
         self._phase, self._meant = "survey", None
         capture = self.cell.capture()
-        names = [n for n in self.recognizers if n not in self._seen_in_box]
+        names = [n for n in self.recognizers if n not in self.ledger.seen_in_box]
         wall, cpu = time.perf_counter(), time.process_time()
         ident = (
             identify(
@@ -239,7 +232,7 @@ class TableClearer:
                 capture.left_bgr,
                 capture.right_bgr,
                 self.identify_settings,
-                seed=len(self._surveys),
+                seed=len(self.ledger.surveys),
             )
             if names
             else Identification((), (), (), (), {})
@@ -255,23 +248,7 @@ class TableClearer:
         return ident
 
     def _record_survey(self, ident: Identification, chosen: Detection | None) -> None:
-        capture = self._survey_capture
-        detections = []
-        for d in ident.detections:
-            pose = to_world(capture, d.transform_model_to_camera)
-            detections.append((d.name, float(d.confidence), *(float(v) for v in pose[:3, 3])))
-            self._last_seen[d.name] = pose[:2, 3].copy()
-            self._records.setdefault(d.name, {"attempts": 0, "sim_time": 0.0, "notes": []})
-        record = SurveyRecord(
-            capture.time,
-            self._survey_wall,
-            tuple(detections),  # type: ignore[arg-type]
-            ident.dropped,
-            ident.above,
-            tuple(self.table.point(capture, region.centroid) for region in ident.unknown),
-            None if chosen is None else chosen.name,
-        )
-        self._surveys.append(record)
+        record = self.ledger.record_survey(self._survey_capture, self._survey_wall, ident, chosen, self.table)
         if self.on_survey is not None:
             self.on_survey(record)
 
@@ -308,40 +285,7 @@ class TableClearer:
         self._phase, self._meant = "observe", target.name
         result = loop.run()
         self._collisions += result.collisions
-        entry = self._records.setdefault(target.name, {"attempts": 0, "sim_time": 0.0, "notes": []})
-        entry["attempts"] = int(entry["attempts"]) + 1  # type: ignore[call-overload]
-        entry["sim_time"] = float(entry["sim_time"]) + (self.cell.time - attempt.start_time)  # type: ignore[arg-type]
-        notes: list[str] = entry["notes"]  # type: ignore[assignment]
-        notes.extend(attempt.notes)
-        if result.outcome is not Outcome.PLACED:
-            notes.append(f"{result.outcome.value}: {result.reason}")
-        if result.outcome is Outcome.NOT_PRESENT:
-            entry["unconfirmed"] = True
-        if result.outcome is Outcome.GRASP_FAILED and not attempt.put_back:
-            entry["misses"] = int(entry.get("misses", 0)) + 1  # type: ignore[call-overload]
-        self._attempts.append(
-            PickAttempt(
-                target.name,
-                box.name,
-                attempt.start_time,
-                self.cell.time,
-                result,
-                attempt.came_along,
-                attempt.lift_check,
-                attempt.weighed,
-                self.weights.get(target.name),
-                attempt.put_back,
-                attempt.dropped,
-                attempt.box_check,
-                attempt.check_wall_s,
-                attempt.grasp.clearance if attempt.grasp is not None and attempt.grasp_used else None,
-            )
-        )
-        if result.outcome is Outcome.PLACED:
-            confirmed = attempt.box_check is not None and attempt.box_check.confirmed
-            self._placed(target.name, confirmed)
-            for name in attempt.came_along:  # placed too, but looked for again until seen gone
-                self._placed(name, False)
+        self.ledger.record_attempt(attempt, result, self.cell.time, self.weights.get(target.name))
         return result.outcome is Outcome.INTERRUPTED
 
     def _pick_recognizer(self, target: Detection) -> Recognizer:
@@ -354,19 +298,11 @@ class TableClearer:
 
     def _loop_settings(self, name: str) -> LoopSettings:
         """The loop's settings for the next attempt at `name`: deeper after empty grasps."""
-        misses = int(self._records.get(name, {}).get("misses", 0))  # type: ignore[call-overload]
+        misses = self.ledger.misses(name)
         if misses == 0 or self.settings.deeper_after_miss == 0:
             return self.loop_settings
         height = max(0.0, self.loop_settings.grasp_height - misses * self.settings.deeper_after_miss)
         return self.loop_settings.model_copy(update={"grasp_height": height})
-
-    def _placed(self, name: str, confirmed: bool) -> None:
-        entry = self._records.setdefault(name, {"attempts": 0, "sim_time": 0.0, "notes": []})
-        entry["confirmed"] = confirmed
-        if name not in self._placed_order:
-            self._placed_order.append(name)
-        if confirmed:
-            self._seen_in_box.add(name)
 
     def _loop_step(self, loop: PickPlaceLoop, name: str) -> None:
         self._phase, self._meant = loop.current_phase.value, name
@@ -412,17 +348,13 @@ class TableClearer:
             self.motion.move_to_joints(self.observation_joints)
 
     def _places_to_look(self, ident: Identification) -> list[FloatArray]:
-        placed = set(self._placed_order)
+        placed = set(self.ledger.placed_order)
         return self.recovery.places_to_look(
             self._survey_capture,
             ident,
-            self._last_seen,
-            lambda name: name not in placed and self._untried(name),
+            self.ledger.last_seen,
+            lambda name: name not in placed and self.ledger.untried(name, self.settings.max_attempts),
         )
-
-    def _untried(self, name: str) -> bool:
-        tried = int(self._records.get(name, {}).get("attempts", 0))  # type: ignore[call-overload]
-        return tried < self.settings.max_attempts
 
     def _look_from(self, place: FloatArray) -> bool:
         self.recovery.looked.append(place)
@@ -564,41 +496,13 @@ class TableClearer:
         start: float,
         wall_start: float,
     ) -> TableResult:
-        records = []
-        still_seen = {d.name for d in last.detections} if last is not None else set()
-        for name, entry in self._records.items():
-            order = self._placed_order.index(name) + 1 if name in self._placed_order else None
-            if order is not None and name not in still_seen:
-                outcome = ClothOutcome.PLACED if entry.get("confirmed") else ClothOutcome.PLACED_UNSEEN
-            elif int(entry["attempts"]) >= self.settings.max_attempts:  # type: ignore[call-overload]
-                outcome = ClothOutcome.FAILED
-            else:
-                outcome = ClothOutcome.LEFT
-            if order is not None and name in still_seen:
-                order = None  # released over its box, yet seen on the table again
-            records.append(
-                ClothRecord(
-                    name,
-                    self.sort.box_for(name),
-                    order,
-                    int(entry["attempts"]),  # type: ignore[call-overload]
-                    float(entry["sim_time"]),  # type: ignore[arg-type]
-                    outcome,
-                    tuple(entry["notes"]),  # type: ignore[arg-type]
-                )
-            )
-        unknown = self._surveys[-1].unknown if self._surveys else ()
-        cleared = (
-            not interrupted
-            and bool(self._surveys)
-            and self._surveys[-1].chosen is None
-            and not (last.detections if last is not None else ())
-            and all(r.outcome in (ClothOutcome.PLACED, ClothOutcome.PLACED_UNSEEN) for r in records)
-        )
+        cloths = self.ledger.cloths(last, self.sort.box_for, self.settings.max_attempts)
+        unknown = self.ledger.surveys[-1].unknown if self.ledger.surveys else ()
+        cleared = self.ledger.cleared(last, interrupted, cloths)
         return TableResult(
-            cloths=tuple(records),
-            attempts=tuple(self._attempts),
-            surveys=tuple(self._surveys),
+            cloths=cloths,
+            attempts=tuple(self.ledger.attempts),
+            surveys=tuple(self.ledger.surveys),
             stop_reason=stop_reason,
             cleared=cleared,
             unknown=unknown,
