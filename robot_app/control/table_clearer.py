@@ -38,7 +38,6 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
-from robot_app.control.anchored_recognizer import AnchoredRecognizer
 from robot_app.control.box_check import BoxCheckSettings, BoxView, box_view
 from robot_app.control.cell import Cell
 from robot_app.control.clear_table_records import (
@@ -48,7 +47,6 @@ from robot_app.control.clear_table_records import (
     TableResult,
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
-from robot_app.control.grasp_point import PileGrasp, choose_pile_grasp, points_in_mask
 from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
@@ -63,6 +61,7 @@ from robot_app.control.pick_checks import (
     still_there,
     weight_verdict,
 )
+from robot_app.control.pick_handover import check_found_in_place, grasp_in_model, pick_recognizer, pile_grasp
 from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_posture
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
@@ -70,7 +69,6 @@ from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_recovery import TableRecovery
 from robot_app.control.table_survey import TablePlane, choose_target, obstacles_on_table, to_world
 from robot_app.errors import IKError, InterruptError, TrajectoryError
-from robot_app.geometry import invert_transform
 from robot_app.vision import Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
 
@@ -262,8 +260,10 @@ class TableClearer:
         attempt = AttemptState(target, box, pose, self.cell.time, others)
         attempt.obstacles_xy = self._obstacles_of(target, ident)
         if self.settings.pile_grasp.enabled:
-            attempt.grasp = self._pile_grasp(target, ident, pose)
-        recognizer = self._pick_recognizer(target)
+            model, K = self.recognizers[target.name].model, self.rig.right.camera_matrix
+            obstacles = self._obstacles_of(target, ident)
+            attempt.grasp = pile_grasp(target, pose, model, K, obstacles, self.settings.pile_grasp)
+        recognizer = pick_recognizer(self.recognizers[target.name], target, self.settings.pick_depth_window)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
         loop = PickPlaceLoop(
             self.cell,
@@ -288,14 +288,6 @@ class TableClearer:
         self.ledger.record_attempt(attempt, result, self.cell.time, self.weights.get(target.name))
         return result.outcome is Outcome.INTERRUPTED
 
-    def _pick_recognizer(self, target: Detection) -> Recognizer:
-        """The target's recogniser, held near the survey's depth (`AnchoredRecognizer`)."""
-        base = self.recognizers[target.name]
-        window = self.settings.pick_depth_window
-        if window is None:
-            return base
-        return AnchoredRecognizer(base, float(target.transform_model_to_camera[2, 3]), window)
-
     def _loop_settings(self, name: str) -> LoopSettings:
         """The loop's settings for the next attempt at `name`: deeper after empty grasps."""
         misses = self.ledger.misses(name)
@@ -313,18 +305,7 @@ class TableClearer:
             self.on_recognition(cycle, attempt.target.name)
         record = cycle.record
         if record.mode == "search" and record.accepted:
-            distance = float(
-                np.hypot(
-                    record.x - attempt.transform_target_to_world[0, 3],
-                    record.y - attempt.transform_target_to_world[1, 3],
-                )
-            )
-            if distance > self.settings.same_place:
-                raise EpisodeAbortError(
-                    Outcome.NOT_PRESENT,
-                    f"{attempt.target.name} found {distance * 1000:.0f} mm from where the survey saw it "
-                    "(another cloth of its look?)",
-                )
+            check_found_in_place(record, attempt, self.settings.same_place)
             self._use_pile_grasp(loop, cycle.transform_model_to_world, attempt)
 
     def _loop_phase(self, record: PhaseRecord, attempt: AttemptState) -> None:
@@ -363,33 +344,17 @@ class TableClearer:
         return self.recovery.look_from(place, offset, self.observation_camera_pose[2, 3])
 
     # ------------------------------------------------------------------ grasp point
-    def _pile_grasp(
-        self, target: Detection, ident: Identification, pose_world: FloatArray
-    ) -> PileGrasp | None:
-        """Where on `target` to grasp: seen by the survey and away from every other cloth
-        it saw (`grasp_point.choose_pile_grasp`)."""
-        model = self.recognizers[target.name].model
-        K = self.rig.right.camera_matrix
-        seen = points_in_mask(model.points_in, target.transform_model_to_camera, K, target.explained)
-        return choose_pile_grasp(
-            model, pose_world, seen, self._obstacles_of(target, ident), self.settings.pile_grasp
-        )
-
     def _use_pile_grasp(
         self, loop: PickPlaceLoop, transform_model_to_world: FloatArray, attempt: AttemptState
     ) -> None:
         """Hands the job's grasp point to the loop, in the frame of the loop's own recognition
         (a symmetric cloth may have been seen turned), if it lies on the recognised cloth."""
-        if attempt.grasp is None:
-            attempt.grasp_point_model = loop.tracker.grasp_point_model.copy()
-            return
-        point = (invert_transform(transform_model_to_world) @ np.append(attempt.grasp.point_world, 1.0))[:3]
-        point[2] = 0.0
-        model = self.recognizers[attempt.target.name].model
-        nearest = float(np.min(np.hypot(*(np.asarray(model.points_in)[:, :2] - point[:2]).T)))
-        if nearest <= self.settings.pile_grasp.min_edge_gap:
-            loop.tracker.grasp_point_model = point
-            attempt.grasp_used = True
+        if attempt.grasp is not None:
+            model, gap = self.recognizers[attempt.target.name].model, self.settings.pile_grasp.min_edge_gap
+            point = grasp_in_model(attempt.grasp.point_world, transform_model_to_world, model, gap)
+            if point is not None:
+                loop.tracker.grasp_point_model = point
+                attempt.grasp_used = True
         attempt.grasp_point_model = loop.tracker.grasp_point_model.copy()
 
     # ------------------------------------------------------------------ checks
