@@ -33,65 +33,44 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
-from robot_app.control.anchored_recognizer import AnchoredRecognizer
-from robot_app.control.box_check import BoxCheck, BoxCheckSettings, BoxView, box_view, check_box
-from robot_app.control.cell import Cell, StereoCapture
+from robot_app.control.box_check import BoxCheckSettings, BoxView, box_view
+from robot_app.control.cell import Cell
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
-    ClothOutcome,
-    ClothRecord,
-    PickAttempt,
     SurveyRecord,
     TableResult,
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
-from robot_app.control.grasp_point import PileGrasp, choose_pile_grasp, points_in_mask
-from robot_app.control.intercept import hanging_reach
-from robot_app.control.job_motion import JobMotion, lay_out_paths
+from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
 from robot_app.control.logged_cell import LoggedCell
 from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.pick_checks import (
+    DROPPED,
+    PUT_BACK,
+    AttemptState,
+    check_release,
+    companion,
+    still_there,
+    weight_verdict,
+)
+from robot_app.control.pick_handover import check_found_in_place, grasp_in_model, pick_recognizer, pile_grasp
 from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_posture
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
+from robot_app.control.table_ledger import TableLedger
+from robot_app.control.table_recovery import TableRecovery
+from robot_app.control.table_survey import TablePlane, choose_target, obstacles_on_table, to_world
 from robot_app.errors import IKError, InterruptError, TrajectoryError
-from robot_app.geometry import invert_transform, transform_points
-from robot_app.vision import Recognition, Recognizer
+from robot_app.vision import Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
-
-PUT_BACK = "put back"  # in a GRASP_FAILED reason: the job lowered the lift back
-DROPPED = "dropped"  # in a LOST reason: the gripper came empty over the box
-
-
-@dataclass
-class _Attempt:
-    """What the job knows during one loop run."""
-
-    target: Detection
-    box: BoxPlace
-    transform_target_to_world: FloatArray
-    start_time: float
-    others: tuple[Detection, ...] = ()  # the survey's other detections
-    grasp: PileGrasp | None = None  # where to grasp, away from the other cloths (Σ_W)
-    grasp_used: bool = False
-    grasp_point_model: FloatArray | None = None  # the loop's grasp point in Σ_M (last search)
-    obstacles_xy: FloatArray | None = None  # (M, 2) the other cloths the survey saw [m]
-    came_along: tuple[str, ...] = ()
-    lift_check: str = ""
-    weighed: float | None = None
-    put_back: bool = False
-    dropped: bool = False
-    box_check: BoxCheck | None = None
-    check_wall_s: float = 0.0
-    notes: list[str] = field(default_factory=list)
 
 
 class TableClearer:
@@ -176,6 +155,7 @@ class TableClearer:
         self.weigh = weigh
         self.weights = dict(weights or {})
         self.rig = next(iter(self.recognizers.values())).rig
+        self.table = TablePlane(self.rig.right.camera_matrix, self.table_z)
         self._phase: str = "survey"
         self._meant: str | None = None
         self.motion = JobMotion(
@@ -186,22 +166,19 @@ class TableClearer:
             on_step=lambda: self._step(),
             ik_time_budget=5 * self.loop_settings.ik_time_budget,
         )
+        self.recovery = TableRecovery(
+            self.motion, self.cell, self.table, self.rig.right, self.settings, self.loop_settings
+        )
 
     # ------------------------------------------------------------------ job
     def run(self) -> TableResult:
         """Clears the table; never raises for a failed pick. A stop the user asked for
         (`InterruptError` from `on_step`) ends the job where it is, `interrupted`."""
         wall_start, start = time.perf_counter(), self.cell.time
-        self._records: dict[str, dict[str, object]] = {}
-        self._attempts: list[PickAttempt] = []
-        self._surveys: list[SurveyRecord] = []
+        self.ledger = TableLedger()
         self._views: dict[str, BoxView | None] = dict.fromkeys(self.boxes)
-        self._seen_in_box: set[str] = set()
-        self._placed_order: list[str] = []
         self._collisions = 0
-        self._looked: list[FloatArray] = []  # places looked at since the last pick attempt
-        self._put_back_spots: list[FloatArray] = []
-        self._last_seen: dict[str, FloatArray] = {}  # (x, y) [m] where each cloth was last surveyed
+        self.recovery.forget()
         self._survey_camera_pose = self.observation_camera_pose.copy()
         interrupted, stop_reason = False, ""
         last: Identification | None = None
@@ -212,13 +189,13 @@ class TableClearer:
             while True:
                 self._back_to_observation()
                 last = self._survey()
-                target = self._choose(last)
+                target = choose_target(last, self.ledger.records, self.settings.max_attempts)
                 for place in self._places_to_look(last) if target is None else ():
                     self._record_survey(last, None)
                     if not self._look_from(place):
                         continue
                     last = self._survey()
-                    target = self._choose(last)
+                    target = choose_target(last, self.ledger.records, self.settings.max_attempts)
                     if target is not None:
                         break
                 self._record_survey(last, target)
@@ -229,7 +206,7 @@ class TableClearer:
                         else ("every cloth still seen has used its attempts")
                     )
                     break
-                if len(self._attempts) >= self.settings.max_picks:
+                if len(self.ledger.attempts) >= self.settings.max_picks:
                     stop_reason = f"{self.settings.max_picks} pick attempts used"
                     break
                 if self._pick(target, last):
@@ -245,7 +222,7 @@ class TableClearer:
     def _survey(self) -> Identification:
         self._phase, self._meant = "survey", None
         capture = self.cell.capture()
-        names = [n for n in self.recognizers if n not in self._seen_in_box]
+        names = [n for n in self.recognizers if n not in self.ledger.seen_in_box]
         wall, cpu = time.perf_counter(), time.process_time()
         ident = (
             identify(
@@ -253,7 +230,7 @@ class TableClearer:
                 capture.left_bgr,
                 capture.right_bgr,
                 self.identify_settings,
-                seed=len(self._surveys),
+                seed=len(self.ledger.surveys),
             )
             if names
             else Identification((), (), (), (), {})
@@ -268,39 +245,8 @@ class TableClearer:
         )
         return ident
 
-    def _choose(self, ident: Identification) -> Detection | None:
-        def eligible(d: Detection) -> bool:
-            tried = int(self._records.get(d.name, {}).get("attempts", 0))  # type: ignore[call-overload]
-            if tried >= self.settings.max_attempts:
-                return False
-            # a candidate below the recogniser's threshold gets one closer look by the loop
-            unconfirmed = bool(self._records.get(d.name, {}).get("unconfirmed", False))
-            return d.found or not unconfirmed
-
-        free = [d for d in ident.free() if eligible(d)]
-        if free:
-            return free[0]
-        rest = [d for d in ident.detections if eligible(d)]
-        return max(rest, key=lambda d: d.recognition.visible_fraction) if rest else None
-
     def _record_survey(self, ident: Identification, chosen: Detection | None) -> None:
-        capture = self._survey_capture
-        detections = []
-        for d in ident.detections:
-            pose = self._to_world(capture, d.transform_model_to_camera)
-            detections.append((d.name, float(d.confidence), *(float(v) for v in pose[:3, 3])))
-            self._last_seen[d.name] = pose[:2, 3].copy()
-            self._records.setdefault(d.name, {"attempts": 0, "sim_time": 0.0, "notes": []})
-        record = SurveyRecord(
-            capture.time,
-            self._survey_wall,
-            tuple(detections),  # type: ignore[arg-type]
-            ident.dropped,
-            ident.above,
-            tuple(self._on_table(capture, region.centroid) for region in ident.unknown),
-            None if chosen is None else chosen.name,
-        )
-        self._surveys.append(record)
+        record = self.ledger.record_survey(self._survey_capture, self._survey_wall, ident, chosen, self.table)
         if self.on_survey is not None:
             self.on_survey(record)
 
@@ -309,13 +255,15 @@ class TableClearer:
         """One loop run for `target`; True if the user stopped it."""
         capture = self._survey_capture
         box = self.boxes[self.sort.box_for(target.name)]
-        pose = self._to_world(capture, target.transform_model_to_camera)
+        pose = to_world(capture, target.transform_model_to_camera)
         others = tuple(d for d in ident.detections if d.name != target.name)
-        attempt = _Attempt(target, box, pose, self.cell.time, others)
-        attempt.obstacles_xy = self._obstacles(target, ident)
+        attempt = AttemptState(target, box, pose, self.cell.time, others)
+        attempt.obstacles_xy = self._obstacles_of(target, ident)
         if self.settings.pile_grasp.enabled:
-            attempt.grasp = self._pile_grasp(target, ident, pose)
-        recognizer = self._pick_recognizer(target)
+            model, K = self.recognizers[target.name].model, self.rig.right.camera_matrix
+            obstacles = self._obstacles_of(target, ident)
+            attempt.grasp = pile_grasp(target, pose, model, K, obstacles, self.settings.pile_grasp)
+        recognizer = pick_recognizer(self.recognizers[target.name], target, self.settings.pick_depth_window)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
         loop = PickPlaceLoop(
             self.cell,
@@ -333,94 +281,34 @@ class TableClearer:
             ground_truth=truth,
             posture_seed=self.motion.q,
         )
-        self._looked.clear()
+        self.recovery.looked.clear()
         self._phase, self._meant = "observe", target.name
         result = loop.run()
         self._collisions += result.collisions
-        entry = self._records.setdefault(target.name, {"attempts": 0, "sim_time": 0.0, "notes": []})
-        entry["attempts"] = int(entry["attempts"]) + 1  # type: ignore[call-overload]
-        entry["sim_time"] = float(entry["sim_time"]) + (self.cell.time - attempt.start_time)  # type: ignore[arg-type]
-        notes: list[str] = entry["notes"]  # type: ignore[assignment]
-        notes.extend(attempt.notes)
-        if result.outcome is not Outcome.PLACED:
-            notes.append(f"{result.outcome.value}: {result.reason}")
-        if result.outcome is Outcome.NOT_PRESENT:
-            entry["unconfirmed"] = True
-        if result.outcome is Outcome.GRASP_FAILED and not attempt.put_back:
-            entry["misses"] = int(entry.get("misses", 0)) + 1  # type: ignore[call-overload]
-        self._attempts.append(
-            PickAttempt(
-                target.name,
-                box.name,
-                attempt.start_time,
-                self.cell.time,
-                result,
-                attempt.came_along,
-                attempt.lift_check,
-                attempt.weighed,
-                self.weights.get(target.name),
-                attempt.put_back,
-                attempt.dropped,
-                attempt.box_check,
-                attempt.check_wall_s,
-                attempt.grasp.clearance if attempt.grasp is not None and attempt.grasp_used else None,
-            )
-        )
-        if result.outcome is Outcome.PLACED:
-            confirmed = attempt.box_check is not None and attempt.box_check.confirmed
-            self._placed(target.name, confirmed)
-            for name in attempt.came_along:  # placed too, but looked for again until seen gone
-                self._placed(name, False)
+        self.ledger.record_attempt(attempt, result, self.cell.time, self.weights.get(target.name))
         return result.outcome is Outcome.INTERRUPTED
-
-    def _pick_recognizer(self, target: Detection) -> Recognizer:
-        """The target's recogniser, held near the survey's depth (`AnchoredRecognizer`)."""
-        base = self.recognizers[target.name]
-        window = self.settings.pick_depth_window
-        if window is None:
-            return base
-        return AnchoredRecognizer(base, float(target.transform_model_to_camera[2, 3]), window)
 
     def _loop_settings(self, name: str) -> LoopSettings:
         """The loop's settings for the next attempt at `name`: deeper after empty grasps."""
-        misses = int(self._records.get(name, {}).get("misses", 0))  # type: ignore[call-overload]
+        misses = self.ledger.misses(name)
         if misses == 0 or self.settings.deeper_after_miss == 0:
             return self.loop_settings
         height = max(0.0, self.loop_settings.grasp_height - misses * self.settings.deeper_after_miss)
         return self.loop_settings.model_copy(update={"grasp_height": height})
 
-    def _placed(self, name: str, confirmed: bool) -> None:
-        entry = self._records.setdefault(name, {"attempts": 0, "sim_time": 0.0, "notes": []})
-        entry["confirmed"] = confirmed
-        if name not in self._placed_order:
-            self._placed_order.append(name)
-        if confirmed:
-            self._seen_in_box.add(name)
-
     def _loop_step(self, loop: PickPlaceLoop, name: str) -> None:
         self._phase, self._meant = loop.current_phase.value, name
         self._step()
 
-    def _loop_vision(self, cycle: VisionCycle, attempt: _Attempt, loop: PickPlaceLoop) -> None:
+    def _loop_vision(self, cycle: VisionCycle, attempt: AttemptState, loop: PickPlaceLoop) -> None:
         if self.on_recognition is not None:
             self.on_recognition(cycle, attempt.target.name)
         record = cycle.record
         if record.mode == "search" and record.accepted:
-            distance = float(
-                np.hypot(
-                    record.x - attempt.transform_target_to_world[0, 3],
-                    record.y - attempt.transform_target_to_world[1, 3],
-                )
-            )
-            if distance > self.settings.same_place:
-                raise EpisodeAbortError(
-                    Outcome.NOT_PRESENT,
-                    f"{attempt.target.name} found {distance * 1000:.0f} mm from where the survey saw it "
-                    "(another cloth of its look?)",
-                )
+            check_found_in_place(record, attempt, self.settings.same_place)
             self._use_pile_grasp(loop, cycle.transform_model_to_world, attempt)
 
-    def _loop_phase(self, record: PhaseRecord, attempt: _Attempt) -> None:
+    def _loop_phase(self, record: PhaseRecord, attempt: AttemptState) -> None:
         if self.on_phase is not None:
             self.on_phase(record, attempt.target.name)
         if record.phase == "lift" and record.note.startswith(LIFTED):
@@ -441,249 +329,86 @@ class TableClearer:
             self.motion.move_to_joints(self.observation_joints)
 
     def _places_to_look(self, ident: Identification) -> list[FloatArray]:
-        """Where to look again when a survey left nothing to pick (`look_around`): put-back
-        spots, then cloths seen before and not put away, then unknown regions; none
-        within `look_apart` of one another or of a place already looked at."""
-        capture = self._survey_capture
-        placed = set(self._placed_order)
-        candidates = [
-            *reversed(self._put_back_spots),
-            *(xy for name, xy in self._last_seen.items() if name not in placed and self._untried(name)),
-            *(np.array(self._on_table(capture, region.centroid)) for region in ident.unknown),
-        ]
-        places: list[FloatArray] = []
-        here = capture.transform_right_camera_to_world[:2, 3]
-        for xy in candidates:
-            taken = [here, *self._looked, *places]
-            if all(float(np.hypot(*(xy - other))) > self.settings.look_apart for other in taken):
-                places.append(np.asarray(xy, dtype=float))
-        return places[: max(0, self.settings.look_around - len(self._looked))]
-
-    def _untried(self, name: str) -> bool:
-        tried = int(self._records.get(name, {}).get("attempts", 0))  # type: ignore[call-overload]
-        return tried < self.settings.max_attempts
-
-    def _look_from(self, place: FloatArray) -> bool:
-        """Moves the right camera over `place` at the observation height (cameras looking
-        down); False if the arm cannot reach that pose."""
-        self._looked.append(place)
-        offset = self._camera_offset()
-        camera = self.observation_camera_pose[:3, 3]
-        tcp = np.array([place[0] - offset[0], place[1] - offset[1], camera[2] - offset[2]])
-        self._phase, self._meant = "look around", None
-        try:
-            self.motion.move_tcp(tcp)
-        except IKError:
-            return False
-        self.motion.hold(self.loop_settings.settle_time)
-        return True
-
-    # ------------------------------------------------------------------ grasp point
-    def _pile_grasp(
-        self, target: Detection, ident: Identification, pose_world: FloatArray
-    ) -> PileGrasp | None:
-        """Where on `target` to grasp: seen by the survey and away from every other cloth
-        it saw (`grasp_point.choose_pile_grasp`)."""
-        model = self.recognizers[target.name].model
-        K = self.rig.right.camera_matrix
-        seen = points_in_mask(model.points_in, target.transform_model_to_camera, K, target.explained)
-        return choose_pile_grasp(
-            model, pose_world, seen, self._obstacles(target, ident), self.settings.pile_grasp
+        placed = set(self.ledger.placed_order)
+        return self.recovery.places_to_look(
+            self._survey_capture,
+            ident,
+            self.ledger.last_seen,
+            lambda name: name not in placed and self.ledger.untried(name, self.settings.max_attempts),
         )
 
-    def _obstacles(self, target: Detection, ident: Identification) -> FloatArray:
-        """(M, 2) table points [m] of every cloth the survey saw but `target`: identified
-        ones (their whole footprint, hidden parts included) and unknown regions."""
-        capture = self._survey_capture
-        step = self.settings.pile_grasp.obstacle_step_px
-        xy = [
-            transform_points(
-                self._to_world(capture, d.transform_model_to_camera), self.recognizers[d.name].model.points_in
-            )[:, :2]
-            for d in ident.detections
-            if d.name != target.name
-        ]
-        for region in ident.unknown:
-            v, u = np.nonzero(region.mask[::step, ::step])
-            if len(u):
-                xy.append(self._pixels_on_table(capture, u * step, v * step))
-        return np.concatenate(xy) if xy else np.empty((0, 2))
+    def _look_from(self, place: FloatArray) -> bool:
+        self.recovery.looked.append(place)
+        offset = self._camera_offset()
+        self._phase, self._meant = "look around", None
+        return self.recovery.look_from(place, offset, self.observation_camera_pose[2, 3])
 
+    # ------------------------------------------------------------------ grasp point
     def _use_pile_grasp(
-        self, loop: PickPlaceLoop, transform_model_to_world: FloatArray, attempt: _Attempt
+        self, loop: PickPlaceLoop, transform_model_to_world: FloatArray, attempt: AttemptState
     ) -> None:
         """Hands the job's grasp point to the loop, in the frame of the loop's own recognition
         (a symmetric cloth may have been seen turned), if it lies on the recognised cloth."""
-        if attempt.grasp is None:
-            attempt.grasp_point_model = loop.tracker.grasp_point_model.copy()
-            return
-        point = (invert_transform(transform_model_to_world) @ np.append(attempt.grasp.point_world, 1.0))[:3]
-        point[2] = 0.0
-        model = self.recognizers[attempt.target.name].model
-        nearest = float(np.min(np.hypot(*(np.asarray(model.points_in)[:, :2] - point[:2]).T)))
-        if nearest <= self.settings.pile_grasp.min_edge_gap:
-            loop.tracker.grasp_point_model = point
-            attempt.grasp_used = True
+        if attempt.grasp is not None:
+            model, gap = self.recognizers[attempt.target.name].model, self.settings.pile_grasp.min_edge_gap
+            point = grasp_in_model(attempt.grasp.point_world, transform_model_to_world, model, gap)
+            if point is not None:
+                loop.tracker.grasp_point_model = point
+                attempt.grasp_used = True
         attempt.grasp_point_model = loop.tracker.grasp_point_model.copy()
 
     # ------------------------------------------------------------------ checks
-    def _after_lift(self, attempt: _Attempt) -> None:
+    def _after_lift(self, attempt: AttemptState) -> None:
         """Did the meant cloth, and only it, leave the table? Else put it back."""
         self._phase = "lift check"
         capture = self.cell.capture()
         wall, cpu = time.perf_counter(), time.process_time()
         name = attempt.target.name
-        stayed = self._still_there(capture, name, attempt.transform_target_to_world, self._threshold(name))
+        recognizer = self.recognizers[name]
+        stayed = still_there(recognizer, capture, attempt.transform_target_to_world, self.settings.same_place)
         attempt.check_wall_s += time.perf_counter() - wall
         self._wait(time.process_time() - cpu)
         expected = self.weights.get(name)
         verdict, what = "ok", ""
         if self.weigh is not None and expected is not None:
-            attempt.weighed = weighed = float(self.weigh())
-            s = self.settings
-            if weighed > expected * (1 + s.weight_tolerance) + s.weight_floor:
-                verdict, what = (
-                    "double",
-                    f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g",
-                )
-            elif weighed < expected * (1 - s.weight_tolerance) - s.weight_floor:
-                verdict, what = (
-                    "wrong",
-                    f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g",
-                )
+            attempt.weighed = float(self.weigh())
+            verdict, what = weight_verdict(attempt.weighed, expected, name, self.settings)
         if stayed:
             verdict, what = "wrong", f"{name} still in its place" + (f"; {what}" if what else "")
         attempt.lift_check = verdict
         if verdict == "ok":
             return
         if verdict == "double" and attempt.weighed is not None and expected is not None:
-            companion = self._companion(attempt, attempt.weighed - expected)
-            if companion is not None and self.sort.box_for(companion) == attempt.box.name:
-                attempt.came_along = (companion,)
-                attempt.notes.append(f"double pick ({what}): {companion} came along, same box: both placed")
+            grasp = self.motion.tcp_position()
+            grasp[2] = self.table_z
+            extra = attempt.weighed - expected
+            other = companion(
+                self._survey_capture,
+                self.rig.right,
+                grasp,
+                attempt.others,
+                extra,
+                self.weights,
+                self.settings,
+            )
+            if other is not None and self.sort.box_for(other) == attempt.box.name:
+                attempt.came_along = (other,)
+                attempt.notes.append(f"double pick ({what}): {other} came along, same box: both placed")
                 return
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
-        self._put_back(attempt)
+        self._phase = "put back"
+        model = self.recognizers[name].model
+        self.recovery.put_back(
+            self._survey_capture, model, attempt.grasp_point_model, attempt.obstacles_xy, attempt.notes
+        )
         attempt.put_back = True
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
 
-    def _companion(self, attempt: _Attempt, extra: float) -> str | None:
-        """The one surveyed cloth under the grasp point whose weight is the `extra` [kg]
-        the load cell read, or None (none, or more than one, fits)."""
-        survey = self._survey_capture
-        grasp = self.motion.tcp_position()
-        grasp[2] = self.table_z
-        to_camera = invert_transform(survey.transform_right_camera_to_world)
-        u, v = self.rig.right.project((to_camera[:3, :3] @ grasp + to_camera[:3, 3])[None])[0]
-        s = self.settings
-        fits = []
-        for d in attempt.others:
-            height, width = d.footprint.shape
-            reach = int(s.companion_reach_px)
-            u0, u1 = max(0, round(u) - reach), min(width, round(u) + reach + 1)
-            v0, v1 = max(0, round(v) - reach), min(height, round(v) + reach + 1)
-            if u0 >= u1 or v0 >= v1 or not np.any(d.footprint[v0:v1, u0:u1]):
-                continue
-            weight = self.weights.get(d.name)
-            if weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor:
-                fits.append(d.name)
-        return fits[0] if len(fits) == 1 else None
-
-    def _still_there(
-        self, capture: StereoCapture, name: str, pose_world: FloatArray, threshold: float
-    ) -> bool:
-        """Does the cloth's recogniser still find it where the survey saw it?"""
-        expected = invert_transform(capture.transform_right_camera_to_world) @ pose_world
-        checked = self.recognizers[name].check(capture.left_bgr, capture.right_bgr, expected, seed=0)
-        return self._agrees(checked, capture, pose_world, threshold)
-
-    def _agrees(
-        self, recognition: Recognition, capture: StereoCapture, pose_world: FloatArray, threshold: float
-    ) -> bool:
-        if recognition.confidence < threshold:
-            return False
-        where = self._to_world(capture, recognition.transform_model_to_camera)
-        return bool(np.hypot(*(where[:2, 3] - pose_world[:2, 3])) <= self.settings.same_place)
-
-    def _threshold(self, name: str) -> float:
-        return self.recognizers[name].settings.decide.threshold
-
-    def _put_back(self, attempt: _Attempt) -> None:
-        """Lays what the gripper holds back onto the table, spread out over free table in
-        the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers it while
-        moving away from the view's middle. Lets go and returns to the lift pose."""
-        self._phase = "put back"
-        lifted = self.motion.q
-        above = self.motion.tcp_position()
-        path = self._lay_out_joints(attempt, above) if self.settings.put_back.lay_out else None
-        if path is not None:
-            for q in path:
-                self.motion.move_to_joints(q, speed=self.settings.put_down_speed)
-        else:
-            outward = above[:2] - self._survey_capture.transform_right_camera_to_world[:2, 3]
-            outward = outward / max(float(np.linalg.norm(outward)), 1e-9)
-            down = above.copy()
-            down[:2] += self.settings.put_down_slide * outward
-            down[2] = self.table_z + self.settings.put_down_height
-            self.motion.move_tcp(down, speed=self.settings.put_down_speed)
-        self.cell.release()
-        self._put_back_spots.append(self.motion.tcp_position()[:2])
-        self.motion.hold(self.loop_settings.release_wait)
-        self.cell.set_gripper(self.loop_settings.gripper_open)
-        self.motion.hold(self.loop_settings.close_time)
-        if path is not None:  # straight up first: the open fingers leave the laid cloth alone
-            up = self.motion.tcp_position()
-            up[2] = self.table_z + self.settings.put_down_height + self.settings.put_back.max_length
-            self.motion.move_tcp(up)
-        self.motion.move_to_joints(lifted)
-
-    def _lay_out_joints(self, attempt: _Attempt, above: FloatArray) -> list[FloatArray] | None:
-        """Joints of the first reachable lay-out path (most free first), or None."""
-        model = self.recognizers[attempt.target.name].model
-        grasp = attempt.grasp_point_model if attempt.grasp_point_model is not None else model.grasp_point
-        reach = hanging_reach(model.points_in, grasp)
-        capture = self._survey_capture
-        width, height = self.rig.right.image_size
-        view = self._pixels_on_table(capture, [0, width - 1, width - 1, 0], [0, 0, height - 1, height - 1])
-        obstacles = attempt.obstacles_xy if attempt.obstacles_xy is not None else np.empty((0, 2))
-        paths = lay_out_paths(
-            above[:2],
-            reach,
-            self.table_z,
-            self.settings.put_down_height,
-            obstacles,
-            view,
-            self.settings.put_back,
-        )
-        for path in paths:
-            joints: list[FloatArray] = []
-            try:
-                for point in path.waypoints:
-                    joints.append(self.motion.solve_tcp(point))
-            except IKError:
-                continue
-            attempt.notes.append(
-                f"put back laid out over {min(reach, self.settings.put_back.max_length) * 1000:.0f} mm "
-                f"towards ({path.direction[0]:+.2f}, {path.direction[1]:+.2f})"
-            )
-            return joints
-        return None
-
-    def _after_release(self, attempt: _Attempt) -> None:
+    def _after_release(self, attempt: AttemptState) -> None:
         self._phase = "box check"
         capture = self.cell.capture()
-        view = box_view(capture, self.rig, attempt.box.centre, attempt.box.inner_size, self.box_settings)
-        model = self.recognizers[attempt.target.name].model
-        fitness = self.recognizers[attempt.target.name].settings.fitness
-        attempt.box_check = check_box(self._views[attempt.box.name], view, model, fitness, self.box_settings)
-        if attempt.box_check.in_view >= self.box_settings.min_in_view:
-            self._views[attempt.box.name] = view
-        if not attempt.box_check.confirmed:
-            c = attempt.box_check
-            attempt.notes.append(
-                f"box check: not confirmed (changed {c.changed:.0%}, model colours {c.model_share:.0%}, "
-                f"seen {c.in_view:.0%})"
-            )
+        recognizer = self.recognizers[attempt.target.name]
+        check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings)
 
     def _look_at_boxes(self) -> None:
         """Looks into every box once (the reference of the checks after placing)."""
@@ -724,26 +449,9 @@ class TableClearer:
         if self.on_step is not None:
             self.on_step(self._phase, self._meant)
 
-    @staticmethod
-    def _to_world(capture: StereoCapture, transform_model_to_camera: FloatArray) -> FloatArray:
-        return np.asarray(capture.transform_right_camera_to_world @ transform_model_to_camera, dtype=float)
-
-    def _on_table(self, capture: StereoCapture, pixel: tuple[float, float]) -> tuple[float, float]:
-        """Where the ray through a right-image pixel meets the table plane, (x, y) [m]."""
-        x, y = self._pixels_on_table(capture, np.array([pixel[0]]), np.array([pixel[1]]))[0]
-        return float(x), float(y)
-
-    def _pixels_on_table(self, capture: StereoCapture, u: npt.ArrayLike, v: npt.ArrayLike) -> FloatArray:
-        """(N, 2) where the rays through right-image pixels (u, v) meet the table plane [m]."""
-        K = self.rig.right.camera_matrix
-        u, v = np.asarray(u, dtype=float).ravel(), np.asarray(v, dtype=float).ravel()
-        rays = np.linalg.solve(K, np.stack([u, v, np.ones_like(u)]))
-        T = capture.transform_right_camera_to_world
-        directions = T[:3, :3] @ rays
-        origin = T[:3, 3:4]
-        dz = directions[2]
-        scale = np.where(np.abs(dz) > 1e-9, (self.table_z - origin[2]) / np.where(dz == 0, 1.0, dz), 0.0)
-        return np.asarray((origin + scale * directions)[:2].T, dtype=float)
+    def _obstacles_of(self, target: Detection, ident: Identification) -> FloatArray:
+        step = self.settings.pile_grasp.obstacle_step_px
+        return obstacles_on_table(target, ident, self._survey_capture, self.recognizers, self.table, step)
 
     def _result(
         self,
@@ -753,41 +461,13 @@ class TableClearer:
         start: float,
         wall_start: float,
     ) -> TableResult:
-        records = []
-        still_seen = {d.name for d in last.detections} if last is not None else set()
-        for name, entry in self._records.items():
-            order = self._placed_order.index(name) + 1 if name in self._placed_order else None
-            if order is not None and name not in still_seen:
-                outcome = ClothOutcome.PLACED if entry.get("confirmed") else ClothOutcome.PLACED_UNSEEN
-            elif int(entry["attempts"]) >= self.settings.max_attempts:  # type: ignore[call-overload]
-                outcome = ClothOutcome.FAILED
-            else:
-                outcome = ClothOutcome.LEFT
-            if order is not None and name in still_seen:
-                order = None  # released over its box, yet seen on the table again
-            records.append(
-                ClothRecord(
-                    name,
-                    self.sort.box_for(name),
-                    order,
-                    int(entry["attempts"]),  # type: ignore[call-overload]
-                    float(entry["sim_time"]),  # type: ignore[arg-type]
-                    outcome,
-                    tuple(entry["notes"]),  # type: ignore[arg-type]
-                )
-            )
-        unknown = self._surveys[-1].unknown if self._surveys else ()
-        cleared = (
-            not interrupted
-            and bool(self._surveys)
-            and self._surveys[-1].chosen is None
-            and not (last.detections if last is not None else ())
-            and all(r.outcome in (ClothOutcome.PLACED, ClothOutcome.PLACED_UNSEEN) for r in records)
-        )
+        cloths = self.ledger.cloths(last, self.sort.box_for, self.settings.max_attempts)
+        unknown = self.ledger.surveys[-1].unknown if self.ledger.surveys else ()
+        cleared = self.ledger.cleared(last, interrupted, cloths)
         return TableResult(
-            cloths=tuple(records),
-            attempts=tuple(self._attempts),
-            surveys=tuple(self._surveys),
+            cloths=cloths,
+            attempts=tuple(self.ledger.attempts),
+            surveys=tuple(self.ledger.surveys),
             stop_reason=stop_reason,
             cleared=cleared,
             unknown=unknown,

@@ -1,0 +1,151 @@
+"""The clear-table job's checks on one pick: after LIFT (the meant cloth left its place,
+the load cell reads its weight, or which other cloth came along), after TRANSFER (still
+held) and after RELEASE (the box changed with the cloth's colours).
+
+`AttemptState` is what the job knows during one loop run; the checks fill it in.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from robot_app.arrays import FloatArray
+from robot_app.control.box_check import BoxCheck, BoxCheckSettings, BoxView, box_view, check_box
+from robot_app.control.cell import StereoCapture
+from robot_app.control.clear_table_records import BoxPlace, ClearTableSettings
+from robot_app.control.grasp_point import PileGrasp
+from robot_app.control.table_survey import to_world
+from robot_app.geometry import invert_transform
+from robot_app.vision import PinholeCamera, Recognition, Recognizer, StereoRig
+from robot_app.vision.identify import Detection
+
+PUT_BACK = "put back"  # in a GRASP_FAILED reason: the job lowered the lift back
+DROPPED = "dropped"  # in a LOST reason: the gripper came empty over the box
+
+
+@dataclass
+class AttemptState:
+    """What the job knows during one loop run."""
+
+    target: Detection
+    box: BoxPlace
+    transform_target_to_world: FloatArray
+    start_time: float
+    others: tuple[Detection, ...] = ()  # the survey's other detections
+    grasp: PileGrasp | None = None  # where to grasp, away from the other cloths (Σ_W)
+    grasp_used: bool = False
+    grasp_point_model: FloatArray | None = None  # the loop's grasp point in Σ_M (last search)
+    obstacles_xy: FloatArray | None = None  # (M, 2) the other cloths the survey saw [m]
+    came_along: tuple[str, ...] = ()
+    lift_check: str = ""
+    weighed: float | None = None
+    put_back: bool = False
+    dropped: bool = False
+    box_check: BoxCheck | None = None
+    check_wall_s: float = 0.0
+    notes: list[str] = field(default_factory=list)
+
+
+def weight_verdict(
+    weighed: float, expected: float, name: str, settings: ClearTableSettings
+) -> tuple[str, str]:
+    """("ok" | "double" | "wrong", what was read) for `weighed` [kg] lifted where the cloth
+    `name` weighs `expected` [kg] (`weight_tolerance`, `weight_floor`)."""
+    s = settings
+    if weighed > expected * (1 + s.weight_tolerance) + s.weight_floor:
+        return "double", f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g"
+    if weighed < expected * (1 - s.weight_tolerance) - s.weight_floor:
+        return "wrong", f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g"
+    return "ok", ""
+
+
+def companion(
+    survey: StereoCapture,
+    camera: PinholeCamera,
+    grasp_world: FloatArray,
+    others: tuple[Detection, ...],
+    extra: float,
+    weights: Mapping[str, float],
+    settings: ClearTableSettings,
+) -> str | None:
+    """The one surveyed cloth under the grasp point (`grasp_world`, on the table [m]) whose
+    weight is the `extra` [kg] the load cell read, or None (none, or more than one, fits)."""
+    to_camera = invert_transform(survey.transform_right_camera_to_world)
+    u, v = camera.project((to_camera[:3, :3] @ grasp_world + to_camera[:3, 3])[None])[0]
+    s = settings
+    fits = []
+    for d in others:
+        height, width = d.footprint.shape
+        reach = int(s.companion_reach_px)
+        u0, u1 = max(0, round(u) - reach), min(width, round(u) + reach + 1)
+        v0, v1 = max(0, round(v) - reach), min(height, round(v) + reach + 1)
+        if u0 >= u1 or v0 >= v1 or not np.any(d.footprint[v0:v1, u0:u1]):
+            continue
+        weight = weights.get(d.name)
+        if weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor:
+            fits.append(d.name)
+    return fits[0] if len(fits) == 1 else None
+
+
+def still_there(
+    recognizer: Recognizer, capture: StereoCapture, pose_world: FloatArray, same_place: float
+) -> bool:
+    """Does the cloth's recogniser still find it where the survey saw it (`pose_world`,
+    within `same_place` [m], at its decision threshold)?"""
+    threshold = recognizer.settings.decide.threshold
+    expected = invert_transform(capture.transform_right_camera_to_world) @ pose_world
+    checked = recognizer.check(capture.left_bgr, capture.right_bgr, expected, seed=0)
+    return agrees(checked, capture, pose_world, threshold, same_place)
+
+
+def agrees(
+    recognition: Recognition,
+    capture: StereoCapture,
+    pose_world: FloatArray,
+    threshold: float,
+    same_place: float,
+) -> bool:
+    """Is `recognition` confident (`threshold`) and within `same_place` [m] of `pose_world`?"""
+    if recognition.confidence < threshold:
+        return False
+    where = to_world(capture, recognition.transform_model_to_camera)
+    return bool(np.hypot(*(where[:2, 3] - pose_world[:2, 3])) <= same_place)
+
+
+def check_release(
+    attempt: AttemptState,
+    capture: StereoCapture,
+    rig: StereoRig,
+    recognizer: Recognizer,
+    views: dict[str, BoxView | None],
+    settings: BoxCheckSettings,
+) -> None:
+    """After RELEASE: did the box's inside change with the cloth's colours since the last
+    look (`views`, updated when the box was in view)? Sets `attempt.box_check`."""
+    view = box_view(capture, rig, attempt.box.centre, attempt.box.inner_size, settings)
+    model = recognizer.model
+    fitness = recognizer.settings.fitness
+    attempt.box_check = check_box(views[attempt.box.name], view, model, fitness, settings)
+    if attempt.box_check.in_view >= settings.min_in_view:
+        views[attempt.box.name] = view
+    if not attempt.box_check.confirmed:
+        c = attempt.box_check
+        attempt.notes.append(
+            f"box check: not confirmed (changed {c.changed:.0%}, model colours {c.model_share:.0%}, "
+            f"seen {c.in_view:.0%})"
+        )
+
+
+__all__ = [
+    "DROPPED",
+    "PUT_BACK",
+    "AttemptState",
+    "agrees",
+    "check_release",
+    "companion",
+    "still_there",
+    "weight_verdict",
+]

@@ -1,0 +1,174 @@
+"""The clear-table job's books over one run: each cloth's attempts, time and notes, the
+pick attempts and surveys in order, where each cloth was last seen, what was placed and
+what was seen in its box; from them, each cloth's final record (`ClothRecord`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from robot_app.arrays import FloatArray
+from robot_app.control.cell import StereoCapture
+from robot_app.control.clear_table_records import ClothOutcome, ClothRecord, PickAttempt, SurveyRecord
+from robot_app.control.episode import EpisodeResult, Outcome
+from robot_app.control.pick_checks import AttemptState
+from robot_app.control.table_survey import TablePlane, to_world
+from robot_app.vision.identify import Detection, Identification
+
+
+def _new_entry() -> dict[str, object]:
+    return {"attempts": 0, "sim_time": 0.0, "notes": []}
+
+
+class TableLedger:
+    """What the job did and saw in one run.
+
+    Attributes:
+        records: cloth name -> "attempts", "sim_time" [s], "notes", and once known
+            "unconfirmed" (the loop's search did not confirm it), "misses" (empty grasps),
+            "confirmed" (seen in its box after placing).
+        attempts: every pick attempt, in order.
+        surveys: every survey, in order.
+        seen_in_box: cloths confirmed in their box (no longer searched for).
+        placed_order: cloths released over their box, in order.
+        last_seen: cloth name -> (x, y) in Σ_W where the last survey saw it [m].
+    """
+
+    def __init__(self) -> None:
+        self.records: dict[str, dict[str, object]] = {}
+        self.attempts: list[PickAttempt] = []
+        self.surveys: list[SurveyRecord] = []
+        self.seen_in_box: set[str] = set()
+        self.placed_order: list[str] = []
+        self.last_seen: dict[str, FloatArray] = {}
+
+    def untried(self, name: str, max_attempts: int) -> bool:
+        """Has `name` attempts left?"""
+        tried = int(self.records.get(name, {}).get("attempts", 0))  # type: ignore[call-overload]
+        return tried < max_attempts
+
+    def misses(self, name: str) -> int:
+        """Empty grasps at `name` so far."""
+        return int(self.records.get(name, {}).get("misses", 0))  # type: ignore[call-overload]
+
+    def record_survey(
+        self,
+        capture: StereoCapture,
+        wall_s: float,
+        ident: Identification,
+        chosen: Detection | None,
+        table: TablePlane,
+    ) -> SurveyRecord:
+        """Books a survey (its capture, computation time [s], identification, the cloth
+        chosen) and where it saw each cloth."""
+        detections = []
+        for d in ident.detections:
+            pose = to_world(capture, d.transform_model_to_camera)
+            detections.append((d.name, float(d.confidence), *(float(v) for v in pose[:3, 3])))
+            self.last_seen[d.name] = pose[:2, 3].copy()
+            self.records.setdefault(d.name, _new_entry())
+        record = SurveyRecord(
+            capture.time,
+            wall_s,
+            tuple(detections),  # type: ignore[arg-type]
+            ident.dropped,
+            ident.above,
+            tuple(table.point(capture, region.centroid) for region in ident.unknown),
+            None if chosen is None else chosen.name,
+        )
+        self.surveys.append(record)
+        return record
+
+    def record_attempt(
+        self, attempt: AttemptState, result: EpisodeResult, end_time: float, expected_weight: float | None
+    ) -> None:
+        """Books a finished loop run (ended at cell time `end_time` [s])."""
+        target, box = attempt.target, attempt.box
+        entry = self.records.setdefault(target.name, _new_entry())
+        entry["attempts"] = int(entry["attempts"]) + 1  # type: ignore[call-overload]
+        entry["sim_time"] = float(entry["sim_time"]) + (end_time - attempt.start_time)  # type: ignore[arg-type]
+        notes: list[str] = entry["notes"]  # type: ignore[assignment]
+        notes.extend(attempt.notes)
+        if result.outcome is not Outcome.PLACED:
+            notes.append(f"{result.outcome.value}: {result.reason}")
+        if result.outcome is Outcome.NOT_PRESENT:
+            entry["unconfirmed"] = True
+        if result.outcome is Outcome.GRASP_FAILED and not attempt.put_back:
+            entry["misses"] = int(entry.get("misses", 0)) + 1  # type: ignore[call-overload]
+        self.attempts.append(
+            PickAttempt(
+                target.name,
+                box.name,
+                attempt.start_time,
+                end_time,
+                result,
+                attempt.came_along,
+                attempt.lift_check,
+                attempt.weighed,
+                expected_weight,
+                attempt.put_back,
+                attempt.dropped,
+                attempt.box_check,
+                attempt.check_wall_s,
+                attempt.grasp.clearance if attempt.grasp is not None and attempt.grasp_used else None,
+            )
+        )
+        if result.outcome is Outcome.PLACED:
+            confirmed = attempt.box_check is not None and attempt.box_check.confirmed
+            self.placed(target.name, confirmed)
+            for name in attempt.came_along:  # placed too, but looked for again until seen gone
+                self.placed(name, False)
+
+    def placed(self, name: str, confirmed: bool) -> None:
+        """Books `name` released over its box (`confirmed`: seen there)."""
+        entry = self.records.setdefault(name, _new_entry())
+        entry["confirmed"] = confirmed
+        if name not in self.placed_order:
+            self.placed_order.append(name)
+        if confirmed:
+            self.seen_in_box.add(name)
+
+    def cloths(
+        self, last: Identification | None, box_for: Callable[[str], str], max_attempts: int
+    ) -> tuple[ClothRecord, ...]:
+        """Each cloth's final record, given the last survey's identification."""
+        records = []
+        still_seen = {d.name for d in last.detections} if last is not None else set()
+        for name, entry in self.records.items():
+            order = self.placed_order.index(name) + 1 if name in self.placed_order else None
+            if order is not None and name not in still_seen:
+                outcome = ClothOutcome.PLACED if entry.get("confirmed") else ClothOutcome.PLACED_UNSEEN
+            elif int(entry["attempts"]) >= max_attempts:  # type: ignore[call-overload]
+                outcome = ClothOutcome.FAILED
+            else:
+                outcome = ClothOutcome.LEFT
+            if order is not None and name in still_seen:
+                order = None  # released over its box, yet seen on the table again
+            records.append(
+                ClothRecord(
+                    name,
+                    box_for(name),
+                    order,
+                    int(entry["attempts"]),  # type: ignore[call-overload]
+                    float(entry["sim_time"]),  # type: ignore[arg-type]
+                    outcome,
+                    tuple(entry["notes"]),  # type: ignore[arg-type]
+                )
+            )
+        return tuple(records)
+
+    def cleared(
+        self, last: Identification | None, interrupted: bool, cloths: tuple[ClothRecord, ...]
+    ) -> bool:
+        """Did the job end with the table cleared: not stopped, the last survey chose
+        nothing and saw no known cloth, every cloth placed?"""
+        return (
+            not interrupted
+            and bool(self.surveys)
+            and self.surveys[-1].chosen is None
+            and not (last.detections if last is not None else ())
+            and all(r.outcome in (ClothOutcome.PLACED, ClothOutcome.PLACED_UNSEEN) for r in cloths)
+        )
+
+
+__all__ = ["TableLedger"]

@@ -1,0 +1,181 @@
+"""The clear-table job's recovery moves: a wrong or double lift laid back onto free table
+(`put_back`), and, when a survey leaves nothing to pick, the places to look again from
+(`places_to_look`, `look_from`).
+
+`TableRecovery` remembers, over one job run, where it put cloths back and where it has
+looked since the last pick attempt.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+
+import numpy as np
+
+from robot_app.arrays import FloatArray
+from robot_app.control.cell import Cell, StereoCapture
+from robot_app.control.clear_table_records import ClearTableSettings
+from robot_app.control.intercept import hanging_reach
+from robot_app.control.job_motion import JobMotion, lay_out_paths
+from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.table_survey import TablePlane
+from robot_app.errors import IKError
+from robot_app.vision import ClothModel, PinholeCamera
+from robot_app.vision.identify import Identification
+
+
+class TableRecovery:
+    """Put back and look around for one job.
+
+    Args:
+        motion: the job's own moves.
+        cell: the robot cell (the gripper).
+        table: the table plane in the right camera.
+        camera: the right camera (its image size bounds the view).
+        settings: the job's settings (`put_back`, `put_down_*`, `look_around`, `look_apart`).
+        loop_settings: the gripper's openings and waits (`release_wait`, `close_time`,
+            `gripper_open`, `settle_time`).
+    """
+
+    def __init__(
+        self,
+        motion: JobMotion,
+        cell: Cell,
+        table: TablePlane,
+        camera: PinholeCamera,
+        settings: ClearTableSettings,
+        loop_settings: LoopSettings,
+    ) -> None:
+        self.motion = motion
+        self.cell = cell
+        self.table = table
+        self.camera = camera
+        self.settings = settings
+        self.loop_settings = loop_settings
+        self.looked: list[FloatArray] = []  # places looked at since the last pick attempt
+        self.put_back_spots: list[FloatArray] = []
+
+    def forget(self) -> None:
+        """A new job run: no put-back spots, nothing looked at."""
+        self.looked = []
+        self.put_back_spots = []
+
+    # ------------------------------------------------------------------ looking around
+    def places_to_look(
+        self,
+        capture: StereoCapture,
+        ident: Identification,
+        last_seen: Mapping[str, FloatArray],
+        look_for: Callable[[str], bool],
+    ) -> list[FloatArray]:
+        """Where to look again when a survey left nothing to pick (`look_around`): put-back
+        spots, then cloths seen before (`last_seen`, (x, y) [m]) that `look_for` names, then
+        unknown regions; none within `look_apart` of one another or of a place already
+        looked at."""
+        candidates = [
+            *reversed(self.put_back_spots),
+            *(xy for name, xy in last_seen.items() if look_for(name)),
+            *(np.array(self.table.point(capture, region.centroid)) for region in ident.unknown),
+        ]
+        places: list[FloatArray] = []
+        here = capture.transform_right_camera_to_world[:2, 3]
+        for xy in candidates:
+            taken = [here, *self.looked, *places]
+            if all(float(np.hypot(*(xy - other))) > self.settings.look_apart for other in taken):
+                places.append(np.asarray(xy, dtype=float))
+        return places[: max(0, self.settings.look_around - len(self.looked))]
+
+    def look_from(self, place: FloatArray, camera_offset: FloatArray, camera_z: float) -> bool:
+        """Moves the right camera over `place` at the height `camera_z` [m] (cameras looking
+        down; `camera_offset`: camera minus TCP [m]); False if the arm cannot reach that pose."""
+        tcp = np.array(
+            [place[0] - camera_offset[0], place[1] - camera_offset[1], camera_z - camera_offset[2]]
+        )
+        try:
+            self.motion.move_tcp(tcp)
+        except IKError:
+            return False
+        self.motion.hold(self.loop_settings.settle_time)
+        return True
+
+    # ------------------------------------------------------------------ put back
+    def put_back(
+        self,
+        survey: StereoCapture,
+        model: ClothModel,
+        grasp_point_model: FloatArray | None,
+        obstacles_xy: FloatArray | None,
+        notes: list[str],
+    ) -> None:
+        """Lays what the gripper holds back onto the table, spread out over free table in
+        the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers it while
+        moving away from the view's middle. Lets go and returns to the lift pose."""
+        s, table_z = self.settings, self.table.table_z
+        lifted = self.motion.q
+        above = self.motion.tcp_position()
+        path = (
+            self._lay_out_joints(survey, model, grasp_point_model, obstacles_xy, above, notes)
+            if s.put_back.lay_out
+            else None
+        )
+        if path is not None:
+            for q in path:
+                self.motion.move_to_joints(q, speed=s.put_down_speed)
+        else:
+            outward = above[:2] - survey.transform_right_camera_to_world[:2, 3]
+            outward = outward / max(float(np.linalg.norm(outward)), 1e-9)
+            down = above.copy()
+            down[:2] += s.put_down_slide * outward
+            down[2] = table_z + s.put_down_height
+            self.motion.move_tcp(down, speed=s.put_down_speed)
+        self.cell.release()
+        self.put_back_spots.append(self.motion.tcp_position()[:2])
+        self.motion.hold(self.loop_settings.release_wait)
+        self.cell.set_gripper(self.loop_settings.gripper_open)
+        self.motion.hold(self.loop_settings.close_time)
+        if path is not None:  # straight up first: the open fingers leave the laid cloth alone
+            up = self.motion.tcp_position()
+            up[2] = table_z + s.put_down_height + s.put_back.max_length
+            self.motion.move_tcp(up)
+        self.motion.move_to_joints(lifted)
+
+    def _lay_out_joints(
+        self,
+        survey: StereoCapture,
+        model: ClothModel,
+        grasp_point_model: FloatArray | None,
+        obstacles_xy: FloatArray | None,
+        above: FloatArray,
+        notes: list[str],
+    ) -> list[FloatArray] | None:
+        """Joints of the first reachable lay-out path (most free first), or None."""
+        grasp = grasp_point_model if grasp_point_model is not None else model.grasp_point
+        reach = hanging_reach(model.points_in, grasp)
+        width, height = self.camera.image_size
+        view = self.table.pixels(survey, [0, width - 1, width - 1, 0], [0, 0, height - 1, height - 1])
+        obstacles = obstacles_xy if obstacles_xy is not None else np.empty((0, 2))
+        paths = lay_out_paths(
+            above[:2],
+            reach,
+            self.table.table_z,
+            self.settings.put_down_height,
+            obstacles,
+            view,
+            self.settings.put_back,
+        )
+        for path in paths:
+            joints: list[FloatArray] = []
+            try:
+                for point in path.waypoints:
+                    joints.append(self.motion.solve_tcp(point))
+            except IKError:
+                continue
+            notes.append(
+                f"put back laid out over {min(reach, self.settings.put_back.max_length) * 1000:.0f} mm "
+                f"towards ({path.direction[0]:+.2f}, {path.direction[1]:+.2f})"
+            )
+            return joints
+        return None
+
+
+__all__ = ["TableRecovery"]
