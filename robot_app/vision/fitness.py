@@ -26,7 +26,7 @@ visible part.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -196,6 +196,38 @@ class FitnessEvaluator:
         self.evaluations += len(T)
         return np.asarray(seen) / normalisation[0]
 
+    def point_agreement(self, transform_model_to_right: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Per S_in point at one pose, by the search scores at the nearest pixels: in how many
+        of the two images it matches (scores above 0) and in how many it is seen but does
+        not match (a point on the background or on a colour it should not see).
+
+        Returns:
+            (N_in,) agreeing and (N_in,) disagreeing counts, each 0-2.
+        """
+        T = as_poses(transform_model_to_right)[0]
+        width, height = self.rig.image_size
+        points = self._point_set(1)
+        n_in = len(self.model.points_in)
+        xyz = np.stack([points.x[:n_in], points.y[:n_in], points.z[:n_in], np.ones(n_in, np.float32)])
+        table = self._search_table
+        agree, disagree = np.zeros(n_in), np.zeros(n_in)
+        for K, to_camera, codes in (
+            (self.rig.left.camera_matrix, self._left_from_right, self.codes[0]),
+            (self.rig.right.camera_matrix, np.eye(4), self.codes[1]),
+        ):
+            projected = np.asarray(K, dtype=float) @ (to_camera @ T)[:3] @ xyz
+            w = projected[2]
+            front = w > 1e-6
+            u = np.where(front, projected[0] / np.where(front, w, 1.0), -10.0) + 1.5
+            v = np.where(front, projected[1] / np.where(front, w, 1.0), -10.0) + 1.5
+            u = np.clip(u, 0.0, width + 1).astype(np.int64)  # as the kernels: floor(u + 0.5) + 1
+            v = np.clip(v, 0.0, height + 1).astype(np.int64)
+            k = points.row_offsets[:n_in].astype(np.int64) + 2 * codes[v * (width + 3) + u].astype(np.int64)
+            score, seen = table[k], table[k + 1] > 0
+            agree += score > 0
+            disagree += seen & (score <= 0)
+        return agree, disagree
+
     def kernel_arguments(
         self, *, stride: int = 1, search: bool = False
     ) -> tuple[tuple[object, ...], tuple[float, bool, float, float]]:
@@ -245,6 +277,9 @@ class KernelFitness:
         search: score with the evaluator's search parameters.
         subpixel: the bilinear-score fitness (see `FitnessEvaluator.evaluate`).
         avoid: poses that score -1 (and that the refinement does not visit); None: none.
+        hidden: (N_in + N_out,) bool, points taken as hidden whatever they land on (a folded
+            corner, `refinement.disagreeing_corner`): they score 0 and leave the divisor;
+            only at stride 1. None: none.
     """
 
     def __init__(
@@ -255,9 +290,13 @@ class KernelFitness:
         search: bool = False,
         subpixel: bool = False,
         avoid: AvoidedPoses | None = None,
+        hidden: npt.NDArray[np.bool_] | None = None,
     ) -> None:
         if stride < 1:
             raise ValueError(f"stride must be a positive integer, got {stride}")
+        if hidden is not None and (stride != 1 or np.shape(hidden) != (evaluator.n_points,)):
+            raise ValueError(f"hidden needs stride 1 and {evaluator.n_points} points, got {np.shape(hidden)}")
+        self.hidden = None if hidden is None else np.asarray(hidden, dtype=bool)
         self.evaluator = evaluator
         self.stride = stride
         self.search = search
@@ -267,16 +306,34 @@ class KernelFitness:
     def __call__(self, transforms_model_to_right: npt.ArrayLike) -> FloatArray:
         """(P,) normalised fitness of (P, 4, 4) poses (see `FitnessEvaluator.evaluate`), -1
         where avoided."""
-        scores = self.evaluator.evaluate(
-            transforms_model_to_right, stride=self.stride, subpixel=self.subpixel, search=self.search
-        )
+        if self.hidden is None:
+            scores = self.evaluator.evaluate(
+                transforms_model_to_right, stride=self.stride, subpixel=self.subpixel, search=self.search
+            )
+        else:
+            T = np.ascontiguousarray(as_poses(transforms_model_to_right))
+            arguments, normalisation = self.kernel_arguments()
+            sums, seen = score_poses(T, *arguments, self.subpixel)  # type: ignore[call-arg]  # numba stub
+            self.count(len(T))
+            scores = np.asarray(normalised(sums, seen, *normalisation))
         if len(self.avoid.centres):
             scores[self.avoid.mask(transforms_model_to_right)] = -1.0
         return scores
 
     def kernel_arguments(self) -> tuple[tuple[object, ...], tuple[float, bool, float, float]]:
-        """See `FitnessEvaluator.kernel_arguments` (the kernels take `subpixel` and `avoid` apart)."""
-        return self.evaluator.kernel_arguments(stride=self.stride, search=self.search)
+        """See `FitnessEvaluator.kernel_arguments` (the kernels take `subpixel` and `avoid` apart);
+        `hidden` points get weight 0 and count as never seen (the divisor's full maximum
+        keeps them, so hiding them costs `hidden_penalty` alike at every pose)."""
+        arguments, normalisation = self.evaluator.kernel_arguments(stride=self.stride, search=self.search)
+        if self.hidden is None:
+            return arguments, normalisation
+        keep = (~self.hidden).astype(np.float32)
+        weights, best = (
+            cast(npt.NDArray[np.float32], arguments[6]),
+            cast(npt.NDArray[np.float32], arguments[7]),
+        )
+        masked = (*arguments[:6], weights * keep, best * keep, *arguments[8:])
+        return masked, normalisation
 
     def count(self, poses: int) -> None:
         """Adds poses scored inside a compiled loop to the evaluator's `evaluations`."""

@@ -11,7 +11,9 @@ The recogniser composes the stages and holds no search logic of its own:
 4. verify (`verify.Verifier`): the model photo's texture against both images at the best
    pose, its half and quarter turns and the other runs' ends whose search fitness is
    within `verify.ambiguity_margin`; the most confident is kept (and polished if it was
-   not the polished one);
+   not the polished one); if a half-plane of the model disagrees with the image (a
+   folded-over corner, `refinement.disagreeing_corner`), the kept pose is polished again
+   with those points hidden (`refine.corner_disagreement`);
 5. stereo depth (`stereo_depth.StereoDepth`): the plane the pair shows around the pose,
    without the model's size; a small depth offset is taken, and a pose whose plane is
    not the pair's is searched again on the stereo plane (`plane_search.search_in_plane`,
@@ -54,18 +56,19 @@ from robot_app.vision.decide import (
     overlapping,
 )
 from robot_app.vision.exposure import ExposureSettings, scene_exposure
-from robot_app.vision.fitness import FitnessEvaluator
+from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
 from robot_app.vision.fitness_scores import FitnessSettings
 from robot_app.vision.pixel_codes import checked_image
 from robot_app.vision.plane_search import onto_plane, search_in_plane
 from robot_app.vision.poses import moved
 from robot_app.vision.propose import HALF_TURN, Candidate, ProposalSettings, Proposer
 from robot_app.vision.recognition import Peak, Recognition
-from robot_app.vision.refinement import RefinementSettings, Refiner
+from robot_app.vision.refinement import RefinementSettings, Refiner, disagreeing_corner
 from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
 from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
 _Method = TypeVar("_Method", bound=Callable[..., "Recognition"])
+CORNER_ROUNDS = 2  # find the disagreeing corner and polish without it, this often at most
 _QUARTER_TURN = np.eye(4)
 _QUARTER_TURN[:3, :3] = rotation_about_z(np.pi / 2)
 
@@ -316,7 +319,7 @@ class Recognizer:
         rng = np.random.default_rng(seed) if seed is not None else self.proposer.rng
         proposal = self.proposer.propose(rng, peaks=report_peaks, restarts=restarts)
         chosen, measurement = self._depth_checked(
-            self._most_confident(proposal.best, proposal.candidates, rng)
+            self._without_fold(self._most_confident(proposal.best, proposal.candidates, rng), rng)
         )
         kept = self.proposer.kept_poses
         if kept is not None and chosen.pose is not proposal.best.transform_model_to_camera:
@@ -471,6 +474,30 @@ class Recognizer:
             polished = self.refiner.polish(chosen.pose, fitness, fine, limits, rng).transform_model_to_camera
             return self._verified(polished, float(fitness(polished)[0]), self.verifier.verify(polished)[0])
         return chosen
+
+    def _without_fold(self, chosen: _Verified, rng: np.random.Generator) -> _Verified:
+        """`chosen` polished once more with a disagreeing corner taken as hidden (a folded-over
+        corner: `refinement.disagreeing_corner`), if it has one and `refine.corner_disagreement`
+        is set; else as it is."""
+        s = self.settings.refine
+        if not s.enabled or s.corner_disagreement is None:
+            return chosen
+        m = self.model
+        pose, moved_at_all = chosen.pose, False
+        for _ in range(CORNER_ROUNDS):
+            agree, disagree = self.evaluator.point_agreement(pose)
+            hidden = disagreeing_corner(m.points_in, m.points_out, agree, disagree, s.corner_disagreement)
+            if hidden is None:
+                break
+            fitness = KernelFitness(self.evaluator, search=True, hidden=hidden)
+            fine = KernelFitness(self.evaluator, search=True, subpixel=True, hidden=hidden)
+            pose = self.refiner.polish(
+                pose, fitness, fine, self.proposer.limits(), rng
+            ).transform_model_to_camera
+            moved_at_all = True
+        if not moved_at_all:
+            return chosen
+        return self._verified(pose, float(self.proposer.fitness()(pose)[0]), self.verifier.verify(pose)[0])
 
     def _depth_checked(self, chosen: _Verified) -> tuple[_Verified, DepthMeasurement]:
         """`chosen` checked against the stereo pair (`stereo_depth.py`): moved to its stereo

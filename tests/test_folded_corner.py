@@ -1,0 +1,95 @@
+"""A folded-over corner: found as the model's disagreeing half-plane and polished without."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
+from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
+from robot_app.vision.cloth_model import ClothModel
+from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
+from robot_app.vision.photo_model import make_model
+from robot_app.vision.recognizer import RecognitionSettings
+from robot_app.vision.refinement import CORNER_MARGIN, disagreeing_corner
+from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_prints import extended_cloth, folded_corner
+
+CAMERA = PinholeCamera.from_fov((640, 480), np.deg2rad(48))
+RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
+MODEL_CAMERA = ModelCamera(CAMERA, 0.40)
+POSE = make_transform(rotation_from_rpy(0.04, -0.03, 2.2), [-0.03, 0.02, 0.575])
+VIOLET_RED_TRAPEZOID = 7
+
+
+@pytest.fixture(scope="module")
+def model() -> ClothModel:
+    cloth = extended_cloth(VIOLET_RED_TRAPEZOID)
+    photo, background = render_model_photo(cloth, MODEL_CAMERA)
+    return make_model(photo, MODEL_CAMERA, background, name=cloth.name)
+
+
+def evaluator_on(model: ClothModel, fold: float | None) -> FitnessEvaluator:
+    cloth = extended_cloth(VIOLET_RED_TRAPEZOID)
+    if fold is not None:
+        cloth = folded_corner(cloth, 0.18, fold)
+    left, right = render_stereo_pair(RIG, [(cloth, POSE)], rng=np.random.default_rng(5))
+    settings = RecognitionSettings()
+    evaluator = FitnessEvaluator(model, RIG, settings.fitness, settings.search)
+    evaluator.update(left, right)
+    return evaluator
+
+
+def test_the_flat_cloth_has_no_disagreeing_corner(model: ClothModel) -> None:
+    agree, disagree = evaluator_on(model, None).point_agreement(POSE)
+    assert disagree.sum() < 0.05 * agree.sum()
+    assert disagreeing_corner(model.points_in, model.points_out, agree, disagree, 0.6) is None
+
+
+@pytest.mark.parametrize("fold", [0.5, 2.0, 4.0])
+def test_the_folded_corner_is_the_disagreeing_half_plane(model: ClothModel, fold: float) -> None:
+    evaluator = evaluator_on(model, fold)
+    agree, disagree = evaluator.point_agreement(POSE)
+    hidden = disagreeing_corner(model.points_in, model.points_out, agree, disagree, 0.6)
+    assert hidden is not None
+    inside = hidden[: len(model.points_in)]
+    # nearly every disagreeing look is in the corner, and the corner (margin aside) is
+    # not much bigger than the fold's twice 18 % (the flap and where it came from)
+    assert disagree[inside].sum() > 0.9 * disagree.sum()
+    assert 0.15 < inside.mean() < 0.36 + 2 * CORNER_MARGIN / float(np.sqrt(np.prod(model.extent)))
+    # without the corner the true pose matches nearly perfectly, and better than with it
+    trimmed = KernelFitness(evaluator, search=True, hidden=hidden)(POSE)[0]
+    whole = KernelFitness(evaluator, search=True)(POSE)[0]
+    assert trimmed > 0.9 and trimmed > whole + 0.05
+
+
+def test_hiding_no_point_is_the_plain_fitness_and_hidden_needs_every_point(model: ClothModel) -> None:
+    evaluator = evaluator_on(model, 2.0)
+    poses = np.array([POSE, POSE @ make_transform(rotation_from_rpy(0, 0, 0.1), [0.004, 0.0, 0.0])])
+    none = np.zeros(evaluator.n_points, dtype=bool)
+    for subpixel in (False, True):
+        plain = KernelFitness(evaluator, search=True, subpixel=subpixel)(poses)
+        masked = KernelFitness(evaluator, search=True, subpixel=subpixel, hidden=none)(poses)
+        np.testing.assert_allclose(masked, plain)
+    with pytest.raises(ValueError):
+        KernelFitness(evaluator, search=True, hidden=none[:-1])
+    with pytest.raises(ValueError):
+        KernelFitness(evaluator, search=True, stride=2, hidden=none)
+
+
+def test_the_polish_without_the_corner_settles_on_the_true_pose(model: ClothModel) -> None:
+    from robot_app.vision.poses import PoseLimits
+    from robot_app.vision.refinement import Refiner
+
+    evaluator = evaluator_on(model, 2.0)
+    agree, disagree = evaluator.point_agreement(POSE)
+    hidden = disagreeing_corner(model.points_in, model.points_out, agree, disagree, 0.6)
+    assert hidden is not None
+    start = POSE @ make_transform(rotation_from_rpy(0, 0, 0.03), [0.006, -0.005, 0.0])
+    limits = PoseLimits(np.array([-1.0, -1.0, 0.3]), np.array([1.0, 1.0, 1.0]), 0.5, np.inf)
+    refiner = Refiner(RecognitionSettings().refine)
+    fitness = KernelFitness(evaluator, search=True, hidden=hidden)
+    fine = KernelFitness(evaluator, search=True, subpixel=True, hidden=hidden)
+    pose = refiner.polish(start, fitness, fine, limits, np.random.default_rng(0)).transform_model_to_camera
+    e = pose_error(pose, POSE, ())
+    assert abs(e.x_mm) < 2 and abs(e.y_mm) < 2 and abs(e.yaw_deg) < 1
