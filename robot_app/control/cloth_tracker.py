@@ -120,14 +120,7 @@ class ClothTracker:
         """
         found = bool(result.recognition.found) and not candidate
         if found:
-            self.filter.reset(result.transform_model_to_world, result.capture.time)
-            self.grasp_point_model = visible_grasp_point(
-                self.model,
-                self.recognizer.rig,
-                result.recognition.transform_model_to_camera,
-                result.capture,
-                self.recognizer.settings.fitness,
-            )
+            self._restart(result.transform_model_to_world, result.capture.time, result)
         reason = "candidate: looking closer" if candidate else ("reset" if found else "not found")
         self._record(result, found, reason)
         return found
@@ -179,14 +172,7 @@ class ClothTracker:
             elif second_fits:
                 earlier = on_first
         if earlier is on_first:
-            self.filter.reset(on_first.transform_model_to_world, on_first.capture.time)
-            self.grasp_point_model = visible_grasp_point(
-                self.model,
-                self.recognizer.rig,
-                second.recognition.transform_model_to_camera,
-                second.capture,
-                self.recognizer.settings.fitness,
-            )
+            self._restart(on_first.transform_model_to_world, on_first.capture.time, second)
         recognition = later.recognition
         pose = self._on_branch(later.transform_model_to_world, later.capture.time, recognition.found)
         dt = later.capture.time - earlier.capture.time
@@ -328,6 +314,18 @@ class ClothTracker:
         return self.estimate_at(t).as_transform()
 
     # ------------------------------------------------------------------ records
+    def _restart(self, pose_world: FloatArray, time: float, view: VisionResult) -> None:
+        """Restart the filter at `pose_world` [m] seen at `time` [s] and choose the grasp
+        point again in the part of the cloth `view` saw."""
+        self.filter.reset(pose_world, time)
+        self.grasp_point_model = visible_grasp_point(
+            self.model,
+            self.recognizer.rig,
+            view.recognition.transform_model_to_camera,
+            view.capture,
+            self.recognizer.settings.fitness,
+        )
+
     def _record(
         self,
         result: VisionResult,
