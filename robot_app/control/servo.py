@@ -48,7 +48,7 @@ from robot_app.control.trajectory import OnlineTrajectory, time_optimal_duration
 CAMERA_FRAME = "camera_right_optical"
 TRACK_BANDWIDTH = 20.0  # [rad/s] of the smooth copy of the prediction: a step taken up in ~0.2 s
 DESCEND_SPEED = 0.2  # [m/s] mean vertical speed of the DESCEND and LIFT profiles (at most)
-VERTICAL_SHARE = 0.6  # of the joint velocity, acceleration and jerk limits a vertical profile may use at its peaks
+VERTICAL_SHARE = 0.6  # of the joint velocity, acceleration and jerk limits a profile may use at its peaks
 DESCEND_TIMEOUT = 4.0  # [s] of cell time for DESCEND before it counts as lost
 INTERCEPT_ITERATIONS = 4  # fixed-point iterations of the intercept time (converges in 2-3)
 LOOKAHEAD = 0.05  # [s] tracking aims at the target's state this far ahead, due then
