@@ -41,7 +41,7 @@ MAX_LOOK_SPEED = 0.5  # [m/s] a cloth seen to move faster between two looks was 
 QUARTER_TURNS = (np.pi / 2, np.pi, 3 * np.pi / 2)
 FIT_MARGIN = 0.02  # fitness a look's peak must gain on the other's frame (seen noise 0.005, neighbours 0.08)
 BRANCH_TOLERANCE = np.deg2rad(10.0)  # a trusted yaw this close to a quarter turn off is that turn
-LOOK_ALIKE_DISTANCE = 0.008  # [m] a tracking result this far from the prediction (2.3 sigma of a view) ...
+LOOK_ALIKE_DISTANCE = 0.005  # [m] a tracking result this far from the prediction (1.4 sigma of a view) ...
 LOOK_ALIKE_MARGIN = 0.08  # ... whose frame scores within this of it at the prediction: a look-alike
 
 
