@@ -6,10 +6,12 @@ time. A tracking result that turns or moves the cloth past the filter's gates, o
 decision does not trust and the Mahalanobis gate rejects, reseeds the tracker on the
 filter's prediction for the next frame: the multi-step GA has settled on a look-alike (the
 cloth half or a quarter turn round, whose hue fitness is as good) and would stay there.
-(A one-shot search would not do: its depth window is the observation pose's.) `_record` is the one
-place a recognition becomes a `RecognitionRecord`: it changes
-no state. With ground truth (simulation) it also samples the filtered pose against the
-truth at every vision period of APPROACH and DESCEND (`TrackingRecord`).
+(A one-shot search would not do: its depth window is the observation pose's.) A tracking
+result away from the prediction whose frame the prediction fits as well is a look-alike,
+not fused (`_look_alike`), and the tracker starts again from the prediction. `_record` is
+the one place a recognition becomes a `RecognitionRecord`: it changes no state. With
+ground truth (simulation) it also samples the filtered pose against the truth at every
+vision period of APPROACH and DESCEND (`TrackingRecord`).
 """
 
 from __future__ import annotations
@@ -260,9 +262,10 @@ class ClothTracker:
         farther from the filter's prediction when the prediction explains the same frame
         nearly as well (search fitness within LOOK_ALIKE_MARGIN): the frame does not say the
         cloth moved, only that the tracker found a look-alike; None otherwise (the filter
-        decides). Close to a light-blue cloth under the blue paper (the paper within the
-        cloth's hue band), the tracker slid onto the paper by 19 mm a frame with a rising
-        fitness (0.92 -> 0.96 against 0.91 at the truth; bench_pick_place episode 76); a
+        decides). Close to a blue cloth under the blue paper (the paper within the cloth's
+        hue band), the tracker slid onto the paper by 19 mm a frame with a rising fitness
+        (0.92 -> 0.96 against 0.91 at the truth; bench_pick_place episode 76), or crept by
+        5-7 mm a frame at a fitness gap of 0.002-0.007 (episode 28, grasped 21 mm off); a
         cloth pushed away leaves the prediction on the table, which scores far lower."""
         estimate = self.filter.estimate
         t = result.capture.time
