@@ -8,7 +8,9 @@ should be *and* turned poor at once (its fitness below `FITNESS_DROP` of the pre
 view's: the cloth pushed out of the tracker's window, which stays where it was), or a
 doubt run is on. Poor views standing since before (a cloth whose close view scores low,
 bench episode 10 at 100 mm/s) or drifting across `min_fitness` (the occluded cloth of
-test_pick_place) neither confirm nor doubt.
+test_pick_place) neither confirm nor doubt, nor does a look-alike (a tracking result far
+from the prediction whose frame the prediction explains as well: the tracker slid onto the
+blue paper over a blue cloth, `ClothTracker`).
 
 The servo holds the hand `HOLD_MARGIN` above the blind height while a doubt stands and
 goes on down when a view confirms; `DOUBTED_VIEWS` in a row end DESCEND as lost (the loop
@@ -25,6 +27,7 @@ HOLD_MARGIN = 0.01  # [m] above the height where the cameras go blind, DESCEND h
 DOUBT_DISTANCE = 0.012  # [m] a fused view this far from the prediction doubts it (3 sigma of a normal one)
 FITNESS_DROP = 0.5  # a poor view below this share of the previous view's fitness turned poor at once
 DOUBTED_VIEWS = 3  # recognitions in a row not fused on the way down: the cloth is not where predicted
+NEUTRAL = (UpdateReason.LOW_FITNESS_CONSISTENT, UpdateReason.LOOK_ALIKE)  # doubt only in a doubt run
 
 
 class Verdict(enum.Enum):
@@ -79,10 +82,11 @@ def confirms(update: FilterUpdate) -> bool:
 
 def doubts(update: FilterUpdate, *, turned_poor: bool) -> bool:
     """True if a recognition that does not confirm the prediction doubts it: rejected by a
-    gate, fused far from it, or poor where the cloth should be if it `turned_poor`."""
+    gate, fused far from it, or, if it `turned_poor`, poor where the cloth should be or a
+    look-alike (the prediction fits its frame as well: `ClothTracker`)."""
     if confirms(update):
         return False
-    return update.reason is not UpdateReason.LOW_FITNESS_CONSISTENT or turned_poor
+    return update.reason not in NEUTRAL or turned_poor
 
 
 __all__ = ["DOUBTED_VIEWS", "DOUBT_DISTANCE", "FITNESS_DROP", "HOLD_MARGIN", "DescentDoubt", "Verdict"]

@@ -151,6 +151,7 @@ class UpdateReason(enum.StrEnum):
     YAW_JUMP = "yaw jump beyond max_yaw_jump"
     MAHALANOBIS = "Mahalanobis distance beyond gate_chi2"
     RELOCATED = "relocated onto agreeing rejected measurements"
+    LOOK_ALIKE = "far from the prediction, which fits the frame as well: not fused"
 
 
 @dataclass(frozen=True)

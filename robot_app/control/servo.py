@@ -40,7 +40,7 @@ from robot_app.control.cloth_tracker import ClothTracker
 from robot_app.control.descent_doubt import HOLD_MARGIN, DescentDoubt, Verdict
 from robot_app.control.descent_reach import leaves_reach
 from robot_app.control.episode import EpisodeAbortError, Outcome
-from robot_app.control.height_profile import HeightProfile, tcp_height
+from robot_app.control.height_profile import HeightProfile, tcp_height, vertical_speed
 from robot_app.control.intercept import JointFollower, TrackFilter, hanging_reach
 from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.trajectory import OnlineTrajectory, time_optimal_duration
@@ -48,7 +48,7 @@ from robot_app.control.trajectory import OnlineTrajectory, time_optimal_duration
 CAMERA_FRAME = "camera_right_optical"
 TRACK_BANDWIDTH = 20.0  # [rad/s] of the smooth copy of the prediction: a step taken up in ~0.2 s
 DESCEND_SPEED = 0.2  # [m/s] mean vertical speed of the DESCEND and LIFT profiles (at most)
-VERTICAL_SHARE = 0.6  # of the joint velocity limits a vertical profile may use at its peak
+VERTICAL_SHARE = 0.6  # of the joint velocity, acceleration and jerk limits a profile may use at its peaks
 DESCEND_TIMEOUT = 4.0  # [s] of cell time for DESCEND before it counts as lost
 INTERCEPT_ITERATIONS = 4  # fixed-point iterations of the intercept time (converges in 2-3)
 LOOKAHEAD = 0.05  # [s] tracking aims at the target's state this far ahead, due then
@@ -151,8 +151,7 @@ class ServoStrategy:
         s = self.settings
         online = self.online
         now = self.arm.cell.time
-        speed = self._vertical_speed()
-        self._height = self._height.to(s.grasp_height, now, speed)
+        self._height_to(s.grasp_height)
         problem = leaves_reach(self.arm, self.tracker.grasp_path(now), self._height.end, self.table_z, s)
         if problem is not None:
             self._end(to_rest=True)
@@ -176,9 +175,9 @@ class ServoStrategy:
             for update, fitness in zip(updates, fitnesses, strict=True):
                 verdict = doubt.judge(update, fitness)
                 if verdict is Verdict.CLEARED:
-                    self._height = self._height.to(s.grasp_height, self.arm.cell.time, speed)
+                    self._height_to(s.grasp_height)
                 elif verdict is Verdict.DOUBTED and self._height.last != hold:
-                    self._height = self._height.to(hold, self.arm.cell.time, speed)
+                    self._height_to(hold)
             if doubt.lost:
                 self.note = (
                     f"{doubt.doubted} recognitions in a row did not confirm the prediction on the way down"
@@ -222,7 +221,7 @@ class ServoStrategy:
         lift_z = self.table_z + s.lift_height
         off_belt = min(self.table_z + s.grasp_height + reach + s.lift_clearance, lift_z - 0.01)
         grasp_z = self._target_position(self.arm.cell.time)[2] - self._height.at(self.arm.cell.time)
-        self._height = self._height.to(lift_z - grasp_z, self.arm.cell.time, self._vertical_speed())
+        self._height_to(lift_z - grasp_z)
         while self.arm.tcp_position()[2] < off_belt:
             self._renew(online, fused=False)
             try:
@@ -364,19 +363,18 @@ class ServoStrategy:
         self._end(to_rest=False)
         self._online = self.arm.start_online()
 
-    def _vertical_speed(self) -> float:
-        """Mean speed [m/s] of a vertical profile: DESCEND_SPEED, or less where the arm's
-        joints would need more than VERTICAL_SHARE of their velocity limits at the profile's
-        peak (15/8 of the mean) on top of following the cloth (far out, the shoulder does)."""
+    def _height_to(self, height: float) -> None:
+        """The height profile from where it is now to `height` [m] above the grasp point."""
+        now = self.arm.cell.time
+        self._height = self._height.to(height, now, self._vertical_speed(height - self._height.at(now)))
+
+    def _vertical_speed(self, rise: float) -> float:
+        """Mean speed [m/s] of a vertical profile over `rise` [m] from the commanded posture,
+        on top of following the cloth (`height_profile.vertical_speed`)."""
         q = self.arm.command.q
         J = self.arm.kinematics.frame_jacobian(q, "tcp", "local_world_aligned")
-        pinv = J.T @ np.linalg.inv(J @ J.T + 1e-6 * np.eye(6))
-        horizontal = np.abs(
-            pinv[:, :3] @ (self._target_velocity(self.arm.cell.time) * np.array([1.0, 1.0, 0.0]))
-        )
-        per_speed = np.abs(pinv[:, 2]) + 1e-9
-        room = np.maximum(VERTICAL_SHARE * self.arm.limits.velocity - horizontal, 0.0) / per_speed
-        return float(min(DESCEND_SPEED, max(0.03, room.min() / 1.875)))
+        horizontal = self._target_velocity(self.arm.cell.time) * np.array([1.0, 1.0, 0.0])
+        return vertical_speed(J, self.arm.limits, horizontal, rise, DESCEND_SPEED, VERTICAL_SHARE)
 
     def _height_above_cloth(self) -> float:
         """The TCP's height above the predicted cloth surface now [m]."""

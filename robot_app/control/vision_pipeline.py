@@ -18,6 +18,8 @@ motion prediction for the tracker).
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -47,6 +49,9 @@ class VisionResult:
         start_time: cell time the recogniser took the frame [s].
         available_time: cell time the result reached the loop [s].
         compute_s: wall time of the recognition [s].
+        predicted_fitness: a tracking frame's search fitness, on the same frame, at the
+            pose the loop predicted for its exposure (`poll(prediction=...)`), to weigh
+            against `recognition.search_fitness`; nan without a prediction.
     """
 
     capture: StereoCapture
@@ -56,6 +61,7 @@ class VisionResult:
     start_time: float
     available_time: float
     compute_s: float
+    predicted_fitness: float = math.nan
 
     @property
     def age(self) -> float:
@@ -161,7 +167,11 @@ class VisionPipeline:
         self._reseed = prediction
 
     def poll(
-        self, *, may_capture: bool = True, cloth_motion: ClothMotion | None = None
+        self,
+        *,
+        may_capture: bool = True,
+        cloth_motion: ClothMotion | None = None,
+        prediction: ClothPrediction | None = None,
     ) -> list[VisionResult]:
         """Call once per control period: triggers, recognises and delivers what is due.
 
@@ -170,6 +180,8 @@ class VisionPipeline:
                 than the cameras' working distance); frames already taken still arrive.
             cloth_motion: the cloth's predicted displacement in Σ_W between two exposures
                 (4x4); the tracker's kept poses move by it as well as by the camera's motion.
+            prediction: the cloth's predicted pose in Σ_W at a time (4x4): each tracking
+                frame is also scored there (`VisionResult.predicted_fitness`).
 
         Returns:
             The results that became available by now, oldest first.
@@ -189,7 +201,7 @@ class VisionPipeline:
         if waiting is not None and waiting.available_time <= now and self.busy_until <= now:
             self._waiting = None
             start = max(waiting.available_time, self.busy_until)
-            self._in_flight.append(self._track(waiting, start, cloth_motion))
+            self._in_flight.append(self._track(waiting, start, cloth_motion, prediction))
         due = [r for r in self._in_flight if r.available_time <= now + 1e-12]
         self._in_flight = [r for r in self._in_flight if r.available_time > now + 1e-12]
         return due
@@ -203,7 +215,13 @@ class VisionPipeline:
         self._camera_latency = max(0.0, capture.available_time - capture.time)
         return capture
 
-    def _track(self, capture: StereoCapture, start: float, cloth_motion: ClothMotion | None) -> VisionResult:
+    def _track(
+        self,
+        capture: StereoCapture,
+        start: float,
+        cloth_motion: ClothMotion | None,
+        prediction: ClothPrediction | None = None,
+    ) -> VisionResult:
         previous = self._previous
         motion = None
         if previous is not None:
@@ -223,7 +241,12 @@ class VisionPipeline:
         recognition = self.recognizer.track(
             capture.left_bgr, capture.right_bgr, motion, generations=self.track_generations
         )
+        predicted_fitness = math.nan
+        if prediction is not None:  # the same frame at the predicted pose (one pose: ~0.1 ms)
+            predicted = invert_transform(capture.transform_right_camera_to_world) @ prediction(capture.time)
+            predicted_fitness = float(self.recognizer.evaluator.evaluate(predicted, search=True)[0])
         result = self._result(capture, recognition, "track", start, time.perf_counter() - wall)
+        result = dataclasses.replace(result, predicted_fitness=predicted_fitness)
         self.busy_until = result.available_time
         self._previous = capture
         return result
