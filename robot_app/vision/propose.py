@@ -30,6 +30,7 @@ from robot_app.geometry import rotation_about_z, wrap_angle, yaw_of
 from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
 from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBoundsSettings
 from robot_app.vision.poses import AvoidedPoses, PoseLimits, as_poses
+from robot_app.vision.print_periods import PeriodSettings, print_periods
 from robot_app.vision.refinement import Refiner
 from robot_app.vision.tracking_window import TrackingSettings, reachable_regions, window_around
 
@@ -72,6 +73,12 @@ class ProposalSettings(StrictModel):
         max_peaks: peaks reported with `peaks`.
         peak_separation: x-y distance between distinct peaks [m].
         peak_min_fitness: weaker peaks are not reported.
+        periods: the best pose of a one-shot proposal is also tried shifted by each period
+            of a periodic print (and half-turned about its other symmetry points,
+            `print_periods`); the best shifted pose, climbed, replaces it if it scores
+            `period_margin` more after its polish. A pose a period off the truth (a
+            neighbouring peak) scores nearly as well and the polish cannot cross the valley.
+        period_margin: see `periods`.
         tracking: the multi-step proposal.
     """
 
@@ -92,6 +99,8 @@ class ProposalSettings(StrictModel):
     max_peaks: int = Field(default=3, ge=1)
     peak_separation: float = Field(default=0.06, gt=0.0)
     peak_min_fitness: float = Field(default=0.2, ge=0.0, le=1.0)
+    periods: PeriodSettings = PeriodSettings()
+    period_margin: float = Field(default=0.005, ge=0.0, le=1.0)
     tracking: TrackingSettings = TrackingSettings()
 
 
@@ -137,6 +146,10 @@ class Proposer:
         self.settings = settings
         self.refiner = refiner
         self._seed = seed
+        periodic = settings.periods.enabled
+        self.print_maps = (
+            print_periods(evaluator.model, settings.periods) if periodic else np.zeros((0, 4, 4))
+        )
         self.reset()
 
     def reset(self) -> None:
@@ -187,6 +200,9 @@ class Proposer:
             centres = np.array([[*p.transform_model_to_camera[:2, 3], np.nan] for p in found]).reshape(-1, 3)
             best, run_ends, best_ga, count = self._runs(rng, centres, restarts)
             generations += count
+            shifted = self._across_periods(best, rng, centres)
+            if shifted is not best:
+                best, run_ends = shifted, [shifted, *run_ends]
             if found and best.search_fitness < s.peak_min_fitness:
                 break
             found.append(best)
@@ -304,6 +320,32 @@ class Proposer:
                 yaw = yaw_of(last[:3, :3]) if result.search_fitness >= s.avoid_any_yaw_below else np.nan
                 avoid = np.vstack([avoid, [*last[:2, 3], yaw]])  # a poor peak that draws the runs
         return best, ends, ga, generations
+
+    def _across_periods(self, best: Candidate, rng: np.random.Generator, centres: FloatArray) -> Candidate:
+        """`best` or, if one scores `period_margin` more once climbed and polished, the best of
+        it moved by the print's periods (`print_maps`): the neighbouring peaks of a periodic print."""
+        s, r = self.settings, self.refiner.settings
+        if not len(self.print_maps) or not r.enabled:
+            return best
+        limits = self.limits()
+        poses = best.transform_model_to_camera @ self.print_maps
+        poses = poses[limits.allows(poses, self._avoided(centres))]
+        if not len(poses):
+            return best
+        fitness = self.fitness(centres=centres)
+        order = np.argsort(-fitness(poses), kind="stable")[: s.refine_candidates]
+        quick = self.fitness(subpixel=r.candidate_subpixel, centres=centres)
+        climbed = [self.refiner.climb(T, quick, r.candidate_iterations, limits) for T in poses[order]]
+        start = max(climbed, key=lambda c: c.score)
+        if start.score <= best.search_fitness + s.period_margin:
+            return best
+        fine = self.fitness(subpixel=True, centres=centres)
+        iterations = max(r.max_iterations - r.candidate_iterations, 1)
+        pose = self.refiner.polish(
+            start.transform_model_to_camera, fitness, fine, limits, rng, iterations
+        ).transform_model_to_camera
+        score = float(fitness(pose)[0])
+        return Candidate(pose, score) if score > best.search_fitness + s.period_margin else best
 
     def _search(self, rng: np.random.Generator, centres: FloatArray) -> GeneticAlgorithm:
         """A GA run: coarse generations on a point subset, then on more points."""
