@@ -53,9 +53,10 @@ class PeriodSettings(StrictModel):
 
 def print_periods(model: ClothModel, settings: PeriodSettings) -> FloatArray:
     """(K, 4, 4) maps G of Σ_M onto itself under which the model's print looks the same
-    (the interior, not the outline): shifts by a period (each with its opposite) and half
+    (the interior, not the outline): shifts by a period (each with its opposite), half
     turns about a point of the print's own half-turn symmetry other than the model
-    origin, shortest outline shift first; (0, 4, 4) for a plain or non-periodic print or
+    origin and quarter turns about a point of its quarter-turn symmetry (square checks),
+    shortest shift first; (0, 4, 4) for a plain or non-periodic print or
     a model without texture. A pose T of the cloth a period off the truth has the truth
     at T @ G for one of them."""
     s = settings
@@ -88,17 +89,28 @@ def print_periods(model: ClothModel, settings: PeriodSettings) -> FloatArray:
             G = np.eye(4)
             G[:2, 3] = sign * shifts[k]
             maps.append(G)
-    flipped, flipped_mask = centred[::-1, ::-1], mask[::-1, ::-1]
-    correlation, rows, cols, centre = _peaks(centred, mask, flipped, flipped_mask, s)
-    # a peak at shift q: c(p) = c(-p + e) with e = (n - 1) + q downsampled pixels, i.e.
-    # e / scale + (1 / scale - 1) texture pixels; in Σ_M: x -> -x + d with L d = e - 2 t
-    n = np.array([[mask.shape[1] - 1], [mask.shape[0] - 1]], dtype=float)
-    e = (n + np.vstack([cols - centre[1], rows - centre[0]]) + 1.0) / scale - 1.0
-    outline_shifts = np.linalg.solve(A[:, :2], e - 2.0 * A[:, 2:3]).T
-    for k in _one_per_ridge(correlation, rows, cols, np.linalg.norm(outline_shifts, axis=1), s):
-        G = np.diag([-1.0, -1.0, 1.0, 1.0])
-        G[:2, 3] = outline_shifts[k]
-        maps.append(G)
+    height, width = mask.shape
+    L, t = A[:, :2], A[:, 2]
+    for M, turned, offset in (
+        (np.array([[-1, 0], [0, -1]]), lambda x: x[::-1, ::-1], (width - 1, height - 1)),  # a half turn
+        (np.array([[0, -1], [1, 0]]), lambda x: np.rot90(x, 1), (width - 1, 0)),  # quarter turns
+        (np.array([[0, 1], [-1, 0]]), lambda x: np.rot90(x, -1), (0, height - 1)),
+    ):
+        # the turned copy b(q) = c(M q + o) in downsampled pixels (u, v); a peak at shift q:
+        # c(p + q) = b(p), i.e. the print is the same under p -> M p + e with e = o - M q
+        correlation, rows, cols, centre = _peaks(centred, mask, turned(centred), turned(mask), s)
+        q = np.vstack([cols - centre[1], rows - centre[0]]).astype(float)
+        e = np.asarray(offset, dtype=float)[:, None] - M @ q
+        ones = np.ones((2, 1))
+        e_texture = 0.5 * (M @ ones) * (1.0 - 1.0 / scale) + (e + 0.5) / scale - 0.5  # texture pixels
+        R = np.linalg.solve(L, M @ L)  # the same turn in Σ_M: x -> R x + d
+        d = np.linalg.solve(L, (M @ t)[:, None] + e_texture - t[:, None]).T
+        length = np.linalg.norm(d, axis=1)
+        minimum = s.min_shift if M[0, 0] < 0 else 0.0  # the half turn about the origin is tried anyway
+        for k in _one_per_ridge(correlation, rows, cols, length, s, minimum):
+            G = np.eye(4)
+            G[:2, :2], G[:2, 3] = R, d[k]
+            maps.append(G)
     if not maps:
         return none
     out = np.array(maps)
@@ -115,7 +127,7 @@ def _peaks(
     """The masked normalised cross-correlation Σ a(p + q) b(p) over the colour channels
     (q = index - centre; -1 where the overlap is below `min_overlap`) and its local maxima
     of at least `min_correlation`."""
-    shape = (2 * a.shape[0], 2 * a.shape[1])
+    shape = (cv2.getOptimalDFTSize(a.shape[0] + b.shape[0]), cv2.getOptimalDFTSize(a.shape[1] + b.shape[1]))
     spectra_a = [np.fft.rfft2(a[..., c], shape) for c in range(3)]
     spectra_b = [np.fft.rfft2(b[..., c], shape) for c in range(3)]
     numerator = np.fft.irfft2(
@@ -139,13 +151,14 @@ def _one_per_ridge(
     cols: npt.NDArray[np.int64],
     length: FloatArray,
     s: PeriodSettings,
+    min_length: float | None = None,
 ) -> list[int]:
-    """Indices of the shortest peak of each ridge within the length limits, at most
-    `max_periods`: two peaks joined by high correlation (at their midpoint) are one along a
-    stripe."""
+    """Indices of the shortest peak of each ridge within the length limits (`min_length`:
+    instead of `min_shift`), at most `max_periods`: two peaks joined by high correlation (at
+    their midpoint) are one along a stripe."""
     kept: list[int] = []
     for k in np.argsort(length, kind="stable"):
-        if not s.min_shift <= length[k] <= s.max_shift:
+        if not (s.min_shift if min_length is None else min_length) <= length[k] <= s.max_shift:
             continue
         level = correlation[rows[k], cols[k]]
         joined = any(

@@ -146,11 +146,17 @@ class Proposer:
         self.settings = settings
         self.refiner = refiner
         self._seed = seed
-        periodic = settings.periods.enabled
-        self.print_maps = (
-            print_periods(evaluator.model, settings.periods) if periodic else np.zeros((0, 4, 4))
-        )
+        self._print_maps: FloatArray | None = None
         self.reset()
+
+    @property
+    def print_maps(self) -> FloatArray:
+        """(K, 4, 4) maps of Σ_M under which the print looks the same (`print_periods`; measured
+        at the first use: 2-150 ms a model; none with `periods.enabled` false)."""
+        if self._print_maps is None:
+            s = self.settings.periods
+            self._print_maps = print_periods(self.evaluator.model, s) if s.enabled else np.zeros((0, 4, 4))
+        return self._print_maps
 
     def reset(self) -> None:
         """Forgets the tracked poses and reseeds the generator."""
