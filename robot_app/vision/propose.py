@@ -5,8 +5,10 @@ One-shot (`Proposer.propose`): GA runs from a random population (the first
 `fine_stride`-th), the best distinct poses of each island (also untilted, half-turned and
 at other depths) climbed briefly by the refine stage's compass search, the best of them
 polished by the refine stage. A poor result restarts the GA until two runs agree; a poor
-peak that two runs ended on is avoided by the next ones. Every run's polished end is kept
-as a candidate, so the verification can compare the peaks. With `peaks`, further runs that
+peak that two runs ended on is avoided by the next ones. The best end is also tried moved
+by the print's periods and turned about its symmetry points (`print_periods`: a periodic
+print's neighbouring peaks, which the polish cannot leave). Every run's polished end is
+kept as a candidate, so the verification can compare the peaks. With `peaks`, further runs that
 avoid the peaks found so far give one pose per distinct peak (e.g. each cloth in view,
 Fig. 13 e-f).
 
