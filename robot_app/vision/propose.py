@@ -396,14 +396,17 @@ class Proposer:
         s = self.settings
         poses = []
         for genes, scores in ga.islands():
-            order = np.argsort(-scores, kind="stable")
-            chosen: list[FloatArray] = []
-            for T in ga.transforms(genes[order]):
-                if all(not _same_peak(T, other, s.candidate_separation) for other in chosen):
-                    chosen.append(T)
-                    if len(chosen) == s.candidates_per_island:
-                        break
-            poses.extend(chosen)
+            ranked = ga.transforms(genes[np.argsort(-scores, kind="stable")])
+            xy, yaws = ranked[:, :2, 3], np.arctan2(ranked[:, 1, 0], ranked[:, 0, 0])
+            distinct = np.ones(len(ranked), dtype=bool)  # not on the peak of a pose chosen before
+            for _ in range(s.candidates_per_island):
+                if not distinct.any():
+                    break
+                k = int(np.argmax(distinct))  # the best distinct one
+                poses.append(ranked[k])
+                near = np.linalg.norm(xy - xy[k], axis=1) < s.candidate_separation
+                turned = np.abs(np.asarray(wrap_angle(yaws - yaws[k]))) < np.deg2rad(20.0)
+                distinct &= ~(near & turned)  # `_same_peak`, for the whole island at once
         level = [untilted(T) for T in poses]
         variants = np.array(poses + level + [T @ HALF_TURN for T in poses + level])
         scales = [(T_z + dz) / T_z for T_z in variants[:, 2, 3] for dz in s.candidate_depths]
