@@ -20,6 +20,10 @@ weights and threshold on them and prints them) and reported on the test seeds (t
         # cloths join the present ones (tried, not adopted: decide.py)
     taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-fullsearch --scenes 60 --dump d.csv
         # a lean accuracy run; d.csv holds every recognition's evidence (study the misses)
+    taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-fullsearch --quick --scenes 60 \
+        --cloths 2,4,10 --kinds flat,wrinkled,covered
+        # the periodic prints (stripes, checks, diagonals): how often a pose is a period off
+        # (add --set propose.periods.enabled=false for the GA's end alone)
     taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-accuracy --skip-fullsearch --identify
         # identification alone, and by vision.identify (every model together: the relative test)
     taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-fullsearch --scenes 60 \
@@ -235,15 +239,16 @@ def collect(
     rng = seeds(args, calibration)
     out: dict[str, list] = {}
     kinds = args.kinds.split(",") if getattr(args, "kinds", None) else None
+    chosen = [int(c) for c in args.cloths.split(",")] if getattr(args, "cloths", None) else list(range(N))
     for kind in ("flat", "wrinkled", "folded", "covered", "crumpled"):
         if kinds is not None and kind not in kinds:
             continue
         if kind == "crumpled" and kinds is None:
             continue  # not among the present kinds: only with --kinds (also to --calibrate)
-        count = args.scenes if kind == "flat" else max(N, args.scenes // 2)
+        count = args.scenes if kind == "flat" else max(len(chosen), args.scenes // 2)
         rows = []
         for k in range(count):
-            index = k % N
+            index = chosen[k % len(chosen)]
             left, right, truth = scenes.present(kind, index, rng(kind, k))
             arm(recognizers, index, args)
             rows.append((index, recognizers[index].recognize(left, right, seed=k), truth))
@@ -254,9 +259,9 @@ def collect(
         if kinds is not None and kind not in kinds:
             continue
         rows = []
-        count = max(N, args.scenes // 2)
+        count = max(len(chosen), args.scenes // 2)
         for k in range(count):
-            index = k % N
+            index = chosen[k % len(chosen)]
             left, right, other = scenes.absent(index, rng(kind, k), family)
             arm(recognizers, index, args, leave_out=other)
             rows.append((index, recognizers[index].recognize(left, right, seed=k), None))
@@ -374,6 +379,14 @@ def report_accuracy(data: dict[str, list], models: list[ClothModel], threshold: 
             f"  within ±6 mm x/y and ±6°: {within:.1%}; found {found:.1%} "
             f"(goal 100%: {verdict(found == 1 and within == 1)})"
         )
+    for kind in ("flat", "wrinkled", "folded", "covered", "crumpled"):
+        rows = data.get(kind, [])
+        if rows:
+            e = np.array([errors_of(models[i], r.transform_model_to_camera, t) for i, r, t in rows])
+            off = np.hypot(e[:, 0], e[:, 1]) > 5.0
+            cpu = np.median([r.time_s for _, r, _ in rows]) * 1e3
+            print(f"{kind}: more than 5 mm off in x-y {int(off.sum())} of {len(rows)} ({off.mean():.1%}); "
+                  f"median time {cpu:.1f} ms")  # fmt: skip
     present = [r for kind in ("flat", "wrinkled", "folded", "covered") for _, r, _ in data.get(kind, [])]
     absent = [r for kind in ("absent_family", "absent_other") for _, r, _ in data.get(kind, [])]
     found = np.mean([r.found for r in present]) if present else np.nan  # and no rival won
@@ -621,6 +634,8 @@ def main() -> None:
     )
     parser.add_argument("--kinds", help="only these scene kinds (comma-separated: flat, wrinkled, folded, "
                         "covered, absent_family, absent_other)")  # fmt: skip
+    parser.add_argument("--cloths", help="the accuracy scenes of these catalogue cloths only (comma-separated"
+                        " indices; e.g. the periodic prints 2,4,10)")  # fmt: skip
     parser.add_argument("--identification-size", type=int, default=0,
                         help="with --calibrate: also an NxN identification on calibration seeds, its wrong "
                         "pairs as absent scenes")  # fmt: skip

@@ -5,8 +5,10 @@ One-shot (`Proposer.propose`): GA runs from a random population (the first
 `fine_stride`-th), the best distinct poses of each island (also untilted, half-turned and
 at other depths) climbed briefly by the refine stage's compass search, the best of them
 polished by the refine stage. A poor result restarts the GA until two runs agree; a poor
-peak that two runs ended on is avoided by the next ones. Every run's polished end is kept
-as a candidate, so the verification can compare the peaks. With `peaks`, further runs that
+peak that two runs ended on is avoided by the next ones. The best end is also tried moved
+by the print's periods and turned about its symmetry points (`print_periods`: a periodic
+print's neighbouring peaks, which the polish cannot leave). Every run's polished end is
+kept as a candidate, so the verification can compare the peaks. With `peaks`, further runs that
 avoid the peaks found so far give one pose per distinct peak (e.g. each cloth in view,
 Fig. 13 e-f).
 
@@ -30,6 +32,7 @@ from robot_app.geometry import rotation_about_z, wrap_angle, yaw_of
 from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
 from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBoundsSettings
 from robot_app.vision.poses import AvoidedPoses, PoseLimits, as_poses
+from robot_app.vision.print_periods import PeriodSettings, print_periods
 from robot_app.vision.refinement import Refiner
 from robot_app.vision.tracking_window import TrackingSettings, reachable_regions, window_around
 
@@ -72,6 +75,12 @@ class ProposalSettings(StrictModel):
         max_peaks: peaks reported with `peaks`.
         peak_separation: x-y distance between distinct peaks [m].
         peak_min_fitness: weaker peaks are not reported.
+        periods: the best pose of a one-shot proposal is also tried shifted by each period
+            of a periodic print (and half-turned about its other symmetry points,
+            `print_periods`); the best shifted pose, climbed, replaces it if it scores
+            `period_margin` more after its polish. A pose a period off the truth (a
+            neighbouring peak) scores nearly as well and the polish cannot cross the valley.
+        period_margin: see `periods`.
         tracking: the multi-step proposal.
     """
 
@@ -92,6 +101,8 @@ class ProposalSettings(StrictModel):
     max_peaks: int = Field(default=3, ge=1)
     peak_separation: float = Field(default=0.06, gt=0.0)
     peak_min_fitness: float = Field(default=0.2, ge=0.0, le=1.0)
+    periods: PeriodSettings = PeriodSettings()
+    period_margin: float = Field(default=0.005, ge=0.0, le=1.0)
     tracking: TrackingSettings = TrackingSettings()
 
 
@@ -137,7 +148,17 @@ class Proposer:
         self.settings = settings
         self.refiner = refiner
         self._seed = seed
+        self._print_maps: FloatArray | None = None
         self.reset()
+
+    @property
+    def print_maps(self) -> FloatArray:
+        """(K, 4, 4) maps of Σ_M under which the print looks the same (`print_periods`; measured
+        at the first use: 2-150 ms a model; none with `periods.enabled` false)."""
+        if self._print_maps is None:
+            s = self.settings.periods
+            self._print_maps = print_periods(self.evaluator.model, s) if s.enabled else np.zeros((0, 4, 4))
+        return self._print_maps
 
     def reset(self) -> None:
         """Forgets the tracked poses and reseeds the generator."""
@@ -187,6 +208,9 @@ class Proposer:
             centres = np.array([[*p.transform_model_to_camera[:2, 3], np.nan] for p in found]).reshape(-1, 3)
             best, run_ends, best_ga, count = self._runs(rng, centres, restarts)
             generations += count
+            shifted = self._across_periods(best, rng, centres)
+            if shifted is not best:
+                best, run_ends = shifted, [shifted, *run_ends]
             if found and best.search_fitness < s.peak_min_fitness:
                 break
             found.append(best)
@@ -305,6 +329,32 @@ class Proposer:
                 avoid = np.vstack([avoid, [*last[:2, 3], yaw]])  # a poor peak that draws the runs
         return best, ends, ga, generations
 
+    def _across_periods(self, best: Candidate, rng: np.random.Generator, centres: FloatArray) -> Candidate:
+        """`best` or, if one scores `period_margin` more once climbed and polished, the best of
+        it moved by the print's periods (`print_maps`): the neighbouring peaks of a periodic print."""
+        s, r = self.settings, self.refiner.settings
+        if not len(self.print_maps) or not r.enabled:
+            return best
+        limits = self.limits()
+        poses = best.transform_model_to_camera @ self.print_maps
+        poses = poses[limits.allows(poses, self._avoided(centres))]
+        if not len(poses):
+            return best
+        fitness = self.fitness(centres=centres)
+        order = np.argsort(-fitness(poses), kind="stable")[: s.refine_candidates]
+        quick = self.fitness(subpixel=r.candidate_subpixel, centres=centres)
+        climbed = [self.refiner.climb(T, quick, r.candidate_iterations, limits) for T in poses[order]]
+        start = max(climbed, key=lambda c: c.score)
+        if start.score <= best.search_fitness + s.period_margin:
+            return best
+        fine = self.fitness(subpixel=True, centres=centres)
+        iterations = max(r.max_iterations - r.candidate_iterations, 1)
+        pose = self.refiner.polish(
+            start.transform_model_to_camera, fitness, fine, limits, rng, iterations
+        ).transform_model_to_camera
+        score = float(fitness(pose)[0])
+        return Candidate(pose, score) if score > best.search_fitness + s.period_margin else best
+
     def _search(self, rng: np.random.Generator, centres: FloatArray) -> GeneticAlgorithm:
         """A GA run: coarse generations on a point subset, then on more points."""
         s = self.settings
@@ -346,14 +396,17 @@ class Proposer:
         s = self.settings
         poses = []
         for genes, scores in ga.islands():
-            order = np.argsort(-scores, kind="stable")
-            chosen: list[FloatArray] = []
-            for T in ga.transforms(genes[order]):
-                if all(not _same_peak(T, other, s.candidate_separation) for other in chosen):
-                    chosen.append(T)
-                    if len(chosen) == s.candidates_per_island:
-                        break
-            poses.extend(chosen)
+            ranked = ga.transforms(genes[np.argsort(-scores, kind="stable")])
+            xy, yaws = ranked[:, :2, 3], np.arctan2(ranked[:, 1, 0], ranked[:, 0, 0])
+            distinct = np.ones(len(ranked), dtype=bool)  # not on the peak of a pose chosen before
+            for _ in range(s.candidates_per_island):
+                if not distinct.any():
+                    break
+                k = int(np.argmax(distinct))  # the best distinct one
+                poses.append(ranked[k])
+                near = np.linalg.norm(xy - xy[k], axis=1) < s.candidate_separation
+                turned = np.abs(np.asarray(wrap_angle(yaws - yaws[k]))) < np.deg2rad(20.0)
+                distinct &= ~(near & turned)  # `_same_peak`, for the whole island at once
         level = [untilted(T) for T in poses]
         variants = np.array(poses + level + [T @ HALF_TURN for T in poses + level])
         scales = [(T_z + dz) / T_z for T_z in variants[:, 2, 3] for dz in s.candidate_depths]

@@ -6,7 +6,9 @@ The recogniser composes the stages and holds no search logic of its own:
    exposure and white balance onto the model photo's, and the shading of shadows over
    the cell (`exposure.scene_exposure`);
 2. propose (`propose.Proposer`): the paper's GA on the hue fitness, with restarts; each
-   run's best is climbed and polished by
+   run's best is climbed and polished by the refine stage (3.), and the best is also
+   tried moved by a periodic print's periods and symmetry turns (`print_periods`: the
+   neighbouring peaks);
 3. refine (`refinement.Refiner`): compass search and CMA-ES on the continuous pose;
 4. verify (`verify.Verifier`): the model photo's texture against both images at the best
    pose, its half and quarter turns and the other runs' ends whose search fitness is
