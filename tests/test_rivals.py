@@ -25,7 +25,7 @@ from robot_app.vision import (
     make_model,
     save_rig,
 )
-from robot_app.vision.decide import RivalSettings, judge, overlapping
+from robot_app.vision.decide import RivalContext, RivalSettings, judge, overlapping
 from robot_app.vision.regions import image_codes
 from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
 from robot_app.vision.synthetic_catalogue import synthetic_cloth
@@ -83,25 +83,26 @@ def test_a_rival_that_explains_the_region_better_wins(models, stripes_pair) -> N
     settings = RivalSettings()
     # the plain red model "found" on the stripes' red (its yellow taken as hidden)
     target = _recognition(STRIPES_POSE, 0.9)
+    context = RivalContext(models[RED], target, CAMERA, codes, fitness, settings)
     stripes = _Fixed(models[STRIPES], _recognition(STRIPES_POSE, 0.99))
-    verdict = judge(models[RED], target, [stripes], CAMERA, codes, fitness, settings)
+    verdict = judge(context, [stripes])
     assert verdict.winner == models[STRIPES].name
     assert verdict.shared > 0.9
     # less confident than the target: it does not win
     weaker = _Fixed(models[STRIPES], _recognition(STRIPES_POSE, 0.8))
-    assert judge(models[RED], target, [weaker], CAMERA, codes, fitness, settings).winner == ""
+    assert judge(context, [weaker]).winner == ""
     # recognised elsewhere: it explains other pixels, not the target's region
     away = make_transform(np.eye(3), [-0.13, 0.08, 0.58])
     elsewhere = _Fixed(models[STRIPES], _recognition(away, 0.99))
-    assert judge(models[RED], target, [elsewhere], CAMERA, codes, fitness, settings).winner == ""
+    assert judge(context, [elsewhere]).winner == ""
     # a rival without the region's colours is not even asked
     cyan = _Fixed(models[CYAN], _recognition(STRIPES_POSE, 0.99))
-    verdict = judge(models[RED], target, [cyan], CAMERA, codes, fitness, settings)
+    verdict = judge(context, [cyan])
     assert verdict.asked == () and verdict.winner == ""
     # nor one most of whose colours the image does not show (the patchwork's red matches the
     # region, its other patches are nowhere): it could not be the more confident
     patchwork = _Fixed(models[PATCHWORK], _recognition(STRIPES_POSE, 0.99))
-    verdict = judge(models[RED], target, [patchwork, stripes], CAMERA, codes, fitness, settings)
+    verdict = judge(context, [patchwork, stripes])
     assert verdict.asked == (models[STRIPES].name,) and verdict.winner == models[STRIPES].name
 
 
@@ -114,7 +115,7 @@ def test_a_rival_explaining_only_part_of_the_target_does_not_win(models, stripes
     settings = RivalSettings(shared_limit=0.3)
     target = _recognition(STRIPES_POSE, 0.9)
     red = _Fixed(models[RED], _recognition(STRIPES_POSE, 0.95))
-    verdict = judge(models[STRIPES], target, [red], CAMERA, codes, fitness, settings)
+    verdict = judge(RivalContext(models[STRIPES], target, CAMERA, codes, fitness, settings), [red])
     assert verdict.asked == (models[RED].name,) and verdict.winner == ""
 
 

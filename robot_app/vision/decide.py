@@ -93,13 +93,14 @@ from typing import Protocol
 import numpy as np
 from pydantic import Field
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.vision.camera import PinholeCamera
 from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.fitness_scores import FitnessSettings
 from robot_app.vision.hue import COLOUR_CODES, colours_match
 from robot_app.vision.recognition import Recognition
-from robot_app.vision.regions import Codes, explained, main_codes, model_area
+from robot_app.vision.regions import Codes, Mask, explained, main_codes, model_area
 
 
 class DecisionSettings(StrictModel):
@@ -259,15 +260,33 @@ def overlapping(
     return kept
 
 
-def judge(
-    model: ClothModel,
-    target: Recognition,
-    rivals: Sequence[Rival],
-    camera: PinholeCamera,
-    codes: Codes,
-    fitness: FitnessSettings,
-    settings: RivalSettings,
-) -> RivalVerdict:
+@dataclass(frozen=True)
+class RivalContext:
+    """An accepted recognition the rivals are asked about, and the image they are asked in.
+
+    Attributes:
+        model: the target's model (with its photo's texture).
+        target: the target's recognition in the pair.
+        camera: the (undistorted) right camera the codes are of.
+        codes: (H, W) the right image's colour codes.
+        fitness: hue threshold and tone settings of the codes.
+        settings: the test's limits.
+    """
+
+    model: ClothModel
+    target: Recognition
+    camera: PinholeCamera
+    codes: Codes
+    fitness: FitnessSettings
+    settings: RivalSettings
+
+    def explained_by(self, model: ClothModel, transform_model_to_camera: FloatArray) -> Mask:
+        """(H, W) the pixels of the image `model` explains at that pose (`regions.explained`)."""
+        _, pixels = explained(model, self.camera, transform_model_to_camera, self.codes, self.fitness)
+        return pixels
+
+
+def judge(context: RivalContext, rivals: Sequence[Rival]) -> RivalVerdict:
     """The rival (if any) that explains the target's region better (module docstring).
 
     A rival is recognised only if its main colours match more than `shared_limit` of the
@@ -276,29 +295,25 @@ def judge(
     order of that share, and the first that explains the region better ends the test.
 
     Args:
-        model: the target's model (with its photo's texture).
-        target: the target's recognition in the pair.
+        context: the target, its image and the test's limits.
         rivals: the rivals, each able to recognise itself in the same pair.
-        camera: the (undistorted) right camera the codes are of.
-        codes: (H, W) the right image's colour codes.
-        fitness: hue threshold and tone settings of the codes.
-        settings: the test's limits.
     """
-    if model.texture_mask is None:
+    target, settings, hue_threshold = context.target, context.settings, context.fitness.hue_threshold_in
+    if context.model.texture_mask is None:
         return RivalVerdict()  # without its photo the target cannot say which pixels it explains
-    _, own = explained(model, camera, target.transform_model_to_camera, codes, fitness)
+    own = context.explained_by(context.model, target.transform_model_to_camera)
     count = max(int(np.count_nonzero(own)), 1)
-    seen = codes[own].astype(np.int64)
+    seen = context.codes[own].astype(np.int64)
     present = np.bincount(seen, minlength=COLOUR_CODES)[:COLOUR_CODES]
     palette = np.arange(COLOUR_CODES)
     reachable = []
     for rival in rivals:
         colours = main_codes(rival.model, settings.coverage)
-        matching = np.any(colours_match(palette[:, None], colours[None, :], fitness.hue_threshold_in), axis=1)
+        matching = np.any(colours_match(palette[:, None], colours[None, :], hue_threshold), axis=1)
         share = present[matching].sum() / count
         if share > settings.shared_limit and rival.model.texture_mask is not None:
             reachable.append((share, rival))
-    cover = _colour_cover(model, target, rivals, camera, codes, fitness, settings)
+    cover = _colour_cover(context, rivals)
     reachable = [
         (share, rival) for share, rival in reachable if cover[rival.model.name] >= settings.min_colour_cover
     ]
@@ -308,31 +323,25 @@ def judge(
         answer = rival.recognize_alone()
         if answer.confidence < max(settings.min_confidence, target.confidence):
             continue
-        _, theirs = explained(rival.model, camera, answer.transform_model_to_camera, codes, fitness)
+        theirs = context.explained_by(rival.model, answer.transform_model_to_camera)
         shared = np.count_nonzero(own & theirs) / count
         if shared > settings.shared_limit and np.count_nonzero(theirs) > count:
             return RivalVerdict(tuple(asked), rival.model.name, float(shared), answer.confidence)
     return RivalVerdict(tuple(asked))
 
 
-def _colour_cover(
-    model: ClothModel,
-    target: Recognition,
-    rivals: Sequence[Rival],
-    camera: PinholeCamera,
-    codes: Codes,
-    fitness: FitnessSettings,
-    settings: RivalSettings,
-) -> dict[str, float]:
+def _colour_cover(context: RivalContext, rivals: Sequence[Rival]) -> dict[str, float]:
     """Per rival, the share of it the image's foreground could show by colour: the sum over
     its main colours c (share p_c of its S_in points) of p_c · min(1, n_c / (p_c · A)), with
     n_c the foreground pixels matching c and A the rival's area in pixels at the target's depth."""
-    codes64 = codes.astype(np.int64)
-    sheet = np.asarray(colours_match(codes64, round(model.background_hue) % 256, settings.sheet_tolerance))
+    settings = context.settings
+    codes64 = context.codes.astype(np.int64)
+    sheet_hue = round(context.model.background_hue) % 256
+    sheet = np.asarray(colours_match(codes64, sheet_hue, settings.sheet_tolerance))
     histogram = np.bincount(codes64[~sheet], minlength=COLOUR_CODES + 1)[:COLOUR_CODES]
     palette = np.arange(COLOUR_CODES)
-    depth = max(float(target.transform_model_to_camera[2, 3]), 1e-3)
-    scale = (float(camera.camera_matrix[0, 0]) / depth) ** 2
+    depth = max(float(context.target.transform_model_to_camera[2, 3]), 1e-3)
+    scale = (float(context.camera.camera_matrix[0, 0]) / depth) ** 2
     cover: dict[str, float] = {}
     for rival in rivals:
         area = model_area(rival.model) * scale  # [px]
@@ -341,7 +350,7 @@ def _colour_cover(
         total = 0.0
         for c in main_codes(rival.model, settings.coverage):
             p = float(shares[np.searchsorted(codes_in, c)])
-            matching = np.asarray(colours_match(palette, int(c), fitness.hue_threshold_in))
+            matching = np.asarray(colours_match(palette, int(c), context.fitness.hue_threshold_in))
             total += p * min(1.0, float(histogram[matching].sum()) / max(p * area, 1.0))
         cover[rival.model.name] = total
     return cover
@@ -361,6 +370,7 @@ __all__ = [
     "DecisionSettings",
     "Evidence",
     "Rival",
+    "RivalContext",
     "RivalSettings",
     "RivalVerdict",
     "confidence",

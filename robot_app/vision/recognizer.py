@@ -50,6 +50,7 @@ from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.decide import (
     DecisionSettings,
     Evidence,
+    RivalContext,
     RivalSettings,
     RivalVerdict,
     decide,
@@ -304,7 +305,8 @@ class Recognizer:
         codes = framed[1 : height + 1, 1 : width + 1]
         cap = self.settings.rivals.restarts
         rivals = [_PairRival(r, image_left_bgr, image_right_bgr, seed, cap) for r in self._rivals]
-        return judge(self.model, result, rivals, camera, codes, self.settings.fitness, self.settings.rivals)
+        context = RivalContext(self.model, result, camera, codes, self.settings.fitness, self.settings.rivals)
+        return judge(context, rivals)
 
     def _recognize_alone(
         self,
