@@ -10,7 +10,8 @@ has a mishap made to happen (alternately: the first transfer drops its cloth at 
 moment, or the first grasp catches the nearest other cloth too), so that the checks have
 something to find; natural double picks count too. The cell is the `--realism` preset's
 (default: realistic). An episode is cleared when every cloth lies in its box (>= 90 % of
-its nodes). Every episode not cleared is listed with its cause.
+its nodes). Every episode not cleared is listed with its cause; each episode's results
+folder (cloths.csv, picks.csv, surveys.csv, summary.json) is kept in `--out`/episode_NNN.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import numpy as np
 
 from robot_app.config import load_config
 from robot_app.experiments.clear_table import ClearTableConfig, run_clear_table
+from robot_app.experiments.clear_table_results import write_clear_table
 from robot_app.sim.realism import REALISM_NAMES
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[1] / "configs" / "clear_table.yaml"
@@ -47,8 +49,8 @@ def episode_overrides(index: int, base_seed: int) -> list[str]:
     return overrides
 
 
-def run_one(job: tuple[int, int, tuple[str, ...]]) -> dict[str, object]:
-    index, base_seed, extra = job
+def run_one(job: tuple[int, int, tuple[str, ...], str]) -> dict[str, object]:
+    index, base_seed, extra, out = job
     overrides = episode_overrides(index, base_seed)
     row: dict[str, object] = {"episode": index, "overrides": " ".join(overrides)}
     try:
@@ -56,6 +58,7 @@ def run_one(job: tuple[int, int, tuple[str, ...]]) -> dict[str, object]:
         episode = run_clear_table(config)
     except Exception as err:  # a crashed episode is a failed row, the sweep goes on
         return row | {"cleared": False, "cause": f"crashed: {type(err).__name__}: {err}"}
+    write_clear_table(Path(out) / f"episode_{index:03d}", config, episode)
     r, v = episode.result, episode.verdict
     placed = [c for c in r.cloths if c.order is not None]
     per_cloth = [c.sim_time for c in placed]
@@ -89,6 +92,7 @@ def run_one(job: tuple[int, int, tuple[str, ...]]) -> dict[str, object]:
         "limit_violations": r.limit_report.violations,
         "commanded_samples": r.limit_report.samples,
         "collisions": r.collisions,
+        "phase_times": json.dumps({k: round(t, 2) for k, t in sorted(episode.phase_times.items())}),
     }
 
 
@@ -105,7 +109,7 @@ def main() -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     fixed = (f"world.realism={args.realism}", *args.set)
-    jobs = [(i, args.seed, fixed) for i in range(args.first, args.first + args.episodes)]
+    jobs = [(i, args.seed, fixed, str(out)) for i in range(args.first, args.first + args.episodes)]
     rows: list[dict[str, object]] = []
     start = time.perf_counter()
     with mp.get_context("spawn").Pool(args.workers, maxtasksperchild=10) as pool:
@@ -183,6 +187,7 @@ def _summary(
         "attempt_time_per_placed_cloth_s": {"median": float(np.median(attempt_time))}
         if attempt_time.size
         else None,
+        "sim_time_per_known_cloth_by_phase_s": _per_phase(finished),
         "crashed": sum(1 for r in rows if "wrong_box" not in r),
         "total_wall_s": wall,
         "workers": args.workers,
@@ -200,6 +205,16 @@ def _summary(
         "every failed episode has a cause": all(r.get("cause") for r in rows if not r["cleared"]),
     }
     return summary
+
+
+def _per_phase(rows: list[dict[str, object]]) -> dict[str, float]:
+    """Simulated time per known cloth in each phase over all `rows` [s], largest first."""
+    totals: dict[str, float] = {}
+    for r in rows:
+        for phase, t in json.loads(str(r.get("phase_times") or "{}")).items():
+            totals[phase] = totals.get(phase, 0.0) + float(t)
+    known = max(1, sum(int(r["known_cloths"]) for r in rows))  # type: ignore[call-overload]
+    return {k: round(t / known, 2) for k, t in sorted(totals.items(), key=lambda item: -item[1])}
 
 
 def _write_rows(path: Path, rows: list[dict[str, object]]) -> None:

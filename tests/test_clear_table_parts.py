@@ -13,6 +13,7 @@ from robot_app.control.job_motion import PutBackSettings, lay_out_paths
 from robot_app.control.limits import JointLimits, TrajectorySettings
 from robot_app.control.logged_cell import LoggedCell
 from robot_app.control.sort_rule import SortSettings
+from robot_app.control.table_survey import disk_points
 from robot_app.errors import ConfigError
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.sim.config import CameraSettings, WorldConfig
@@ -171,6 +172,23 @@ def test_pile_grasp_keeps_away_from_the_cloth_underneath() -> None:
     assert choose_pile_grasp(model, pose, np.zeros(len(model.points_in), bool), under) is None
     with pytest.raises(ValueError, match="flags"):
         choose_pile_grasp(model, pose, seen[:-1], under)
+
+
+def test_a_cloth_laid_back_under_the_target_is_kept_away_from() -> None:
+    # a double pick was put back: the other cloth lies under the spot let go at, unseen
+    spot = np.array([0.55, 0.15])
+    disk = disk_points(spot, 0.08)
+    assert np.all(np.hypot(*(disk - spot).T) <= 0.08 + 1e-9)
+    assert abs(len(disk) - np.pi * 8**2) < 0.1 * np.pi * 8**2  # the disk filled on a 10 mm grid
+    np.testing.assert_array_equal(disk_points(spot, 0.0), [spot])
+    model = _square()
+    pose = np.eye(4)
+    pose[:3, 3] = (0.5, 0.1, 0.72)  # the spot is at (0.05, 0.05) in the target's Σ_M
+    seen = np.ones(len(model.points_in), bool)
+    chosen = choose_pile_grasp(model, pose, seen, disk, PileGraspSettings(clearance=0.06, min_edge_gap=0.02))
+    assert chosen is not None
+    assert np.hypot(*(chosen.point_world[:2] - spot)) >= 0.08 + 0.06 - 1e-9  # past the disk's clearance
+    assert chosen.point_model[0] < 0.0 and chosen.point_model[1] < 0.0  # the far corner's side
 
 
 def test_points_in_mask_projects_through_the_pinhole() -> None:

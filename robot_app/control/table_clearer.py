@@ -67,7 +67,13 @@ from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_recovery import TableRecovery
-from robot_app.control.table_survey import TablePlane, choose_target, obstacles_on_table, to_world
+from robot_app.control.table_survey import (
+    TablePlane,
+    choose_target,
+    disk_points,
+    obstacles_on_table,
+    to_world,
+)
 from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.vision import Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
@@ -178,6 +184,7 @@ class TableClearer:
         self.ledger = TableLedger()
         self._views: dict[str, BoxView | None] = dict.fromkeys(self.boxes)
         self._collisions = 0
+        self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
         self.recovery.forget()
         self._survey_camera_pose = self.observation_camera_pose.copy()
         interrupted, stop_reason = False, ""
@@ -261,7 +268,12 @@ class TableClearer:
         attempt.obstacles_xy = self._obstacles_of(target, ident)
         if self.settings.pile_grasp.enabled:
             model, K = self.recognizers[target.name].model, self.rig.right.camera_matrix
-            obstacles = self._obstacles_of(target, ident)
+            obstacles = attempt.obstacles_xy
+            spot = self._hidden_spots.get(target.name)
+            if spot is not None:
+                obstacles = np.concatenate([obstacles, disk_points(spot, self.settings.hidden_cloth_radius)])
+                where = f"({spot[0]:.2f}, {spot[1]:.2f})"
+                attempt.notes.append(f"grasp kept away from the cloth laid under {where}")
             attempt.grasp = pile_grasp(target, pose, model, K, obstacles, self.settings.pile_grasp)
         recognizer = pick_recognizer(self.recognizers[target.name], target, self.settings.pick_depth_window)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
@@ -373,6 +385,7 @@ class TableClearer:
         if self.weigh is not None and expected is not None:
             attempt.weighed = float(self.weigh())
             verdict, what = weight_verdict(attempt.weighed, expected, name, self.settings)
+        heavier = verdict == "double"  # whatever else: more than the meant cloth came up
         if stayed:
             verdict, what = "wrong", f"{name} still in its place" + (f"; {what}" if what else "")
         attempt.lift_check = verdict
@@ -402,6 +415,10 @@ class TableClearer:
             self._survey_capture, model, attempt.grasp_point_model, attempt.obstacles_xy, attempt.notes
         )
         attempt.put_back = True
+        if heavier and self.settings.hidden_cloth_radius > 0:
+            # the other cloth hung from the same fingers: it lies under the spot let go at,
+            # where no survey may see it (the meant cloth covers it again)
+            self._hidden_spots[name] = self.recovery.put_back_spots[-1].copy()
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
 
     def _after_release(self, attempt: AttemptState) -> None:

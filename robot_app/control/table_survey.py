@@ -107,4 +107,15 @@ def obstacles_on_table(
     return np.concatenate(xy) if xy else np.empty((0, 2))
 
 
-__all__ = ["TablePlane", "choose_target", "obstacles_on_table", "to_world"]
+def disk_points(centre_xy: npt.ArrayLike, radius: float, step: float = 0.01) -> FloatArray:
+    """(M, 2) points [m] on a grid of `step` [m] filling the disk of `radius` [m] around
+    `centre_xy` (the centre alone for radius 0): a cloth known to lie there, unseen."""
+    centre = np.asarray(centre_xy, dtype=float).reshape(2)
+    n = int(np.floor(radius / step))
+    offsets = np.arange(-n, n + 1) * step
+    grid = np.stack(np.meshgrid(offsets, offsets), axis=-1).reshape(-1, 2)
+    grid = grid[np.hypot(grid[:, 0], grid[:, 1]) <= radius + 1e-12]
+    return centre + grid
+
+
+__all__ = ["TablePlane", "choose_target", "disk_points", "obstacles_on_table", "to_world"]

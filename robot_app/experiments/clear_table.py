@@ -12,7 +12,7 @@ from __future__ import annotations
 import functools
 from collections.abc import Callable
 from contextlib import ExitStack
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -131,6 +131,8 @@ class ClearTableEpisode:
         result: what the robot did and measured.
         verdict: where the cloths really ended, and what the robot missed.
         pile: catalogue numbers in the pile, drop order; max_overlap, same_family: its layout.
+        phase_times: simulated time spent in each of the job's phases ("survey", "look
+            around", "put back", the loop's phases, ...) [s]: where the job's time goes.
     """
 
     result: TableResult
@@ -138,6 +140,7 @@ class ClearTableEpisode:
     pile: tuple[int, ...]
     max_overlap: float
     same_family: bool
+    phase_times: dict[str, float] = field(default_factory=dict)
 
 
 def run_clear_table(
@@ -203,7 +206,12 @@ def _run_in_cell(
         if on_phase is not None:
             on_phase(record, meant)
 
+    phase_times: dict[str, float] = {}
+    clock = [world.time]
+
     def step(phase_name: str, meant: str | None) -> None:
+        phase_times[phase_name] = phase_times.get(phase_name, 0.0) + world.time - clock[0]
+        clock[0] = world.time
         witness.on_step(phase_name, meant)
         views.on_step(phase_name, meant)
         if stop is not None:
@@ -247,7 +255,12 @@ def _run_in_cell(
     if video_file is not None and views.video_frames == 0:
         video_file.unlink(missing_ok=True)
     return ClearTableEpisode(
-        result, verdict, tuple(c.number for c in pile.cloths), pile.max_overlap, pile.same_family
+        result,
+        verdict,
+        tuple(c.number for c in pile.cloths),
+        pile.max_overlap,
+        pile.same_family,
+        phase_times,
     )
 
 
