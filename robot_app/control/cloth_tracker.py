@@ -220,11 +220,19 @@ class ClothTracker:
         """Stops the camera; results still on their way are dropped."""
         self.pipeline.stop()
 
-    def poll(self, *, may_capture: bool = True, sample_truth: bool = False) -> list[FilterUpdate]:
+    def poll(
+        self,
+        *,
+        may_capture: bool = True,
+        may_fuse: Callable[[StereoCapture], bool] | None = None,
+        sample_truth: bool = False,
+    ) -> list[FilterUpdate]:
         """Call once per control period while tracking: fuses the results that arrived.
 
         Args:
             may_capture: False keeps the camera from triggering (too close to the cloth).
+            may_fuse: False for a frame exposed too close to the cloth: its result is
+                recorded, not fused (`UpdateReason.TOO_CLOSE`); default: every frame may be.
             sample_truth: record the filtered pose against the truth every vision period.
 
         Returns:
@@ -238,6 +246,8 @@ class ClothTracker:
             recognition = result.recognition
             pose = self._on_branch(result.transform_model_to_world, result.capture.time, recognition.found)
             update = look_alike(self.filter, result, pose)
+            if may_fuse is not None and not may_fuse(result.capture):
+                update = FilterUpdate(False, UpdateReason.TOO_CLOSE, math.nan, self.filter.estimate)
             if update is None:
                 update = self.filter.update(
                     pose, recognition.fitness, result.capture.time, trusted=bool(recognition.found)
