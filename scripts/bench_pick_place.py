@@ -1,6 +1,6 @@
 """Closed-loop pick-and-place benchmark: success rate, failure causes, limits, collisions, timings.
 
-    python scripts/bench_pick_place.py [--episodes 100] [--workers 2] [--realism realistic]
+    python scripts/bench_pick_place.py [--episodes 100] [--first 0] [--workers 2] [--realism realistic]
                                        [--out results/bench_pick_place] [--set key=value ...]
 
 Episodes are randomised from their index: a random cloth of the whole catalogue (No.1-20),
@@ -70,6 +70,7 @@ def run_one(job: tuple[int, int, tuple[str, ...]]) -> dict[str, object]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     parser.add_argument("--episodes", type=int, default=100)
+    parser.add_argument("--first", type=int, default=0, help="index of the first episode (default 0)")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--out", default="results/bench_pick_place")
@@ -79,7 +80,7 @@ def main() -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     fixed = (f"world.realism={args.realism}", "world.cameras.image_size=[320,240]", *args.set)
-    jobs = [(i, args.seed, fixed) for i in range(args.episodes)]
+    jobs = [(i, args.seed, fixed) for i in range(args.first, args.first + args.episodes)]
     rows: list[dict[str, object]] = []
     start = time.perf_counter()
     with mp.get_context("spawn").Pool(args.workers) as pool:

@@ -7,9 +7,9 @@ decision does not trust and the Mahalanobis gate rejects, reseeds the tracker on
 filter's prediction for the next frame: the multi-step GA has settled on a look-alike (the
 cloth half or a quarter turn round, whose hue fitness is as good) and would stay there.
 (A one-shot search would not do: its depth window is the observation pose's.) A tracking
-result away from the prediction whose frame the prediction fits as well is a look-alike,
-not fused (`_look_alike`), and the tracker starts again from the prediction. `_record` is
-the one place a recognition becomes a `RecognitionRecord`: it changes no state. With
+result away from the prediction whose frame the prediction fits as well is a look-alike
+(`control/look_alike.py`), not fused, and the tracker starts again from the prediction.
+`_record` is the one place a recognition becomes a `RecognitionRecord`: it changes no state. With
 ground truth (simulation) it also samples the filtered pose against the truth at every
 vision period of APPROACH and DESCEND (`TrackingRecord`).
 """
@@ -26,6 +26,7 @@ from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.episode import RecognitionRecord, TrackingRecord, VisionCycle
 from robot_app.control.grasp_point import visible_grasp_point
 from robot_app.control.intercept import GraspPath
+from robot_app.control.look_alike import look_alike
 from robot_app.control.pose_filter import (
     FilterUpdate,
     PoseEstimate,
@@ -43,8 +44,6 @@ MAX_LOOK_SPEED = 0.5  # [m/s] a cloth seen to move faster between two looks was 
 QUARTER_TURNS = (np.pi / 2, np.pi, 3 * np.pi / 2)
 FIT_MARGIN = 0.02  # fitness a look's peak must gain on the other's frame (seen noise 0.005, neighbours 0.08)
 BRANCH_TOLERANCE = np.deg2rad(10.0)  # a trusted yaw this close to a quarter turn off is that turn
-LOOK_ALIKE_DISTANCE = 0.005  # [m] a tracking result this far from the prediction (1.4 sigma of a view) ...
-LOOK_ALIKE_MARGIN = 0.08  # ... whose frame scores within this of it at the prediction: a look-alike
 
 
 class ClothTracker:
@@ -221,11 +220,19 @@ class ClothTracker:
         """Stops the camera; results still on their way are dropped."""
         self.pipeline.stop()
 
-    def poll(self, *, may_capture: bool = True, sample_truth: bool = False) -> list[FilterUpdate]:
+    def poll(
+        self,
+        *,
+        may_capture: bool = True,
+        may_fuse: Callable[[StereoCapture], bool] | None = None,
+        sample_truth: bool = False,
+    ) -> list[FilterUpdate]:
         """Call once per control period while tracking: fuses the results that arrived.
 
         Args:
             may_capture: False keeps the camera from triggering (too close to the cloth).
+            may_fuse: False for a frame exposed too close to the cloth: its result is
+                recorded, not fused (`UpdateReason.TOO_CLOSE`); default: every frame may be.
             sample_truth: record the filtered pose against the truth every vision period.
 
         Returns:
@@ -238,7 +245,9 @@ class ClothTracker:
             self.last_capture = result.capture
             recognition = result.recognition
             pose = self._on_branch(result.transform_model_to_world, result.capture.time, recognition.found)
-            update = self._look_alike(result, pose)
+            update = look_alike(self.filter, result, pose)
+            if may_fuse is not None and not may_fuse(result.capture):
+                update = FilterUpdate(False, UpdateReason.TOO_CLOSE, math.nan, self.filter.estimate)
             if update is None:
                 update = self.filter.update(
                     pose, recognition.fitness, result.capture.time, trusted=bool(recognition.found)
@@ -256,32 +265,6 @@ class ClothTracker:
     @property
     def lost(self) -> bool:
         return self.filter.lost
-
-    def _look_alike(self, result: VisionResult, pose: FloatArray) -> FilterUpdate | None:
-        """A LOOK_ALIKE verdict (not fused) on a tracking result LOOK_ALIKE_DISTANCE or
-        farther from the filter's prediction when the prediction explains the same frame
-        nearly as well (search fitness within LOOK_ALIKE_MARGIN): the frame does not say the
-        cloth moved, only that the tracker found a look-alike; None otherwise (the filter
-        decides). Close to a blue cloth under the blue paper (the paper within the cloth's
-        hue band), the tracker slid onto the paper by 19 mm a frame with a rising fitness
-        (0.92 -> 0.96 against 0.91 at the truth; bench_pick_place episode 76), or crept by
-        5-7 mm a frame at a fitness gap of 0.002-0.007 (episode 28, grasped 21 mm off); a
-        cloth pushed away leaves the prediction on the table, which scores far lower."""
-        estimate = self.filter.estimate
-        t = result.capture.time
-        if (
-            result.mode != "track"
-            or estimate is None
-            or self.filter.lost
-            or not math.isfinite(result.predicted_fitness)
-        ):
-            return None
-        predicted = self.filter.estimate_at(max(t, estimate.time))
-        distance = float(np.hypot(pose[0, 3] - predicted.x, pose[1, 3] - predicted.y))
-        near_as_good = result.predicted_fitness >= result.recognition.search_fitness - LOOK_ALIKE_MARGIN
-        if distance < LOOK_ALIKE_DISTANCE or not near_as_good:
-            return None
-        return FilterUpdate(False, UpdateReason.LOOK_ALIKE, math.nan, estimate, distance)
 
     # ------------------------------------------------------------------ prediction
     def estimate_at(self, t: float) -> PoseEstimate:
@@ -337,8 +320,8 @@ class ClothTracker:
         for angle in (*self.model.symmetry_angles, *quarter):
             turned = np.asarray(pose @ make_transform(rotation_about_z(angle), np.zeros(3)), dtype=float)
             turn = abs(float(wrap_angle(yaw_of(turned[:3, :3]) - predicted)))
-            look_alike = angle in self.model.symmetry_angles or turn < BRANCH_TOLERANCE
-            if look_alike and turn < best_turn:
+            same_cloth = angle in self.model.symmetry_angles or turn < BRANCH_TOLERANCE
+            if same_cloth and turn < best_turn:
                 best, best_turn = turned, turn
         return best
 

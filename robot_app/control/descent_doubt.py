@@ -10,7 +10,8 @@ doubt run is on. Poor views standing since before (a cloth whose close view scor
 bench episode 10 at 100 mm/s) or drifting across `min_fitness` (the occluded cloth of
 test_pick_place) neither confirm nor doubt, nor does a look-alike (a tracking result far
 from the prediction whose frame the prediction explains as well: the tracker slid onto the
-blue paper over a blue cloth, `ClothTracker`).
+blue paper over a blue cloth, `look_alike`). A frame exposed closer than the working
+distance (not fused, `UpdateReason.TOO_CLOSE`) is not a view at all: it changes nothing.
 
 The servo holds the hand `HOLD_MARGIN` above the blind height while a doubt stands and
 goes on down when a view confirms; `DOUBTED_VIEWS` in a row end DESCEND as lost (the loop
@@ -61,6 +62,8 @@ class DescentDoubt:
 
     def judge(self, update: FilterUpdate, fitness: float) -> Verdict:
         """The verdict on one recognition (the filter's `update` of it, its `fitness` [-])."""
+        if update.reason is UpdateReason.TOO_CLOSE:
+            return Verdict.NONE
         turned_poor = self.doubted > 0 or fitness < FITNESS_DROP * self.previous_fitness
         self.previous_fitness = float(fitness)
         if confirms(update):

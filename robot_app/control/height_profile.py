@@ -5,9 +5,10 @@ velocity and acceleration at both ends), restarted from wherever it is when DESC
 resumes or LIFT begins, at a mean speed the joints can follow (`vertical_speed`).
 `tcp_height` turns a height above the predicted grasp point into
 the TCP's z: the cloth lies on the belt, so its surface is taken between the belt and a
-wrinkle above it (a recognised depth outside is the depth error of a close view: up to
-17 mm measured at the working distance for a navy napkin, which left the fingers 4 cm
-above it), and the TCP never goes lower than `min_table_clearance` above the belt.
+wrinkle above it (`cloth_surface`; a recognised depth outside is the depth error of a
+close view: up to 17 mm measured at the working distance for a navy napkin, which left
+the fingers 4 cm above it; the servo's camera-to-cloth distance takes the surface the
+same way), and the TCP never goes lower than `min_table_clearance` above the belt.
 """
 
 from __future__ import annotations
@@ -21,11 +22,16 @@ CLOTH_SURFACE_MAX = 0.01  # [m] a cloth's surface on the belt is at most this ab
 MIN_VERTICAL_SPEED = 0.03  # [m/s] a vertical profile is never slower on average
 
 
+def cloth_surface(point_z: float, table_z: float) -> float:
+    """The cloth's surface z [m] for a predicted `point_z` [m] on the belt whose top is at
+    `table_z` [m]: between the belt and CLOTH_SURFACE_MAX above it."""
+    return min(max(point_z, table_z), table_z + CLOTH_SURFACE_MAX)
+
+
 def tcp_height(point_z: float, height: float, table_z: float, min_table_clearance: float) -> float:
     """The TCP's z [m] `height` [m] above a predicted grasp point at `point_z` [m] on the belt
     whose top is at `table_z` [m], never lower than `min_table_clearance` [m] above it."""
-    surface = min(max(point_z, table_z), table_z + CLOTH_SURFACE_MAX)
-    return max(surface + height, table_z + min_table_clearance)
+    return max(cloth_surface(point_z, table_z) + height, table_z + min_table_clearance)
 
 
 def vertical_speed(
@@ -101,4 +107,11 @@ class HeightProfile:
         return (self.last - self.first) * 60.0 * u * (1.0 - u) * (1.0 - 2.0 * u) / self.duration**2
 
 
-__all__ = ["CLOTH_SURFACE_MAX", "MIN_VERTICAL_SPEED", "HeightProfile", "tcp_height", "vertical_speed"]
+__all__ = [
+    "CLOTH_SURFACE_MAX",
+    "MIN_VERTICAL_SPEED",
+    "HeightProfile",
+    "cloth_surface",
+    "tcp_height",
+    "vertical_speed",
+]

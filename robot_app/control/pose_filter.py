@@ -152,6 +152,7 @@ class UpdateReason(enum.StrEnum):
     MAHALANOBIS = "Mahalanobis distance beyond gate_chi2"
     RELOCATED = "relocated onto agreeing rejected measurements"
     LOOK_ALIKE = "far from the prediction, which fits the frame as well: not fused"
+    TOO_CLOSE = "exposed closer to the cloth than the working distance: not fused"
 
 
 @dataclass(frozen=True)
