@@ -22,6 +22,7 @@ from collections.abc import Callable
 import numpy as np
 
 from robot_app.arrays import FloatArray
+from robot_app.control.blind_hold import blind_estimate
 from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.episode import RecognitionRecord, TrackingRecord, VisionCycle
 from robot_app.control.grasp_point import visible_grasp_point
@@ -277,6 +278,14 @@ class ClothTracker:
     def grasp_path(self, t: float) -> GraspPath:
         """The grasp point's predicted track, from the estimate predicted to `t` [s]."""
         return GraspPath.from_estimate(self.estimate_at(t), self.grasp_point_model)
+
+    def blind_grasp_path(self, t: float) -> GraspPath:
+        """The grasp path a blind hand follows (`blind_hold`): the prediction to `t` [s] if
+        the filter's velocity is significant, else the last filtered pose held still."""
+        last = self.filter.estimate
+        if last is None:
+            raise RuntimeError("the cloth tracker has no estimate: search first")
+        return GraspPath.from_estimate(blind_estimate(last, t, self.estimate_at(t)), self.grasp_point_model)
 
     def _cloth_motion(self, t_from: float, t_to: float) -> FloatArray | None:
         """The filter's predicted rigid motion of the cloth in Σ_W between two exposures."""

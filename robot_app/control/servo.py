@@ -22,7 +22,9 @@ APPROACH ends over the cloth at `track_height` once enough recognitions are fuse
 the hand matches the cloth's position and velocity. DESCEND lowers the target with a
 smooth profile at `DESCEND_SPEED` while tracking; the cameras are triggered while they
 are at least `min_working_distance` from the cloth, and below that the last part is
-blind, on the prediction (frames taken above it still arrive and are fused). The
+blind, on the prediction (frames taken above it still arrive and are fused) if the
+filter's velocity is significant, else on the last filtered pose held still
+(`blind_hold`: a still cloth's velocity noise is not integrated). The
 blind segment starts only on a prediction the views confirm (`descent_doubt`), and
 before moving down DESCEND checks that the predicted grasp point stays within the arm's
 reach until the hand is down (`descent_reach`; else outcome `unreachable`). The
@@ -86,6 +88,7 @@ class ServoStrategy:
         self._track = TrackFilter(TRACK_BANDWIDTH)
         self._intercept: float | None = None  # absolute cell time [s]; None once tracking
         self._height = HeightProfile(0.0, 0.0, 0.0, 1.0)  # TCP height above the grasp point over time
+        self._blind = False  # the cameras are below the working distance: `blind_hold` aims the hand
 
     # ------------------------------------------------------------------ phases
     def approach(self) -> bool:
@@ -95,6 +98,7 @@ class ServoStrategy:
         online = self._online = self.arm.start_online()
         self.follower.reset()
         self.tracker.start_tracking()
+        self._blind = False
         now = self.arm.cell.time
         self._track.reset(self.tracker.grasp_path(now), now)
         self._height = HeightProfile(s.track_height, s.track_height, now, 1.0)
@@ -166,6 +170,7 @@ class ServoStrategy:
             in_view = self._in_view()
             if not in_view and blind_from is None:
                 blind_from = self._height_above_cloth()
+            self._blind = not in_view
             updates = self.tracker.poll(may_capture=in_view, may_fuse=self._far_enough, sample_truth=True)
             records = self.tracker.recognitions  # one row per update, in order
             fitnesses = [r.fitness for r in records[len(records) - len(updates) :]]
@@ -244,10 +249,12 @@ class ServoStrategy:
 
     # ------------------------------------------------------------------ the target
     def _renew(self, online: OnlineTrajectory, fused: bool) -> None:
-        """Every period: the smooth copy follows the prediction; after a fused recognition
-        during the intercept, the intercept time is set anew."""
+        """Every period: the smooth copy follows the prediction (a blind hand: only if the
+        cloth is seen to move, `blind_hold`); after a fused recognition during the intercept,
+        the intercept time is set anew."""
         now = self.arm.cell.time
-        self._track.advance(self.tracker.grasp_path(now), now)
+        path = self.tracker.blind_grasp_path(now) if self._blind else self.tracker.grasp_path(now)
+        self._track.advance(path, now)
         if fused and self._intercept is not None:
             self._intercept = self._plan_intercept(online)
 
