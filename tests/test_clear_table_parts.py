@@ -269,3 +269,33 @@ def test_cloth_half_width_is_half_the_narrow_side() -> None:
     rectangle = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)])
     turned = rectangle @ np.array([[0.6, -0.8, 0.0], [0.8, 0.6, 0.0], [0.0, 0.0, 1.0]]).T
     assert cloth_half_width(turned) == pytest.approx(0.06)
+
+
+def test_picks_rows_carry_the_simulators_truth_of_each_lift() -> None:
+    # which lift the verdict counted as an undetected double pick must be readable from
+    # picks.csv (bench episode 30: 3 double picks, 2 detected, and no way to tell which)
+    from types import SimpleNamespace
+
+    from robot_app.experiments.clear_table_faults import LiftTruth
+    from robot_app.experiments.clear_table_results import pick_rows
+
+    def attempt(name: str, start: float, end: float) -> SimpleNamespace:
+        result = SimpleNamespace(
+            outcome=SimpleNamespace(value="placed"),
+            reason="",
+            limit_report=SimpleNamespace(violations=0),
+            collisions=0,
+        )
+        return SimpleNamespace(
+            name=name, box="colours", start_time=start, end_time=end, result=result, lift_check="ok",
+            weighed=0.0335, expected_weight=0.0242, put_back=False, dropped=False, box_check=None,
+            grasp_clearance=None,
+        )  # fmt: skip
+
+    episode = SimpleNamespace(
+        result=SimpleNamespace(attempts=[attempt("No.6", 3.7, 15.8), attempt("No.7", 17.7, 28.2)]),
+        lifts=(LiftTruth(1, 6.5, "No.6", (6, 11)), LiftTruth(2, 20.1, "No.7", (7, 11))),
+    )
+    rows = pick_rows(episode)  # type: ignore[arg-type]
+    assert [r["lifted_truth"] for r in rows] == ["No.6 No.11", "No.7 No.11"]
+    assert rows[1]["weighed_g"] == 33.5 and rows[1]["lift_check"] == "ok"
