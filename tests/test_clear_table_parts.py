@@ -254,6 +254,12 @@ def test_put_back_keeps_the_whole_laid_cloth_inside_the_view() -> None:
     assert np.all(strip[:, 1] + half_width <= 0.3 - margin + 1e-9)
     first_unfit = next(k for k, p in enumerate(paths) if p is towards_edge[0] or not p.fits)
     assert all(p.fits for p in paths[:first_unfit]) and not any(p.fits for p in paths[first_unfit:])
+    # when nothing fits (a bundle of lifted cloths 26 cm wide), the least outside comes first,
+    # not the freest: towards the view's middle (-y here), not over its edge
+    bundle = lay_out_paths(start, 0.10, 0.7, 0.05, others, view, settings, half_width=0.13)
+    assert bundle and not any(p.fits for p in bundle)
+    assert [p.slack for p in bundle] == sorted((p.slack for p in bundle), reverse=True)
+    assert bundle[0].direction[1] < -0.99
     # the part of a long cloth not laid falls round the strip's end: that must fit too
     long = lay_out_paths(start, 0.45, 0.7, 0.05, others, view, settings, half_width=0.0)
     for path in long:

@@ -18,7 +18,8 @@ before the fingers let go. The direction: among `directions` evenly spread ones,
 whose laid strip stays inside the survey's view of the table (by `view_margin`), those
 whose laid cloth does too first, then by how free the strip is (the mean distance of its
 points to the other cloths the survey saw, each counted up to `free_distance`; the start
-is common to all). The job tries them in that order until one is reachable. The laid
+is common to all), then the others, the least outside first. The job tries them in that
+order until one is reachable. The laid
 cloth is wider than the strip: it reaches `half_width` to either side of it (half the
 cloth's width; a double lift is wider still), and the part of a cloth longer than
 `max_length` that is not laid falls around the strip's end. A path whose strip alone
@@ -187,12 +188,14 @@ class LayOutPath:
             `free_distance` [m].
         fits: the whole laid cloth (the strip widened by `half_width`, its end by the part
             not laid) stays inside the view by `view_margin`.
+        slack: by how much it does [m] (negative: how far it lies past the margin).
     """
 
     direction: FloatArray
     waypoints: FloatArray
     freedom: float
     fits: bool = True
+    slack: float = float("inf")
 
 
 def lay_out_paths(
@@ -243,17 +246,21 @@ def lay_out_paths(
         if not np.all(_inside(strip, corners, s.view_margin)):
             continue
         # the laid cloth: beside the strip (past the start, where it lay before) and round its end
-        fits = bool(
-            np.all(_inside(strip[1:], corners, s.view_margin + half_width))
-            and _inside(strip[-1:], corners, s.view_margin + max(half_width, rest))[0]
+        slack = (
+            min(
+                float(_depth(strip[1:], corners).min()) - half_width,
+                float(_depth(strip[-1:], corners)[0]) - max(half_width, rest),
+            )
+            - s.view_margin
         )
         distances = tree.query(strip)[0] if tree is not None else np.full(len(strip), np.inf)
         freedom = float(np.mean(np.minimum(distances, s.free_distance)))
         t = np.linspace(0.0, 1.0, s.waypoints + 1)[:, None]
         xy = start + t * length * direction
         z = touch + t[:, 0] * (table_z + release_height - touch)
-        paths.append(LayOutPath(direction, np.column_stack([xy, z]), freedom, fits))
-    return tuple(sorted(paths, key=lambda p: (not p.fits, -p.freedom)))
+        paths.append(LayOutPath(direction, np.column_stack([xy, z]), freedom, slack >= 0, slack))
+    # those that fit, most free first; then the others, the least outside first
+    return tuple(sorted(paths, key=lambda p: (not p.fits, -p.freedom if p.fits else -p.slack)))
 
 
 def cloth_half_width(points_model: npt.ArrayLike) -> float:
@@ -270,16 +277,21 @@ def cloth_half_width(points_model: npt.ArrayLike) -> float:
 
 def _inside(points: FloatArray, corners: FloatArray, margin: float) -> npt.NDArray[np.bool_]:
     """Which points lie inside the convex quadrilateral by at least `margin` [m]."""
+    return _depth(points, corners) >= margin
+
+
+def _depth(points: FloatArray, corners: FloatArray) -> FloatArray:
+    """How far each point lies inside the convex quadrilateral [m] (negative: outside)."""
     centre = corners.mean(axis=0)
-    inside = np.ones(len(points), dtype=bool)
+    depth = np.full(len(points), np.inf)
     for k in range(4):
         a, b = corners[k], corners[(k + 1) % 4]
         edge = b - a
         normal = np.array([-edge[1], edge[0]]) / max(float(np.linalg.norm(edge)), 1e-12)
         if normal @ (centre - a) < 0:
             normal = -normal  # pointing inwards whatever the corners' turning sense
-        inside &= (points - a) @ normal >= margin
-    return inside
+        depth = np.minimum(depth, (points - a) @ normal)
+    return depth
 
 
 __all__ = ["JobMotion", "LayOutPath", "PutBackSettings", "cloth_half_width", "lay_out_paths"]
