@@ -9,7 +9,7 @@ import pytest
 from robot_app.config import load_config
 from robot_app.control.box_check import BoxCheckSettings, BoxView, check_box
 from robot_app.control.grasp_point import PileGraspSettings, choose_pile_grasp, points_in_mask
-from robot_app.control.job_motion import PutBackSettings, lay_out_paths
+from robot_app.control.job_motion import PutBackSettings, cloth_half_width, lay_out_paths
 from robot_app.control.limits import JointLimits, TrajectorySettings
 from robot_app.control.logged_cell import LoggedCell
 from robot_app.control.sort_rule import SortSettings
@@ -226,3 +226,82 @@ def test_put_back_lays_out_over_free_table_inside_the_view() -> None:
     np.testing.assert_allclose(np.linalg.norm(edge[0].waypoints[-1, :2] - [0.36, 0.0]), 0.25)
     with pytest.raises(ValueError, match="corners"):
         lay_out_paths((0.5, 0.0), 0.2, 0.7, 0.05, others, view[:3], settings)
+
+
+def test_put_back_keeps_the_whole_laid_cloth_inside_the_view() -> None:
+    # Episodes 31 and 33 of the bench (seeds 100031, 100033): a double lift laid out along a
+    # strip that stayed inside the view while the cloth beside it did not. Here the hand is
+    # 15 cm from the view's +y edge and the other cloths lie on the -y side: the freest
+    # strip runs towards +y, ending 5 cm from the edge, but a cloth 16 cm wide laid along it
+    # reaches 3 cm past the edge.
+    view = np.array([[0.3, -0.3], [0.8, -0.3], [0.8, 0.3], [0.3, 0.3]])
+    xs, ys = np.meshgrid(np.arange(0.3, 0.81, 0.01), np.arange(-0.25, 0.125, 0.01))
+    others = np.column_stack([xs.ravel(), ys.ravel()])
+    settings = PutBackSettings(directions=12, max_length=0.25, view_margin=0.04, waypoints=3)
+    start = np.array([0.55, 0.15])
+    half_width, margin = 0.08, settings.view_margin
+    paths = lay_out_paths(start, 0.10, 0.7, 0.05, others, view, settings, half_width=half_width)
+    towards_edge = [p for p in paths if p.direction[1] > 0.99]
+    assert towards_edge and not towards_edge[0].fits  # still offered, but not first
+    assert towards_edge[0].freedom == max(p.freedom for p in paths)  # the freest
+    best = paths[0]
+    assert best.fits
+    # the laid cloth: the strip past the start, widened by the half width, inside the view
+    strip = start + np.linspace(0.0, 1.0, 11)[1:, None] * (best.waypoints[-1, :2] - start)
+    assert np.all(strip[:, 0] - half_width >= 0.3 + margin - 1e-9)
+    assert np.all(strip[:, 0] + half_width <= 0.8 - margin + 1e-9)
+    assert np.all(strip[:, 1] - half_width >= -0.3 + margin - 1e-9)
+    assert np.all(strip[:, 1] + half_width <= 0.3 - margin + 1e-9)
+    first_unfit = next(k for k, p in enumerate(paths) if p is towards_edge[0] or not p.fits)
+    assert all(p.fits for p in paths[:first_unfit]) and not any(p.fits for p in paths[first_unfit:])
+    # when nothing fits (a bundle of lifted cloths 26 cm wide), the least outside comes first,
+    # not the freest: towards the view's middle (-y here), not over its edge
+    bundle = lay_out_paths(start, 0.10, 0.7, 0.05, others, view, settings, half_width=0.13)
+    assert bundle and not any(p.fits for p in bundle)
+    assert [p.slack for p in bundle] == sorted((p.slack for p in bundle), reverse=True)
+    assert bundle[0].direction[1] < -0.99
+    # the part of a long cloth not laid falls round the strip's end: that must fit too
+    long = lay_out_paths(start, 0.45, 0.7, 0.05, others, view, settings, half_width=0.0)
+    for path in long:
+        end = path.waypoints[-1, :2]
+        inside = 0.3 + margin + 0.2 <= end[0] <= 0.8 - margin - 0.2 and abs(end[1]) <= 0.3 - margin - 0.2
+        assert path.fits == inside
+    with pytest.raises(ValueError, match="half_width"):
+        lay_out_paths(start, 0.1, 0.7, 0.05, others, view, settings, half_width=-0.01)
+
+
+def test_cloth_half_width_is_half_the_narrow_side() -> None:
+    xs, ys = np.meshgrid(np.linspace(-0.1, 0.1, 21), np.linspace(-0.06, 0.06, 13))
+    rectangle = np.column_stack([xs.ravel(), ys.ravel(), np.zeros(xs.size)])
+    turned = rectangle @ np.array([[0.6, -0.8, 0.0], [0.8, 0.6, 0.0], [0.0, 0.0, 1.0]]).T
+    assert cloth_half_width(turned) == pytest.approx(0.06)
+
+
+def test_picks_rows_carry_the_simulators_truth_of_each_lift() -> None:
+    # which lift the verdict counted as an undetected double pick must be readable from
+    # picks.csv (bench episode 30: 3 double picks, 2 detected, and no way to tell which)
+    from types import SimpleNamespace
+
+    from robot_app.experiments.clear_table_faults import LiftTruth
+    from robot_app.experiments.clear_table_results import pick_rows
+
+    def attempt(name: str, start: float, end: float) -> SimpleNamespace:
+        result = SimpleNamespace(
+            outcome=SimpleNamespace(value="placed"),
+            reason="",
+            limit_report=SimpleNamespace(violations=0),
+            collisions=0,
+        )
+        return SimpleNamespace(
+            name=name, box="colours", start_time=start, end_time=end, result=result, lift_check="ok",
+            weighed=0.0335, expected_weight=0.0242, put_back=False, dropped=False, box_check=None,
+            grasp_clearance=None,
+        )  # fmt: skip
+
+    episode = SimpleNamespace(
+        result=SimpleNamespace(attempts=[attempt("No.6", 3.7, 15.8), attempt("No.7", 17.7, 28.2)]),
+        lifts=(LiftTruth(1, 6.5, "No.6", (6, 11)), LiftTruth(2, 20.1, "No.7", (7, 11))),
+    )
+    rows = pick_rows(episode)  # type: ignore[arg-type]
+    assert [r["lifted_truth"] for r in rows] == ["No.6 No.11", "No.7 No.11"]
+    assert rows[1]["weighed_g"] == 33.5 and rows[1]["lift_check"] == "ok"

@@ -15,10 +15,17 @@ cloth there. Laid out instead, the way one lays a towel down: lower until the ha
 cloth's lowest point touches the table, then move on over the table while lowering
 further, so that the cloth lies down along the path, `reach` long (its hanging length),
 before the fingers let go. The direction: among `directions` evenly spread ones, those
-whose laid strip stays inside the survey's view of the table (by `view_margin`), ordered
-by how free the strip is (the mean distance of its points to the other cloths the survey
-saw, each counted up to `free_distance`; the start is common to all). The job tries them
-in that order until one is reachable.
+whose laid strip stays inside the survey's view of the table (by `view_margin`), those
+whose laid cloth does too first, then by how free the strip is (the mean distance of its
+points to the other cloths the survey saw, each counted up to `free_distance`; the start
+is common to all), then the others, the least outside first. The job tries them in that
+order until one is reachable. The laid
+cloth is wider than the strip: it reaches `half_width` to either side of it (half the
+cloth's width; a double lift is wider still), and the part of a cloth longer than
+`max_length` that is not laid falls around the strip's end. A path whose strip alone
+stays in the view can lay the cloth half outside it, where no survey finds it again (and
+whence it may slide off the sheet), so such paths come only after those whose whole laid
+cloth stays inside.
 """
 
 from __future__ import annotations
@@ -179,11 +186,16 @@ class LayOutPath:
             cloth touches, the last where the fingers let go.
         freedom: the strip points' mean distance to the nearest other cloth, each up to
             `free_distance` [m].
+        fits: the whole laid cloth (the strip widened by `half_width`, its end by the part
+            not laid) stays inside the view by `view_margin`.
+        slack: by how much it does [m] (negative: how far it lies past the margin).
     """
 
     direction: FloatArray
     waypoints: FloatArray
     freedom: float
+    fits: bool = True
+    slack: float = float("inf")
 
 
 def lay_out_paths(
@@ -194,8 +206,10 @@ def lay_out_paths(
     obstacles_xy: npt.ArrayLike,
     view_xy: npt.ArrayLike,
     settings: PutBackSettings | None = None,
+    half_width: float = 0.0,
 ) -> tuple[LayOutPath, ...]:
-    """The lay-out paths inside the view, most free first (module docstring).
+    """The lay-out paths inside the view, those whose laid cloth fits first, then most free
+    first (module docstring).
 
     Args:
         start_xy: (2,) where the hand is now, (x, y) in Σ_W [m].
@@ -205,18 +219,23 @@ def lay_out_paths(
         obstacles_xy: (M, 2) points of the other cloths on the table [m].
         view_xy: (4, 2) the view's corners on the table, in order around it [m].
         settings: see `PutBackSettings`.
+        half_width: how far the laid cloth reaches to either side of the strip [m].
 
     Raises:
-        ValueError: a negative reach or release height, or not 4 view corners.
+        ValueError: a negative reach, half width or release height, or not 4 view corners.
     """
     s = settings or PutBackSettings()
-    if reach < 0 or release_height <= 0:
-        raise ValueError(f"reach must be >= 0 and release_height > 0 [m], got {reach}, {release_height}")
+    if reach < 0 or release_height <= 0 or half_width < 0:
+        raise ValueError(
+            "reach and half_width must be >= 0 and release_height > 0 [m], "
+            f"got {reach}, {half_width}, {release_height}"
+        )
     corners = np.asarray(view_xy, dtype=float)
     if corners.shape != (4, 2):
         raise ValueError(f"view_xy must be (4, 2) corners, got {corners.shape}")
     start = np.asarray(start_xy, dtype=float).reshape(2)
     length = min(reach, s.max_length)
+    rest = reach - length  # not laid: falls around the strip's end
     touch = table_z + max(release_height, reach)
     obstacles = np.asarray(obstacles_xy, dtype=float).reshape(-1, 2)
     tree = cKDTree(obstacles) if len(obstacles) else None
@@ -226,27 +245,53 @@ def lay_out_paths(
         strip = start + np.linspace(0.0, 1.0, 11)[:, None] * length * direction
         if not np.all(_inside(strip, corners, s.view_margin)):
             continue
+        # the laid cloth: beside the strip (past the start, where it lay before) and round its end
+        slack = (
+            min(
+                float(_depth(strip[1:], corners).min()) - half_width,
+                float(_depth(strip[-1:], corners)[0]) - max(half_width, rest),
+            )
+            - s.view_margin
+        )
         distances = tree.query(strip)[0] if tree is not None else np.full(len(strip), np.inf)
         freedom = float(np.mean(np.minimum(distances, s.free_distance)))
         t = np.linspace(0.0, 1.0, s.waypoints + 1)[:, None]
         xy = start + t * length * direction
         z = touch + t[:, 0] * (table_z + release_height - touch)
-        paths.append(LayOutPath(direction, np.column_stack([xy, z]), freedom))
-    return tuple(sorted(paths, key=lambda p: -p.freedom))
+        paths.append(LayOutPath(direction, np.column_stack([xy, z]), freedom, slack >= 0, slack))
+    # those that fit, most free first; then the others, the least outside first
+    return tuple(sorted(paths, key=lambda p: (not p.fits, -p.freedom if p.fits else -p.slack)))
+
+
+def cloth_half_width(points_model: npt.ArrayLike) -> float:
+    """Half a cloth's width [m]: half its extent across its longer principal axis, from
+    the model's points (N, 2 or 3) in its own plane."""
+    xy = np.asarray(points_model, dtype=float)[:, :2]
+    if len(xy) < 2:
+        return 0.0
+    centred = xy - xy.mean(axis=0)
+    axes = np.linalg.svd(centred, full_matrices=False)[2]
+    extents = np.ptp(centred @ axes.T, axis=0)
+    return float(extents.min()) / 2
 
 
 def _inside(points: FloatArray, corners: FloatArray, margin: float) -> npt.NDArray[np.bool_]:
     """Which points lie inside the convex quadrilateral by at least `margin` [m]."""
+    return _depth(points, corners) >= margin
+
+
+def _depth(points: FloatArray, corners: FloatArray) -> FloatArray:
+    """How far each point lies inside the convex quadrilateral [m] (negative: outside)."""
     centre = corners.mean(axis=0)
-    inside = np.ones(len(points), dtype=bool)
+    depth = np.full(len(points), np.inf)
     for k in range(4):
         a, b = corners[k], corners[(k + 1) % 4]
         edge = b - a
         normal = np.array([-edge[1], edge[0]]) / max(float(np.linalg.norm(edge)), 1e-12)
         if normal @ (centre - a) < 0:
             normal = -normal  # pointing inwards whatever the corners' turning sense
-        inside &= (points - a) @ normal >= margin
-    return inside
+        depth = np.minimum(depth, (points - a) @ normal)
+    return depth
 
 
-__all__ = ["JobMotion", "LayOutPath", "PutBackSettings", "lay_out_paths"]
+__all__ = ["JobMotion", "LayOutPath", "PutBackSettings", "cloth_half_width", "lay_out_paths"]

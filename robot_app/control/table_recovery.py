@@ -16,7 +16,7 @@ from robot_app.arrays import FloatArray
 from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import ClearTableSettings
 from robot_app.control.intercept import hanging_reach
-from robot_app.control.job_motion import JobMotion, lay_out_paths
+from robot_app.control.job_motion import JobMotion, cloth_half_width, lay_out_paths
 from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.table_survey import TablePlane
 from robot_app.errors import IKError
@@ -162,6 +162,7 @@ class TableRecovery:
             obstacles,
             view,
             self.settings.put_back,
+            half_width=cloth_half_width(model.points_in),
         )
         for path in paths:
             joints: list[FloatArray] = []
@@ -173,6 +174,7 @@ class TableRecovery:
             notes.append(
                 f"put back laid out over {min(reach, self.settings.put_back.max_length) * 1000:.0f} mm "
                 f"towards ({path.direction[0]:+.2f}, {path.direction[1]:+.2f})"
+                + ("" if path.fits else ", the laid cloth partly outside the view")
             )
             return joints
         return None

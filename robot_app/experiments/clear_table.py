@@ -29,7 +29,13 @@ from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings, cloth_name
 from robot_app.control.table_clearer import TableClearer
 from robot_app.errors import ConfigError
-from robot_app.experiments.clear_table_faults import FaultSettings, PickWitness, ScaleSettings, WristScale
+from robot_app.experiments.clear_table_faults import (
+    FaultSettings,
+    LiftTruth,
+    PickWitness,
+    ScaleSettings,
+    WristScale,
+)
 from robot_app.experiments.clear_table_judge import TableVerdict, judge
 from robot_app.experiments.clear_table_views import TableViews
 from robot_app.experiments.recording import require_rerun
@@ -133,6 +139,7 @@ class ClearTableEpisode:
         pile: catalogue numbers in the pile, drop order; max_overlap, same_family: its layout.
         phase_times: simulated time spent in each of the job's phases ("survey", "look
             around", "put back", the loop's phases, ...) [s]: where the job's time goes.
+        lifts: the simulator's truth about every grasp (which cloths left the table with it).
     """
 
     result: TableResult
@@ -141,6 +148,7 @@ class ClearTableEpisode:
     max_overlap: float
     same_family: bool
     phase_times: dict[str, float] = field(default_factory=dict)
+    lifts: tuple[LiftTruth, ...] = ()
 
 
 def run_clear_table(
@@ -261,6 +269,7 @@ def _run_in_cell(
         pile.max_overlap,
         pile.same_family,
         phase_times,
+        tuple(witness.lifts),
     )
 
 

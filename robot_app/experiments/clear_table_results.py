@@ -70,6 +70,7 @@ def pick_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
     rows = []
     for k, a in enumerate(episode.result.attempts, start=1):
         check = a.box_check
+        truth = [t for t in episode.lifts if a.start_time <= t.time <= a.end_time]
         rows.append(
             {
                 "attempt": k,
@@ -90,6 +91,9 @@ def pick_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 "grasp_clearance_mm": _millimetres(a.grasp_clearance),
                 "limit_violations": a.result.limit_report.violations,
                 "collisions": a.result.collisions,
+                # the simulator's truth (as the verdict counts double picks): cloths that left
+                # the table with each grasp of this attempt
+                "lifted_truth": " | ".join(" ".join(f"No.{n}" for n in t.lifted) for t in truth),
             }
         )
     return rows
