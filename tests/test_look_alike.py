@@ -9,28 +9,16 @@ episode 76); fused, it dragged the filter off the cloth. The real `ClothTracker`
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 import numpy as np
 
-from robot_app.control import VisionPipeline
-from robot_app.control.cloth_tracker import ClothTracker
 from robot_app.control.descent_doubt import DescentDoubt, Verdict
 from robot_app.control.pose_filter import UpdateReason
 from robot_app.geometry import invert_transform, make_transform
+from tests.fake_tracking import Frame, first_tracking_update
 
 CAMERA = make_transform(np.eye(3), [0.4, 0.1, 0.3])  # Σ_CR in Σ_W
-
-
-@dataclass(frozen=True)
-class Frame:
-    time: float
-    available_time: float
-    dropped: bool = False
-    transform_right_camera_to_world: np.ndarray = field(default_factory=lambda: CAMERA)
-    left_bgr: np.ndarray = field(default_factory=lambda: np.zeros((2, 2, 3), np.uint8))
-    right_bgr: np.ndarray = field(default_factory=lambda: np.zeros((2, 2, 3), np.uint8))
 
 
 class FakeCell:
@@ -38,7 +26,7 @@ class FakeCell:
         self.time, self.dt = 0.5, 0.005
 
     def capture(self) -> Frame:
-        return Frame(self.time, self.time + 0.01)
+        return Frame(self.time, self.time + 0.01, False, CAMERA)
 
 
 class FakeRecognizer:
@@ -66,24 +54,7 @@ class FakeRecognizer:
 
 def one_tracking_frame(found_x: float, found_fitness: float, predicted_fitness: float):
     """The filter knows a still cloth at x 0.40 m; one tracking frame arrives."""
-    cell = FakeCell()
-    recognizer = FakeRecognizer(found_x, found_fitness, predicted_fitness)
-    pipeline = VisionPipeline(cell, recognizer, rate_hz=15.0, latency=0.06)  # type: ignore[arg-type]
-    tracker = ClothTracker(
-        cell,  # type: ignore[arg-type]
-        recognizer,  # type: ignore[arg-type]
-        pipeline,
-        None,
-        predict_motion=True,
-        phase=lambda: "descend",
-    )
-    tracker.filter.reset(make_transform(np.eye(3), [0.40, 0.1, 0.0]), 0.45)
-    tracker.start_tracking()
-    updates = []
-    while not updates:
-        updates = tracker.poll()
-        cell.time += cell.dt
-    return tracker, pipeline, updates[0]
+    return first_tracking_update(FakeCell(), FakeRecognizer(found_x, found_fitness, predicted_fitness))
 
 
 def test_a_slide_onto_a_look_alike_is_not_fused_and_the_tracker_starts_again_from_the_prediction() -> None:

@@ -7,7 +7,6 @@ the second look's GA may settle there: a still cloth then seems to move. The rea
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 import numpy as np
@@ -17,18 +16,9 @@ from robot_app.control import VisionPipeline, cloth_tracker
 from robot_app.control.cloth_tracker import ClothTracker
 from robot_app.control.vision_pipeline import VisionResult
 from robot_app.geometry import invert_transform, make_transform
+from tests.fake_tracking import Frame, tracker_and_pipeline
 
 CAMERA = make_transform(np.eye(3), [0.4, 0.1, 0.5])  # Σ_CR in Σ_W, still at the observation pose
-
-
-@dataclass(frozen=True)
-class Frame:
-    time: float
-    available_time: float
-    dropped: bool = False
-    transform_right_camera_to_world: np.ndarray = field(default_factory=lambda: CAMERA)
-    left_bgr: np.ndarray = field(default_factory=lambda: np.zeros((2, 2, 3), np.uint8))
-    right_bgr: np.ndarray = field(default_factory=lambda: np.zeros((2, 2, 3), np.uint8))
 
 
 class FakeRecognizer:
@@ -56,7 +46,7 @@ def recognition(pose_in_camera: np.ndarray, fitness: float) -> SimpleNamespace:
 
 def look(t: float, x: float, fitness: float) -> VisionResult:
     """A one-shot look exposed at `t` [s] that found Σ_M at world x [m] (y 0.1, z 0)."""
-    frame = Frame(t, t + 0.05)
+    frame = Frame(t, t + 0.05, False, CAMERA)
     world = make_transform(np.eye(3), [x, 0.1, 0.0])
     result = recognition(invert_transform(CAMERA) @ world, fitness)
     return VisionResult(frame, result, world, "search", t + 0.05, t + 0.11, 0.0)  # type: ignore[arg-type]
@@ -66,15 +56,7 @@ def two_looks(
     second_x: float, second_fitness: float, recognizer: FakeRecognizer, first_fitness: float = 0.90
 ) -> tuple[ClothTracker, VisionPipeline]:
     cell = SimpleNamespace(time=0.5, dt=0.005)
-    pipeline = VisionPipeline(cell, recognizer, rate_hz=15.0, latency=0.06)  # type: ignore[arg-type]
-    tracker = ClothTracker(
-        cell,  # type: ignore[arg-type]
-        recognizer,  # type: ignore[arg-type]
-        pipeline,
-        None,
-        predict_motion=True,
-        phase=lambda: "search",
-    )
+    tracker, pipeline = tracker_and_pipeline(cell, recognizer, "search")
     first, second = look(0.30, 0.40, first_fitness), look(0.42, second_x, second_fitness)
     tracker.filter.reset(first.transform_model_to_world, first.capture.time)  # as take_search does
     on_second = pipeline.check(second.capture, first.transform_model_to_world, seed=0)

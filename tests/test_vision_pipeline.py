@@ -8,7 +8,6 @@ exposure, every third one lost and resent a frame period later) and a fake recog
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 from types import SimpleNamespace
 
 import numpy as np
@@ -16,18 +15,9 @@ import pytest
 
 from robot_app.control import VisionPipeline
 from robot_app.geometry import invert_transform, make_transform
+from tests.fake_tracking import Frame
 
 DT = 0.005
-
-
-@dataclass(frozen=True)
-class Frame:
-    time: float
-    available_time: float
-    dropped: bool
-    transform_right_camera_to_world: np.ndarray
-    left_bgr: np.ndarray = field(default_factory=lambda: np.zeros((2, 2, 3), np.uint8))
-    right_bgr: np.ndarray = field(default_factory=lambda: np.zeros((2, 2, 3), np.uint8))
 
 
 class FakeCell:

@@ -18,8 +18,8 @@ from robot_app.control.descent_doubt import DescentDoubt, Verdict
 from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.pose_filter import FilterUpdate, UpdateReason
 from robot_app.control.servo import ServoStrategy
-from robot_app.control.vision_pipeline import VisionPipeline
 from robot_app.geometry import make_transform
+from tests.fake_tracking import first_tracking_update
 from tests.test_look_alike import FakeCell, FakeRecognizer
 
 TABLE_Z = 0.7  # [m] the belt's top
@@ -78,24 +78,10 @@ def test_the_distance_is_from_the_cloth_surface_on_the_belt() -> None:
 
 def tracker_with_one_frame(may_fuse: bool) -> tuple[ClothTracker, list[FilterUpdate]]:
     """The filter knows a still cloth at x 0.40 m; one tracking frame finds it at 0.403 m."""
-    cell = FakeCell()
-    recognizer = FakeRecognizer(0.403, 0.96, 0.95)
-    pipeline = VisionPipeline(cell, recognizer, rate_hz=15.0, latency=0.06)  # type: ignore[arg-type]
-    tracker = ClothTracker(
-        cell,  # type: ignore[arg-type]
-        recognizer,  # type: ignore[arg-type]
-        pipeline,
-        None,
-        predict_motion=True,
-        phase=lambda: "descend",
+    tracker, _, update = first_tracking_update(
+        FakeCell(), FakeRecognizer(0.403, 0.96, 0.95), lambda capture: may_fuse
     )
-    tracker.filter.reset(make_transform(np.eye(3), [0.40, 0.1, 0.0]), 0.45)
-    tracker.start_tracking()
-    updates: list[FilterUpdate] = []
-    while not updates:
-        updates = tracker.poll(may_fuse=lambda capture: may_fuse)
-        cell.time += cell.dt
-    return tracker, updates
+    return tracker, [update]
 
 
 def test_a_frame_exposed_too_close_is_recorded_not_fused() -> None:
