@@ -231,12 +231,15 @@ def _rows(table: Path) -> list[list[str]]:
         return list(csv.reader(stream))
 
 
-SMALL_TRIALS = """kind: recognition
-name: small
-trials: 40
-scene: {cloth_ids: [3, 4]}
-recognition: {propose: {ga: {population: 40, generations: 20}, coarse_generations: 10, restarts: 0}}
-"""
+# Many trials of a small GA: the sweep must still be running when the signal comes, however
+# fast the machine (at 40 an idle machine finished them between the third row and the signal).
+SWEEP_TRIALS = 4000
+SMALL_TRIALS = (
+    "kind: recognition\nname: small\n"
+    f"trials: {SWEEP_TRIALS}\n"
+    "scene: {cloth_ids: [3, 4]}\n"
+    "recognition: {propose: {ga: {population: 40, generations: 20}, coarse_generations: 10, restarts: 0}}\n"
+)
 
 
 @pytest.mark.parametrize(("number", "workers"), [(signal.SIGINT, 1), (signal.SIGTERM, 2)])
@@ -257,7 +260,7 @@ def test_an_interrupted_trial_keeps_its_rows_and_resumes(tmp_path, number, worke
     assert stderr.strip().splitlines()[0].startswith(f"interrupted: stopped by {name}"), stderr
     rows = _rows(table)
     header, body = rows[0], rows[1:]
-    assert 2 <= len(body) < 40 and all(len(row) == len(header) for row in body)
+    assert 2 <= len(body) < SWEEP_TRIALS and all(len(row) == len(header) for row in body)
     assert [int(row[0]) for row in body] == sorted(int(row[0]) for row in body)
     summary = json.loads((folder / "summary.json").read_text())
     assert summary["status"] == "interrupted" and summary["finished"] == len(body)
