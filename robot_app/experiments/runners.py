@@ -22,6 +22,7 @@ from tqdm import tqdm
 
 from robot_app.errors import InputError
 from robot_app.experiments.trial_result import TrialFunction, TrialResult, execute_trial, trial_seed
+from robot_app.interrupts import SignalInterrupt, stop_at_safe_points
 
 Record = Callable[[TrialResult], None]
 
@@ -88,9 +89,15 @@ def run_local(
     """
     with progress_bar(total, initial, progress) as bar:
         if workers == 1:
-            for index in indices:
-                record(execute_trial(trial_fn, config, index))
-                bar.update()
+            # The first signal sets a flag checked between trials: raised from the handler in
+            # the middle of a trial it could land where Python swallows it (a fresh clone's
+            # sweep ran on to its end after SIGINT). A second signal stops at once.
+            with stop_at_safe_points() as stop:
+                for index in indices:
+                    record(execute_trial(trial_fn, config, index))
+                    bar.update()
+                    if stop.signal_number is not None:
+                        raise SignalInterrupt(stop.signal_number)
             return
         pending = list(reversed(indices))
         context = multiprocessing.get_context("spawn")
