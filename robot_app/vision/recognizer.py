@@ -15,7 +15,8 @@ The recogniser composes the stages and holds no search logic of its own:
    within `verify.ambiguity_margin`; the most confident is kept (and polished if it was
    not the polished one); if a half-plane of the model disagrees with the image (a
    folded-over corner, `refinement.disagreeing_corner`), the kept pose is polished again
-   with those points hidden (`refine.corner_disagreement`);
+   with those points hidden (`refine.corner_disagreement`); the propose stage asks the verify stage
+   whether a run ended on a look-alike (`verify.look_alike_below`) and searches elsewhere;
 5. stereo depth (`stereo_depth.StereoDepth`): the plane the pair shows around the pose,
    without the model's size; a small depth offset is taken, and a pose whose plane is
    not the pair's is searched again on the stereo plane (`plane_search.search_in_plane`,
@@ -321,7 +322,9 @@ class Recognizer:
         self._take(image_left_bgr, image_right_bgr)
         before = self.evaluator.evaluations
         rng = np.random.default_rng(seed) if seed is not None else self.proposer.rng
-        proposal = self.proposer.propose(rng, peaks=report_peaks, restarts=restarts)
+        proposal = self.proposer.propose(
+            rng, peaks=report_peaks, restarts=restarts, look_alike=self._look_alike
+        )
         chosen, measurement = self._depth_checked(
             self._without_fold(self._most_confident(proposal.best, proposal.candidates, rng), rng)
         )
@@ -478,6 +481,13 @@ class Recognizer:
             polished = self.refiner.polish(chosen.pose, fitness, fine, limits, rng).transform_model_to_camera
             return self._verified(polished, float(fitness(polished)[0]), self.verifier.verify(polished)[0])
         return chosen
+
+    def _look_alike(self, pose: FloatArray) -> bool:
+        """The model photo's texture disagrees at `pose` and at each of its quarter turns
+        (`verify.look_alike_below`): an object of the model's hues, not the cloth."""
+        level = self.settings.verify.look_alike_below
+        turns = np.array([pose, pose @ HALF_TURN, pose @ _QUARTER_TURN, pose @ _QUARTER_TURN.T])
+        return all(v.agreeing < level for v in self.verifier.verify(turns))  # NaN: not compared
 
     def _without_fold(self, chosen: _Verified, rng: np.random.Generator) -> _Verified:
         """`chosen` polished once more with a disagreeing corner taken as hidden (a folded-over
