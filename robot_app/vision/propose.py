@@ -8,7 +8,11 @@ polished by the refine stage. A poor result restarts the GA until two runs agree
 peak that two runs ended on is avoided by the next ones. The best end is also tried moved
 by the print's periods and turned about its symmetry points (`print_periods`: a periodic
 print's neighbouring peaks, which the polish cannot leave). Every run's polished end is
-kept as a candidate, so the verification can compare the peaks. With `peaks`, further runs that
+kept as a candidate, so the verification can compare the peaks. Given a look-alike test
+(the verify stage: the model photo's texture disagrees there at every quarter turn), a
+run's end on another object of the model's hues (a sheet of a look-alike hue) is avoided
+at any yaw by the later runs, and does not stop the restarts or become the best while a
+run ended elsewhere. With `peaks`, further runs that
 avoid the peaks found so far give one pose per distinct peak (e.g. each cloth in view,
 Fig. 13 e-f).
 
@@ -20,6 +24,7 @@ frame explicitly (`keep`): the polished pose first, then the GA's best.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -195,10 +200,16 @@ class Proposer:
         )
 
     def propose(
-        self, rng: np.random.Generator | None = None, *, peaks: bool = False, restarts: int | None = None
+        self,
+        rng: np.random.Generator | None = None,
+        *,
+        peaks: bool = False,
+        restarts: int | None = None,
+        look_alike: Callable[[FloatArray], bool] | None = None,
     ) -> Proposal:
         """One-shot proposal on the evaluator's current pair (see the module docstring);
-        `restarts` caps the restarts below `settings.restarts` (None: the settings')."""
+        `restarts` caps the restarts below `settings.restarts` (None: the settings');
+        `look_alike(pose)` says a run's end is not the cloth but an object of its hues."""
         s = self.settings
         rng = self.rng if rng is None else rng
         found: list[Candidate] = []
@@ -206,7 +217,7 @@ class Proposer:
         generations = 0
         for _ in range(s.max_peaks if peaks else 1):
             centres = np.array([[*p.transform_model_to_camera[:2, 3], np.nan] for p in found]).reshape(-1, 3)
-            best, run_ends, best_ga, count = self._runs(rng, centres, restarts)
+            best, run_ends, best_ga, count = self._runs(rng, centres, restarts, look_alike)
             generations += count
             shifted = self._across_periods(best, rng, centres)
             if shifted is not best:
@@ -296,35 +307,48 @@ class Proposer:
 
     # ------------------------------------------------------------------ one-shot internals
     def _runs(
-        self, rng: np.random.Generator, centres: FloatArray, restarts: int | None = None
+        self,
+        rng: np.random.Generator,
+        centres: FloatArray,
+        restarts: int | None = None,
+        look_alike: Callable[[FloatArray], bool] | None = None,
     ) -> tuple[Candidate, list[Candidate], GeneticAlgorithm, int]:
-        """GA runs with restarts away from `centres`: the best end, every end, the best run's
-        GA and the generations run."""
+        """GA runs with restarts away from `centres` (and from the look-alikes found): the
+        best end (not a look-alike if any run ended elsewhere), every end, the best run's GA
+        and the generations run."""
         s = self.settings
         ga = self._search(rng, centres)
         best = self._finish(ga, rng, centres)
         generations = s.ga.generations
         ends, avoid = [best], centres
+        alike = look_alike is not None and look_alike(best.transform_model_to_camera)
+        if alike:
+            avoid = np.vstack([avoid, [*best.transform_model_to_camera[:2, 3], np.nan]])
         for _ in range(s.restarts if restarts is None else min(restarts, s.restarts)):
-            if best.search_fitness >= s.restart_below:
+            if best.search_fitness >= s.restart_below and not alike:
                 break
             again = self._search(rng, avoid)
             generations += s.ga.generations
             result = self._finish(again, rng, avoid)
             ends.append(result)
-            if result.search_fitness > best.search_fitness:
-                ga, best = again, result
+            last = result.transform_model_to_camera
+            last_alike = look_alike is not None and look_alike(last)
+            if last_alike:
+                avoid = np.vstack([avoid, [*last[:2, 3], np.nan]])  # not the cloth: elsewhere, at any yaw
+            if (alike and not last_alike) or (
+                alike == last_alike and result.search_fitness > best.search_fitness
+            ):
+                ga, best, alike = again, result, last_alike
             pose = best.transform_model_to_camera
             twice = (
                 sum(_same_peak(pose, e.transform_model_to_camera, s.candidate_separation) for e in ends) >= 2
             )
-            if twice and best.search_fitness >= s.confirm_above:
+            if twice and best.search_fitness >= s.confirm_above and not alike:
                 break  # two runs ended on the best peak, and it is a good one: confirmed
-            last = result.transform_model_to_camera
             drawn = (
                 sum(_same_peak(last, e.transform_model_to_camera, s.candidate_separation) for e in ends) >= 2
             )
-            if drawn and result.search_fitness < s.confirm_above:
+            if drawn and result.search_fitness < s.confirm_above and not last_alike:
                 yaw = yaw_of(last[:3, :3]) if result.search_fitness >= s.avoid_any_yaw_below else np.nan
                 avoid = np.vstack([avoid, [*last[:2, 3], yaw]])  # a poor peak that draws the runs
         return best, ends, ga, generations

@@ -63,6 +63,11 @@ class VerificationSettings(StrictModel):
         partial_low, partial_high: a cell in view whose hidden share (samples on a foreign
             colour) lies between these is partly hidden (see `Verification.interleaved`).
         agree_level: a cell agrees from this score (see `Verification.agreeing`).
+        look_alike_below: a pose where the texture agrees in less than this share of the
+            compared cells (`Verification.agreeing`) at each of its quarter turns shows
+            another object of the model's hues, not the cloth (a sheet of a look-alike hue:
+            plain where the print is not, or of another lightness or chroma); the propose
+            stage searches elsewhere (`Proposer.propose(look_alike=)`). 0: never.
     """
 
     spacing: float = Field(default=0.003, gt=0.0005, le=0.02)
@@ -78,6 +83,7 @@ class VerificationSettings(StrictModel):
     partial_low: float = Field(default=0.2, gt=0.0, lt=1.0)
     partial_high: float = Field(default=0.8, gt=0.0, lt=1.0)
     agree_level: float = Field(default=0.5, ge=-1.0, le=1.0)
+    look_alike_below: float = Field(default=0.1, ge=0.0, le=1.0)
 
 
 @dataclass(frozen=True)
