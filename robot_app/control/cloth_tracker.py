@@ -9,9 +9,12 @@ cloth half or a quarter turn round, whose hue fitness is as good) and would stay
 (A one-shot search would not do: its depth window is the observation pose's.) A tracking
 result away from the prediction whose frame the prediction fits as well is a look-alike
 (`control/look_alike.py`), not fused, and the tracker starts again from the prediction.
-`_record` is the one place a recognition becomes a `RecognitionRecord`: it changes no state. With
-ground truth (simulation) it also samples the filtered pose against the truth at every
-vision period of APPROACH and DESCEND (`TrackingRecord`).
+With a belt encoder (`control/belt_encoder.py`) the belt's velocity is fused into the
+filter while the cloth lies on the belt: samples up to each result's exposure before it,
+later ones into every prediction. `_record` is the one place a recognition becomes a
+`RecognitionRecord`: it changes no state. With ground truth (simulation) it also samples
+the filtered pose against the truth at every vision period of APPROACH and DESCEND
+(`TrackingRecord`).
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ from collections.abc import Callable
 import numpy as np
 
 from robot_app.arrays import FloatArray
+from robot_app.control.belt_encoder import BeltEncoder, BeltOdometry
 from robot_app.control.blind_hold import blind_estimate
 from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.episode import RecognitionRecord, TrackingRecord, VisionCycle
@@ -66,6 +70,9 @@ class ClothTracker:
         ground_truth: the cloth's true 4x4 pose in Σ_W now (simulation only).
         on_recognition: called with each recognition's `VisionCycle` right after its row is
             recorded (recordings, video overlays).
+        belt_encoder: the conveyor's encoder, fused into the filter's velocity while the
+            cloth lies on the belt (`belt_encoder.BeltOdometry`); None: vision only.
+        encoder_rate_hz: encoder samples per second [Hz].
     """
 
     def __init__(
@@ -79,6 +86,8 @@ class ClothTracker:
         phase: Callable[[], str],
         ground_truth: Callable[[], FloatArray] | None = None,
         on_recognition: Callable[[VisionCycle], None] | None = None,
+        belt_encoder: BeltEncoder | None = None,
+        encoder_rate_hz: float = 100.0,
     ) -> None:
         self.cell = cell
         self.recognizer = recognizer
@@ -89,6 +98,7 @@ class ClothTracker:
         self.predict_motion = predict_motion
         self.phase = phase
         self.ground_truth = ground_truth
+        self.odometry = BeltOdometry(belt_encoder, encoder_rate_hz) if belt_encoder is not None else None
         if ground_truth is not None:
             pipeline.on_capture = self._note_exposure
         self.reset()
@@ -102,6 +112,8 @@ class ClothTracker:
         self._next_sample = -math.inf
         self._last_truth: tuple[float, FloatArray] | None = None
         self._exposure_truth: dict[float, FloatArray] = {}
+        if self.odometry is not None:
+            self.odometry.reset()
         self.pipeline.stop()
 
     # ------------------------------------------------------------------ search
@@ -241,9 +253,13 @@ class ClothTracker:
         """
         motion = self._cloth_motion if self.predict_motion else None
         prediction = self._predicted_pose if self.filter.estimate is not None else None
+        if self.odometry is not None:
+            self.odometry.sample(self.cell.time, self.filter)
         updates = []
         for result in self.pipeline.poll(may_capture=may_capture, cloth_motion=motion, prediction=prediction):
             self.last_capture = result.capture
+            if self.odometry is not None:  # the belt's velocity up to the exposure first
+                self.odometry.fuse_until(self.filter, result.capture.time)
             recognition = result.recognition
             pose = self._on_branch(result.transform_model_to_world, result.capture.time, recognition.found)
             update = look_alike(self.filter, result, pose)
@@ -273,6 +289,8 @@ class ClothTracker:
         estimate = self.filter.estimate
         if estimate is None:
             raise RuntimeError("the cloth tracker has no estimate: search first")
+        if self.odometry is not None:
+            return self.odometry.estimate_at(self.filter, t)
         return self.filter.estimate_at(max(t, estimate.time))
 
     def grasp_path(self, t: float) -> GraspPath:
@@ -281,10 +299,13 @@ class ClothTracker:
 
     def blind_grasp_path(self, t: float) -> GraspPath:
         """The grasp path a blind hand follows (`blind_hold`): the prediction to `t` [s] if
-        the filter's velocity is significant, else the last filtered pose held still."""
+        the filter's velocity is significant, else the last filtered pose held still (with
+        a belt encoder: the filter brought up to now with its samples)."""
         last = self.filter.estimate
         if last is None:
             raise RuntimeError("the cloth tracker has no estimate: search first")
+        if self.odometry is not None:
+            last = self.odometry.estimate_at(self.filter, self.cell.time)
         return GraspPath.from_estimate(blind_estimate(last, t, self.estimate_at(t)), self.grasp_point_model)
 
     def _cloth_motion(self, t_from: float, t_to: float) -> FloatArray | None:
@@ -292,6 +313,8 @@ class ClothTracker:
         estimate = self.filter.estimate
         if estimate is None or t_to <= t_from:
             return None
+        if self.odometry is not None:
+            estimate = self.odometry.estimate_at(self.filter, t_from)
         velocity_std = np.sqrt(np.maximum(np.diag(estimate.covariance)[4:8], 0.0))
         moving = float(np.linalg.norm(estimate.velocity[:2])) > MOTION_SIGNIFICANCE * float(
             np.linalg.norm(velocity_std[:2])
@@ -299,8 +322,8 @@ class ClothTracker:
         turning = abs(estimate.yaw_rate) > MOTION_SIGNIFICANCE * float(velocity_std[3])
         if not (moving or turning):
             return None
-        start = self.filter.estimate_at(max(t_from, estimate.time))
-        end = self.filter.estimate_at(max(t_to, estimate.time))
+        start = self.estimate_at(t_from)
+        end = self.estimate_at(t_to)
         if not moving:
             end = PoseEstimate(
                 start.x, start.y, start.z, end.yaw, end.velocity, end.yaw_rate, end.covariance, end.time

@@ -55,6 +55,15 @@ class LoopSettings(StrictModel):
         "above which, scripts/bench_close_range.py measures the tracker's p95 in-plane error within "
         "the filter's own noise model (8.6 mm, the radial p95 of filter.measurement_std_xy 3.5 mm)",
     )
+    belt_encoder: bool = Field(
+        False,
+        description="servo: fuse the conveyor's encoder (the belt's velocity) into the cloth filter's "
+        "velocity while the cloth lies on the belt (control/belt_encoder.py); false: vision only",
+    )
+    belt_encoder_std: float = Field(
+        0.002, gt=0.0, description="servo: the encoder's velocity noise per horizontal axis [m/s]"
+    )
+    belt_encoder_rate_hz: float = Field(100.0, gt=0.0, le=1000.0, description="servo: encoder samples [Hz]")
     grasp_tolerance: float = Field(
         0.003, gt=0.0, description="servo: TCP to the moving grasp target before the fingers close [m]"
     )
