@@ -25,8 +25,7 @@ import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
 from robot_app.control.arm_motion import ArmMotion
-from robot_app.control.belt_encoder import BeltEncoder
-from robot_app.control.cell import Cell, StereoCapture
+from robot_app.control.cell import BeltEncoder, Cell, StereoCapture
 from robot_app.control.cloth_tracker import ClothTracker
 from robot_app.control.episode import (
     EpisodeAbortError,
@@ -80,7 +79,7 @@ class PickPlaceLoop:
         placed_fraction: returns the fraction of the cloth in the box at the end (simulation
             only); part of the success decision.
         target_present: the cloth is in the cell (False: success is saying "not present").
-        belt_encoder: the conveyor's encoder (`control.belt_encoder`), used if
+        belt_encoder: the conveyor's encoder (`cell.BeltEncoder`), used if
             `loop.belt_encoder` is on; None: the cell has none.
 
     Raises:

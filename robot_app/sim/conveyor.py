@@ -184,7 +184,7 @@ class Conveyor:
 
 
 class ConveyorEncoder:
-    """The belt's encoder as the loop reads it (`control.belt_encoder.BeltEncoder`): the belt's
+    """The belt's encoder as the loop reads it (`control.cell.BeltEncoder`): the belt's
     true velocity now plus white noise of `std` per horizontal axis, and its area.
 
     Args:
