@@ -87,4 +87,21 @@ class Cell(Protocol):
         """Number of contacts of the arm with the table or the box right now."""
 
 
-__all__ = ["Cell", "StereoCapture"]
+class BeltEncoder(Protocol):
+    """A conveyor's encoder and where its belt lies (Σ_W), if the cell has a belt: a cloth
+    lying on it moves at the belt's velocity (`ClothTracker`'s `BeltOdometry`).
+
+    Attributes:
+        std: the encoder's velocity noise, per horizontal axis [m/s].
+    """
+
+    std: float
+
+    def velocity(self) -> FloatArray:
+        """The belt's horizontal velocity (vx, vy) now [m/s], as the encoder reads it."""
+
+    def carries(self, xy: FloatArray) -> bool:
+        """True if the point (x, y) [m] lies over the belt."""
+
+
+__all__ = ["BeltEncoder", "Cell", "StereoCapture"]

@@ -9,9 +9,12 @@ cloth half or a quarter turn round, whose hue fitness is as good) and would stay
 (A one-shot search would not do: its depth window is the observation pose's.) A tracking
 result away from the prediction whose frame the prediction fits as well is a look-alike
 (`control/look_alike.py`), not fused, and the tracker starts again from the prediction.
-`_record` is the one place a recognition becomes a `RecognitionRecord`: it changes no state. With
-ground truth (simulation) it also samples the filtered pose against the truth at every
-vision period of APPROACH and DESCEND (`TrackingRecord`).
+With a belt encoder (`BeltOdometry`) the belt's velocity is fused into the
+filter while the cloth lies on the belt: samples up to each result's exposure before it,
+later ones into every prediction. `_record` is the one place a recognition becomes a
+`RecognitionRecord`: it changes no state. With ground truth (simulation) it also samples
+the filtered pose against the truth at every vision period of APPROACH and DESCEND
+(`TrackingRecord`).
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ import numpy as np
 
 from robot_app.arrays import FloatArray
 from robot_app.control.blind_hold import blind_estimate
-from robot_app.control.cell import Cell, StereoCapture
+from robot_app.control.cell import BeltEncoder, Cell, StereoCapture
 from robot_app.control.episode import RecognitionRecord, TrackingRecord, VisionCycle
 from robot_app.control.grasp_point import visible_grasp_point
 from robot_app.control.intercept import GraspPath
@@ -47,6 +50,68 @@ FIT_MARGIN = 0.02  # fitness a look's peak must gain on the other's frame (seen 
 BRANCH_TOLERANCE = np.deg2rad(10.0)  # a trusted yaw this close to a quarter turn off is that turn
 
 
+class BeltOdometry:
+    """Encoder samples waiting for the filter, and the filter's predictions with them.
+
+    A conveyor-tracking cell measures its belt with an encoder. The hand cameras cannot
+    follow the cloth closer than `loop.min_working_distance`, so a belt that brakes after
+    the last usable frame is not seen stopping; the encoder sees it. Samples are taken at
+    `rate_hz` while the filter's cloth lies over the belt and fused into the filter's
+    horizontal velocity in time order: those up to a recognition's exposure before that
+    recognition (results arrive a latency late; the filter runs at exposure times), the
+    rest only into predictions (`PoseFilter.estimate_with_velocities`). The position stays
+    vision's: a cloth pushed across the belt is relocated by the recognitions.
+
+    Args:
+        encoder: the belt's encoder.
+        rate_hz: samples per second [Hz].
+    """
+
+    def __init__(self, encoder: BeltEncoder, rate_hz: float) -> None:
+        if not rate_hz > 0.0:
+            raise ValueError(f"the encoder's rate must be > 0 [Hz], got {rate_hz}")
+        self.encoder = encoder
+        self.period = 1.0 / rate_hz
+        self.samples: list[tuple[float, FloatArray]] = []
+        self._next = -np.inf
+
+    def reset(self) -> None:
+        """Drops every sample (a new episode)."""
+        self.samples.clear()
+        self._next = -np.inf
+
+    def sample(self, t: float, pose_filter: PoseFilter) -> None:
+        """Reads the encoder at cell time `t` [s] if a period has passed and the filter's
+        cloth lies over the belt; samples the filter has passed are dropped."""
+        estimate = pose_filter.estimate
+        if estimate is None:
+            return
+        self.samples = [s for s in self.samples if s[0] > estimate.time]
+        if t < self._next:
+            return
+        self._next = t + self.period
+        if self.encoder.carries(np.array([estimate.x, estimate.y])):
+            velocity = np.asarray(self.encoder.velocity(), dtype=float).reshape(2).copy()
+            velocity.setflags(write=False)
+            self.samples.append((float(t), velocity))
+
+    def fuse_until(self, pose_filter: PoseFilter, t: float) -> None:
+        """Fuses the samples up to `t` [s] (a recognition's exposure) into the filter."""
+        if pose_filter.estimate is None:
+            return
+        due = [s for s in self.samples if s[0] <= t]
+        if due:
+            pose_filter.fuse_velocities(due, self.encoder.std)
+            self.samples = self.samples[len(due) :]
+
+    def estimate_at(self, pose_filter: PoseFilter, t: float) -> PoseEstimate:
+        """The filter's prediction for `t` [s] (not before its time) with the samples up to `t`."""
+        estimate = pose_filter.estimate
+        if estimate is None:
+            raise RuntimeError("no estimate to predict: the filter is not initialised")
+        return pose_filter.estimate_with_velocities(self.samples, self.encoder.std, max(t, estimate.time))
+
+
 class ClothTracker:
     """The target cloth as the loop knows it.
 
@@ -66,6 +131,9 @@ class ClothTracker:
         ground_truth: the cloth's true 4x4 pose in Σ_W now (simulation only).
         on_recognition: called with each recognition's `VisionCycle` right after its row is
             recorded (recordings, video overlays).
+        belt_encoder: the conveyor's encoder, fused into the filter's velocity while the
+            cloth lies on the belt (`BeltOdometry`); None: vision only.
+        encoder_rate_hz: encoder samples per second [Hz].
     """
 
     def __init__(
@@ -79,6 +147,8 @@ class ClothTracker:
         phase: Callable[[], str],
         ground_truth: Callable[[], FloatArray] | None = None,
         on_recognition: Callable[[VisionCycle], None] | None = None,
+        belt_encoder: BeltEncoder | None = None,
+        encoder_rate_hz: float = 100.0,
     ) -> None:
         self.cell = cell
         self.recognizer = recognizer
@@ -89,6 +159,7 @@ class ClothTracker:
         self.predict_motion = predict_motion
         self.phase = phase
         self.ground_truth = ground_truth
+        self.odometry = BeltOdometry(belt_encoder, encoder_rate_hz) if belt_encoder is not None else None
         if ground_truth is not None:
             pipeline.on_capture = self._note_exposure
         self.reset()
@@ -102,6 +173,8 @@ class ClothTracker:
         self._next_sample = -math.inf
         self._last_truth: tuple[float, FloatArray] | None = None
         self._exposure_truth: dict[float, FloatArray] = {}
+        if self.odometry is not None:
+            self.odometry.reset()
         self.pipeline.stop()
 
     # ------------------------------------------------------------------ search
@@ -241,9 +314,13 @@ class ClothTracker:
         """
         motion = self._cloth_motion if self.predict_motion else None
         prediction = self._predicted_pose if self.filter.estimate is not None else None
+        if self.odometry is not None:
+            self.odometry.sample(self.cell.time, self.filter)
         updates = []
         for result in self.pipeline.poll(may_capture=may_capture, cloth_motion=motion, prediction=prediction):
             self.last_capture = result.capture
+            if self.odometry is not None:  # the belt's velocity up to the exposure first
+                self.odometry.fuse_until(self.filter, result.capture.time)
             recognition = result.recognition
             pose = self._on_branch(result.transform_model_to_world, result.capture.time, recognition.found)
             update = look_alike(self.filter, result, pose)
@@ -273,6 +350,8 @@ class ClothTracker:
         estimate = self.filter.estimate
         if estimate is None:
             raise RuntimeError("the cloth tracker has no estimate: search first")
+        if self.odometry is not None:
+            return self.odometry.estimate_at(self.filter, t)
         return self.filter.estimate_at(max(t, estimate.time))
 
     def grasp_path(self, t: float) -> GraspPath:
@@ -281,10 +360,13 @@ class ClothTracker:
 
     def blind_grasp_path(self, t: float) -> GraspPath:
         """The grasp path a blind hand follows (`blind_hold`): the prediction to `t` [s] if
-        the filter's velocity is significant, else the last filtered pose held still."""
+        the filter's velocity is significant, else the last filtered pose held still (with
+        a belt encoder: the filter brought up to now with its samples)."""
         last = self.filter.estimate
         if last is None:
             raise RuntimeError("the cloth tracker has no estimate: search first")
+        if self.odometry is not None:
+            last = self.odometry.estimate_at(self.filter, self.cell.time)
         return GraspPath.from_estimate(blind_estimate(last, t, self.estimate_at(t)), self.grasp_point_model)
 
     def _cloth_motion(self, t_from: float, t_to: float) -> FloatArray | None:
@@ -292,6 +374,8 @@ class ClothTracker:
         estimate = self.filter.estimate
         if estimate is None or t_to <= t_from:
             return None
+        if self.odometry is not None:
+            estimate = self.odometry.estimate_at(self.filter, t_from)
         velocity_std = np.sqrt(np.maximum(np.diag(estimate.covariance)[4:8], 0.0))
         moving = float(np.linalg.norm(estimate.velocity[:2])) > MOTION_SIGNIFICANCE * float(
             np.linalg.norm(velocity_std[:2])
@@ -299,8 +383,8 @@ class ClothTracker:
         turning = abs(estimate.yaw_rate) > MOTION_SIGNIFICANCE * float(velocity_std[3])
         if not (moving or turning):
             return None
-        start = self.filter.estimate_at(max(t_from, estimate.time))
-        end = self.filter.estimate_at(max(t_to, estimate.time))
+        start = self.estimate_at(t_from)
+        end = self.estimate_at(t_to)
         if not moving:
             end = PoseEstimate(
                 start.x, start.y, start.z, end.yaw, end.velocity, end.yaw_rate, end.covariance, end.time
@@ -425,4 +509,4 @@ class ClothTracker:
         self.tracking.append(TrackingRecord(now, self.phase(), error.x_mm, error.y_mm, error.yaw_deg, speed))
 
 
-__all__ = ["ClothTracker"]
+__all__ = ["BeltOdometry", "ClothTracker"]

@@ -25,7 +25,7 @@ import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
 from robot_app.control.arm_motion import ArmMotion
-from robot_app.control.cell import Cell, StereoCapture
+from robot_app.control.cell import BeltEncoder, Cell, StereoCapture
 from robot_app.control.cloth_tracker import ClothTracker
 from robot_app.control.episode import (
     EpisodeAbortError,
@@ -79,6 +79,8 @@ class PickPlaceLoop:
         placed_fraction: returns the fraction of the cloth in the box at the end (simulation
             only); part of the success decision.
         target_present: the cloth is in the cell (False: success is saying "not present").
+        belt_encoder: the conveyor's encoder (`cell.BeltEncoder`), used if
+            `loop.belt_encoder` is on; None: the cell has none.
 
     Raises:
         IKError: the observation pose has no IK solution within the joint limits.
@@ -103,6 +105,7 @@ class PickPlaceLoop:
         ground_truth: Callable[[], FloatArray] | None = None,
         placed_fraction: Callable[[], float] | None = None,
         target_present: bool = True,
+        belt_encoder: BeltEncoder | None = None,
     ) -> None:
         self.cell = cell
         self.kinematics = kinematics
@@ -136,6 +139,8 @@ class PickPlaceLoop:
             phase=lambda: self._current.value,
             ground_truth=ground_truth,
             on_recognition=on_recognition,
+            belt_encoder=belt_encoder if s.belt_encoder and s.strategy is Strategy.SERVO else None,
+            encoder_rate_hz=s.belt_encoder_rate_hz,
         )
         self.strategy: ServoStrategy | LookThenMoveStrategy = (
             ServoStrategy(self.arm, self.tracker, s, self.table_z)

@@ -19,6 +19,10 @@ newest of them with the velocity between the first and the newest (a pushed clot
 running belt moves on; one stopped at the belt's end does not). A plain square cloth
 recognised a quarter turn round is the same case: its yaw is relocated.
 
+A measured horizontal velocity (a conveyor's encoder, `cloth_tracker.BeltOdometry`) is fused
+into (vx, vy) by `fuse_velocities`, without gates or counters; `estimate_with_velocities`
+predicts with such samples without changing the filter.
+
 Yaw is an angle: the state's yaw is kept in [-pi, pi) and the measured yaw is moved to
 the branch nearest the prediction before fusing, so a cloth at 179 deg measured at
 -179 deg has a 2 deg innovation, not 358 deg. The cloth's tilt is not estimated.
@@ -28,6 +32,7 @@ from __future__ import annotations
 
 import enum
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Annotated, NamedTuple
 
@@ -44,6 +49,7 @@ from robot_app.geometry import is_rotation, make_transform, rotation_about_z, wr
 _YAW = 3  # index of yaw in the state and the measurement
 RELOCATION_YAW = math.radians(10.0)  # rejected measurements agreeing in yaw to relocate onto them
 _Z_DOWN = np.diag([1.0, -1.0, -1.0])  # Σ_M's z points into the table (docs/architecture.md)
+_VELOCITY_H = np.hstack([np.zeros((2, 4)), np.eye(2), np.zeros((2, 2))])  # (vx, vy) of the state
 
 
 class PoseFilterSettings(StrictModel):
@@ -371,6 +377,61 @@ class PoseFilter:
         kf.update(z, R=R)
         kf.x[_YAW, 0] = wrap_angle(kf.x[_YAW, 0])
         return self._accept(UpdateReason.ACCEPTED, nis, distance)
+
+    def fuse_velocities(self, samples: Sequence[tuple[float, FloatArray]], std: float) -> None:
+        """Fuses measured horizontal velocities (a belt encoder's) in time order: each
+        sample (t [s], (vx, vy) [m/s]) after the filter's time is predicted to and fused with
+        `std` [m/s] per axis; older samples are skipped. No gate, no counter changes (an
+        encoder is not a recognition), the filter's time ends at the last fused sample.
+
+        Raises:
+            RuntimeError: not initialised.
+        """
+        self._elapsed(self._time)  # initialised
+        x, P, t = self._with_velocities(samples, std, self._kf.x, self._kf.P, self._time)
+        self._kf.x, self._kf.P, self._time = x, P, t
+
+    def estimate_with_velocities(
+        self, samples: Sequence[tuple[float, FloatArray]], std: float, t: float
+    ) -> PoseEstimate:
+        """The prediction for time `t` [s] with the velocity samples up to `t` fused on the
+        way (`fuse_velocities`), without changing the filter."""
+        dt = self._elapsed(t)
+        if dt <= 0.0:
+            return self.estimate_at(t)
+        kept = [(ts, v) for ts, v in samples if ts <= t]
+        x, P, t_last = self._with_velocities(kept, std, self._kf.x, self._kf.P, self._time)
+        F, Q = self._matrices(float(t) - t_last)
+        x = F @ x
+        x[_YAW, 0] = wrap_angle(x[_YAW, 0])
+        return self._estimate(x, F @ P @ F.T + Q, float(t))
+
+    def _with_velocities(
+        self,
+        samples: Sequence[tuple[float, FloatArray]],
+        std: float,
+        x: FloatArray,
+        P: FloatArray,
+        t: float,
+    ) -> tuple[FloatArray, FloatArray, float]:
+        """State, covariance and time after predicting to and fusing each later sample."""
+        if not (math.isfinite(std) and std > 0.0):
+            raise ValueError(f"a velocity's std must be finite and > 0 [m/s], got {std}")
+        x, P = np.array(x, dtype=float), np.array(P, dtype=float)
+        R = np.eye(2) * std**2
+        for ts, velocity in samples:
+            if not ts > t:
+                continue
+            F, Q = self._matrices(float(ts) - t)
+            x, P, t = F @ x, F @ P @ F.T + Q, float(ts)
+            innovation = np.asarray(velocity, dtype=float).reshape(2, 1) - _VELOCITY_H @ x
+            S = _VELOCITY_H @ P @ _VELOCITY_H.T + R
+            K = P @ _VELOCITY_H.T @ np.linalg.inv(S)
+            x = x + K @ innovation
+            I_KH = np.eye(8) - K @ _VELOCITY_H
+            P = I_KH @ P @ I_KH.T + K @ R @ K.T  # Joseph form: stays symmetric and positive
+        x[_YAW, 0] = wrap_angle(x[_YAW, 0])
+        return x, P, t
 
     def _distance(self, z: FloatArray) -> float:
         """The measurement's horizontal distance from the current prediction [m]."""

@@ -41,6 +41,7 @@ from robot_app.experiments.episode_views import EpisodeViews
 from robot_app.experiments.recording import require_rerun
 from robot_app.outputs import atomic_path, atomic_write_csv, atomic_write_text, output_folder
 from robot_app.sim import (
+    ConveyorEncoder,
     ModelStation,
     SceneSettings,
     SimCell,
@@ -212,6 +213,11 @@ def _run_in_cell(
                 on_phase(record)
 
         judged = wanted_body if wanted_body is not None else scene.target
+        encoder = (
+            ConveyorEncoder(scene.conveyor, lambda: world.time, config.loop.belt_encoder_std, config.seed)
+            if scene.conveyor is not None
+            else None
+        )
         loop = PickPlaceLoop(
             cell,
             kinematics,
@@ -229,6 +235,7 @@ def _run_in_cell(
             ground_truth=wanted_body.pose if wanted_body is not None else None,
             placed_fraction=lambda: world.cloth_in_box(judged),
             target_present=present,
+            belt_encoder=encoder,
         )
         try:
             result = loop.run()

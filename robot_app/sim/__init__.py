@@ -23,7 +23,7 @@ from robot_app.sim.config import (
     WorldConfig,
     load_world_config,
 )
-from robot_app.sim.conveyor import BeltArea, BeltMotion, Conveyor
+from robot_app.sim.conveyor import BeltArea, BeltMotion, Conveyor, ConveyorEncoder
 from robot_app.sim.imaging import CameraModel, FrameClock
 from robot_app.sim.lighting import ShadowMap, draw_lighting
 from robot_app.sim.realism import (
@@ -55,6 +55,7 @@ __all__ = [
     "ClothSpec",
     "Contact",
     "Conveyor",
+    "ConveyorEncoder",
     "EpisodeVideo",
     "FrameClock",
     "ImagingSettings",

@@ -18,6 +18,7 @@ a stop, stands, accelerates again) or a ramp from standstill to speed.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -182,4 +183,33 @@ class Conveyor:
         return sum(cloth.move_free_nodes(displacement, self.area.carries) for cloth in cloths)
 
 
-__all__ = ["CONTACT_HEIGHT", "PROFILES", "BeltArea", "BeltMotion", "Conveyor"]
+class ConveyorEncoder:
+    """The belt's encoder as the loop reads it (`control.cell.BeltEncoder`): the belt's
+    true velocity now plus white noise of `std` per horizontal axis, and its area.
+
+    Args:
+        conveyor: the running belt.
+        clock: the cell's time now [s].
+        std: the encoder's velocity noise per axis [m/s].
+        seed: the noise's random seed.
+    """
+
+    def __init__(self, conveyor: Conveyor, clock: Callable[[], float], std: float, seed: int) -> None:
+        if not (math.isfinite(std) and std >= 0.0):
+            raise ValueError(f"the encoder's noise must be finite and >= 0 [m/s], got {std}")
+        self.conveyor = conveyor
+        self.clock = clock
+        self.std = float(std)
+        self._rng = np.random.default_rng(seed)
+
+    def velocity(self) -> FloatArray:
+        """(vx, vy) [m/s] of the belt now, with the encoder's noise."""
+        true = self.conveyor.velocity_at(self.clock())[:2]
+        return np.asarray(true + self._rng.normal(0.0, self.std, 2), dtype=float)
+
+    def carries(self, xy: FloatArray) -> bool:
+        """True if (x, y) [m] lies over the belt."""
+        return self.conveyor.area.contains_xy(xy)
+
+
+__all__ = ["CONTACT_HEIGHT", "PROFILES", "BeltArea", "BeltMotion", "Conveyor", "ConveyorEncoder"]
