@@ -1,4 +1,4 @@
-"""The belt encoder fused into the cloth filter (cloth_tracker.BeltOdometry): a belt that stops
+"""The belt encoder fused into the cloth filter (belt_odometry.BeltOdometry): a belt that stops
 while the cameras are too close to see it is predicted standing; vision keeps the position."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robot_app.control.cloth_tracker import BeltOdometry
+from robot_app.control.belt_odometry import BeltOdometry
 from robot_app.control.pose_filter import PoseFilter, UpdateReason
 
 RATE = 15.0  # vision frames per second

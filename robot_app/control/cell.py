@@ -89,7 +89,7 @@ class Cell(Protocol):
 
 class BeltEncoder(Protocol):
     """A conveyor's encoder and where its belt lies (Σ_W), if the cell has a belt: a cloth
-    lying on it moves at the belt's velocity (`ClothTracker`'s `BeltOdometry`).
+    lying on it moves at the belt's velocity (`control.belt_odometry.BeltOdometry`).
 
     Attributes:
         std: the encoder's velocity noise, per horizontal axis [m/s].

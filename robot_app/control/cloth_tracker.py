@@ -9,7 +9,7 @@ cloth half or a quarter turn round, whose hue fitness is as good) and would stay
 (A one-shot search would not do: its depth window is the observation pose's.) A tracking
 result away from the prediction whose frame the prediction fits as well is a look-alike
 (`control/look_alike.py`), not fused, and the tracker starts again from the prediction.
-With a belt encoder (`BeltOdometry`) the belt's velocity is fused into the
+With a belt encoder (`control/belt_odometry.py`) the belt's velocity is fused into the
 filter while the cloth lies on the belt: samples up to each result's exposure before it,
 later ones into every prediction. `_record` is the one place a recognition becomes a
 `RecognitionRecord`: it changes no state. With ground truth (simulation) it also samples
@@ -25,6 +25,7 @@ from collections.abc import Callable
 import numpy as np
 
 from robot_app.arrays import FloatArray
+from robot_app.control.belt_odometry import BeltOdometry
 from robot_app.control.blind_hold import blind_estimate
 from robot_app.control.cell import BeltEncoder, Cell, StereoCapture
 from robot_app.control.episode import RecognitionRecord, TrackingRecord, VisionCycle
@@ -48,68 +49,6 @@ MAX_LOOK_SPEED = 0.5  # [m/s] a cloth seen to move faster between two looks was 
 QUARTER_TURNS = (np.pi / 2, np.pi, 3 * np.pi / 2)
 FIT_MARGIN = 0.02  # fitness a look's peak must gain on the other's frame (seen noise 0.005, neighbours 0.08)
 BRANCH_TOLERANCE = np.deg2rad(10.0)  # a trusted yaw this close to a quarter turn off is that turn
-
-
-class BeltOdometry:
-    """Encoder samples waiting for the filter, and the filter's predictions with them.
-
-    A conveyor-tracking cell measures its belt with an encoder. The hand cameras cannot
-    follow the cloth closer than `loop.min_working_distance`, so a belt that brakes after
-    the last usable frame is not seen stopping; the encoder sees it. Samples are taken at
-    `rate_hz` while the filter's cloth lies over the belt and fused into the filter's
-    horizontal velocity in time order: those up to a recognition's exposure before that
-    recognition (results arrive a latency late; the filter runs at exposure times), the
-    rest only into predictions (`PoseFilter.estimate_with_velocities`). The position stays
-    vision's: a cloth pushed across the belt is relocated by the recognitions.
-
-    Args:
-        encoder: the belt's encoder.
-        rate_hz: samples per second [Hz].
-    """
-
-    def __init__(self, encoder: BeltEncoder, rate_hz: float) -> None:
-        if not rate_hz > 0.0:
-            raise ValueError(f"the encoder's rate must be > 0 [Hz], got {rate_hz}")
-        self.encoder = encoder
-        self.period = 1.0 / rate_hz
-        self.samples: list[tuple[float, FloatArray]] = []
-        self._next = -np.inf
-
-    def reset(self) -> None:
-        """Drops every sample (a new episode)."""
-        self.samples.clear()
-        self._next = -np.inf
-
-    def sample(self, t: float, pose_filter: PoseFilter) -> None:
-        """Reads the encoder at cell time `t` [s] if a period has passed and the filter's
-        cloth lies over the belt; samples the filter has passed are dropped."""
-        estimate = pose_filter.estimate
-        if estimate is None:
-            return
-        self.samples = [s for s in self.samples if s[0] > estimate.time]
-        if t < self._next:
-            return
-        self._next = t + self.period
-        if self.encoder.carries(np.array([estimate.x, estimate.y])):
-            velocity = np.asarray(self.encoder.velocity(), dtype=float).reshape(2).copy()
-            velocity.setflags(write=False)
-            self.samples.append((float(t), velocity))
-
-    def fuse_until(self, pose_filter: PoseFilter, t: float) -> None:
-        """Fuses the samples up to `t` [s] (a recognition's exposure) into the filter."""
-        if pose_filter.estimate is None:
-            return
-        due = [s for s in self.samples if s[0] <= t]
-        if due:
-            pose_filter.fuse_velocities(due, self.encoder.std)
-            self.samples = self.samples[len(due) :]
-
-    def estimate_at(self, pose_filter: PoseFilter, t: float) -> PoseEstimate:
-        """The filter's prediction for `t` [s] (not before its time) with the samples up to `t`."""
-        estimate = pose_filter.estimate
-        if estimate is None:
-            raise RuntimeError("no estimate to predict: the filter is not initialised")
-        return pose_filter.estimate_with_velocities(self.samples, self.encoder.std, max(t, estimate.time))
 
 
 class ClothTracker:
@@ -509,4 +448,4 @@ class ClothTracker:
         self.tracking.append(TrackingRecord(now, self.phase(), error.x_mm, error.y_mm, error.yaw_deg, speed))
 
 
-__all__ = ["BeltOdometry", "ClothTracker"]
+__all__ = ["ClothTracker"]

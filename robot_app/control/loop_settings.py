@@ -58,7 +58,7 @@ class LoopSettings(StrictModel):
     belt_encoder: bool = Field(
         False,
         description="servo: fuse the conveyor's encoder (the belt's velocity) into the cloth filter's "
-        "velocity while the cloth lies on the belt (cloth_tracker.BeltOdometry); false: vision only",
+        "velocity while the cloth lies on the belt (belt_odometry.BeltOdometry); false: vision only",
     )
     belt_encoder_std: float = Field(
         0.002, gt=0.0, description="servo: the encoder's velocity noise per horizontal axis [m/s]"

@@ -19,7 +19,7 @@ newest of them with the velocity between the first and the newest (a pushed clot
 running belt moves on; one stopped at the belt's end does not). A plain square cloth
 recognised a quarter turn round is the same case: its yaw is relocated.
 
-A measured horizontal velocity (a conveyor's encoder, `cloth_tracker.BeltOdometry`) is fused
+A measured horizontal velocity (a conveyor's encoder, `belt_odometry.BeltOdometry`) is fused
 into (vx, vy) by `fuse_velocities`, without gates or counters; `estimate_with_velocities`
 predicts with such samples without changing the filter.
 
