@@ -300,8 +300,13 @@ def test_picks_rows_carry_the_simulators_truth_of_each_lift() -> None:
 
     episode = SimpleNamespace(
         result=SimpleNamespace(attempts=[attempt("No.6", 3.7, 15.8), attempt("No.7", 17.7, 28.2)]),
-        lifts=(LiftTruth(1, 6.5, "No.6", (6, 11)), LiftTruth(2, 20.1, "No.7", (7, 11))),
+        lifts=(
+            LiftTruth(1, 6.5, "No.6", (6, 11), held=(6, 11)),
+            LiftTruth(2, 20.1, "No.7", (7, 11), held=(7,)),
+        ),
     )
     rows = pick_rows(episode)  # type: ignore[arg-type]
     assert [r["lifted_truth"] for r in rows] == ["No.6 No.11", "No.7 No.11"]
+    # anchored by the fingers, or dragged along by what they hold
+    assert [r["held_truth"] for r in rows] == ["No.6 No.11", "No.7"]
     assert rows[1]["weighed_g"] == 33.5 and rows[1]["lift_check"] == "ok"

@@ -94,6 +94,8 @@ def pick_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 # the simulator's truth (as the verdict counts double picks): cloths that left
                 # the table with each grasp of this attempt
                 "lifted_truth": " | ".join(" ".join(f"No.{n}" for n in t.lifted) for t in truth),
+                # ... and of those, the ones anchored to the fingers (the rest was dragged along)
+                "held_truth": " | ".join(" ".join(f"No.{n}" for n in t.held) for t in truth),
             }
         )
     return rows
