@@ -295,7 +295,7 @@ def test_picks_rows_carry_the_simulators_truth_of_each_lift() -> None:
         return SimpleNamespace(
             name=name, box="colours", start_time=start, end_time=end, result=result, lift_check="ok",
             weighed=0.0335, expected_weight=0.0242, put_back=False, dropped=False, box_check=None,
-            grasp_clearance=None,
+            grasp_clearance=None, came_along=("No.11",) if name == "No.7" else (), remembered=("No.11",),
         )  # fmt: skip
 
     episode = SimpleNamespace(
@@ -310,3 +310,66 @@ def test_picks_rows_carry_the_simulators_truth_of_each_lift() -> None:
     # anchored by the fingers, or dragged along by what they hold
     assert [r["held_truth"] for r in rows] == ["No.6 No.11", "No.7"]
     assert rows[1]["weighed_g"] == 33.5 and rows[1]["lift_check"] == "ok"
+    assert [r["came_along"] for r in rows] == ["", "No.11 (memory)"]  # and where its name came from
+
+
+def test_a_double_picks_hidden_companion_is_named_from_memory_only_when_one_fits() -> None:
+    # bench episode 33: No.17 came up with No.18 (44 g for 23 g); No.18 was seen by the
+    # first survey and hidden under No.17 in the survey the pick was chosen from
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.pick_checks import remembered_companion
+
+    settings = ClearTableSettings()  # weight within 30 % + 3 g, footprint within 40 mm
+    square = np.array([[x, y] for x in np.linspace(-0.1, 0.1, 21) for y in np.linspace(-0.1, 0.1, 21)])
+    grasp = np.array([0.50, 0.02])
+    weights = {"No.18": 0.0230, "No.4": 0.0229, "No.10": 0.0266, "No.2": 0.0450}
+    under = square + np.array([0.56, 0.08])  # reaches to 0.46 in x: under the grasp point
+    far = square + np.array([0.50, -0.25])  # its nearest point 0.13 m from the grasp
+    assert remembered_companion(grasp, 0.0212, {"No.18": under, "No.4": far}, weights, settings) == "No.18"
+    # a cloth remembered far from the fingers is not it, whatever it weighs
+    assert remembered_companion(grasp, 0.0229, {"No.4": far}, weights, settings) is None
+    # its weight must be the extra the load cell read
+    assert remembered_companion(grasp, 0.0212, {"No.2": under}, weights, settings) is None
+    # two remembered cloths under the grasp that both weigh it: no name from memory
+    both = {"No.18": under, "No.10": square + np.array([0.52, 0.0])}
+    assert remembered_companion(grasp, 0.0230, both, weights, settings) is None
+    # off
+    off = settings.model_copy(update={"remembered_reach": 0.0})
+    assert remembered_companion(grasp, 0.0212, {"No.18": under}, weights, off) is None
+
+
+def test_a_remembered_companion_still_found_where_it_was_did_not_come_along(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # the job's side of the rule: the pick's survey did not see No.18, an earlier one did;
+    # it is named only if the check after the lift no longer finds it where it was
+    from types import SimpleNamespace
+
+    from robot_app.control import table_clearer
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.table_ledger import TableLedger
+
+    square = _square()
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job.settings = ClearTableSettings(survey_latency=0.0)
+    job.weights = {"No.17": 0.0227, "No.18": 0.0230, "No.4": 0.0229}
+    job.recognizers = {n: SimpleNamespace(model=square) for n in job.weights}  # type: ignore[misc]
+    job.ledger = TableLedger()
+    job.motion = SimpleNamespace(hold=lambda seconds: None)  # type: ignore[assignment]
+    for name, x in (("No.18", 0.56), ("No.4", 0.50)):
+        pose = np.eye(4)
+        pose[:2, 3] = (x, 0.08 if name == "No.18" else -0.25)
+        job.ledger.last_pose[name] = pose
+    attempt = SimpleNamespace(target=SimpleNamespace(name="No.17"), others=(), check_wall_s=0.0)
+    grasp = np.array([0.50, 0.02, 0.0])
+    found = {"No.18": False}
+    monkeypatch.setattr(table_clearer, "still_there", lambda recognizer, *_: found["No.18"])
+    assert job._remembered_companion(attempt, None, grasp, 0.0212) == "No.18"  # type: ignore[arg-type]
+    found["No.18"] = True  # still lies where it was: not in the gripper
+    assert job._remembered_companion(attempt, None, grasp, 0.0212) is None  # type: ignore[arg-type]
+    found["No.18"] = False
+    job.ledger.placed_order.append("No.18")  # put away before: not on the table
+    assert job._remembered_companion(attempt, None, grasp, 0.0212) is None  # type: ignore[arg-type]
+    job.ledger.placed_order.clear()
+    attempt.others = (SimpleNamespace(name="No.18"),)  # the pick's own survey saw it elsewhere
+    assert job._remembered_companion(attempt, None, grasp, 0.0212) is None  # type: ignore[arg-type]
