@@ -406,6 +406,9 @@ class TableClearer:
                 self.weights,
                 self.settings,
             )
+            if other is not None and self._stayed(other, attempt, capture):
+                attempt.notes.append(f"{other} weighs the extra but still lies where the survey saw it")
+                other = None  # the extra weight is another cloth's
             source = ""
             if other is None:
                 other = self._remembered_companion(attempt, capture, grasp, extra)
@@ -435,6 +438,17 @@ class TableClearer:
             # where no survey may see it (the meant cloth covers it again)
             self._hidden_spots[name] = self.recovery.put_back_spots[-1].copy()
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
+
+    def _stayed(self, name: str, attempt: AttemptState, capture: StereoCapture) -> bool:
+        """Does the check after the lift (`capture`) still find `name`, one of the pick's
+        survey's other cloths, where that survey saw it (then it did not come along)?"""
+        seen = next(d for d in attempt.others if d.name == name)
+        pose = to_world(self._survey_capture, seen.transform_model_to_camera)
+        wall, cpu = time.perf_counter(), time.process_time()
+        stayed = still_there(self.recognizers[name], capture, pose, self.settings.same_place)
+        attempt.check_wall_s += time.perf_counter() - wall
+        self._wait(time.process_time() - cpu)
+        return stayed
 
     def _remembered_companion(
         self, attempt: AttemptState, capture: StereoCapture, grasp: FloatArray, extra: float
