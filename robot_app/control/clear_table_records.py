@@ -37,6 +37,13 @@ class ClearTableSettings(StrictModel):
             cloths whose footprint comes this close to the grasp point in the survey's
             image [px]; if exactly one weighs what the load cell read too much and it goes
             into the same box, both are placed.
+        remembered_reach: when no cloth of the pick's survey is the double pick's other
+            cloth, it is looked for among the cloths an earlier survey saw and this one did
+            not (hidden since, e.g. under the target), whose footprint where last seen comes
+            this close to the grasp point [m] and which the check after the lift no longer
+            finds there; if exactly one weighs what the load cell read too much and it goes
+            into the same box, both are placed (its identity then comes from memory, and
+            the notes say so); 0: off.
         put_down_height: TCP above the table when a lift that took too much (or the
             wrong cloth) is put back.
         put_down_speed: limit scale of the lowering.
@@ -75,6 +82,7 @@ class ClearTableSettings(StrictModel):
     put_down_speed: float = Field(0.3, gt=0.0, le=1.0)
     put_down_slide: float = Field(0.06, ge=0.0, le=0.2)
     companion_reach_px: float = Field(20.0, ge=0.0)
+    remembered_reach: float = Field(0.04, ge=0.0, le=0.3)
     survey_latency: float | None = Field(None, ge=0.0)
     look_at_boxes: bool = False
     box_view_height: float = Field(0.42, gt=0.1)
@@ -130,6 +138,8 @@ class PickAttempt:
         check_wall_s: computation time of the checks [s].
         grasp_clearance: the job's grasp point's distance to the nearest other cloth the
             survey saw [m] (None: the loop's own grasp point; inf: no other cloth).
+        remembered: of `came_along`, the cloths named from an earlier survey (the pick's
+            own survey did not see them), not from vision at the lift.
     """
 
     name: str
@@ -146,6 +156,7 @@ class PickAttempt:
     box_check: BoxCheck | None = None
     check_wall_s: float = 0.0
     grasp_clearance: float | None = None
+    remembered: tuple[str, ...] = ()
 
     @property
     def lift_rejected(self) -> bool:

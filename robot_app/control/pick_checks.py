@@ -40,6 +40,7 @@ class AttemptState:
     grasp_point_model: FloatArray | None = None  # the loop's grasp point in Σ_M (last search)
     obstacles_xy: FloatArray | None = None  # (M, 2) the other cloths the survey saw [m]
     came_along: tuple[str, ...] = ()
+    remembered: tuple[str, ...] = ()  # of `came_along`, those known from an earlier survey only
     lift_check: str = ""
     weighed: float | None = None
     put_back: bool = False
@@ -87,6 +88,42 @@ def companion(
         weight = weights.get(d.name)
         if weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor:
             fits.append(d.name)
+    return fits[0] if len(fits) == 1 else None
+
+
+def remembered_companion(
+    grasp_xy: FloatArray,
+    extra: float,
+    remembered: Mapping[str, FloatArray],
+    weights: Mapping[str, float],
+    settings: ClearTableSettings,
+) -> str | None:
+    """The one cloth an earlier survey saw, that the pick's own survey no longer saw (it
+    lies hidden, e.g. under the target), whose footprint where it was last seen comes
+    within `remembered_reach` [m] of the grasp point and whose weight is the `extra` [kg]
+    the load cell read; None if none or more than one fits.
+
+    Args:
+        grasp_xy: (2,) where the fingers closed, on the table [m].
+        extra: the load cell's reading less the meant cloth's weight [kg].
+        remembered: cloth name -> (M, 2) table points [m] of its footprint where it was
+            last seen, for the cloths seen before, not seen by the pick's survey and not
+            put away.
+        weights: cloth name -> its weight [kg].
+        settings: `remembered_reach`, `weight_tolerance`, `weight_floor`.
+    """
+    s = settings
+    if s.remembered_reach <= 0:
+        return None
+    grasp = np.asarray(grasp_xy, dtype=float).reshape(2)
+    fits = []
+    for name, footprint in remembered.items():
+        points = np.asarray(footprint, dtype=float).reshape(-1, 2)
+        if not len(points) or float(np.min(np.hypot(*(points - grasp).T))) > s.remembered_reach:
+            continue
+        weight = weights.get(name)
+        if weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor:
+            fits.append(name)
     return fits[0] if len(fits) == 1 else None
 
 
@@ -146,6 +183,7 @@ __all__ = [
     "agrees",
     "check_release",
     "companion",
+    "remembered_companion",
     "still_there",
     "weight_verdict",
 ]

@@ -39,7 +39,7 @@ import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
 from robot_app.control.box_check import BoxCheckSettings, BoxView, box_view
-from robot_app.control.cell import Cell
+from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
@@ -58,6 +58,7 @@ from robot_app.control.pick_checks import (
     AttemptState,
     check_release,
     companion,
+    remembered_companion,
     still_there,
     weight_verdict,
 )
@@ -75,6 +76,7 @@ from robot_app.control.table_survey import (
     to_world,
 )
 from robot_app.errors import IKError, InterruptError, TrajectoryError
+from robot_app.geometry import transform_points
 from robot_app.vision import Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
 
@@ -404,10 +406,26 @@ class TableClearer:
                 self.weights,
                 self.settings,
             )
+            if other is not None and self._stayed(other, attempt, capture):
+                attempt.notes.append(f"{other} weighs the extra but still lies where the survey saw it")
+                other = None  # the extra weight is another cloth's
+            source = ""
+            if other is None:
+                other = self._remembered_companion(attempt, capture, grasp, extra)
+                if other is not None:
+                    survey = self.ledger.last_survey[other]
+                    source = (
+                        f" (identity from memory: seen by survey {survey}, hidden since, gone from there)"
+                    )
             if other is not None and self.sort.box_for(other) == attempt.box.name:
                 attempt.came_along = (other,)
-                attempt.notes.append(f"double pick ({what}): {other} came along, same box: both placed")
+                attempt.remembered = (other,) if source else ()
+                attempt.notes.append(
+                    f"double pick ({what}): {other} came along{source}, same box: both placed"
+                )
                 return
+            if other is not None:
+                attempt.notes.append(f"double pick: {other} came along{source}, belongs in another box")
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
         self._phase = "put back"
         model = self.recognizers[name].model
@@ -420,6 +438,41 @@ class TableClearer:
             # where no survey may see it (the meant cloth covers it again)
             self._hidden_spots[name] = self.recovery.put_back_spots[-1].copy()
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
+
+    def _stayed(self, name: str, attempt: AttemptState, capture: StereoCapture) -> bool:
+        """Does the check after the lift (`capture`) still find `name`, one of the pick's
+        survey's other cloths, where that survey saw it (then it did not come along)?"""
+        seen = next(d for d in attempt.others if d.name == name)
+        pose = to_world(self._survey_capture, seen.transform_model_to_camera)
+        wall, cpu = time.perf_counter(), time.process_time()
+        stayed = still_there(self.recognizers[name], capture, pose, self.settings.same_place)
+        attempt.check_wall_s += time.perf_counter() - wall
+        self._wait(time.process_time() - cpu)
+        return stayed
+
+    def _remembered_companion(
+        self, attempt: AttemptState, capture: StereoCapture, grasp: FloatArray, extra: float
+    ) -> str | None:
+        """The double pick's other cloth among those an earlier survey saw and the pick's
+        survey did not (`pick_checks.remembered_companion`), if the check after the lift
+        (`capture`) no longer finds it where it was last seen."""
+        seen = {attempt.target.name, *(d.name for d in attempt.others)}
+        placed = set(self.ledger.placed_order)
+        footprints = {
+            name: transform_points(pose, self.recognizers[name].model.points_in)[:, :2]
+            for name, pose in self.ledger.last_pose.items()
+            if name not in seen and name not in placed and name in self.recognizers
+        }
+        name = remembered_companion(grasp[:2], extra, footprints, self.weights, self.settings)
+        if name is None:
+            return None
+        wall, cpu = time.perf_counter(), time.process_time()
+        stayed = still_there(
+            self.recognizers[name], capture, self.ledger.last_pose[name], self.settings.same_place
+        )
+        attempt.check_wall_s += time.perf_counter() - wall
+        self._wait(time.process_time() - cpu)
+        return None if stayed else name
 
     def _after_release(self, attempt: AttemptState) -> None:
         self._phase = "box check"

@@ -32,6 +32,8 @@ class TableLedger:
         seen_in_box: cloths confirmed in their box (no longer searched for).
         placed_order: cloths released over their box, in order.
         last_seen: cloth name -> (x, y) in Σ_W where the last survey saw it [m].
+        last_pose: cloth name -> (4, 4) its pose in Σ_W where the last survey saw it [m].
+        last_survey: cloth name -> the number (from 1) of the last survey that saw it.
     """
 
     def __init__(self) -> None:
@@ -41,6 +43,8 @@ class TableLedger:
         self.seen_in_box: set[str] = set()
         self.placed_order: list[str] = []
         self.last_seen: dict[str, FloatArray] = {}
+        self.last_pose: dict[str, FloatArray] = {}
+        self.last_survey: dict[str, int] = {}
 
     def untried(self, name: str, max_attempts: int) -> bool:
         """Has `name` attempts left?"""
@@ -66,6 +70,8 @@ class TableLedger:
             pose = to_world(capture, d.transform_model_to_camera)
             detections.append((d.name, float(d.confidence), *(float(v) for v in pose[:3, 3])))
             self.last_seen[d.name] = pose[:2, 3].copy()
+            self.last_pose[d.name] = pose.copy()
+            self.last_survey[d.name] = len(self.surveys) + 1
             self.records.setdefault(d.name, _new_entry())
         record = SurveyRecord(
             capture.time,
@@ -111,6 +117,7 @@ class TableLedger:
                 attempt.box_check,
                 attempt.check_wall_s,
                 attempt.grasp.clearance if attempt.grasp is not None and attempt.grasp_used else None,
+                attempt.remembered,
             )
         )
         if result.outcome is Outcome.PLACED:
@@ -118,6 +125,9 @@ class TableLedger:
             self.placed(target.name, confirmed)
             for name in attempt.came_along:  # placed too, but looked for again until seen gone
                 self.placed(name, False)
+                other: list[str] = self.records[name]["notes"]  # type: ignore[assignment]
+                source = "; its identity from memory, not from vision" if name in attempt.remembered else ""
+                other.append(f"placed with {target.name}, lifted with it{source}")
 
     def placed(self, name: str, confirmed: bool) -> None:
         """Books `name` released over its box (`confirmed`: seen there)."""

@@ -98,6 +98,8 @@ class LiftTruth:
         meant: the cloth the robot meant (model name).
         lifted: catalogue numbers of the cloths that left the table with the gripper
             (anchored or dragged along), after the lift.
+        held: ... of those anchored to the gripper (the fingers took them; the others of
+            `lifted` came along lying on or caught in what is held).
         injected_double: a second cloth was caught on purpose.
         dropped: the cloth fell during the transfer (injected).
     """
@@ -106,6 +108,7 @@ class LiftTruth:
     time: float
     meant: str
     lifted: tuple[int, ...] = ()
+    held: tuple[int, ...] = ()
     injected_double: bool = False
     dropped: bool = False
 
@@ -136,6 +139,7 @@ class PickWitness:
                 self.lifts[-1].injected_double = self._catch_another()
         elif record.phase == "lift" and self.lifts:
             self.lifts[-1].lifted = self._hanging()
+            self.lifts[-1].held = tuple(c.number for c in self.pile.cloths if c.body.is_grasped)
 
     def on_step(self, phase: str, _meant: str | None) -> None:
         """After each control step (the job's `on_step`)."""

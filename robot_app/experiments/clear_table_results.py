@@ -83,6 +83,7 @@ def pick_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 "lift_check": a.lift_check,
                 "weighed_g": None if a.weighed is None else round(1000 * a.weighed, 1),
                 "expected_g": None if a.expected_weight is None else round(1000 * a.expected_weight, 1),
+                "came_along": " ".join(f"{n} (memory)" if n in a.remembered else n for n in a.came_along),
                 "put_back": a.put_back,
                 "dropped": a.dropped,
                 "box_confirmed": None if check is None else check.confirmed,
@@ -94,6 +95,8 @@ def pick_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 # the simulator's truth (as the verdict counts double picks): cloths that left
                 # the table with each grasp of this attempt
                 "lifted_truth": " | ".join(" ".join(f"No.{n}" for n in t.lifted) for t in truth),
+                # ... and of those, the ones anchored to the fingers (the rest was dragged along)
+                "held_truth": " | ".join(" ".join(f"No.{n}" for n in t.held) for t in truth),
             }
         )
     return rows
