@@ -55,7 +55,8 @@ class ClearTableSettings(StrictModel):
         look_at_boxes: look into every box once before the first pick (the reference the
             checks after placing compare with; without it the first check takes the box to
             be empty, of the table's colour around it).
-        box_view_height: camera above the box floor for that look.
+        box_view_height: camera above the box floor for that look and for the check
+            after every release (the hand rises out of the box to it) [m].
         pile_grasp: where on the chosen cloth to grasp (away from the other cloths).
         put_back: how a rejected lift is laid back onto the table.
         look_around: when a survey leaves nothing to pick, look again from up to this
