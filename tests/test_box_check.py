@@ -22,7 +22,7 @@ from robot_app.control.limits import JointLimits
 from robot_app.control.pick_place import observation_posture
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.geometry import make_transform
-from robot_app.sim.world import observation_camera_pose
+from robot_app.sim.world import World, observation_camera_pose
 from robot_app.vision import ClothModel, FitnessSettings
 from robot_app.vision.camera import PinholeCamera, StereoRig
 
@@ -126,3 +126,39 @@ def test_the_release_pose_saw_a_quarter_of_the_floor(cell: Cell) -> None:
     placed, _ = _check(config, tcp + offset)
     assert placed.in_view < BoxCheckSettings().min_in_view
     assert not placed.confirmed
+
+
+def test_an_empty_box_needs_a_reference_look_not_the_tables_colour(cell: Cell) -> None:
+    """Rendered realistic cell, no cloth: the box looked into twice from `look_tcp` (the
+    second time with the arm come up from the release pose) is unchanged; against the
+    table's colour around it (no reference look), it reads as changed almost everywhere,
+    its floor being lighter than the table and partly in the walls' shadow."""
+    config, offset = cell
+    kinematics = Kinematics.from_urdf(config.world.robot.urdf, "base_link", "tcp")
+    limits = JointLimits.from_urdf(config.world.robot.urdf, config.trajectory)
+    observe = observation_posture(
+        kinematics, limits, observation_camera_pose(config.world), config.world.robot.home_joints, 1e-4
+    )
+    rotation = kinematics.frame_pose(observe, "tcp")[:3, :3]
+
+    def joints(tcp: FloatArray, seed: FloatArray) -> FloatArray:
+        result = kinematics.solve_ik(make_transform(rotation, tcp), seed, frame="tcp", time_budget=0.5)
+        assert result.success
+        return np.array(result.q)
+
+    settings, fitness = BoxCheckSettings(), FitnessSettings(min_saturation=40, min_value=40)
+    with World(config.world) as world:
+        box = world.boxes[0]
+        look = look_tcp(box.centre, ClearTableSettings().box_view_height, offset)
+        low = np.array([*box.centre[:2], box.centre[2] + config.loop.min_release_height])
+        released = joints(low, observe)
+        views = []
+        for q in (joints(look, observe), joints(look, released)):
+            world.robot.reset_joints(q)
+            world.step(1)
+            frame = world.stereo.render()
+            views.append(box_view(frame, world.stereo.rig, box.centre, box.inner_size, settings))
+    again = check_box(views[0], views[1], _red_model(), fitness, settings)
+    assert again.in_view > 0.95 and again.changed < 0.02 and not again.confirmed
+    guessed = check_box(None, views[1], _red_model(), fitness, settings)
+    assert guessed.changed > 0.5

@@ -6,9 +6,11 @@ different hand poses comparable. A cloth counts as put into the box when, agains
 box's previous top view, enough of the floor changed (`min_changed`) and enough of what
 changed has the model's colours (`min_model_share`: colour codes of the model's S_in, the
 fitness's hue threshold). The same cloth put onto a cloth of the same colour still
-changes the view (shading, outline, texture), if less. Before the first cloth, the box
-is the table's colour inside (its floor is the table top): the empty box is taken to look
-like the table seen around it (`BoxView.surround_bgr`, a ring `surround` outside).
+changes the view (shading, outline, texture), if less. The first check into a box
+compares with a look into it before the first pick, from the same pose (the job's
+`look_at_boxes`); without one, the empty box is taken to look like the table seen around
+it (`BoxView.surround_bgr`, a ring `surround` outside), a poor stand-in where the box's
+floor differs from the table or lies in the walls' shadow.
 
 Where to look from (`look_tcp`): straight above the floor's middle, high enough that the
 image holds the whole floor. Not from the release pose: there the fingers are 6-8 cm
