@@ -83,6 +83,12 @@ class ArmMotion:
         self._V: list[FloatArray] = []
         self._A: list[FloatArray] = []
 
+    def resume_at(self, q: npt.ArrayLike) -> None:
+        """Continues from joints `q` [rad] at rest: a phase callback moved the arm itself
+        (its samples are in its own log, not in this one)."""
+        q_rest = np.array(q, dtype=float)
+        self.command = Command(q_rest, np.zeros(len(q_rest)), np.zeros(len(q_rest)))
+
     # ------------------------------------------------------------------ kinematics
     def tcp_position(self, q: npt.ArrayLike | None = None) -> FloatArray:
         """(3,) TCP position [m] at `q` (default: the commanded joints)."""

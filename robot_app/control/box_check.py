@@ -6,9 +6,17 @@ different hand poses comparable. A cloth counts as put into the box when, agains
 box's previous top view, enough of the floor changed (`min_changed`) and enough of what
 changed has the model's colours (`min_model_share`: colour codes of the model's S_in, the
 fitness's hue threshold). The same cloth put onto a cloth of the same colour still
-changes the view (shading, outline, texture), if less. Before the first cloth, the box
-is the table's colour inside (its floor is the table top): the empty box is taken to look
-like the table seen around it (`BoxView.surround_bgr`, a ring `surround` outside).
+changes the view (shading, outline, texture), if less. The first check into a box
+compares with a look into it before the first pick, from the same pose (the job's
+`look_at_boxes`); without one, the empty box is taken to look like the table seen around
+it (`BoxView.surround_bgr`, a ring `surround` outside), a poor stand-in where the box's
+floor differs from the table or lies in the walls' shadow.
+
+Where to look from (`look_tcp`): straight above the floor's middle, high enough that the
+image holds the whole floor. Not from the release pose: there the fingers are 6-8 cm
+over the floor (a cloth is let go low, to fold onto the floor), the hand camera 10 cm
+above them and 7 cm and 5 cm beside them, so its 14 x 11 cm field covered a quarter of
+the 22 cm box's floor, under `min_in_view`, and no check after placing ever confirmed.
 """
 
 from __future__ import annotations
@@ -82,6 +90,14 @@ class BoxCheck:
     changed: float
     model_share: float
     in_view: float
+
+
+def look_tcp(centre: npt.ArrayLike, camera_height: float, camera_offset: npt.ArrayLike) -> FloatArray:
+    """TCP position [m] in Σ_W that puts the right camera `camera_height` [m] straight above
+    the box floor's centre `centre` [m] (Σ_W); `camera_offset`: the right camera minus the
+    TCP in Σ_W [m], which the hand's fixed orientation keeps."""
+    c, offset = np.asarray(centre, dtype=float), np.asarray(camera_offset, dtype=float)
+    return np.array([c[0] - offset[0], c[1] - offset[1], c[2] + camera_height - offset[2]])
 
 
 def box_view(
@@ -176,4 +192,4 @@ def check_box(
     return BoxCheck(bool(confirmed), changed_share, model_share, in_view)
 
 
-__all__ = ["BoxCheck", "BoxCheckSettings", "BoxView", "box_view", "check_box"]
+__all__ = ["BoxCheck", "BoxCheckSettings", "BoxView", "box_view", "check_box", "look_tcp"]

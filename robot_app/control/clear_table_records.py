@@ -52,10 +52,15 @@ class ClearTableSettings(StrictModel):
         survey_latency: the arm waits this long for each survey and each check; None: the
             measured computation (the process's CPU time, which a loaded machine does not
             inflate), as cell time.
-        look_at_boxes: look into every box once before the first pick (the reference the
-            checks after placing compare with; without it the first check takes the box to
-            be empty, of the table's colour around it).
-        box_view_height: camera above the box floor for that look.
+        look_at_boxes: look into every box once before the first pick, from the pose of
+            the checks after placing (the reference they compare with; ~5.4 s of sim per
+            job for two boxes). Without it the first check takes the box to be empty, of
+            the table's colour around it, which the realistic cell's box is not: its floor
+            is lighter than the table and half in the walls' shadow, and an empty box read
+            as 94-96 % changed (rendered, both boxes), so the cloth's colours fell under
+            `min_model_share` of the change.
+        box_view_height: camera above the box floor for that look and for the check
+            after every release (the hand rises out of the box to it) [m].
         pile_grasp: where on the chosen cloth to grasp (away from the other cloths).
         put_back: how a rejected lift is laid back onto the table.
         look_around: when a survey leaves nothing to pick, look again from up to this
@@ -84,7 +89,7 @@ class ClearTableSettings(StrictModel):
     companion_reach_px: float = Field(20.0, ge=0.0)
     remembered_reach: float = Field(0.04, ge=0.0, le=0.3)
     survey_latency: float | None = Field(None, ge=0.0)
-    look_at_boxes: bool = False
+    look_at_boxes: bool = True
     box_view_height: float = Field(0.42, gt=0.1)
     pile_grasp: PileGraspSettings = Field(default_factory=PileGraspSettings)
     put_back: PutBackSettings = Field(default_factory=PutBackSettings)

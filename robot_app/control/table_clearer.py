@@ -19,8 +19,9 @@
      middle of both images), so a double pick is always put back;
    - after TRANSFER: the gripper still carries it (else it was dropped: the attempt ends,
      `Outcome.LOST`, and the next survey finds it again);
-   - after RELEASE: the box's inside, seen from the release pose, changed with the
-     cloth's colours since the last look (`box_check`);
+   - after RELEASE: the box's inside, seen from straight above it (the hand rises out
+     of the box first), changed with the cloth's colours since the last look
+     (`box_check`); the loop goes home from there;
 4. **re-survey** (the pile changed) and go on.
 
 The job acts on what the robot senses only; `ground_truth` (simulation) goes into the
@@ -38,7 +39,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
-from robot_app.control.box_check import BoxCheckSettings, BoxView, box_view
+from robot_app.control.box_check import BoxCheckSettings, BoxView, box_view, look_tcp
 from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import (
     BoxPlace,
@@ -289,7 +290,7 @@ class TableClearer:
             self.table_z,
             self._loop_settings(target.name),
             self.filter_settings,
-            on_phase=lambda record: self._loop_phase(record, attempt),
+            on_phase=lambda record: self._loop_phase(record, attempt, loop),
             on_step=lambda _cell, _capture: self._loop_step(loop, target.name),
             on_recognition=lambda cycle: self._loop_vision(cycle, attempt, loop),
             ground_truth=truth,
@@ -322,7 +323,7 @@ class TableClearer:
             check_found_in_place(record, attempt, self.settings.same_place)
             self._use_pile_grasp(loop, cycle.transform_model_to_world, attempt)
 
-    def _loop_phase(self, record: PhaseRecord, attempt: AttemptState) -> None:
+    def _loop_phase(self, record: PhaseRecord, attempt: AttemptState, loop: PickPlaceLoop) -> None:
         if self.on_phase is not None:
             self.on_phase(record, attempt.target.name)
         if record.phase == "lift" and record.note.startswith(LIFTED):
@@ -334,7 +335,7 @@ class TableClearer:
                 Outcome.LOST, f"{DROPPED} during the transfer: the gripper came empty over the box"
             )
         elif record.phase == "release":
-            self._after_release(attempt)
+            self._after_release(attempt, loop)
 
     # ------------------------------------------------------------------ looking around
     def _back_to_observation(self) -> None:
@@ -474,9 +475,18 @@ class TableClearer:
         self._wait(time.process_time() - cpu)
         return None if stayed else name
 
-    def _after_release(self, attempt: AttemptState) -> None:
+    def _after_release(self, attempt: AttemptState, loop: PickPlaceLoop) -> None:
+        """Looks into the box from above it (`box_check.look_tcp`, as `_look_at_boxes`: the
+        release pose's camera saw a quarter of the floor) and checks; the loop's HOME then
+        starts there. Out of reach: from the release pose, noted."""
         self._phase = "box check"
+        height = self.settings.box_view_height
+        try:
+            self.motion.move_tcp(look_tcp(attempt.box.centre, height, self._camera_offset()))
+        except IKError:
+            attempt.notes.append("box looked into from the release pose: the look above it is out of reach")
         capture = self.cell.capture()
+        loop.arm.resume_at(self.motion.q)
         recognizer = self.recognizers[attempt.target.name]
         check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings)
 
@@ -485,15 +495,7 @@ class TableClearer:
         camera_offset = self._camera_offset()
         for box in self.boxes.values():
             self._phase = f"look into {box.name}"
-            camera_height = self.table_z + self.settings.box_view_height
-            tcp = np.array(
-                [
-                    box.centre[0] - camera_offset[0],
-                    box.centre[1] - camera_offset[1],
-                    camera_height - camera_offset[2],
-                ]
-            )
-            self.motion.move_tcp(tcp)
+            self.motion.move_tcp(look_tcp(box.centre, self.settings.box_view_height, camera_offset))
             capture = self.cell.capture()
             view = box_view(capture, self.rig, box.centre, box.inner_size, self.box_settings)
             self._views[box.name] = (
