@@ -208,3 +208,45 @@ def test_an_absent_target_beside_its_hue_family_is_not_found() -> None:
     )
     result = Recognizer(model(AMBER_COFFEE), RIG).recognize(left, right, seed=0)
     assert not result.found and result.confidence < RecognitionSettings().decide.threshold
+
+
+def _ranking(verifications: list) -> np.ndarray:
+    settings = DecisionSettings()
+    evidence = [
+        Evidence(0.8, v.appearance, v.visible_fraction, v.interleaved, True, v.agreeing)
+        for v in verifications
+    ]
+    return np.array([confidence(settings, e) for e in evidence])
+
+
+def test_alignment_recovers_the_agreement_of_a_fine_print_seen_two_millimetres_off() -> None:
+    # the correlation of a fine print needs sub-millimetre alignment; the hue fitness does not
+    # place a covered cloth that well
+    cloth = extended_cloth(AMBER_CAT)
+    cover = occluder_covering(cloth, POSE, 0.45, 1.0, colour_bgr=OCCLUDER_COLOURS["grey"])
+    left, right = render_stereo_pair(
+        RIG, [(cloth, POSE)], occluder=cover, rng=np.random.default_rng(2), camera=DARK_TINTED
+    )
+    verifier = verifier_on(AMBER_CAT, left, right)
+    off = POSE @ make_transform(rotation_from_rpy(0.0, 0.0, np.deg2rad(1.0)), [0.002, -0.0015, 0.0])
+    truth, moved = verifier.verify(np.array([POSE, off]))
+    assert moved.agreeing < truth.agreeing - 0.3
+    aligned = verifier.aligned(off, moved, _ranking)
+    assert aligned.agreeing == pytest.approx(truth.agreeing, abs=0.05)
+    assert aligned.appearance == pytest.approx(truth.appearance, abs=0.05)
+    # at the truth itself the texture agrees well: nothing to search
+    assert verifier.aligned(POSE, truth, _ranking) is truth
+    off_limits = Verifier(model(AMBER_CAT), verifier.evaluator, RecognitionSettings().search,
+                          VerificationSettings(align_shift=0.0))  # fmt: skip
+    off_limits.update(left, right)
+    assert off_limits.aligned(off, moved, _ranking) is moved
+
+
+def test_a_plain_model_is_not_aligned() -> None:
+    # flat cells are compared by flatness and mean colour, which need no fine alignment;
+    # searching them would only fit a plain model better onto another cloth's patch
+    stripes = render_stereo_pair(RIG, [(extended_cloth(2), POSE)], rng=np.random.default_rng(4))
+    verifier = verifier_on(RED_PLAIN, *stripes)
+    other = verifier.verify(POSE)[0]
+    assert other.textured_share < 0.5 and other.agreeing < VerificationSettings().align_below
+    assert verifier.aligned(POSE, other, _ranking) is other

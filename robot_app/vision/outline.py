@@ -14,7 +14,6 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 import numpy.typing as npt
-from scipy.spatial import cKDTree
 
 from robot_app.arrays import FloatArray
 from robot_app.vision.camera import StereoRig
@@ -117,6 +116,8 @@ def _points_outline(points_xy: FloatArray) -> list[FloatArray]:
     """Boundary of sampled S_in points, half their spacing outside the outermost ones (a closing)."""
     if len(points_xy) < 3:
         return []
+    from scipy.spatial import cKDTree  # here, not at the top: scipy costs a batch run's start 0.4 s CPU
+
     spacing = float(np.median(cKDTree(points_xy).query(points_xy, k=2)[0][:, 1]))
     cell = min(FALLBACK_RESOLUTION, spacing / 2)
     low = points_xy.min(axis=0) - 2 * spacing

@@ -22,7 +22,10 @@ The recogniser composes the stages and holds no search logic of its own:
    without the model's size; a small depth offset is taken, and a pose whose plane is
    not the pair's is searched again on the stereo plane (`plane_search.search_in_plane`,
    its shortlist ranked by the decision);
-6. decide (`decide.decide`): `found` = confidence >= `decide.threshold`, the one
+6. align (`verify.Verifier.aligned`): where the texture agrees poorly at the final pose,
+   the verification looks for the best agreement within a few millimetres and degrees
+   (a fine-grained print needs sub-millimetre alignment; the pose is kept);
+7. decide (`decide.decide`): `found` = confidence >= `decide.threshold`, the one
    acceptance threshold.
 
 Multi-step recognition (`Recognizer.track`) proposes from the kept poses moved by the
@@ -329,6 +332,7 @@ class Recognizer:
         chosen, measurement = self._depth_checked(
             self._without_fold(self._most_confident(proposal.best, proposal.candidates, rng), rng)
         )
+        chosen = self._aligned(chosen)
         kept = self.proposer.kept_poses
         if kept is not None and chosen.pose is not proposal.best.transform_model_to_camera:
             self.proposer.keep(chosen.pose, kept)  # tracking goes on from the verified pose (a half turn?)
@@ -384,7 +388,7 @@ class Recognizer:
             ).transform_model_to_camera
         chosen = self._verified(pose, float(fitness(pose)[0]), self.verifier.verify(pose)[0])
         chosen, measurement = self._depth_checked(chosen)
-        return self._result(chosen, 0, before, start, (), measurement.offset)
+        return self._result(self._aligned(chosen), 0, before, start, (), measurement.offset)
 
     @_collector_paused
     def track(
@@ -422,7 +426,8 @@ class Recognizer:
         self._frames_since_verified += 1
         every = self.settings.propose.tracking.verify_every
         if self._last_verification is None or self._frames_since_verified >= every:
-            self._last_verification = self.verifier.verify(pose)[0]
+            verified = self._verified(pose, best.search_fitness, self.verifier.verify(pose)[0])
+            self._last_verification = self._aligned(verified).verification
             self._frames_since_verified = 0
         chosen = _Verified(pose, best.search_fitness, self._last_verification, 0.0)
         return self._result(chosen, count, before, start, (), float("nan"))
@@ -575,6 +580,19 @@ class Recognizer:
         moved_pose = moved(pose, [0.0, 0.0, offset, 0.0, 0.0, 0.0]) if offset else np.array(pose, dtype=float)
         search_fitness = float(self.proposer.fitness()(moved_pose)[0])
         return self._verified(moved_pose, search_fitness, self.verifier.verify(moved_pose)[0])
+
+    def _aligned(self, chosen: _Verified) -> _Verified:
+        """`chosen` with the evidence of the texture aligned near its pose (`Verifier.aligned`;
+        the pose and its search fitness kept)."""
+        pose, fitness = chosen.pose, chosen.search_fitness
+
+        def score(verifications: list[Verification]) -> FloatArray:
+            return np.array([self._verified(pose, fitness, v).score for v in verifications])
+
+        verification = self.verifier.aligned(pose, chosen.verification, score)
+        if verification is chosen.verification:
+            return chosen
+        return self._verified(pose, fitness, verification)
 
     def _verified(self, pose: FloatArray, search_fitness: float, verification: Verification) -> _Verified:
         score = logit(self.settings.decide, self._evidence(search_fitness, verification))
