@@ -169,8 +169,8 @@ class ServoStrategy:
         if problem is not None:
             self._end(to_rest=True)
             raise EpisodeAbortError(Outcome.UNREACHABLE, problem)
-        blind = s.min_working_distance - self.camera_above_tcp  # TCP above the cloth
-        hold = max(blind + HOLD_MARGIN, HOLD_CLEARANCE)
+        blind_height = s.min_working_distance - self.camera_above_tcp  # TCP above the cloth
+        hold = max(blind_height + HOLD_MARGIN, HOLD_CLEARANCE)
         start, seen, blind_from = now, 0, None
         records = self.tracker.recognitions
         doubt = DescentDoubt(records[-1].fitness if records else 0.0)

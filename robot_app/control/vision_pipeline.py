@@ -270,16 +270,18 @@ class VisionPipeline:
         if prediction is not None:  # the same frame at the predicted pose (one pose: ~0.1 ms)
             predicted = invert_transform(capture.transform_right_camera_to_world) @ prediction(capture.time)
             predicted_fitness = self._search_fitness(predicted, floor)
-        views = {}
+        view_fitness = view_search_fitness = math.nan
         if floor is not None:
             pose = recognition.transform_model_to_camera
-            in_view = KernelFitness(self.recognizer.evaluator, view_floor=floor)
-            views = {
-                "view_fitness": float(in_view(pose)[0]),
-                "view_search_fitness": self._search_fitness(pose, floor),
-            }
+            view_fitness = float(KernelFitness(self.recognizer.evaluator, view_floor=floor)(pose)[0])
+            view_search_fitness = self._search_fitness(pose, floor)
         result = self._result(capture, recognition, "track", start, time.perf_counter() - wall)
-        result = dataclasses.replace(result, predicted_fitness=predicted_fitness, **views)
+        result = dataclasses.replace(
+            result,
+            predicted_fitness=predicted_fitness,
+            view_fitness=view_fitness,
+            view_search_fitness=view_search_fitness,
+        )
         self.busy_until = result.available_time
         self._previous = capture
         return result
