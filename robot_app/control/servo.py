@@ -237,6 +237,7 @@ class ServoStrategy:
         off_belt = min(self.table_z + s.grasp_height + reach + s.lift_clearance, lift_z - 0.01)
         grasp_z = self._target_position(self.arm.cell.time)[2] - self._height.at(self.arm.cell.time)
         self._height_to(lift_z - grasp_z)
+        ended = ""  # why following ended before the cloth was off the belt
         while self.arm.tcp_position()[2] < off_belt:
             self._renew(online, fused=False)
             try:
@@ -244,11 +245,13 @@ class ServoStrategy:
             except EpisodeAbortError as abort:
                 if abort.outcome is not Outcome.IK_UNREACHABLE:
                     raise
-                break  # the belt would take the hand out of reach: up from here (the cloth hangs on)
+                ended = " (then out of reach)"  # up from here: the cloth hangs on
+                break
             except TrajectoryPlanningError as error:
                 if error.code != RESULT_POSITIONAL_LIMITS:
                     raise
-                break  # following on would carry a joint past its limit (the state did not advance)
+                ended = " (then a joint limit)"  # following on would pass it; the state did not advance
+                break
         now = self.arm.cell.time
         q, dq = self._lift_goal(lift_z)
         online.set_target(q, dq, synchronized=False)
@@ -256,7 +259,8 @@ class ServoStrategy:
             self.arm.step_online(online)
         self._end(to_rest=False)
         self.note = (
-            f"followed the belt for {now - self._height.start:.2f} s, up to {off_belt - self.table_z:.2f} m"
+            f"followed the belt for {now - self._height.start:.2f} s{ended}, "
+            f"toward {off_belt - self.table_z:.2f} m"
         )
 
     # ------------------------------------------------------------------ the target
