@@ -157,7 +157,7 @@ def test_latency_0_and_100_ms_both_succeed_at_25_mm_per_s(latency: float) -> Non
 def test_a_belt_that_stops_halfway(encoder: str) -> None:
     """The belt runs 2 s (the cloth is being approached), brakes at 0.5 m/s^2 and stands.
     With the conveyor's encoder (`loop.belt_encoder`) the filter knows the belt stopped.
-    Vision only, the cameras see the stop: they track down to 0.10 m from the cloth
+    Vision only, the cameras see the stop: they track down to 0.14 m from the cloth
     (`loop.min_working_distance`, the tracker scoring the model points in view), and the
     views after the stop do not confirm the prediction still running at 50 mm/s."""
     result = episode(
