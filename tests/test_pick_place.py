@@ -146,31 +146,20 @@ def test_latency_0_and_100_ms_both_succeed_at_25_mm_per_s(latency: float) -> Non
     assert min(ages) >= latency  # the camera's latency comes on top
 
 
-VISION_ONLY_STOP = pytest.mark.xfail(
-    strict=True,
-    reason="known gap (#16), vision only: placed, but the fingers close 36-49 mm from the "
-    "intended point (two runs) while still moving at the belt's 50 mm/s. The belt brakes at "
-    "2.2-2.33 s; the hand's cameras are then 0.16-0.14 m above the cloth (TCP 0.06-0.04 m, "
-    "descending). scripts/bench_close_range.py measures the tracker there at p95 15-18 mm "
-    "in-plane (No.7 alone: 5-9 mm max), against 3 mm down to 0.19 m, so "
-    "loop.min_working_distance is 0.19 m and the last frame is exposed at 2.11 s: no view of "
-    "the stop exists for any filter. A faster final descent shortens the blind time, not this "
-    "gap (the stop begins after the last usable frame). Needs a tracker that holds below "
-    "0.16 m on a partly seen cloth; with the belt's encoder (loop.belt_encoder) it passes",
-)
-
-
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "encoder",
     [
-        pytest.param("false", marks=VISION_ONLY_STOP, id="vision_only"),
+        pytest.param("false", id="vision_only"),
         pytest.param("true", id="belt_encoder"),
     ],
 )
 def test_a_belt_that_stops_halfway(encoder: str) -> None:
     """The belt runs 2 s (the cloth is being approached), brakes at 0.5 m/s^2 and stands.
-    With the conveyor's encoder (`loop.belt_encoder`) the filter knows the belt stopped."""
+    With the conveyor's encoder (`loop.belt_encoder`) the filter knows the belt stopped.
+    Vision only, the cameras see the stop: they track down to 0.14 m from the cloth
+    (`loop.min_working_distance`, the tracker scoring the model points in view), and the
+    views after the stop do not confirm the prediction still running at 50 mm/s."""
     result = episode(
         "seed=23", "scene.target=7", "scene.conveyor_speed=0.05", "scene.conveyor_direction_deg=120",
         "scene.conveyor_profile=stop_and_go", "scene.conveyor_run_time=2.0", "scene.conveyor_stop_time=60",

@@ -12,6 +12,7 @@ from __future__ import annotations
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from robot_app.control.cloth_tracker import ClothTracker
 from robot_app.control.descent_doubt import DescentDoubt, Verdict
@@ -19,6 +20,7 @@ from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.pose_filter import FilterUpdate, UpdateReason
 from robot_app.control.servo import ServoStrategy
 from robot_app.geometry import make_transform
+from robot_app.vision import RecognitionSettings
 from tests.fake_tracking import first_tracking_update
 from tests.test_look_alike import FakeCell, FakeRecognizer
 
@@ -101,3 +103,41 @@ def test_a_frame_exposed_too_close_neither_doubts_nor_clears() -> None:
     rejected = FilterUpdate(False, UpdateReason.MAHALANOBIS, 30.0, None)
     assert doubt.judge(rejected, 0.9) is Verdict.DOUBTED
     assert doubt.judge(too_close, 0.1) is Verdict.NONE and doubt.doubted == 1  # no second doubt
+
+
+def test_a_close_view_scored_over_the_points_in_view_prefers_the_true_pose() -> None:
+    """A cloth larger than the view, 0.10 m from the cameras: the search fitness's floor
+    (30 % of the model) and hidden penalty pay a pose 30 mm farther for fitting more of the
+    model into the view, so it beats the truth; scored over the points in view (the
+    tracking GA's `view_floor`), the truth matches fully and beats it and a 10 mm shift."""
+    from robot_app.geometry import rotation_about_z
+    from robot_app.vision import FitnessEvaluator, KernelFitness, TrackingSettings
+    from robot_app.vision.fitness_scores import FitnessSettings
+    from robot_app.vision.synthetic import render_stereo_pair
+    from robot_app.vision.synthetic_catalogue import synthetic_cloth
+    from tests.test_fitness import hand_model, make_rig
+
+    rig, model = make_rig(), hand_model(4)
+    truth = make_transform(rotation_about_z(0.4), [0.0, 0.0, 0.10])
+    left, right = render_stereo_pair(rig, [(synthetic_cloth(4), truth)], rng=np.random.default_rng(3))
+    search = RecognitionSettings().search
+    evaluator = FitnessEvaluator(model, rig, FitnessSettings(), search)
+    evaluator.update(left, right)
+    farther, shifted = truth.copy(), truth.copy()
+    farther[2, 3] += 0.03
+    shifted[0, 3] += 0.01
+    poses = np.stack([truth, farther, shifted])
+    floored = KernelFitness(evaluator, search=True)(poses)
+    assert floored[1] > floored[0]  # the farther pose wins: the drift of the close views
+    in_view = KernelFitness(evaluator, search=True, view_floor=TrackingSettings().view_floor)(poses)
+    assert in_view[0] > 0.99 and in_view[0] > max(in_view[1], in_view[2]) + 0.2
+
+
+@pytest.mark.parametrize("floor", [(0.0, 0.0), (1.5, 0.0), (0.05, -0.1)])
+def test_a_view_floor_out_of_range_is_refused(floor: tuple[float, float]) -> None:
+    from pydantic import ValidationError
+
+    from robot_app.vision import TrackingSettings
+
+    with pytest.raises(ValidationError):
+        TrackingSettings(view_floor=floor)

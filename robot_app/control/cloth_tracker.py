@@ -267,7 +267,7 @@ class ClothTracker:
                 update = FilterUpdate(False, UpdateReason.TOO_CLOSE, math.nan, self.filter.estimate)
             if update is None:
                 update = self.filter.update(
-                    pose, recognition.fitness, result.capture.time, trusted=bool(recognition.found)
+                    pose, result.fitness, result.capture.time, trusted=bool(recognition.found)
                 )
             self._record(result, update.accepted, str(update.reason), update.nis, pose)
             updates.append(update)
@@ -401,7 +401,7 @@ class ClothTracker:
             phase=self.phase(),
             mode=result.mode,
             found=bool(recognition.found),
-            fitness=float(recognition.fitness),
+            fitness=float(result.fitness),
             accepted=accepted,
             reason=reason,
             x=float(pose[0, 3]),

@@ -13,7 +13,9 @@ from the prediction whose frame the prediction explains as well: the tracker sli
 blue paper over a blue cloth, `look_alike`). A frame exposed closer than the working
 distance (not fused, `UpdateReason.TOO_CLOSE`) is not a view at all: it changes nothing.
 
-The servo holds the hand `HOLD_MARGIN` above the blind height while a doubt stands and
+The servo holds the hand `HOLD_MARGIN` above the blind height, and the TCP at least
+`HOLD_CLEARANCE` above the cloth (cameras that see down to the grasp height would
+otherwise hold the fingertips on a cloth they may be dragging), while a doubt stands and
 goes on down when a view confirms; `DOUBTED_VIEWS` in a row end DESCEND as lost (the loop
 looks again) instead of grasping where the cloth was.
 """
@@ -25,6 +27,7 @@ import enum
 from robot_app.control.pose_filter import FilterUpdate, UpdateReason
 
 HOLD_MARGIN = 0.01  # [m] above the height where the cameras go blind, DESCEND holds on a doubted view
+HOLD_CLEARANCE = 0.05  # [m] TCP above the cloth at least while a doubt stands: fingertips 4 cm clear
 DOUBT_DISTANCE = 0.012  # [m] a fused view this far from the prediction doubts it (3 sigma of a normal one)
 FITNESS_DROP = 0.5  # a poor view below this share of the previous view's fitness turned poor at once
 DOUBTED_VIEWS = 3  # recognitions in a row not fused on the way down: the cloth is not where predicted
@@ -92,4 +95,12 @@ def doubts(update: FilterUpdate, *, turned_poor: bool) -> bool:
     return update.reason not in NEUTRAL or turned_poor
 
 
-__all__ = ["DOUBTED_VIEWS", "DOUBT_DISTANCE", "FITNESS_DROP", "HOLD_MARGIN", "DescentDoubt", "Verdict"]
+__all__ = [
+    "DOUBTED_VIEWS",
+    "DOUBT_DISTANCE",
+    "FITNESS_DROP",
+    "HOLD_CLEARANCE",
+    "HOLD_MARGIN",
+    "DescentDoubt",
+    "Verdict",
+]

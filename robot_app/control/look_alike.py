@@ -30,7 +30,7 @@ def look_alike(pose_filter: PoseFilter, result: VisionResult, pose: FloatArray) 
     Args:
         pose_filter: the tracker's filter (its prediction at the result's exposure).
         result: the tracking result (`predicted_fitness` is its frame's search fitness at
-            the prediction).
+            the prediction, over the points in view as its `search_fitness`).
         pose: the result's 4x4 pose in Σ_W on the prediction's branch [m].
 
     Returns:
@@ -49,7 +49,7 @@ def look_alike(pose_filter: PoseFilter, result: VisionResult, pose: FloatArray) 
         return None
     predicted = pose_filter.estimate_at(max(t, estimate.time))
     distance = float(np.hypot(pose[0, 3] - predicted.x, pose[1, 3] - predicted.y))
-    near_as_good = result.predicted_fitness >= result.recognition.search_fitness - LOOK_ALIKE_MARGIN
+    near_as_good = result.predicted_fitness >= result.search_fitness - LOOK_ALIKE_MARGIN
     if distance < LOOK_ALIKE_DISTANCE or not near_as_good:
         return None
     return FilterUpdate(False, UpdateReason.LOOK_ALIKE, math.nan, estimate, distance)

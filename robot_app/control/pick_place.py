@@ -129,7 +129,14 @@ class PickPlaceLoop:
         self.arm = ArmMotion(
             cell, kinematics, limits, s, tcp_rotation, self.observation_joints, self._after_step
         )
-        pipeline = VisionPipeline(cell, recognizer, s.vision_rate_hz, s.vision_latency, s.track_generations)
+        pipeline = VisionPipeline(
+            cell,
+            recognizer,
+            s.vision_rate_hz,
+            s.vision_latency,
+            s.track_generations,
+            recognizer.settings.propose.tracking.view_floor,
+        )
         self.tracker = ClothTracker(
             cell,
             recognizer,

@@ -29,7 +29,8 @@ blind segment starts only on a prediction the views confirm (`descent_doubt`), a
 before moving down DESCEND checks that the predicted grasp point stays within the arm's
 reach until the hand is down (`descent_reach`; else outcome `unreachable`). The
 fingers close while the hand moves with the cloth; LIFT rises the same way and follows
-the belt until the hanging cloth is `lift_clearance` above it, then stops over it.
+the belt until the hanging cloth is `lift_clearance` above it (or until following on
+would take the hand out of reach or a joint past its limit), then stops over it.
 """
 
 from __future__ import annotations
@@ -40,13 +41,18 @@ from robot_app.arrays import FloatArray
 from robot_app.control.arm_motion import ArmMotion
 from robot_app.control.cell import StereoCapture
 from robot_app.control.cloth_tracker import ClothTracker
-from robot_app.control.descent_doubt import HOLD_MARGIN, DescentDoubt, Verdict
+from robot_app.control.descent_doubt import HOLD_CLEARANCE, HOLD_MARGIN, DescentDoubt, Verdict
 from robot_app.control.descent_reach import leaves_reach
 from robot_app.control.episode import EpisodeAbortError, Outcome
 from robot_app.control.height_profile import HeightProfile, cloth_surface, tcp_height, vertical_speed
 from robot_app.control.intercept import JointFollower, TrackFilter, hanging_reach
 from robot_app.control.loop_settings import LoopSettings
-from robot_app.control.trajectory import OnlineTrajectory, time_optimal_duration
+from robot_app.control.trajectory import (
+    RESULT_POSITIONAL_LIMITS,
+    OnlineTrajectory,
+    TrajectoryPlanningError,
+    time_optimal_duration,
+)
 
 CAMERA_FRAME = "camera_right_optical"
 TRACK_BANDWIDTH = 20.0  # [rad/s] of the smooth copy of the prediction: a step taken up in ~0.2 s
@@ -145,9 +151,10 @@ class ServoStrategy:
         """Tracks down to the grasp height (blind below the working distance); False if lost.
 
         A doubt (`descent_doubt`) holds the hand `HOLD_MARGIN` above the height where the
-        cameras go blind (rising back to it if it was already lower) until a recognition
-        confirms the prediction; a lost doubt run ends DESCEND as lost (the loop looks again)
-        instead of grasping where the cloth was.
+        cameras go blind, the TCP at least `HOLD_CLEARANCE` above the cloth (rising back to
+        it if it was already lower), until a recognition confirms the prediction; a lost
+        doubt run ends DESCEND as lost (the loop looks again) instead of grasping where the
+        cloth was.
 
         Raises:
             EpisodeAbortError: UNREACHABLE, before the hand moves down, when the predicted
@@ -162,7 +169,8 @@ class ServoStrategy:
         if problem is not None:
             self._end(to_rest=True)
             raise EpisodeAbortError(Outcome.UNREACHABLE, problem)
-        hold = s.min_working_distance - self.camera_above_tcp + HOLD_MARGIN  # TCP above the cloth
+        blind_height = s.min_working_distance - self.camera_above_tcp  # TCP above the cloth
+        hold = max(blind_height + HOLD_MARGIN, HOLD_CLEARANCE)
         start, seen, blind_from = now, 0, None
         records = self.tracker.recognitions
         doubt = DescentDoubt(records[-1].fitness if records else 0.0)
@@ -229,6 +237,7 @@ class ServoStrategy:
         off_belt = min(self.table_z + s.grasp_height + reach + s.lift_clearance, lift_z - 0.01)
         grasp_z = self._target_position(self.arm.cell.time)[2] - self._height.at(self.arm.cell.time)
         self._height_to(lift_z - grasp_z)
+        ended = ""  # why following ended before the cloth was off the belt
         while self.arm.tcp_position()[2] < off_belt:
             self._renew(online, fused=False)
             try:
@@ -236,7 +245,13 @@ class ServoStrategy:
             except EpisodeAbortError as abort:
                 if abort.outcome is not Outcome.IK_UNREACHABLE:
                     raise
-                break  # the belt would take the hand out of reach: up from here (the cloth hangs on)
+                ended = " (then out of reach)"  # up from here: the cloth hangs on
+                break
+            except TrajectoryPlanningError as error:
+                if error.code != RESULT_POSITIONAL_LIMITS:
+                    raise
+                ended = " (then a joint limit)"  # following on would pass it; the state did not advance
+                break
         now = self.arm.cell.time
         q, dq = self._lift_goal(lift_z)
         online.set_target(q, dq, synchronized=False)
@@ -244,7 +259,8 @@ class ServoStrategy:
             self.arm.step_online(online)
         self._end(to_rest=False)
         self.note = (
-            f"followed the belt for {now - self._height.start:.2f} s, up to {off_belt - self.table_z:.2f} m"
+            f"followed the belt for {now - self._height.start:.2f} s{ended}, "
+            f"toward {off_belt - self.table_z:.2f} m"
         )
 
     # ------------------------------------------------------------------ the target

@@ -29,7 +29,7 @@ import numpy as np
 from robot_app.arrays import FloatArray
 from robot_app.control.cell import Cell, StereoCapture
 from robot_app.geometry import invert_transform
-from robot_app.vision import Recognition, Recognizer, warm_up
+from robot_app.vision import KernelFitness, Recognition, Recognizer, warm_up
 
 # displacement of the cloth in Σ_W between two exposure times -> 4x4 (None: assume still)
 ClothMotion = Callable[[float, float], FloatArray | None]
@@ -51,7 +51,10 @@ class VisionResult:
         compute_s: wall time of the recognition [s].
         predicted_fitness: a tracking frame's search fitness, on the same frame, at the
             pose the loop predicted for its exposure (`poll(prediction=...)`), to weigh
-            against `recognition.search_fitness`; nan without a prediction.
+            against `search_fitness`; nan without a prediction.
+        view_fitness, view_search_fitness: a tracking frame's fitness and search fitness
+            at its pose over the model points in view (the tracking GA's normalisation,
+            `TrackingSettings.view_floor`); nan: the recognition's own.
     """
 
     capture: StereoCapture
@@ -62,6 +65,22 @@ class VisionResult:
     available_time: float
     compute_s: float
     predicted_fitness: float = math.nan
+    view_fitness: float = math.nan
+    view_search_fitness: float = math.nan
+
+    @property
+    def fitness(self) -> float:
+        """The fitness the loop judges the result by: over the points in view for a
+        tracking frame (a close view shows only part of the cloth, and the recognition's
+        own fitness counts the rest as missing), else the recognition's."""
+        return self.view_fitness if math.isfinite(self.view_fitness) else self.recognition.fitness
+
+    @property
+    def search_fitness(self) -> float:
+        """The search fitness at the result's pose, over the points in view for a tracking frame."""
+        if math.isfinite(self.view_search_fitness):
+            return self.view_search_fitness
+        return self.recognition.search_fitness
 
     @property
     def age(self) -> float:
@@ -79,6 +98,9 @@ class VisionPipeline:
         latency: recognition time in cell time [s]; None: the measured wall time (the
             kernels are then compiled first, `vision.warm_up`: no result pays for that).
         track_generations: GA generations per tracking frame (None: the recogniser's).
+        view_floor: the tracking GA's (min_view_fraction, hidden_penalty)
+            (`TrackingSettings.view_floor`): a tracking result is also scored over the model
+            points in view (`VisionResult.view_fitness`); None: by the recognition's own.
     """
 
     def __init__(
@@ -88,6 +110,7 @@ class VisionPipeline:
         rate_hz: float,
         latency: float | None = None,
         track_generations: int | None = None,
+        view_floor: tuple[float, float] | None = None,
     ) -> None:
         if rate_hz <= 0:
             raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
@@ -100,6 +123,7 @@ class VisionPipeline:
         self.period = 1.0 / rate_hz
         self.latency = latency
         self.track_generations = track_generations
+        self.view_floor = view_floor
         self.busy_until = -np.inf
         self.captures = 0
         self.skipped_triggers = 0
@@ -241,15 +265,34 @@ class VisionPipeline:
         recognition = self.recognizer.track(
             capture.left_bgr, capture.right_bgr, motion, generations=self.track_generations
         )
+        floor = self.view_floor
         predicted_fitness = math.nan
         if prediction is not None:  # the same frame at the predicted pose (one pose: ~0.1 ms)
             predicted = invert_transform(capture.transform_right_camera_to_world) @ prediction(capture.time)
-            predicted_fitness = float(self.recognizer.evaluator.evaluate(predicted, search=True)[0])
+            predicted_fitness = self._search_fitness(predicted, floor)
+        view_fitness = view_search_fitness = math.nan
+        if floor is not None:
+            pose = recognition.transform_model_to_camera
+            view_fitness = float(KernelFitness(self.recognizer.evaluator, view_floor=floor)(pose)[0])
+            view_search_fitness = self._search_fitness(pose, floor)
         result = self._result(capture, recognition, "track", start, time.perf_counter() - wall)
-        result = dataclasses.replace(result, predicted_fitness=predicted_fitness)
+        result = dataclasses.replace(
+            result,
+            predicted_fitness=predicted_fitness,
+            view_fitness=view_fitness,
+            view_search_fitness=view_search_fitness,
+        )
         self.busy_until = result.available_time
         self._previous = capture
         return result
+
+    def _search_fitness(self, pose: FloatArray, view_floor: tuple[float, float] | None) -> float:
+        """The search fitness of the pose ^CR T_M on the current pair, over the points in
+        view with `view_floor` (the tracking GA's normalisation), else the search's own."""
+        evaluator = self.recognizer.evaluator
+        if view_floor is None:
+            return float(evaluator.evaluate(pose, search=True)[0])
+        return float(KernelFitness(evaluator, search=True, view_floor=view_floor)(pose)[0])
 
     def _result(
         self, capture: StereoCapture, recognition: Recognition, mode: str, start: float, compute_s: float

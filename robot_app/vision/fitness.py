@@ -280,6 +280,9 @@ class KernelFitness:
         hidden: (N_in + N_out,) bool, points taken as hidden whatever they land on (a folded
             corner, `refinement.disagreeing_corner`): they score 0 and leave the divisor;
             only at stride 1. None: none.
+        view_floor: (min_view_fraction, hidden_penalty) in place of the parameters' own
+            (the tracking GA's, `TrackingSettings.view_floor`); only with "view"
+            normalisation. None: the parameters' own.
     """
 
     def __init__(
@@ -291,6 +294,7 @@ class KernelFitness:
         subpixel: bool = False,
         avoid: AvoidedPoses | None = None,
         hidden: npt.NDArray[np.bool_] | None = None,
+        view_floor: tuple[float, float] | None = None,
     ) -> None:
         if stride < 1:
             raise ValueError(f"stride must be a positive integer, got {stride}")
@@ -302,11 +306,12 @@ class KernelFitness:
         self.search = search
         self.subpixel = subpixel
         self.avoid = avoid if avoid is not None else AvoidedPoses.none()
+        self.view_floor = view_floor
 
     def __call__(self, transforms_model_to_right: npt.ArrayLike) -> FloatArray:
         """(P,) normalised fitness of (P, 4, 4) poses (see `FitnessEvaluator.evaluate`), -1
         where avoided."""
-        if self.hidden is None:
+        if self.hidden is None and self.view_floor is None:
             scores = self.evaluator.evaluate(
                 transforms_model_to_right, stride=self.stride, subpixel=self.subpixel, search=self.search
             )
@@ -325,6 +330,8 @@ class KernelFitness:
         `hidden` points get weight 0 and count as never seen (the divisor's full maximum
         keeps them, so hiding them costs `hidden_penalty` alike at every pose)."""
         arguments, normalisation = self.evaluator.kernel_arguments(stride=self.stride, search=self.search)
+        if self.view_floor is not None:
+            normalisation = (normalisation[0], normalisation[1], *self.view_floor)
         if self.hidden is None:
             return arguments, normalisation
         keep = (~self.hidden).astype(np.float32)

@@ -181,11 +181,21 @@ class Proposer:
         self._poses = np.concatenate([as_poses(best), as_poses(others)])[:count]
 
     def fitness(
-        self, stride: int = 1, subpixel: bool = False, centres: npt.ArrayLike | None = None
+        self,
+        stride: int = 1,
+        subpixel: bool = False,
+        centres: npt.ArrayLike | None = None,
+        view_floor: tuple[float, float] | None = None,
     ) -> KernelFitness:
-        """The search fitness; poses near `centres` (x, y, yaw; yaw NaN: any) score -1."""
+        """The search fitness; poses near `centres` (x, y, yaw; yaw NaN: any) score -1;
+        `view_floor`: the normalisation's (min_view_fraction, hidden_penalty) if not None."""
         return KernelFitness(
-            self.evaluator, stride=stride, search=True, subpixel=subpixel, avoid=self._avoided(centres)
+            self.evaluator,
+            stride=stride,
+            search=True,
+            subpixel=subpixel,
+            avoid=self._avoided(centres),
+            view_floor=view_floor,
         )
 
     def limits(self, bounds: SearchBoundsSettings | None = None) -> PoseLimits:
@@ -256,13 +266,13 @@ class Proposer:
         poses = poses[near]  # the kept poses near the predicted one (a half turn may be among them)
         ga = GeneticAlgorithm(window, t.ga, self.rng)
         ga.seed(np.concatenate([poses, np.repeat(poses[-1:], t.ga.population - len(poses), axis=0)]))
-        ga.evolve(self.fitness(s.fine_stride), count)
+        ga.evolve(self.fitness(s.fine_stride, view_floor=t.view_floor), count)
         ranked = ga.ranked_poses(t.ga.population)
         inside = _yaw_offsets(ranked, poses[0]) <= np.deg2rad(t.yaw_window_deg)
         pose = ranked[int(np.argmax(inside))] if inside.any() else poses[0]
         r = self.refiner.settings
         if r.enabled and r.in_tracking:
-            fine = self.fitness(subpixel=r.subpixel)
+            fine = self.fitness(subpixel=r.subpixel, view_floor=t.view_floor)
             pose = self.refiner.climb(
                 pose, fine, r.tracking_iterations, self.limits(window)
             ).transform_model_to_camera
