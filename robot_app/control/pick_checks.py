@@ -30,7 +30,7 @@ DROPPED = "dropped"  # in a LOST reason: the gripper came empty over the box
 class AttemptState:
     """What the job knows during one loop run."""
 
-    target: Detection
+    target: Detection | None  # None: a lost cloth picked blind (`table_lost`)
     box: BoxPlace
     transform_target_to_world: FloatArray
     start_time: float
@@ -48,6 +48,12 @@ class AttemptState:
     box_check: BoxCheck | None = None
     check_wall_s: float = 0.0
     notes: list[str] = field(default_factory=list)
+    lost_name: str = ""  # the cloth meant, without a detection
+
+    @property
+    def name(self) -> str:
+        """The cloth meant."""
+        return self.target.name if self.target is not None else self.lost_name
 
 
 def weight_verdict(

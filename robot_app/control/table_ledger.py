@@ -34,6 +34,8 @@ class TableLedger:
         last_seen: cloth name -> (x, y) in Σ_W where the last survey saw it [m].
         last_pose: cloth name -> (4, 4) its pose in Σ_W where the last survey saw it [m].
         last_survey: cloth name -> the number (from 1) of the last survey that saw it.
+        lost: cloth name -> how the job lost it (dropped in a transfer, laid back after
+            a lift), for the cloths no survey recognised since and not placed since.
     """
 
     def __init__(self) -> None:
@@ -45,6 +47,7 @@ class TableLedger:
         self.last_seen: dict[str, FloatArray] = {}
         self.last_pose: dict[str, FloatArray] = {}
         self.last_survey: dict[str, int] = {}
+        self.lost: dict[str, str] = {}
 
     def untried(self, name: str, max_attempts: int) -> bool:
         """Has `name` attempts left?"""
@@ -72,6 +75,7 @@ class TableLedger:
             self.last_seen[d.name] = pose[:2, 3].copy()
             self.last_pose[d.name] = pose.copy()
             self.last_survey[d.name] = len(self.surveys) + 1
+            self.lost.pop(d.name, None)  # recognised again
             self.records.setdefault(d.name, _new_entry())
         record = SurveyRecord(
             capture.time,
@@ -89,8 +93,8 @@ class TableLedger:
         self, attempt: AttemptState, result: EpisodeResult, end_time: float, expected_weight: float | None
     ) -> None:
         """Books a finished loop run (ended at cell time `end_time` [s])."""
-        target, box = attempt.target, attempt.box
-        entry = self.records.setdefault(target.name, _new_entry())
+        name, box = attempt.name, attempt.box
+        entry = self.records.setdefault(name, _new_entry())
         entry["attempts"] = int(entry["attempts"]) + 1  # type: ignore[call-overload]
         entry["sim_time"] = float(entry["sim_time"]) + (end_time - attempt.start_time)  # type: ignore[arg-type]
         notes: list[str] = entry["notes"]  # type: ignore[assignment]
@@ -103,7 +107,7 @@ class TableLedger:
             entry["misses"] = int(entry.get("misses", 0)) + 1  # type: ignore[call-overload]
         self.attempts.append(
             PickAttempt(
-                target.name,
+                name,
                 box.name,
                 attempt.start_time,
                 end_time,
@@ -120,19 +124,22 @@ class TableLedger:
                 attempt.remembered,
             )
         )
+        if attempt.dropped or attempt.put_back:
+            self.lost[name] = "dropped in transfer" if attempt.dropped else "put back after the lift"
         if result.outcome is Outcome.PLACED:
             confirmed = attempt.box_check is not None and attempt.box_check.confirmed
-            self.placed(target.name, confirmed)
+            self.placed(name, confirmed)
             for name in attempt.came_along:  # placed too, but looked for again until seen gone
                 self.placed(name, False)
                 other: list[str] = self.records[name]["notes"]  # type: ignore[assignment]
                 source = "; its identity from memory, not from vision" if name in attempt.remembered else ""
-                other.append(f"placed with {target.name}, lifted with it{source}")
+                other.append(f"placed with {name}, lifted with it{source}")
 
     def placed(self, name: str, confirmed: bool) -> None:
         """Books `name` released over its box (`confirmed`: seen there)."""
         entry = self.records.setdefault(name, _new_entry())
         entry["confirmed"] = confirmed
+        self.lost.pop(name, None)
         if name not in self.placed_order:
             self.placed_order.append(name)
         if confirmed:

@@ -1,0 +1,82 @@
+"""A cloth the clear-table job lost (dropped, laid back) is matched to an unknown region by
+its colours only when exactly one lost cloth's colours fit. Synthetic pair (numpy renderer)
+with the identification resolved at set poses, as in test_identify."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from robot_app.control.clear_table_records import LostSettings
+from robot_app.control.table_lost import inner_pixel, match_lost
+from robot_app.geometry import make_transform, rotation_about_z
+from robot_app.vision import ModelCamera, PinholeCamera, Recognition, Recognizer, StereoRig, make_model
+from robot_app.vision.identify import IdentifySettings, resolve
+from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
+
+CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
+RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
+STATION = ModelCamera(PinholeCamera.from_fov((480, 360), np.deg2rad(48)), 0.40)
+YELLOW = make_transform(rotation_about_z(0.3), [-0.06, -0.02, 0.585])
+VIOLET = make_transform(rotation_about_z(0.1), [0.12, 0.06, 0.585])  # recognised by no model
+
+
+def _recognizer(index: int, name: str) -> Recognizer:
+    photo, background = render_model_photo(synthetic_cloth(index), STATION, rng=np.random.default_rng(index))
+    return Recognizer(make_model(photo, STATION, background, name=name), RIG)
+
+
+@pytest.fixture(scope="module")
+def survey():
+    left, right = render_stereo_pair(
+        RIG, [(synthetic_cloth(1), YELLOW), (synthetic_cloth(9), VIOLET)], rng=np.random.default_rng(5)
+    )
+    recognizers = {
+        "yellow": _recognizer(1, "yellow"),
+        "violet": _recognizer(9, "violet"),
+        "stripes": _recognizer(2, "stripes"),
+    }
+    seen = Recognition(True, 0.9, YELLOW, 0, 0, 0.0, confidence=0.95, visible_fraction=1.0)
+    ident = resolve({"yellow": recognizers["yellow"]}, {"yellow": seen}, right, IdentifySettings())
+    capture = SimpleNamespace(left_bgr=left, right_bgr=right)
+    return recognizers, ident, capture
+
+
+def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
+    recognizers, ident, capture = survey
+    assert [d.name for d in ident.detections] == ["yellow"] and len(ident.unknown) == 1
+    region = ident.unknown[0]
+    settings = LostSettings()
+    # the violet cloth was lost: the region shows its colours
+    lost = {name: recognizers[name] for name in ("violet", "stripes")}
+    matched = match_lost(capture, ident.unknown, lost, settings)
+    assert matched is not None and matched[0] == "violet" and matched[1] is region
+    assert matched[2] >= settings.min_share
+    # only the stripes were lost: the region is not theirs, it is left alone
+    assert match_lost(capture, ident.unknown, {"stripes": recognizers["stripes"]}, settings) is None
+    # two lost cloths of the same colours: which one it is cannot be told, neither is picked
+    twin = _recognizer(9, "violet twin")
+    twins = {"violet": recognizers["violet"], "twin": twin}
+    assert match_lost(capture, ident.unknown, twins, settings) is None
+    assert match_lost(capture, ident.unknown, {}, settings) is None
+    # the grasp pixel lies inside the region, where the violet cloth is
+    u, v = inner_pixel(region.mask)
+    assert region.mask[round(v), round(u)]
+    cu, cv = CAMERA.project(VIOLET[:3, 3][None])[0]
+    assert np.hypot(u - cu, v - cv) < 25
+
+
+def test_inner_pixel_lies_deep_inside_a_region_that_is_not_convex() -> None:
+    mask = np.zeros((40, 60), bool)
+    mask[5:35, 10:20] = True  # an L, 10 px wide: its centroid (17, 26) is near the bend's edge
+    mask[25:35, 10:55] = True
+    u, v = inner_pixel(mask)
+    ui, vi = round(u), round(v)
+    assert mask[vi - 4 : vi + 5, ui - 4 : ui + 5].all()  # 4 px from every border
+    touching = np.zeros((10, 10), bool)
+    touching[:, :4] = True  # a region at the image's edge: the edge is a border too
+    u, v = inner_pixel(touching)
+    assert 1 <= round(u) <= 2
