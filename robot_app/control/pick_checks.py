@@ -41,6 +41,7 @@ class AttemptState:
     obstacles_xy: FloatArray | None = None  # (M, 2) the other cloths the survey saw [m]
     came_along: tuple[str, ...] = ()
     remembered: tuple[str, ...] = ()  # of `came_along`, those known from an earlier survey only
+    laid_back_too: tuple[str, ...] = ()  # known cloths that came along and were put back with it
     lift_check: str = ""
     weighed: float | None = None
     put_back: bool = False

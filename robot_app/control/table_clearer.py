@@ -446,6 +446,7 @@ class TableClearer:
                 return
             if other is not None:
                 attempt.notes.append(f"double pick: {other} came along{source}, belongs in another box")
+                attempt.laid_back_too = (other,)
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
         self._phase = "put back"
         model = self.recognizers[name].model

@@ -126,13 +126,16 @@ class TableLedger:
         )
         if attempt.dropped or attempt.put_back:
             self.lost[name] = "dropped in transfer" if attempt.dropped else "put back after the lift"
+        for companion in attempt.laid_back_too if attempt.put_back else ():
+            self.lost.setdefault(companion, f"put back with {name}, lifted with it")
         if result.outcome is Outcome.PLACED:
             confirmed = attempt.box_check is not None and attempt.box_check.confirmed
             self.placed(name, confirmed)
-            for name in attempt.came_along:  # placed too, but looked for again until seen gone
-                self.placed(name, False)
-                other: list[str] = self.records[name]["notes"]  # type: ignore[assignment]
-                source = "; its identity from memory, not from vision" if name in attempt.remembered else ""
+            for companion in attempt.came_along:  # placed too, but looked for again until seen gone
+                self.placed(companion, False)
+                other: list[str] = self.records[companion]["notes"]  # type: ignore[assignment]
+                remembered = companion in attempt.remembered
+                source = "; its identity from memory, not from vision" if remembered else ""
                 other.append(f"placed with {name}, lifted with it{source}")
 
     def placed(self, name: str, confirmed: bool) -> None:
