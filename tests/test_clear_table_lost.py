@@ -9,8 +9,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from robot_app.control.clear_table_records import LostSettings
-from robot_app.control.table_lost import inner_pixel, match_lost
+from robot_app.control.clear_table_records import LostPlace, LostSettings
+from robot_app.control.table_lost import inner_pixel, match_lost, near_the_loss
 from robot_app.geometry import make_transform, rotation_about_z
 from robot_app.vision import ModelCamera, PinholeCamera, Recognition, Recognizer, StereoRig, make_model
 from robot_app.vision.identify import IdentifySettings, resolve
@@ -50,18 +50,27 @@ def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
     assert [d.name for d in ident.detections] == ["yellow"] and len(ident.unknown) == 1
     region = ident.unknown[0]
     settings = LostSettings()
+    centres = [np.array([0.6, 0.1])]  # the region's centre on the table (no place given: anywhere)
+
+    def match(lost: dict[str, Recognizer], places: dict[str, LostPlace] | None = None):
+        return match_lost(capture, ident.unknown, centres, lost, places or {}, settings)
+
     # the violet cloth was lost: the region shows its colours
-    lost = {name: recognizers[name] for name in ("violet", "stripes")}
-    matched = match_lost(capture, ident.unknown, lost, settings)
+    matched = match({name: recognizers[name] for name in ("violet", "stripes")})
     assert matched is not None and matched[0] == "violet" and matched[1] is region
     assert matched[2] >= settings.min_share
     # only the stripes were lost: the region is not theirs, it is left alone
-    assert match_lost(capture, ident.unknown, {"stripes": recognizers["stripes"]}, settings) is None
+    assert match({"stripes": recognizers["stripes"]}) is None
     # two lost cloths of the same colours: which one it is cannot be told, neither is picked
-    twin = _recognizer(9, "violet twin")
-    twins = {"violet": recognizers["violet"], "twin": twin}
-    assert match_lost(capture, ident.unknown, twins, settings) is None
-    assert match_lost(capture, ident.unknown, {}, settings) is None
+    assert match({"violet": recognizers["violet"], "twin": _recognizer(9, "violet twin")}) is None
+    assert match({}) is None
+    # where it was lost matters: far from the way it went, or where a region lay before, no
+    here = LostPlace("dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ())
+    assert match({"violet": recognizers["violet"]}, {"violet": here}) is not None
+    far = LostPlace("dropped in transfer", np.array([0.5, -0.2]), np.array([0.3, -0.56]), ())
+    assert match({"violet": recognizers["violet"]}, {"violet": far}) is None
+    there_before = LostPlace("put back", np.array([0.5, 0.0]), np.array([0.6, 0.0]), ((0.61, 0.12),))
+    assert match({"violet": recognizers["violet"]}, {"violet": there_before}) is None
     # the grasp pixel lies inside the region, where the violet cloth is
     u, v = inner_pixel(region.mask)
     assert region.mask[round(v), round(u)]
@@ -80,3 +89,15 @@ def test_inner_pixel_lies_deep_inside_a_region_that_is_not_convex() -> None:
     touching[:, :4] = True  # a region at the image's edge: the edge is a border too
     u, v = inner_pixel(touching)
     assert 1 <= round(u) <= 2
+
+
+def test_a_lost_cloth_is_looked_for_along_the_way_it_was_lost() -> None:
+    settings = LostSettings(reach=0.3, apart=0.05)
+    drop = LostPlace("dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ((0.45, 0.2),))
+    assert near_the_loss(np.array([0.5, 0.0]), drop, settings)  # where it was lifted
+    assert near_the_loss(np.array([0.55, -0.4]), drop, settings)  # beside the way to the box
+    assert not near_the_loss(np.array([0.5, 0.45]), drop, settings)  # the other side of the table
+    assert not near_the_loss(np.array([0.46, 0.21]), drop, settings)  # an unknown region was there before
+    spot = LostPlace("put back", np.array([0.5, 0.0]), np.array([0.5, 0.0]), ())  # let go where lifted
+    assert near_the_loss(np.array([0.7, 0.1]), spot, settings)
+    assert not near_the_loss(np.array([0.9, 0.0]), spot, settings)

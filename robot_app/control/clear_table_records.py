@@ -27,12 +27,36 @@ class LostSettings(StrictModel):
         grasp_height: TCP above the table when the fingers close on the region: a
             crumpled cloth stands higher than a flat one, and a cloth under it weighs
             the lift up (laid back) [m].
+        reach: the region's centre must lie this close to the way the cloth was lost (the
+            segment from where it was lifted to the box for a drop, to where it was let go
+            for a put-back) [m].
+        apart: ... and farther than this from every unknown region the survey before the
+            loss saw (what was there then is not the lost cloth) [m].
     """
 
     enabled: bool = True
     min_share: float = Field(0.6, gt=0.0, le=1.0)
     margin: float = Field(0.2, ge=0.0, le=1.0)
     grasp_height: float = Field(0.025, ge=0.02, le=0.08)
+    reach: float = Field(0.3, gt=0.0)
+    apart: float = Field(0.05, ge=0.0)
+
+
+@dataclass(frozen=True)
+class LostPlace:
+    """How and where the job lost a cloth.
+
+    Attributes:
+        how: "dropped in transfer", "put back after the lift", ...
+        start, end: (2,) the way it went [m]: lifted at `start`, lost on the way to `end`
+            (the box for a drop, the spot let go at for a put-back).
+        before: (x, y) [m] of the unknown regions of the survey before the loss.
+    """
+
+    how: str
+    start: FloatArray
+    end: FloatArray
+    before: tuple[tuple[float, float], ...]
 
 
 class ClearTableSettings(StrictModel):
@@ -282,6 +306,7 @@ __all__ = [
     "ClearTableSettings",
     "ClothOutcome",
     "ClothRecord",
+    "LostPlace",
     "LostSettings",
     "PickAttempt",
     "SurveyRecord",

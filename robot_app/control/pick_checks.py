@@ -42,6 +42,7 @@ class AttemptState:
     came_along: tuple[str, ...] = ()
     remembered: tuple[str, ...] = ()  # of `came_along`, those known from an earlier survey only
     laid_back_too: tuple[str, ...] = ()  # known cloths that came along and were put back with it
+    put_back_at: FloatArray | None = None  # (2,) where a put-back let go [m]
     lift_check: str = ""
     weighed: float | None = None
     put_back: bool = False

@@ -354,7 +354,9 @@ class TableClearer:
             for name in self.ledger.lost
             if name not in seen and self.ledger.untried(name, self.settings.max_attempts)
         }
-        return match_lost(self._survey_capture, ident.unknown, lost, self.settings.lost)
+        places = {name: self.ledger.lost[name] for name in lost}
+        centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in ident.unknown]
+        return match_lost(self._survey_capture, ident.unknown, centres, lost, places, self.settings.lost)
 
     # ------------------------------------------------------------------ looking around
     def _back_to_observation(self) -> None:
@@ -454,6 +456,7 @@ class TableClearer:
             self._survey_capture, model, attempt.grasp_point_model, attempt.obstacles_xy, attempt.notes
         )
         attempt.put_back = True
+        attempt.put_back_at = self.recovery.put_back_spots[-1].copy()
         if heavier and self.settings.hidden_cloth_radius > 0:
             # the other cloth hung from the same fingers: it lies under the spot let go at,
             # where no survey may see it (the meant cloth covers it again)

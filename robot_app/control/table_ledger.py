@@ -9,7 +9,13 @@ from collections.abc import Callable
 
 from robot_app.arrays import FloatArray
 from robot_app.control.cell import StereoCapture
-from robot_app.control.clear_table_records import ClothOutcome, ClothRecord, PickAttempt, SurveyRecord
+from robot_app.control.clear_table_records import (
+    ClothOutcome,
+    ClothRecord,
+    LostPlace,
+    PickAttempt,
+    SurveyRecord,
+)
 from robot_app.control.episode import EpisodeResult, Outcome
 from robot_app.control.pick_checks import AttemptState
 from robot_app.control.table_survey import TablePlane, to_world
@@ -34,8 +40,9 @@ class TableLedger:
         last_seen: cloth name -> (x, y) in Σ_W where the last survey saw it [m].
         last_pose: cloth name -> (4, 4) its pose in Σ_W where the last survey saw it [m].
         last_survey: cloth name -> the number (from 1) of the last survey that saw it.
-        lost: cloth name -> how the job lost it (dropped in a transfer, laid back after
-            a lift), for the cloths no survey recognised since and not placed since.
+        lost: cloth name -> how and where the job lost it (dropped in a transfer, laid
+            back after a lift), for the cloths no survey recognised since and not placed
+            since.
     """
 
     def __init__(self) -> None:
@@ -47,7 +54,7 @@ class TableLedger:
         self.last_seen: dict[str, FloatArray] = {}
         self.last_pose: dict[str, FloatArray] = {}
         self.last_survey: dict[str, int] = {}
-        self.lost: dict[str, str] = {}
+        self.lost: dict[str, LostPlace] = {}
 
     def untried(self, name: str, max_attempts: int) -> bool:
         """Has `name` attempts left?"""
@@ -125,9 +132,17 @@ class TableLedger:
             )
         )
         if attempt.dropped or attempt.put_back:
-            self.lost[name] = "dropped in transfer" if attempt.dropped else "put back after the lift"
-        for companion in attempt.laid_back_too if attempt.put_back else ():
-            self.lost.setdefault(companion, f"put back with {name}, lifted with it")
+            start = attempt.transform_target_to_world[:2, 3].copy()
+            end = (
+                box.centre[:2].copy()
+                if attempt.dropped or attempt.put_back_at is None
+                else attempt.put_back_at
+            )
+            before = self.surveys[-1].unknown if self.surveys else ()
+            how = "dropped in transfer" if attempt.dropped else "put back after the lift"
+            self.lost[name] = LostPlace(how, start, end, before)
+            for companion in attempt.laid_back_too if attempt.put_back else ():
+                self.lost.setdefault(companion, LostPlace(f"put back with {name}", start, end, before))
         if result.outcome is Outcome.PLACED:
             confirmed = attempt.box_check is not None and attempt.box_check.confirmed
             self.placed(name, confirmed)

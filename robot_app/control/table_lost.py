@@ -29,9 +29,10 @@ from typing import TYPE_CHECKING
 import cv2
 import numpy as np
 
+from robot_app.arrays import FloatArray
 from robot_app.control.box_check import look_tcp
 from robot_app.control.cell import StereoCapture
-from robot_app.control.clear_table_records import LostSettings
+from robot_app.control.clear_table_records import LostPlace, LostSettings
 from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
 from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, check_release, weight_verdict
@@ -67,22 +68,41 @@ def colour_shares(
     return shares
 
 
+def near_the_loss(centre_xy: FloatArray, place: LostPlace, settings: LostSettings) -> bool:
+    """Could a region centred at `centre_xy` [m] be the cloth lost at `place`: within
+    `reach` of the way it was lost, and not where an unknown region lay before the loss
+    (`apart`)?"""
+    centre = np.asarray(centre_xy, dtype=float).reshape(2)
+    a, b = np.asarray(place.start, dtype=float), np.asarray(place.end, dtype=float)
+    span = b - a
+    t = float(np.clip((centre - a) @ span / max(float(span @ span), 1e-12), 0.0, 1.0))
+    if float(np.hypot(*(centre - (a + t * span)))) > settings.reach:
+        return False
+    return all(float(np.hypot(*(centre - np.asarray(xy)))) > settings.apart for xy in place.before)
+
+
 def match_lost(
     capture: StereoCapture,
     regions: tuple[UnknownRegion, ...],
+    centres: list[FloatArray],
     lost: Mapping[str, Recognizer],
+    places: Mapping[str, LostPlace],
     settings: LostSettings,
 ) -> tuple[str, UnknownRegion, float] | None:
     """The first region (largest first) whose colours are one lost cloth's (`min_share`,
-    ahead of every other lost cloth by `margin`): (name, region, share), or None."""
+    ahead of every other lost cloth by `margin`) and which lies where that cloth may be
+    (`near_the_loss`; `centres`: each region's centre on the table [m], `places`: where
+    each cloth was lost, none: anywhere): (name, region, share), or None."""
     if not lost:
         return None
-    for region in regions:
+    for region, centre in zip(regions, centres, strict=True):
         shares = colour_shares(capture, region, lost)
         ranked = sorted(shares.items(), key=lambda item: -item[1])
         name, best = ranked[0]
         runner_up = ranked[1][1] if len(ranked) > 1 else 0.0
-        if best >= settings.min_share and best - runner_up >= settings.margin:
+        if best < settings.min_share or best - runner_up < settings.margin:
+            continue
+        if name not in places or near_the_loss(centre, places[name], settings):
             return name, region, best
     return None
 
@@ -104,9 +124,11 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
     capture = job._survey_capture
     box = job.boxes[job.sort.box_for(name)]
     x, y = job.table.point(capture, inner_pixel(region.mask))
-    attempt = AttemptState(None, box, np.eye(4), job.cell.time, lost_name=name)
+    where = np.eye(4)
+    where[:3, 3] = (x, y, table_z)
+    attempt = AttemptState(None, box, where, job.cell.time, lost_name=name)
     attempt.notes.append(
-        f"lost ({job.ledger.lost[name]}), not recognised since: picked blind at ({x:.2f}, {y:.2f}), "
+        f"lost ({job.ledger.lost[name].how}), not recognised since: picked blind at ({x:.2f}, {y:.2f}), "
         f"an unknown region {share:.0%} in its colours"
     )
     wall = time.perf_counter()
@@ -156,6 +178,7 @@ def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome
         model = job.recognizers[name].model
         job.recovery.put_back(job._survey_capture, model, None, None, attempt.notes)
         attempt.put_back = True
+        attempt.put_back_at = job.recovery.put_back_spots[-1].copy()
         return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
     start = job.cell.time
     job._phase = "transfer"
@@ -219,4 +242,4 @@ def _result(
     )
 
 
-__all__ = ["colour_shares", "inner_pixel", "match_lost", "pick_lost"]
+__all__ = ["colour_shares", "inner_pixel", "match_lost", "near_the_loss", "pick_lost"]
