@@ -355,6 +355,12 @@ class TableClearer:
             if name not in seen and self.ledger.untried(name, self.settings.max_attempts)
         }
         places = {name: self.ledger.lost[name] for name in lost}
+        if self.ledger.unnamed:
+            # a cloth that came up with a double pick and was never identified: one of the
+            # known cloths no survey has seen, laid back where that pick let go
+            for name in self.recognizers:
+                if name not in self.ledger.records and name not in seen:
+                    lost[name], places[name] = self.recognizers[name], self.ledger.unnamed[-1]
         centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in ident.unknown]
         return match_lost(self._survey_capture, ident.unknown, centres, lost, places, self.settings.lost)
 
@@ -449,6 +455,8 @@ class TableClearer:
             if other is not None:
                 attempt.notes.append(f"double pick: {other} came along{source}, belongs in another box")
                 attempt.laid_back_too = (other,)
+            else:
+                attempt.unnamed_along = True
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
         self._phase = "put back"
         model = self.recognizers[name].model

@@ -12,10 +12,20 @@ unknown region is not a guess about an unknown table when:
 2. once lifted (fingers closed at `grasp_height` over the region's innermost pixel), the
    wrist's load cell reads that cloth's weight (`weight_verdict`, as every lift); a
    lighter or heavier lift is laid back, as every rejected lift;
-3. after the release, the box check sees the box change with its colours (as every pick).
+3. after the release, the box check sees the box change with its colours (as every pick);
 
-A cloth the job never saw is never picked this way (it is not lost), so an unknown cloth
-is still left alone. `pick_lost` does the moves (the job's own, `JobMotion`), with the
+and the region lies where the cloth can be: within `reach` of the way it was lost (from
+where it was lifted to the box for a drop, to where it was let go for a put-back) and not
+where an unknown region lay before the loss (`near_the_loss`).
+
+The other cloth of a double pick that no survey identified (hidden under the target) was
+laid back with it: the job knows its weight (the load cell's excess) and where it went,
+not its name. Its candidates are the known cloths no survey has seen, each held to the
+same three tests against all the others (`margin` over every one of them). A cloth the
+job never lifted, such as an unknown cloth lying apart, is never picked this way; an
+unknown cloth that came up with a double pick could be taken for a known one if its
+colours and weight were one known cloth's alone (not measured: the bench's cloths are
+all known). `pick_lost` does the moves (the job's own, `JobMotion`), with the
 loop's phase names ("grasp", "lift", "transfer", "release") reported to the job's
 callbacks, so that a witness of the lifts (simulation) sees them as every other lift.
 """
@@ -124,11 +134,14 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
     capture = job._survey_capture
     box = job.boxes[job.sort.box_for(name)]
     x, y = job.table.point(capture, inner_pixel(region.mask))
+    unnamed = name not in job.ledger.lost  # the other cloth of a double pick, never identified
+    place = job.ledger.unnamed[-1] if unnamed else job.ledger.lost[name]
+    how = f"{place.how}; identity from its colours and weight" if unnamed else place.how
     where = np.eye(4)
     where[:3, 3] = (x, y, table_z)
     attempt = AttemptState(None, box, where, job.cell.time, lost_name=name)
     attempt.notes.append(
-        f"lost ({job.ledger.lost[name].how}), not recognised since: picked blind at ({x:.2f}, {y:.2f}), "
+        f"lost ({how}), not recognised since: picked blind at ({x:.2f}, {y:.2f}), "
         f"an unknown region {share:.0%} in its colours"
     )
     wall = time.perf_counter()
@@ -160,6 +173,8 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
         outcome, reason = Outcome.GRASP_FAILED, f"out of reach: {err}"
     result = _result(job, outcome, reason, attempt.start_time, wall, grasps)
     job.ledger.record_attempt(attempt, result, job.cell.time, job.weights.get(name))
+    if outcome is Outcome.PLACED and unnamed:
+        job.ledger.unnamed.pop()  # that double pick's other cloth is placed
 
 
 def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome, str]:
