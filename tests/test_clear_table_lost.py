@@ -101,3 +101,43 @@ def test_a_lost_cloth_is_looked_for_along_the_way_it_was_lost() -> None:
     spot = LostPlace("put back", np.array([0.5, 0.0]), np.array([0.5, 0.0]), ())  # let go where lifted
     assert near_the_loss(np.array([0.7, 0.1]), spot, settings)
     assert not near_the_loss(np.array([0.9, 0.0]), spot, settings)
+
+
+def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_double_the_unseen_ones(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from robot_app.control import table_clearer
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.table_ledger import TableLedger
+
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job.settings = ClearTableSettings()
+    job.recognizers = {n: SimpleNamespace(name=n) for n in ("No.1", "No.2", "No.3", "No.4")}  # type: ignore[misc]
+    job.ledger = TableLedger()
+    job.table = SimpleNamespace(point=lambda capture, pixel: (0.5, 0.0))  # type: ignore[assignment]
+    job._survey_capture = None  # type: ignore[assignment]
+    asked: list[tuple[set[str], dict[str, LostPlace]]] = []
+
+    def fake_match(capture, regions, centres, lost, places, settings):
+        asked.append((set(lost), dict(places)))
+        return None
+
+    monkeypatch.setattr(table_clearer, "match_lost", fake_match)
+    ident = SimpleNamespace(detections=(SimpleNamespace(name="No.2"),), unknown=())
+    place = LostPlace("dropped in transfer", np.zeros(2), np.ones(2), ())
+    for name in ("No.1", "No.2"):  # both seen by surveys; No.1 was dropped, No.2 is seen now
+        job.ledger.records[name] = {"attempts": 1, "sim_time": 0.0, "notes": []}
+        job.ledger.lost[name] = place
+    job._lost_to_pick(ident)  # type: ignore[arg-type]
+    assert asked[-1][0] == {"No.1"}  # No.3 and No.4 were never seen and nothing came up unnamed
+    nameless = LostPlace("came up with No.1, never identified", np.zeros(2), np.ones(2), ())
+    job.ledger.unnamed.append(nameless)
+    job._lost_to_pick(ident)  # type: ignore[arg-type]
+    lost, places = asked[-1]
+    assert lost == {"No.1", "No.3", "No.4"}
+    assert places["No.3"] is nameless and places["No.1"] is place
+    job.ledger.records["No.1"]["attempts"] = job.settings.max_attempts  # attempts used up
+    job._lost_to_pick(ident)  # type: ignore[arg-type]
+    assert asked[-1][0] == {"No.3", "No.4"}
+    job.settings = ClearTableSettings(lost={"enabled": False})
+    assert job._lost_to_pick(ident) is None and len(asked) == 3  # type: ignore[arg-type]
