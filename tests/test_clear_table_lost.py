@@ -141,3 +141,25 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     assert asked[-1][0] == {"No.3", "No.4"}
     job.settings = ClearTableSettings(lost={"enabled": False})
     assert job._lost_to_pick(ident) is None and len(asked) == 3  # type: ignore[arg-type]
+
+
+def test_after_a_drop_the_job_looks_along_the_way_to_the_box() -> None:
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.table_recovery import TableRecovery
+
+    recovery = TableRecovery.__new__(TableRecovery)
+    recovery.settings = ClearTableSettings(look_around=2, look_apart=0.08)
+    recovery.looked, recovery.put_back_spots = [], []
+    camera_over = np.eye(4)
+    camera_over[:2, 3] = (0.55, 0.0)
+    capture = SimpleNamespace(transform_right_camera_to_world=camera_over)
+    ident = SimpleNamespace(unknown=())
+    way = (np.array([0.45, -0.25]), np.array([0.40, -0.40]))
+    seen_before = {"No.3": np.array([0.6, 0.2])}
+    places = recovery.places_to_look(capture, ident, seen_before, lambda name: True, way)  # type: ignore[arg-type]
+    np.testing.assert_allclose(places, [way[0], way[1]])  # the way first, at most look_around places
+    places = recovery.places_to_look(capture, ident, seen_before, lambda name: True)  # type: ignore[arg-type]
+    np.testing.assert_allclose(places, [seen_before["No.3"]])  # no drop: the cloth seen before
+    recovery.looked = [way[0].copy()]
+    places = recovery.places_to_look(capture, ident, seen_before, lambda name: True, way)  # type: ignore[arg-type]
+    np.testing.assert_allclose(places, [way[1]])  # one look left, the way's first place looked at

@@ -207,7 +207,7 @@ class TableClearer:
                         continue
                     last = self._survey()
                     target = choose_target(last, self.ledger.records, self.settings.max_attempts)
-                    if target is not None:
+                    if target is not None or self._lost_to_pick(last) is not None:
                         break
                 lost = self._lost_to_pick(last) if target is None else None
                 if lost is not None and len(self.ledger.attempts) < self.settings.max_picks:
@@ -372,11 +372,19 @@ class TableClearer:
 
     def _places_to_look(self, ident: Identification) -> list[FloatArray]:
         placed = set(self.ledger.placed_order)
+        # a cloth dropped on the way to its box: the middle of that way, then nearer the box
+        dropped_on = tuple(
+            place.start + f * (place.end - place.start)
+            for place in self.ledger.lost.values()
+            if place.how.startswith("dropped")
+            for f in (0.5, 0.75)
+        )
         return self.recovery.places_to_look(
             self._survey_capture,
             ident,
             self.ledger.last_seen,
             lambda name: name not in placed and self.ledger.untried(name, self.settings.max_attempts),
+            dropped_on,
         )
 
     def _look_from(self, place: FloatArray) -> bool:
