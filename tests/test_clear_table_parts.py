@@ -360,7 +360,7 @@ def test_a_remembered_companion_still_found_where_it_was_did_not_come_along(
         pose = np.eye(4)
         pose[:2, 3] = (x, 0.08 if name == "No.18" else -0.25)
         job.ledger.last_pose[name] = pose
-    attempt = SimpleNamespace(target=SimpleNamespace(name="No.17"), others=(), check_wall_s=0.0)
+    attempt = SimpleNamespace(target=SimpleNamespace(name="No.17"), name="No.17", others=(), check_wall_s=0.0)
     grasp = np.array([0.50, 0.02, 0.0])
     found = {"No.18": False}
     monkeypatch.setattr(table_clearer, "still_there", lambda recognizer, *_: found["No.18"])

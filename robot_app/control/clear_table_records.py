@@ -17,6 +17,48 @@ from robot_app.control.job_motion import PutBackSettings
 from robot_app.control.limits import LimitReport
 
 
+class LostSettings(StrictModel):
+    """Picking a lost cloth again (the `clear.lost` section). Lengths [m].
+
+    Attributes:
+        enabled: look for lost cloths among the unknown regions when nothing else is left.
+        min_share: share of the region's pixels in the lost cloth's main colours [-].
+        margin: ... at least this much more than in any other lost cloth's [-].
+        grasp_height: TCP above the table when the fingers close on the region: a
+            crumpled cloth stands higher than a flat one, and a cloth under it weighs
+            the lift up (laid back) [m].
+        reach: the region's centre must lie this close to the way the cloth was lost (the
+            segment from where it was lifted to the box for a drop, to where it was let go
+            for a put-back) [m].
+        apart: ... and farther than this from every unknown region the survey before the
+            loss saw (what was there then is not the lost cloth) [m].
+    """
+
+    enabled: bool = True
+    min_share: float = Field(0.6, gt=0.0, le=1.0)
+    margin: float = Field(0.2, ge=0.0, le=1.0)
+    grasp_height: float = Field(0.025, ge=0.02, le=0.08)
+    reach: float = Field(0.3, gt=0.0)
+    apart: float = Field(0.05, ge=0.0)
+
+
+@dataclass(frozen=True)
+class LostPlace:
+    """How and where the job lost a cloth.
+
+    Attributes:
+        how: "dropped in transfer", "put back after the lift", ...
+        start, end: (2,) the way it went [m]: lifted at `start`, lost on the way to `end`
+            (the box for a drop, the spot let go at for a put-back).
+        before: (x, y) [m] of the unknown regions of the survey before the loss.
+    """
+
+    how: str
+    start: FloatArray
+    end: FloatArray
+    before: tuple[tuple[float, float], ...]
+
+
 class ClearTableSettings(StrictModel):
     """How the table is cleared (the `clear` section). Lengths [m], times cell time [s].
 
@@ -49,9 +91,11 @@ class ClearTableSettings(StrictModel):
         put_down_speed: limit scale of the lowering.
         put_down_slide: ... which moves this far away from the middle of the view, to lay
             the cloths out rather than drop them in a heap [m].
-        survey_latency: the arm waits this long for each survey and each check; None: the
-            measured computation (the process's CPU time, which a loaded machine does not
-            inflate), as cell time.
+        survey_latency: the arm waits this long for each survey and each check; None: as
+            long as the loop's vision would take, `loop.vision_latency` per recognition
+            (a survey recognises every model its colour prefilter keeps, a check is one),
+            or, with `loop.vision_latency` null too, the measured computation (the
+            process's CPU time, which a loaded machine does not inflate), as cell time.
         look_at_boxes: look into every box once before the first pick, from the pose of
             the checks after placing (the reference they compare with; ~5.4 s of sim per
             job for two boxes). Without it the first check takes the box to be empty, of
@@ -74,6 +118,8 @@ class ClearTableSettings(StrictModel):
             keep away from a disk of this radius there, as from a cloth the survey saw
             [m]; 0: off (the default: on bench episode 22 it moved three grasps and the
             cloth still came up with the other each time; unproven, not in use).
+        lost: picking a cloth the job lost (dropped, laid back) and no survey recognised
+            since, by an unknown region in its colours and its weight (`table_lost`).
     """
 
     max_picks: int = Field(15, ge=1)
@@ -96,6 +142,7 @@ class ClearTableSettings(StrictModel):
     look_around: int = Field(2, ge=0, le=10)
     look_apart: float = Field(0.08, gt=0.0)
     hidden_cloth_radius: float = Field(0.0, ge=0.0, le=0.3)
+    lost: LostSettings = Field(default_factory=LostSettings)
 
 
 @dataclass(frozen=True)
@@ -259,6 +306,8 @@ __all__ = [
     "ClearTableSettings",
     "ClothOutcome",
     "ClothRecord",
+    "LostPlace",
+    "LostSettings",
     "PickAttempt",
     "SurveyRecord",
     "TableResult",

@@ -30,7 +30,7 @@ DROPPED = "dropped"  # in a LOST reason: the gripper came empty over the box
 class AttemptState:
     """What the job knows during one loop run."""
 
-    target: Detection
+    target: Detection | None  # None: a lost cloth picked blind (`table_lost`)
     box: BoxPlace
     transform_target_to_world: FloatArray
     start_time: float
@@ -41,6 +41,9 @@ class AttemptState:
     obstacles_xy: FloatArray | None = None  # (M, 2) the other cloths the survey saw [m]
     came_along: tuple[str, ...] = ()
     remembered: tuple[str, ...] = ()  # of `came_along`, those known from an earlier survey only
+    laid_back_too: tuple[str, ...] = ()  # known cloths that came along and were put back with it
+    put_back_at: FloatArray | None = None  # (2,) where a put-back let go [m]
+    unnamed_along: bool = False  # a double pick whose other cloth no survey identified
     lift_check: str = ""
     weighed: float | None = None
     put_back: bool = False
@@ -48,6 +51,12 @@ class AttemptState:
     box_check: BoxCheck | None = None
     check_wall_s: float = 0.0
     notes: list[str] = field(default_factory=list)
+    lost_name: str = ""  # the cloth meant, without a detection
+
+    @property
+    def name(self) -> str:
+        """The cloth meant."""
+        return self.target.name if self.target is not None else self.lost_name
 
 
 def weight_verdict(

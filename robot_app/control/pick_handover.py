@@ -64,7 +64,7 @@ def check_found_in_place(record: RecognitionRecord, attempt: AttemptState, same_
     if distance > same_place:
         raise EpisodeAbortError(
             Outcome.NOT_PRESENT,
-            f"{attempt.target.name} found {distance * 1000:.0f} mm from where the survey saw it "
+            f"{attempt.name} found {distance * 1000:.0f} mm from where the survey saw it "
             "(another cloth of its look?)",
         )
 

@@ -68,6 +68,7 @@ from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_post
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_ledger import TableLedger
+from robot_app.control.table_lost import match_lost, pick_lost
 from robot_app.control.table_recovery import TableRecovery
 from robot_app.control.table_survey import (
     TablePlane,
@@ -79,7 +80,7 @@ from robot_app.control.table_survey import (
 from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.geometry import transform_points
 from robot_app.vision import Recognizer
-from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
+from robot_app.vision.identify import Detection, Identification, IdentifySettings, UnknownRegion, identify
 
 
 class TableClearer:
@@ -206,8 +207,13 @@ class TableClearer:
                         continue
                     last = self._survey()
                     target = choose_target(last, self.ledger.records, self.settings.max_attempts)
-                    if target is not None:
+                    if target is not None or self._lost_to_pick(last) is not None:
                         break
+                lost = self._lost_to_pick(last) if target is None else None
+                if lost is not None and len(self.ledger.attempts) < self.settings.max_picks:
+                    self._record_survey(last, None)
+                    pick_lost(self, *lost)
+                    continue
                 self._record_survey(last, target)
                 if target is None:
                     stop_reason = (
@@ -245,7 +251,7 @@ class TableClearer:
             if names
             else Identification((), (), (), (), {})
         )
-        self._wait(time.process_time() - cpu)
+        self._wait(time.process_time() - cpu, len(names) - len(ident.skipped))
         self._survey_capture, self._survey_wall = capture, time.perf_counter() - wall
         at_observation = np.allclose(self.motion.q, self.observation_joints, atol=1e-6)
         self._survey_camera_pose = (
@@ -317,7 +323,7 @@ class TableClearer:
 
     def _loop_vision(self, cycle: VisionCycle, attempt: AttemptState, loop: PickPlaceLoop) -> None:
         if self.on_recognition is not None:
-            self.on_recognition(cycle, attempt.target.name)
+            self.on_recognition(cycle, attempt.name)
         record = cycle.record
         if record.mode == "search" and record.accepted:
             check_found_in_place(record, attempt, self.settings.same_place)
@@ -325,7 +331,7 @@ class TableClearer:
 
     def _loop_phase(self, record: PhaseRecord, attempt: AttemptState, loop: PickPlaceLoop) -> None:
         if self.on_phase is not None:
-            self.on_phase(record, attempt.target.name)
+            self.on_phase(record, attempt.name)
         if record.phase == "lift" and record.note.startswith(LIFTED):
             self._after_lift(attempt)
         elif record.phase == "transfer" and not self.cell.holding():
@@ -337,6 +343,27 @@ class TableClearer:
         elif record.phase == "release":
             self._after_release(attempt, loop)
 
+    def _lost_to_pick(self, ident: Identification) -> tuple[str, UnknownRegion, float] | None:
+        """A cloth the job lost and no survey recognised since, with attempts left, whose
+        colours an unknown region of `ident` shows (`table_lost.match_lost`)."""
+        if not self.settings.lost.enabled:
+            return None
+        seen = {d.name for d in ident.detections}
+        lost = {
+            name: self.recognizers[name]
+            for name in self.ledger.lost
+            if name not in seen and self.ledger.untried(name, self.settings.max_attempts)
+        }
+        places = {name: self.ledger.lost[name] for name in lost}
+        if self.ledger.unnamed:
+            # a cloth that came up with a double pick and was never identified: one of the
+            # known cloths no survey has seen, laid back where that pick let go
+            for name in self.recognizers:
+                if name not in self.ledger.records and name not in seen:
+                    lost[name], places[name] = self.recognizers[name], self.ledger.unnamed[-1]
+        centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in ident.unknown]
+        return match_lost(self._survey_capture, ident.unknown, centres, lost, places, self.settings.lost)
+
     # ------------------------------------------------------------------ looking around
     def _back_to_observation(self) -> None:
         if not np.allclose(self.motion.q, self.observation_joints, atol=1e-6):
@@ -345,11 +372,19 @@ class TableClearer:
 
     def _places_to_look(self, ident: Identification) -> list[FloatArray]:
         placed = set(self.ledger.placed_order)
+        # a cloth dropped on the way to its box: the middle of that way, then nearer the box
+        dropped_on = tuple(
+            place.start + f * (place.end - place.start)
+            for place in self.ledger.lost.values()
+            if place.how.startswith("dropped")
+            for f in (0.5, 0.75)
+        )
         return self.recovery.places_to_look(
             self._survey_capture,
             ident,
             self.ledger.last_seen,
             lambda name: name not in placed and self.ledger.untried(name, self.settings.max_attempts),
+            dropped_on,
         )
 
     def _look_from(self, place: FloatArray) -> bool:
@@ -365,7 +400,7 @@ class TableClearer:
         """Hands the job's grasp point to the loop, in the frame of the loop's own recognition
         (a symmetric cloth may have been seen turned), if it lies on the recognised cloth."""
         if attempt.grasp is not None:
-            model, gap = self.recognizers[attempt.target.name].model, self.settings.pile_grasp.min_edge_gap
+            model, gap = self.recognizers[attempt.name].model, self.settings.pile_grasp.min_edge_gap
             point = grasp_in_model(attempt.grasp.point_world, transform_model_to_world, model, gap)
             if point is not None:
                 loop.tracker.grasp_point_model = point
@@ -378,11 +413,11 @@ class TableClearer:
         self._phase = "lift check"
         capture = self.cell.capture()
         wall, cpu = time.perf_counter(), time.process_time()
-        name = attempt.target.name
+        name = attempt.name
         recognizer = self.recognizers[name]
         stayed = still_there(recognizer, capture, attempt.transform_target_to_world, self.settings.same_place)
         attempt.check_wall_s += time.perf_counter() - wall
-        self._wait(time.process_time() - cpu)
+        self._wait(time.process_time() - cpu, 1)
         expected = self.weights.get(name)
         verdict, what = "ok", ""
         if self.weigh is not None and expected is not None:
@@ -427,6 +462,9 @@ class TableClearer:
                 return
             if other is not None:
                 attempt.notes.append(f"double pick: {other} came along{source}, belongs in another box")
+                attempt.laid_back_too = (other,)
+            else:
+                attempt.unnamed_along = True
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
         self._phase = "put back"
         model = self.recognizers[name].model
@@ -434,6 +472,7 @@ class TableClearer:
             self._survey_capture, model, attempt.grasp_point_model, attempt.obstacles_xy, attempt.notes
         )
         attempt.put_back = True
+        attempt.put_back_at = self.recovery.put_back_spots[-1].copy()
         if heavier and self.settings.hidden_cloth_radius > 0:
             # the other cloth hung from the same fingers: it lies under the spot let go at,
             # where no survey may see it (the meant cloth covers it again)
@@ -448,7 +487,7 @@ class TableClearer:
         wall, cpu = time.perf_counter(), time.process_time()
         stayed = still_there(self.recognizers[name], capture, pose, self.settings.same_place)
         attempt.check_wall_s += time.perf_counter() - wall
-        self._wait(time.process_time() - cpu)
+        self._wait(time.process_time() - cpu, 1)
         return stayed
 
     def _remembered_companion(
@@ -457,7 +496,7 @@ class TableClearer:
         """The double pick's other cloth among those an earlier survey saw and the pick's
         survey did not (`pick_checks.remembered_companion`), if the check after the lift
         (`capture`) no longer finds it where it was last seen."""
-        seen = {attempt.target.name, *(d.name for d in attempt.others)}
+        seen = {attempt.name, *(d.name for d in attempt.others)}
         placed = set(self.ledger.placed_order)
         footprints = {
             name: transform_points(pose, self.recognizers[name].model.points_in)[:, :2]
@@ -472,7 +511,7 @@ class TableClearer:
             self.recognizers[name], capture, self.ledger.last_pose[name], self.settings.same_place
         )
         attempt.check_wall_s += time.perf_counter() - wall
-        self._wait(time.process_time() - cpu)
+        self._wait(time.process_time() - cpu, 1)
         return None if stayed else name
 
     def _after_release(self, attempt: AttemptState, loop: PickPlaceLoop) -> None:
@@ -487,7 +526,7 @@ class TableClearer:
             attempt.notes.append("box looked into from the release pose: the look above it is out of reach")
         capture = self.cell.capture()
         loop.arm.resume_at(self.motion.q)
-        recognizer = self.recognizers[attempt.target.name]
+        recognizer = self.recognizers[attempt.name]
         check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings)
 
     def _look_at_boxes(self) -> None:
@@ -513,8 +552,14 @@ class TableClearer:
             - self.kinematics.frame_pose(q, "tcp")[:3, 3]
         )
 
-    def _wait(self, seconds: float) -> None:
+    def _wait(self, seconds: float, recognitions: int) -> None:
+        """Holds the arm while the computer recognises: `clear.survey_latency` if set;
+        else, as the loop's own vision (`loop.vision_latency` per recognition, one-shot
+        search or check alike), `recognitions` times that; else the measured CPU time
+        `seconds`."""
         latency = self.settings.survey_latency
+        if latency is None and self.loop_settings.vision_latency is not None:
+            latency = recognitions * self.loop_settings.vision_latency
         self.motion.hold(seconds if latency is None else latency)
 
     def _step(self) -> None:

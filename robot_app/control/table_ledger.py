@@ -9,7 +9,13 @@ from collections.abc import Callable
 
 from robot_app.arrays import FloatArray
 from robot_app.control.cell import StereoCapture
-from robot_app.control.clear_table_records import ClothOutcome, ClothRecord, PickAttempt, SurveyRecord
+from robot_app.control.clear_table_records import (
+    ClothOutcome,
+    ClothRecord,
+    LostPlace,
+    PickAttempt,
+    SurveyRecord,
+)
 from robot_app.control.episode import EpisodeResult, Outcome
 from robot_app.control.pick_checks import AttemptState
 from robot_app.control.table_survey import TablePlane, to_world
@@ -34,6 +40,11 @@ class TableLedger:
         last_seen: cloth name -> (x, y) in Σ_W where the last survey saw it [m].
         last_pose: cloth name -> (4, 4) its pose in Σ_W where the last survey saw it [m].
         last_survey: cloth name -> the number (from 1) of the last survey that saw it.
+        lost: cloth name -> how and where the job lost it (dropped in a transfer, laid
+            back after a lift), for the cloths no survey recognised since and not placed
+            since.
+        unnamed: where double picks whose other cloth no survey identified were laid back
+            (that cloth is one of the known cloths no survey has seen).
     """
 
     def __init__(self) -> None:
@@ -45,6 +56,8 @@ class TableLedger:
         self.last_seen: dict[str, FloatArray] = {}
         self.last_pose: dict[str, FloatArray] = {}
         self.last_survey: dict[str, int] = {}
+        self.lost: dict[str, LostPlace] = {}
+        self.unnamed: list[LostPlace] = []
 
     def untried(self, name: str, max_attempts: int) -> bool:
         """Has `name` attempts left?"""
@@ -72,6 +85,7 @@ class TableLedger:
             self.last_seen[d.name] = pose[:2, 3].copy()
             self.last_pose[d.name] = pose.copy()
             self.last_survey[d.name] = len(self.surveys) + 1
+            self.lost.pop(d.name, None)  # recognised again
             self.records.setdefault(d.name, _new_entry())
         record = SurveyRecord(
             capture.time,
@@ -89,8 +103,8 @@ class TableLedger:
         self, attempt: AttemptState, result: EpisodeResult, end_time: float, expected_weight: float | None
     ) -> None:
         """Books a finished loop run (ended at cell time `end_time` [s])."""
-        target, box = attempt.target, attempt.box
-        entry = self.records.setdefault(target.name, _new_entry())
+        name, box = attempt.name, attempt.box
+        entry = self.records.setdefault(name, _new_entry())
         entry["attempts"] = int(entry["attempts"]) + 1  # type: ignore[call-overload]
         entry["sim_time"] = float(entry["sim_time"]) + (end_time - attempt.start_time)  # type: ignore[arg-type]
         notes: list[str] = entry["notes"]  # type: ignore[assignment]
@@ -103,7 +117,7 @@ class TableLedger:
             entry["misses"] = int(entry.get("misses", 0)) + 1  # type: ignore[call-overload]
         self.attempts.append(
             PickAttempt(
-                target.name,
+                name,
                 box.name,
                 attempt.start_time,
                 end_time,
@@ -120,19 +134,35 @@ class TableLedger:
                 attempt.remembered,
             )
         )
+        if attempt.dropped or attempt.put_back:
+            start = attempt.transform_target_to_world[:2, 3].copy()
+            end = (
+                box.centre[:2].copy()
+                if attempt.dropped or attempt.put_back_at is None
+                else attempt.put_back_at
+            )
+            before = self.surveys[-1].unknown if self.surveys else ()
+            how = "dropped in transfer" if attempt.dropped else "put back after the lift"
+            self.lost[name] = LostPlace(how, start, end, before)
+            for companion in attempt.laid_back_too if attempt.put_back else ():
+                self.lost.setdefault(companion, LostPlace(f"put back with {name}", start, end, before))
+            if attempt.put_back and attempt.unnamed_along:
+                self.unnamed.append(LostPlace(f"came up with {name}, never identified", start, end, before))
         if result.outcome is Outcome.PLACED:
             confirmed = attempt.box_check is not None and attempt.box_check.confirmed
-            self.placed(target.name, confirmed)
-            for name in attempt.came_along:  # placed too, but looked for again until seen gone
-                self.placed(name, False)
-                other: list[str] = self.records[name]["notes"]  # type: ignore[assignment]
-                source = "; its identity from memory, not from vision" if name in attempt.remembered else ""
-                other.append(f"placed with {target.name}, lifted with it{source}")
+            self.placed(name, confirmed)
+            for companion in attempt.came_along:  # placed too, but looked for again until seen gone
+                self.placed(companion, False)
+                other: list[str] = self.records[companion]["notes"]  # type: ignore[assignment]
+                remembered = companion in attempt.remembered
+                source = "; its identity from memory, not from vision" if remembered else ""
+                other.append(f"placed with {name}, lifted with it{source}")
 
     def placed(self, name: str, confirmed: bool) -> None:
         """Books `name` released over its box (`confirmed`: seen there)."""
         entry = self.records.setdefault(name, _new_entry())
         entry["confirmed"] = confirmed
+        self.lost.pop(name, None)
         if name not in self.placed_order:
             self.placed_order.append(name)
         if confirmed:

@@ -67,13 +67,15 @@ class TableRecovery:
         ident: Identification,
         last_seen: Mapping[str, FloatArray],
         look_for: Callable[[str], bool],
+        dropped_on: tuple[FloatArray, ...] = (),
     ) -> list[FloatArray]:
         """Where to look again when a survey left nothing to pick (`look_around`): put-back
-        spots, then cloths seen before (`last_seen`, (x, y) [m]) that `look_for` names, then
-        unknown regions; none within `look_apart` of one another or of a place already
-        looked at."""
+        spots, then places on the way of a drop (`dropped_on`, (x, y) [m]), then cloths
+        seen before (`last_seen`, (x, y) [m]) that `look_for` names, then unknown regions;
+        none within `look_apart` of one another or of a place already looked at."""
         candidates = [
             *reversed(self.put_back_spots),
+            *dropped_on,
             *(xy for name, xy in last_seen.items() if look_for(name)),
             *(np.array(self.table.point(capture, region.centroid)) for region in ident.unknown),
         ]

@@ -1,0 +1,165 @@
+"""A cloth the clear-table job lost (dropped, laid back) is matched to an unknown region by
+its colours only when exactly one lost cloth's colours fit. Synthetic pair (numpy renderer)
+with the identification resolved at set poses, as in test_identify."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from robot_app.control.clear_table_records import LostPlace, LostSettings
+from robot_app.control.table_lost import inner_pixel, match_lost, near_the_loss
+from robot_app.geometry import make_transform, rotation_about_z
+from robot_app.vision import ModelCamera, PinholeCamera, Recognition, Recognizer, StereoRig, make_model
+from robot_app.vision.identify import IdentifySettings, resolve
+from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
+
+CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
+RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
+STATION = ModelCamera(PinholeCamera.from_fov((480, 360), np.deg2rad(48)), 0.40)
+YELLOW = make_transform(rotation_about_z(0.3), [-0.06, -0.02, 0.585])
+VIOLET = make_transform(rotation_about_z(0.1), [0.12, 0.06, 0.585])  # recognised by no model
+
+
+def _recognizer(index: int, name: str) -> Recognizer:
+    photo, background = render_model_photo(synthetic_cloth(index), STATION, rng=np.random.default_rng(index))
+    return Recognizer(make_model(photo, STATION, background, name=name), RIG)
+
+
+@pytest.fixture(scope="module")
+def survey():
+    left, right = render_stereo_pair(
+        RIG, [(synthetic_cloth(1), YELLOW), (synthetic_cloth(9), VIOLET)], rng=np.random.default_rng(5)
+    )
+    recognizers = {
+        "yellow": _recognizer(1, "yellow"),
+        "violet": _recognizer(9, "violet"),
+        "stripes": _recognizer(2, "stripes"),
+    }
+    seen = Recognition(True, 0.9, YELLOW, 0, 0, 0.0, confidence=0.95, visible_fraction=1.0)
+    ident = resolve({"yellow": recognizers["yellow"]}, {"yellow": seen}, right, IdentifySettings())
+    capture = SimpleNamespace(left_bgr=left, right_bgr=right)
+    return recognizers, ident, capture
+
+
+def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
+    recognizers, ident, capture = survey
+    assert [d.name for d in ident.detections] == ["yellow"] and len(ident.unknown) == 1
+    region = ident.unknown[0]
+    settings = LostSettings()
+    centres = [np.array([0.6, 0.1])]  # the region's centre on the table (no place given: anywhere)
+
+    def match(lost: dict[str, Recognizer], places: dict[str, LostPlace] | None = None):
+        return match_lost(capture, ident.unknown, centres, lost, places or {}, settings)
+
+    # the violet cloth was lost: the region shows its colours
+    matched = match({name: recognizers[name] for name in ("violet", "stripes")})
+    assert matched is not None and matched[0] == "violet" and matched[1] is region
+    assert matched[2] >= settings.min_share
+    # only the stripes were lost: the region is not theirs, it is left alone
+    assert match({"stripes": recognizers["stripes"]}) is None
+    # two lost cloths of the same colours: which one it is cannot be told, neither is picked
+    assert match({"violet": recognizers["violet"], "twin": _recognizer(9, "violet twin")}) is None
+    assert match({}) is None
+    # where it was lost matters: far from the way it went, or where a region lay before, no
+    here = LostPlace("dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ())
+    assert match({"violet": recognizers["violet"]}, {"violet": here}) is not None
+    far = LostPlace("dropped in transfer", np.array([0.5, -0.2]), np.array([0.3, -0.56]), ())
+    assert match({"violet": recognizers["violet"]}, {"violet": far}) is None
+    there_before = LostPlace("put back", np.array([0.5, 0.0]), np.array([0.6, 0.0]), ((0.61, 0.12),))
+    assert match({"violet": recognizers["violet"]}, {"violet": there_before}) is None
+    # the grasp pixel lies inside the region, where the violet cloth is
+    u, v = inner_pixel(region.mask)
+    assert region.mask[round(v), round(u)]
+    cu, cv = CAMERA.project(VIOLET[:3, 3][None])[0]
+    assert np.hypot(u - cu, v - cv) < 25
+
+
+def test_inner_pixel_lies_deep_inside_a_region_that_is_not_convex() -> None:
+    mask = np.zeros((40, 60), bool)
+    mask[5:35, 10:20] = True  # an L, 10 px wide: its centroid (17, 26) is near the bend's edge
+    mask[25:35, 10:55] = True
+    u, v = inner_pixel(mask)
+    ui, vi = round(u), round(v)
+    assert mask[vi - 4 : vi + 5, ui - 4 : ui + 5].all()  # 4 px from every border
+    touching = np.zeros((10, 10), bool)
+    touching[:, :4] = True  # a region at the image's edge: the edge is a border too
+    u, v = inner_pixel(touching)
+    assert 1 <= round(u) <= 2
+
+
+def test_a_lost_cloth_is_looked_for_along_the_way_it_was_lost() -> None:
+    settings = LostSettings(reach=0.3, apart=0.05)
+    drop = LostPlace("dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ((0.45, 0.2),))
+    assert near_the_loss(np.array([0.5, 0.0]), drop, settings)  # where it was lifted
+    assert near_the_loss(np.array([0.55, -0.4]), drop, settings)  # beside the way to the box
+    assert not near_the_loss(np.array([0.5, 0.45]), drop, settings)  # the other side of the table
+    assert not near_the_loss(np.array([0.46, 0.21]), drop, settings)  # an unknown region was there before
+    spot = LostPlace("put back", np.array([0.5, 0.0]), np.array([0.5, 0.0]), ())  # let go where lifted
+    assert near_the_loss(np.array([0.7, 0.1]), spot, settings)
+    assert not near_the_loss(np.array([0.9, 0.0]), spot, settings)
+
+
+def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_double_the_unseen_ones(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from robot_app.control import table_clearer
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.table_ledger import TableLedger
+
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job.settings = ClearTableSettings()
+    job.recognizers = {n: SimpleNamespace(name=n) for n in ("No.1", "No.2", "No.3", "No.4")}  # type: ignore[misc]
+    job.ledger = TableLedger()
+    job.table = SimpleNamespace(point=lambda capture, pixel: (0.5, 0.0))  # type: ignore[assignment]
+    job._survey_capture = None  # type: ignore[assignment]
+    asked: list[tuple[set[str], dict[str, LostPlace]]] = []
+
+    def fake_match(capture, regions, centres, lost, places, settings):
+        asked.append((set(lost), dict(places)))
+        return None
+
+    monkeypatch.setattr(table_clearer, "match_lost", fake_match)
+    ident = SimpleNamespace(detections=(SimpleNamespace(name="No.2"),), unknown=())
+    place = LostPlace("dropped in transfer", np.zeros(2), np.ones(2), ())
+    for name in ("No.1", "No.2"):  # both seen by surveys; No.1 was dropped, No.2 is seen now
+        job.ledger.records[name] = {"attempts": 1, "sim_time": 0.0, "notes": []}
+        job.ledger.lost[name] = place
+    job._lost_to_pick(ident)  # type: ignore[arg-type]
+    assert asked[-1][0] == {"No.1"}  # No.3 and No.4 were never seen and nothing came up unnamed
+    nameless = LostPlace("came up with No.1, never identified", np.zeros(2), np.ones(2), ())
+    job.ledger.unnamed.append(nameless)
+    job._lost_to_pick(ident)  # type: ignore[arg-type]
+    lost, places = asked[-1]
+    assert lost == {"No.1", "No.3", "No.4"}
+    assert places["No.3"] is nameless and places["No.1"] is place
+    job.ledger.records["No.1"]["attempts"] = job.settings.max_attempts  # attempts used up
+    job._lost_to_pick(ident)  # type: ignore[arg-type]
+    assert asked[-1][0] == {"No.3", "No.4"}
+    job.settings = ClearTableSettings(lost={"enabled": False})
+    assert job._lost_to_pick(ident) is None and len(asked) == 3  # type: ignore[arg-type]
+
+
+def test_after_a_drop_the_job_looks_along_the_way_to_the_box() -> None:
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.table_recovery import TableRecovery
+
+    recovery = TableRecovery.__new__(TableRecovery)
+    recovery.settings = ClearTableSettings(look_around=2, look_apart=0.08)
+    recovery.looked, recovery.put_back_spots = [], []
+    camera_over = np.eye(4)
+    camera_over[:2, 3] = (0.55, 0.0)
+    capture = SimpleNamespace(transform_right_camera_to_world=camera_over)
+    ident = SimpleNamespace(unknown=())
+    way = (np.array([0.45, -0.25]), np.array([0.40, -0.40]))
+    seen_before = {"No.3": np.array([0.6, 0.2])}
+    places = recovery.places_to_look(capture, ident, seen_before, lambda name: True, way)  # type: ignore[arg-type]
+    np.testing.assert_allclose(places, [way[0], way[1]])  # the way first, at most look_around places
+    places = recovery.places_to_look(capture, ident, seen_before, lambda name: True)  # type: ignore[arg-type]
+    np.testing.assert_allclose(places, [seen_before["No.3"]])  # no drop: the cloth seen before
+    recovery.looked = [way[0].copy()]
+    places = recovery.places_to_look(capture, ident, seen_before, lambda name: True, way)  # type: ignore[arg-type]
+    np.testing.assert_allclose(places, [way[1]])  # one look left, the way's first place looked at
