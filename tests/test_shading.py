@@ -8,8 +8,10 @@ from robot_app.config import load_config
 from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.exposure import ExposureSettings, scene_exposure
+from robot_app.vision.exposure_kernels import sheet_statistics
 from robot_app.vision.fitness_kernels import bgr_codes, bgr_codes_shaded, gain_levels
 from robot_app.vision.fitness_scores import OFF_IMAGE
+from robot_app.vision.hue import hue_distance, to_hsv
 from robot_app.vision.photo_model import make_model
 from robot_app.vision.pixel_codes import colour_table
 from robot_app.vision.recognizer import RecognitionSettings, Recognizer
@@ -111,3 +113,25 @@ def test_a_white_cloth_half_in_a_shadow_is_found_where_it_lies() -> None:
             out.append(result.found and max(abs(error.x_mm), abs(error.y_mm)) < 3 and abs(error.yaw_deg) < 2)
     assert all(found)
     assert not any(found_without)  # the shadowed half is DARK against the model's LIGHT
+
+
+def test_the_compiled_sheet_statistics_are_those_of_numpy() -> None:
+    """`exposure_kernels.sheet_statistics` against its numpy twin (the mask by
+    `hue.hue_distance`, the lower median of each channel by sorting) on noisy images with
+    sheet, foreign hues, greys and hues across the circle's wrap."""
+    rng = np.random.default_rng(5)
+    for trial in range(30):
+        sheet_bgr = np.array([40, 150 + trial, 60])  # green, the sheet
+        sample = rng.integers(0, 256, (40, 50, 3)).astype(np.uint8)
+        sheet_like = rng.random((40, 50)) < rng.uniform(0.0, 0.9)
+        noisy = sheet_bgr + rng.normal(0, 12, (sheet_like.sum(), 3))
+        sample[sheet_like] = np.clip(noisy, 0, 255).astype(np.uint8)
+        hsv = to_hsv(sample)
+        background_hue = int(rng.integers(0, 256))
+        min_saturation, tolerance = int(rng.integers(0, 80)), int(rng.integers(1, 64))
+        expected = (hsv[..., 1] >= min_saturation) & (hue_distance(hsv[..., 0], background_hue) <= tolerance)
+        mask, count, medians = sheet_statistics(sample, hsv, min_saturation, background_hue, tolerance)
+        assert np.array_equal(mask, expected) and count == expected.sum()
+        if count:
+            lower = np.sort(sample[expected], axis=0)[(count - 1) // 2]
+            assert medians.tolist() == lower.astype(float).tolist()

@@ -31,7 +31,8 @@ from pydantic import Field
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.vision.cloth_model import ClothModel
-from robot_app.vision.hue import hue_distance, to_hsv
+from robot_app.vision.exposure_kernels import sheet_statistics
+from robot_app.vision.hue import to_hsv
 
 
 class ExposureSettings(StrictModel):
@@ -131,17 +132,17 @@ def scene_exposure(
         return none
     sample = np.ascontiguousarray(np.asarray(image_bgr)[:: settings.step, :: settings.step])
     hsv = to_hsv(sample)
-    flat = hsv.reshape(-1, 3)
-    sheet = (flat[:, 1] >= settings.min_saturation) & (
-        hue_distance(flat[:, 0], model.background_hue) <= settings.hue_tolerance
+    background_hue = int(np.asarray(model.background_hue, dtype=np.int32))  # as `hue.hue_distance` takes it
+    sheet, count, medians = sheet_statistics(
+        sample, hsv, settings.min_saturation, background_hue, settings.hue_tolerance
     )
-    if sheet.sum() < max(settings.min_share * len(flat), 3):
+    if count < max(settings.min_share * sheet.size, 3):
         return none
-    scene = np.maximum(_channel_medians(sample.reshape(-1, 3)[sheet]), 1.0)
+    scene = np.maximum(medians, 1.0)
     gains = np.clip(np.asarray(model.sheet_bgr) / scene, 1.0 / settings.max_gain, settings.max_gain)
     if not (shading and settings.shading):
         return SceneExposure(gains, None)
-    return SceneExposure(gains, _shading(hsv[:, :, 2], sheet.reshape(hsv.shape[:2]), settings))
+    return SceneExposure(gains, _shading(hsv[:, :, 2], sheet, settings))
 
 
 def _shading(
@@ -175,16 +176,6 @@ def _shading(
         np.exp(levels * settings.shading_step),
         settings.step,
     )
-
-
-def _channel_medians(pixels: npt.NDArray[np.uint8]) -> FloatArray:
-    """(3,) median of each channel of (N, 3) uint8 pixels (the lower median), by histogram."""
-    out = np.empty(3)
-    half = (len(pixels) + 1) // 2
-    for k in range(3):
-        counts = np.bincount(pixels[:, k], minlength=256)
-        out[k] = float(np.searchsorted(np.cumsum(counts), half))
-    return out
 
 
 __all__ = ["ExposureSettings", "SceneExposure", "Shading", "scene_exposure", "sheet_gains"]

@@ -27,6 +27,7 @@ it seeds a GA with moved poses (`seed`) and evolves a few generations.
 
 from __future__ import annotations
 
+import functools
 import itertools
 from dataclasses import dataclass
 
@@ -132,8 +133,7 @@ class GASettings(StrictModel):
 
     def island_slices(self) -> list[slice]:
         """The individuals of each island in the population array."""
-        bounds = np.linspace(0, self.population, self.islands + 1).round().astype(int)
-        return [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
+        return list(_island_slices(self.population, self.islands))
 
 
 def encode(parameters: npt.ArrayLike, bounds: SearchBoundsSettings, gray_code: bool = True) -> Genes:
@@ -190,16 +190,10 @@ class GeneticAlgorithm:
         self.scores: FloatArray | None = None
         ranges = self.bounds.gene_ranges()
         self._lows, self._spans = ranges[:, 0].copy(), ranges[:, 1] - ranges[:, 0]
-        self._islands = self.settings.island_slices()
-        self._starts = np.array([sl.start for sl in self._islands] + [self.settings.population], np.int64)
-        sizes = [sl.stop - sl.start for sl in self._islands]
-        pairs = sum((size - self.settings.elite + 1) // 2 for size in sizes)
-        self._uniforms_shape = (pairs, 5 + mutation_draws(self.settings.mutation_rate))  # per generation
-        largest = max(sizes)
-        self._cdfs = np.ones((len(self._islands), largest))
-        for i, sl in enumerate(self._islands):
-            size = sl.stop - sl.start
-            self._cdfs[i, :size] = _ranking_cdf(size, self.settings.selection_pressure)
+        s = self.settings
+        self._islands, self._starts, self._uniforms_shape, self._cdfs = _breeding_layout(
+            s.population, s.islands, s.elite, s.mutation_rate, s.selection_pressure
+        )
 
     def islands(self) -> list[tuple[Genes, FloatArray]]:
         """(genes, scores) of each island's current individuals."""
@@ -301,6 +295,28 @@ def mutation_draws(rate: float) -> int:
     n = 2 * GENES * BITS
     mean = n * rate
     return int(min(n, np.ceil(mean + 8.0 * np.sqrt(mean * (1.0 - rate)) + 8.0)))
+
+
+def _island_slices(population: int, islands: int) -> tuple[slice, ...]:
+    bounds = np.linspace(0, population, islands + 1).round().astype(int)
+    return tuple(slice(int(a), int(b)) for a, b in itertools.pairwise(bounds))
+
+
+@functools.lru_cache(maxsize=16)
+def _breeding_layout(
+    population: int, islands: int, elite: int, mutation_rate: float, pressure: float
+) -> tuple[tuple[slice, ...], npt.NDArray[np.int64], tuple[int, int], FloatArray]:
+    """(island slices, island starts, one generation's uniforms shape, ranking cdfs) of
+    these settings, computed once per process (a tracking frame builds a GA in a new
+    window each time; these tables do not depend on it). Shared: never write into them."""
+    slices = _island_slices(population, islands)
+    starts = np.array([sl.start for sl in slices] + [population], np.int64)
+    sizes = [sl.stop - sl.start for sl in slices]
+    pairs = sum((size - elite + 1) // 2 for size in sizes)
+    cdfs = np.ones((len(slices), max(sizes)))
+    for i, size in enumerate(sizes):
+        cdfs[i, :size] = _ranking_cdf(size, pressure)
+    return slices, starts, (pairs, 5 + mutation_draws(mutation_rate)), cdfs
 
 
 def _ranking_cdf(size: int, pressure: float) -> FloatArray:
