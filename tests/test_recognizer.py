@@ -157,6 +157,28 @@ def test_tracking_codes_only_the_region_its_window_reaches_and_finds_the_same() 
     assert results[0].fitness == results[1].fitness
 
 
+def test_each_tracking_frame_searches_around_its_own_moved_pose() -> None:
+    """The window is built once per frame (shared by the pixel regions and the search), and
+    a motion equal to the last frame's still moves the poses kept since."""
+    motion = invert_transform(make_transform(rotation_about_z(0.01), [0.003, -0.002, 0.0]))
+    recognizer = Recognizer(model(3), RIG)
+    pose = POSE
+    left, right = render_stereo_pair(RIG, [(synthetic_cloth(3), pose)], rng=np.random.default_rng(6))
+    recognizer.recognize(left, right, seed=0)
+    for frame in range(3):
+        pose = motion @ pose
+        kept = recognizer.proposer.kept_poses
+        assert kept is not None
+        window = recognizer.proposer.tracking_window(motion)
+        moved = (motion @ kept[0])[:3, 3]
+        assert window.x == (moved[0] - 0.02, moved[0] + 0.02)
+        assert window.y == (moved[1] - 0.02, moved[1] + 0.02)
+        rng = np.random.default_rng(20 + frame)
+        left, right = render_stereo_pair(RIG, [(synthetic_cloth(3), pose)], rng=rng)
+        result = recognizer.track(left, right, motion)
+        assert np.all(np.abs(result.transform_model_to_camera[:2, 3] - pose[:2, 3]) < 0.003)
+
+
 def test_wrong_image_size_is_bad_input() -> None:
     image = np.zeros((100, 100, 3), np.uint8)
     with pytest.raises(InputError) as size:

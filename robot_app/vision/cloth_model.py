@@ -15,6 +15,7 @@ import json
 import os
 import zipfile
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -243,6 +244,12 @@ class ClothModel:
     def n_out(self) -> int:
         """Number of S_out points."""
         return len(self.points_out)
+
+    @cached_property
+    def radius(self) -> float:
+        """The largest distance of a model point (S_in or S_out) from the origin of Σ_M [m]:
+        computed once (the points are read-only), read by every tracking frame."""
+        return float(np.max(np.linalg.norm(np.vstack([self.points_in, self.points_out]), axis=1)))
 
     def save(self, path: str | Path) -> None:
         """Writes the model as one `.npz` (format tag + version) atomically (a temporary

@@ -44,6 +44,16 @@ from robot_app.vision.tracking_window import TrackingSettings, reachable_regions
 HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])  # about the model's z axis, through its origin
 
 
+@dataclass(frozen=True)
+class _TrackingFrame:
+    """One tracking frame's motion (a copy; None: no motion), the kept poses moved by it
+    and the search window around the best of them."""
+
+    motion: FloatArray | None
+    poses: FloatArray
+    window: SearchBoundsSettings
+
+
 class ProposalSettings(StrictModel):
     """The GA search of one-shot recognition and tracking.
 
@@ -169,6 +179,7 @@ class Proposer:
         """Forgets the tracked poses and reseeds the generator."""
         self.rng = np.random.default_rng(self._seed)
         self._poses: FloatArray | None = None
+        self._frame: _TrackingFrame | None = None
 
     @property
     def kept_poses(self) -> FloatArray | None:
@@ -179,6 +190,7 @@ class Proposer:
         """Keeps `best` and then the first of `others` (P, 4, 4) for the next tracking frame."""
         count = self.settings.tracking.ga.population
         self._poses = np.concatenate([as_poses(best), as_poses(others)])[:count]
+        self._frame = None
 
     def fitness(
         self,
@@ -260,8 +272,8 @@ class Proposer:
         count = t.ga.generations if generations is None else generations
         if count < 0:
             raise ValueError(f"generations must be >= 0, got {count}")
-        poses = self._moved_poses(transform_motion)
-        window = window_around(poses[0], t, s.bounds)
+        frame = self._tracking_frame(transform_motion)
+        poses, window = frame.poses, frame.window
         near = _yaw_offsets(poses, poses[0]) <= np.deg2rad(t.yaw_window_deg)
         poses = poses[near]  # the kept poses near the predicted one (a half turn may be among them)
         ga = GeneticAlgorithm(window, t.ga, self.rng)
@@ -288,9 +300,7 @@ class Proposer:
             RuntimeError: nothing kept yet (propose first).
             ValueError: a motion that is not a finite 4x4 transform.
         """
-        return window_around(
-            self._moved_poses(transform_motion)[0], self.settings.tracking, self.settings.bounds
-        )
+        return self._tracking_frame(transform_motion).window
 
     def tracking_regions(
         self, transform_motion: FloatArray | None
@@ -304,6 +314,26 @@ class Proposer:
         """
         window = self.tracking_window(transform_motion)
         return reachable_regions(window, self.evaluator.model, self.evaluator.rig)
+
+    def _tracking_frame(self, transform_motion: FloatArray | None) -> _TrackingFrame:
+        """The kept poses moved by `transform_motion` and the window around the best, built
+        once per kept poses and motion: a frame's `tracking_regions` and `track` share them."""
+        frame = self._frame
+        if frame is not None and (
+            (transform_motion is None and frame.motion is None)
+            or (
+                transform_motion is not None
+                and frame.motion is not None
+                and np.array_equal(transform_motion, frame.motion)
+            )
+        ):
+            return frame
+        poses = self._moved_poses(transform_motion)
+        motion = None if transform_motion is None else np.array(transform_motion, dtype=float)
+        self._frame = _TrackingFrame(
+            motion, poses, window_around(poses[0], self.settings.tracking, self.settings.bounds)
+        )
+        return self._frame
 
     def _moved_poses(self, transform_motion: FloatArray | None) -> FloatArray:
         if self._poses is None:

@@ -79,17 +79,24 @@ def window_around(
     )
 
 
+# The 8 corners of a box, as 0 (low) / 1 (high) per axis.
+_BOX_CORNERS = np.array(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij")).reshape(3, -1).T
+
+
 def reachable_regions(
     window: SearchBoundsSettings, model: ClothModel, rig: StereoRig
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
     """Per image (left, right), the (u0, v0, u1, v1) box, inclusive and inside the image,
     that the model's points can reach with its origin anywhere in `window`, at any yaw and
-    tilt (a cube of the model's radius around each corner of the window), a few pixels to
-    spare; the whole image when a camera could see the model from behind."""
-    radius = float(np.max(np.linalg.norm(np.vstack([model.points_in, model.points_out]), axis=1)))
-    corners = np.array(np.meshgrid(window.x, window.y, window.z, indexing="ij")).reshape(3, -1).T
-    cube = np.array(np.meshgrid(*[(-radius, radius)] * 3, indexing="ij")).reshape(3, -1).T
-    points = (corners[:, None, :] + cube[None, :, :]).reshape(-1, 3)  # in Σ_CR
+    tilt (the window grown by the model's radius on every side), a few pixels to spare;
+    the whole image when a camera could see the model from behind.
+
+    Only the grown box's 8 corners are projected: a pinhole's u and v are ratios of
+    linear functions of the point, so over a box in front of the camera their extremes
+    (and the least depth) lie at its corners."""
+    low = np.array([window.x[0], window.y[0], window.z[0]]) - model.radius
+    high = np.array([window.x[1], window.y[1], window.z[1]]) + model.radius
+    points = np.where(_BOX_CORNERS == 1, high, low)  # in Σ_CR
     width, height = rig.image_size
     boxes = []
     for camera, to_camera in ((rig.left, rig.transform_right_to_left), (rig.right, np.eye(4))):
