@@ -259,7 +259,7 @@ class ServoStrategy:
             self.arm.step_online(online)
         self._end(to_rest=False)
         self.note = (
-            f"followed the belt for {now - self._height.start:.2f} s{ended}, "
+            f"followed the cloth for {now - self._height.start:.2f} s{ended}, "
             f"toward {off_belt - self.table_z:.2f} m"
         )
 
