@@ -39,7 +39,12 @@ from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBoundsSettin
 from robot_app.vision.poses import AvoidedPoses, PoseLimits, as_poses
 from robot_app.vision.print_periods import PeriodSettings, print_periods
 from robot_app.vision.refinement import Refiner
-from robot_app.vision.tracking_window import TrackingSettings, reachable_regions, window_around
+from robot_app.vision.tracking_window import (
+    TrackingSettings,
+    reach_in_depth,
+    reachable_regions,
+    window_around,
+)
 
 HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])  # about the model's z axis, through its origin
 
@@ -164,6 +169,7 @@ class Proposer:
         self.refiner = refiner
         self._seed = seed
         self._print_maps: FloatArray | None = None
+        self._depth_reach = reach_in_depth(evaluator.model, settings.bounds.max_tilt_deg)  # the window's tilt
         self.reset()
 
     @property
@@ -313,7 +319,7 @@ class Proposer:
             RuntimeError: nothing kept yet (propose first).
         """
         window = self.tracking_window(transform_motion)
-        return reachable_regions(window, self.evaluator.model, self.evaluator.rig)
+        return reachable_regions(window, self.evaluator.model, self.evaluator.rig, self._depth_reach)
 
     def _tracking_frame(self, transform_motion: FloatArray | None) -> _TrackingFrame:
         """The kept poses moved by `transform_motion` and the window around the best, built
