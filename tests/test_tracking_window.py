@@ -12,7 +12,7 @@ from robot_app.geometry import make_transform
 from robot_app.vision.camera import PinholeCamera, StereoRig
 from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.ga import LEVELS, GASettings, GeneticAlgorithm, SearchBoundsSettings, encode
-from robot_app.vision.tracking_window import reach_in_depth, reachable_regions
+from robot_app.vision.tracking_window import off_plane, reach_in_depth, reachable_regions, search_tilt_sine
 
 CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
@@ -52,7 +52,7 @@ def _boxes_of_64_points(
     """The projection as numpy: a box of the model's radius in x-y and its reach in depth
     around each of the window's 8 corners."""
     radius = float(np.max(np.linalg.norm(np.vstack([model.points_in, model.points_out]), axis=1)))
-    depth = reach_in_depth(model, window.max_tilt_deg)
+    depth = reach_in_depth(radius, off_plane(model), search_tilt_sine(window.max_tilt_deg))
     corners = np.array(np.meshgrid(window.x, window.y, window.z, indexing="ij")).reshape(3, -1).T
     cube = (
         np.array(np.meshgrid((-radius, radius), (-radius, radius), (-depth, depth), indexing="ij"))
@@ -115,10 +115,11 @@ def test_the_depth_reach_is_that_of_the_largest_tilt_the_search_gives() -> None:
     poses = _search_poses(window, rng, 400)
     points = np.vstack([model.points_in, model.points_out])
     depths = np.abs(np.einsum("pj,nj->pn", poses[:, 2, :3], points))
-    reach = reach_in_depth(model, 20.0)
+    reach = reach_in_depth(model.radius, off_plane(model), search_tilt_sine(20.0))
     assert depths.max() <= reach + 1e-12 and depths.max() > 0.95 * reach
     assert reach < 0.5 * model.radius
-    assert reach_in_depth(model, 90.0) == model.radius
+    assert reach_in_depth(model.radius, 0.0, search_tilt_sine(90.0)) == model.radius
+    assert reach_in_depth(model.radius, 0.01, 0.1) == 0.1 * model.radius + 0.01
 
 
 def test_the_corners_of_the_grown_window_give_the_boxes_of_all_64_points() -> None:

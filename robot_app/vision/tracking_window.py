@@ -88,17 +88,18 @@ def reachable_regions(
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
     """Per image (left, right), the (u0, v0, u1, v1) box, inclusive and inside the image,
     that the model's points can reach with its origin anywhere in `window`, at any yaw and
-    at any tilt the search can give it (`reach_in_depth`), a few pixels to spare; the whole
-    image when a camera could see the model from behind.
+    at any tilt the search can give it, a few pixels to spare; the whole image when a camera
+    could see the model from behind.
 
-    The window is grown by the model's radius in x and y and by its reach in depth; only
-    the grown box's 8 corners are projected: a pinhole's u and v are ratios of linear
-    functions of the point, so over a box in front of the camera their extremes (and the
-    least depth) lie at its corners. Compiled (`_corner_box`): as numpy calls on 8 points
-    it cost ~0.25 ms a tracking frame. `depth`: `reach_in_depth(model, window.max_tilt_deg)`
-    if the caller keeps it (None: computed)."""
+    The window is grown by the model's radius in x and y and by `depth` in depth (None:
+    `reach_in_depth` at `search_tilt_sine(window.max_tilt_deg)`); only the grown box's 8
+    corners are projected: a pinhole's u and v are ratios of linear functions of the point,
+    so over a box in front of the camera their extremes (and the least depth) lie at its
+    corners. Compiled (`_corner_box`): as numpy calls on 8 points it cost ~0.25 ms a
+    tracking frame."""
     radius = model.radius
-    depth = reach_in_depth(model, window.max_tilt_deg) if depth is None else depth
+    if depth is None:
+        depth = reach_in_depth(radius, off_plane(model), search_tilt_sine(window.max_tilt_deg))
     low = np.array([window.x[0] - radius, window.y[0] - radius, window.z[0] - depth])
     high = np.array([window.x[1] + radius, window.y[1] + radius, window.z[1] + depth])
     width, height = rig.image_size
@@ -107,20 +108,29 @@ def reachable_regions(
     return left, right
 
 
-def reach_in_depth(model: ClothModel, max_tilt_deg: float) -> float:
-    """How far in depth [m] a model point can lie from the model's origin at any pose the
-    tracking search scores: the GA bounds the tilt's quaternion parts ε1, ε2 by
-    sin(max_tilt / 2) each (`SearchBoundsSettings.gene_ranges`), so cos tilt = 1 - 2(ε1² +
-    ε2²) >= 1 - 4 sin²(max_tilt / 2) (the diagonal, ~1.4x max_tilt), and the refinement
-    keeps the tilt within max_tilt. A point p of Σ_M then lies |p_xy| sin(tilt) + |p_z|
-    from the origin in depth, and never more than |p| (the radius). With a flat model
-    (z = 0) and max_tilt 20°, 0.48 of the radius: the near side of the window comes less
-    close, and a third fewer pixels need colour codes than growing the depth by the radius."""
-    radius = model.radius
+def search_tilt_sine(max_tilt_deg: float) -> float:
+    """The sine of the largest tilt the search scores in a window of `max_tilt_deg`: the GA
+    bounds the tilt's quaternion parts ε1, ε2 by sin(max_tilt / 2) each
+    (`SearchBoundsSettings.gene_ranges`), so cos tilt = 1 - 2(ε1² + ε2²) >= 1 - 4
+    sin²(max_tilt / 2) (its diagonal, ~1.4x max_tilt; 1 past a right angle), and the
+    refinement keeps the tilt within max_tilt."""
     cos_tilt = 1.0 - 4.0 * np.sin(np.deg2rad(max_tilt_deg) / 2.0) ** 2
-    sin_tilt = 1.0 if cos_tilt <= 0.0 else float(np.sqrt(1.0 - cos_tilt * cos_tilt))
-    off_plane = max(float(np.max(np.abs(p[:, 2]), initial=0.0)) for p in (model.points_in, model.points_out))
-    return min(radius, radius * sin_tilt + off_plane)
+    return 1.0 if cos_tilt <= 0.0 else float(np.sqrt(1.0 - cos_tilt * cos_tilt))
+
+
+def reach_in_depth(radius: float, off_plane: float, tilt_sine: float) -> float:
+    """How far in depth [m] a point of a model of `radius` and `off_plane` (`off_plane`)
+    can lie from the model's origin at a tilt whose sine is at most `tilt_sine`: a point p
+    of Σ_M lies at most |p_xy| sin(tilt) + |p_z| from it in depth, and never more than |p|.
+    With a flat model (z = 0) and the search's max_tilt of 20°, 0.48 of the radius: the
+    near side of the window comes less close, and a fifth fewer pixels need colour codes
+    (the bench's tracking cloth) than growing the depth by the radius."""
+    return min(radius, radius * tilt_sine + off_plane)
+
+
+def off_plane(model: ClothModel) -> float:
+    """The largest |z| of a model point [m] (0 for a flat model)."""
+    return max(float(np.max(np.abs(p[:, 2]), initial=0.0)) for p in (model.points_in, model.points_out))
 
 
 _IDENTITY = np.eye(4)
@@ -154,4 +164,11 @@ def _corner_box(low, high, to_camera, K, width, height):
     return box
 
 
-__all__ = ["TrackingSettings", "reach_in_depth", "reachable_regions", "window_around"]
+__all__ = [
+    "TrackingSettings",
+    "off_plane",
+    "reach_in_depth",
+    "reachable_regions",
+    "search_tilt_sine",
+    "window_around",
+]
