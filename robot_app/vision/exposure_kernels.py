@@ -143,7 +143,7 @@ def encoded_deviation(value, core, levels):
                 encoded[v, left], encoded[v, u], encoded[v, right],
                 encoded[below, left], encoded[below, u], encoded[below, right],
             )  # fmt: skip
-            deviation = max(deviation, abs(np.int64(median) - 128))
+            deviation = max(deviation, int(abs(np.int64(median) - 128)))
     return encoded, deviation
 
 
