@@ -8,10 +8,11 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from robot_app.geometry import make_transform
+from robot_app.geometry import make_transform, rotation_from_rpy
 from robot_app.vision.camera import PinholeCamera, StereoRig
 from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.ga import LEVELS, GASettings, GeneticAlgorithm, SearchBoundsSettings, encode
+from robot_app.vision.recognizer import RecognitionSettings, Recognizer
 from robot_app.vision.tracking_window import off_plane, reach_in_depth, reachable_regions, search_tilt_sine
 
 CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
@@ -135,3 +136,27 @@ def test_the_model_radius_is_its_farthest_point() -> None:
     model = _model(np.random.default_rng(5))
     distances = np.linalg.norm(np.vstack([model.points_in, model.points_out]), axis=1)
     assert model.radius == distances.max() and model.radius == model.radius  # cached: the same value
+
+
+def test_the_regions_also_cover_the_moved_best_pose_at_its_own_tilt() -> None:
+    """The moved best pose is scored unclipped when no GA pose is in the yaw window
+    (`Proposer.track`): a camera motion that tilts it past the search's tilt widens the
+    regions enough to hold it, and a pose within the search's tilt leaves them as they were."""
+    rng = np.random.default_rng(7)
+    model = _model(rng)
+    settings = RecognitionSettings()
+    recognizer = Recognizer(model, RIG, settings)
+    proposer = recognizer.proposer
+    flat = make_transform(np.eye(3), [0.01, -0.01, 0.45])
+    proposer.keep(flat, np.repeat(flat[None], 3, axis=0))
+    plain = proposer.tracking_regions(None)
+    window = proposer.tracking_window(None)
+    assert all(
+        np.array_equal(a, b) for a, b in zip(plain, reachable_regions(window, model, RIG), strict=True)
+    )
+    steep = make_transform(rotation_from_rpy(np.deg2rad(75.0), 0.0, 0.0), [0.01, -0.01, 0.45])
+    proposer.keep(steep, np.repeat(steep[None], 3, axis=0))
+    regions = proposer.tracking_regions(None)
+    points = np.vstack([model.points_in, model.points_out])
+    assert _outside(points, steep[None], regions) == 0
+    assert any(np.any(a != b) for a, b in zip(regions, plain, strict=True))  # wider than the search's own
