@@ -31,7 +31,11 @@ class TrackingSettings(StrictModel):
         depth_window: half-width of the depth window [m]; the window moves with the
             camera, so a descending camera keeps its cloth.
         verify_every: verify (and decide) on every n-th tracking frame; between them the
-            last verification's appearance is carried over (1: every frame).
+            last verification's appearance is carried over (1: every frame). Kept at 1 by
+            measurement: 2 saves ~0.1-0.4 ms CPU a frame (scripts/bench_recognition.py
+            --speed-only: 3.36 against 3.30 ms, within its noise) and the conveyor cell
+            (bench_conveyor.py, 50 mm/s, 10 episodes) places 10/10 either way, but a
+            carried appearance hides a track drifting off the cloth for that frame.
         yaw_window_deg: half-width of the yaw window around the motion-predicted pose
             [deg]: a tracked cloth turns little between frames, while the hue fitness
             cannot tell a plain cloth from its half turn, so a GA free in yaw flipped a
