@@ -32,7 +32,7 @@ class TrackingSettings(StrictModel):
             camera, so a descending camera keeps its cloth.
         verify_every: verify (and decide) on every n-th tracking frame; between them the
             last verification's appearance is carried over (1: every frame). Kept at 1 by
-            measurement: 2 saves ~0.1-0.4 ms CPU a frame (scripts/bench_recognition.py
+            measurement: 2 saves ~0.1-0.5 ms CPU a frame (scripts/bench_recognition.py
             --speed-only: 3.36 against 3.30 ms, within its noise) and the conveyor cell
             (bench_conveyor.py, 50 mm/s, 10 episodes) places 10/10 either way, but a
             carried appearance hides a track drifting off the cloth for that frame.
