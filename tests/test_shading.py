@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 from robot_app.config import load_config
 from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.exposure import ExposureSettings, scene_exposure
-from robot_app.vision.exposure_kernels import sheet_statistics
-from robot_app.vision.fitness_kernels import bgr_codes, bgr_codes_shaded, gain_levels
+from robot_app.vision.exposure_kernels import encoded_deviation, hsv_image, sheet_sample
+from robot_app.vision.fitness_kernels import bgr_codes, bgr_codes_shaded, every_colour, gain_levels
 from robot_app.vision.fitness_scores import OFF_IMAGE
 from robot_app.vision.hue import hue_distance, to_hsv
 from robot_app.vision.photo_model import make_model
@@ -115,23 +116,56 @@ def test_a_white_cloth_half_in_a_shadow_is_found_where_it_lies() -> None:
     assert not any(found_without)  # the shadowed half is DARK against the model's LIGHT
 
 
-def test_the_compiled_sheet_statistics_are_those_of_numpy() -> None:
-    """`exposure_kernels.sheet_statistics` against its numpy twin (the mask by
-    `hue.hue_distance`, the lower median of each channel by sorting) on noisy images with
-    sheet, foreign hues, greys and hues across the circle's wrap."""
+def test_the_compiled_hsv_is_opencvs_for_every_colour() -> None:
+    """`exposure_kernels._hsv` (OpenCV's integer arithmetic) against `hue.to_hsv` on all 2^24 colours."""
+    colours = every_colour()
+    assert np.array_equal(hsv_image(colours), to_hsv(colours))
+
+
+def test_the_compiled_sheet_sample_is_that_of_numpy() -> None:
+    """`exposure_kernels.sheet_sample` against its numpy twin (the mask by
+    `hue.hue_distance` on `hue.to_hsv` of image[::step, ::step], the lower median of each
+    channel by sorting, `np.median` of the value, the core by `cv2.erode`) on noisy images
+    with sheet, foreign hues, greys and hues across the circle's wrap."""
     rng = np.random.default_rng(5)
-    for trial in range(30):
+    for trial in range(40):
         sheet_bgr = np.array([40, 150 + trial, 60])  # green, the sheet
-        sample = rng.integers(0, 256, (40, 50, 3)).astype(np.uint8)
-        sheet_like = rng.random((40, 50)) < rng.uniform(0.0, 0.9)
+        image = rng.integers(0, 256, (83, 101, 3)).astype(np.uint8)
+        sheet_like = rng.random((83, 101)) < rng.uniform(0.0, 0.95)
         noisy = sheet_bgr + rng.normal(0, 12, (sheet_like.sum(), 3))
-        sample[sheet_like] = np.clip(noisy, 0, 255).astype(np.uint8)
+        image[sheet_like] = np.clip(noisy, 0, 255).astype(np.uint8)
+        step = int(rng.integers(1, 9))
+        sample = np.ascontiguousarray(image[::step, ::step])
         hsv = to_hsv(sample)
         background_hue = int(rng.integers(0, 256))
         min_saturation, tolerance = int(rng.integers(0, 80)), int(rng.integers(1, 64))
         expected = (hsv[..., 1] >= min_saturation) & (hue_distance(hsv[..., 0], background_hue) <= tolerance)
-        mask, count, medians = sheet_statistics(sample, hsv, min_saturation, background_hue, tolerance)
+        mask, count, medians, value, median, core, size = sheet_sample(
+            image, step, min_saturation, background_hue, tolerance
+        )
         assert np.array_equal(mask, expected) and count == expected.sum()
+        assert np.array_equal(value, hsv[..., 2])
+        eroded = cv2.erode(expected.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
+        assert np.array_equal(core, eroded) and size == eroded.sum()
         if count:
             lower = np.sort(sample[expected], axis=0)[(count - 1) // 2]
             assert medians.tolist() == lower.astype(float).tolist()
+            assert median == float(np.median(hsv[..., 2][expected]))
+        else:
+            assert np.isnan(median)
+
+
+def test_the_compiled_even_light_test_is_that_of_opencv() -> None:
+    """`exposure_kernels.encoded_deviation` against its twin: the encoding on the core, 128
+    elsewhere, and the largest |cv2.medianBlur - 128| over the core."""
+    rng = np.random.default_rng(6)
+    for _ in range(60):
+        shape = (int(rng.integers(1, 70)), int(rng.integers(1, 90)))
+        value = rng.integers(0, 256, shape).astype(np.uint8)
+        core = rng.random(shape) < rng.uniform(0.0, 1.0)
+        levels = np.clip(rng.normal(128, rng.uniform(1, 60), 256), 0, 255).astype(np.uint8)
+        encoded, deviation = encoded_deviation(value, core, levels)
+        expected = np.where(core, levels[value], 128).astype(np.uint8)
+        assert np.array_equal(encoded, expected)
+        smoothed = cv2.medianBlur(expected, 3).astype(int)
+        assert deviation == (np.abs(smoothed[core] - 128).max() if core.any() else 0)

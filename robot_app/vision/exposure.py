@@ -21,6 +21,7 @@ differs from the sheet's median by more than `shading_min`, gives each block a f
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import cv2
@@ -31,8 +32,7 @@ from pydantic import Field
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.vision.cloth_model import ClothModel
-from robot_app.vision.exposure_kernels import sheet_statistics
-from robot_app.vision.hue import to_hsv
+from robot_app.vision.exposure_kernels import encoded_deviation, sheet_sample
 
 
 class ExposureSettings(StrictModel):
@@ -130,40 +130,30 @@ def scene_exposure(
     none = SceneExposure(np.ones(3), None)
     if not settings.enabled or model.sheet_bgr is None:
         return none
-    sample = np.ascontiguousarray(np.asarray(image_bgr)[:: settings.step, :: settings.step])
-    hsv = to_hsv(sample)
     background_hue = int(np.asarray(model.background_hue, dtype=np.int32))  # as `hue.hue_distance` takes it
-    sheet, count, medians = sheet_statistics(
-        sample, hsv, settings.min_saturation, background_hue, settings.hue_tolerance
+    sheet, count, medians, value, median, core, size = sheet_sample(
+        np.asarray(image_bgr), settings.step, settings.min_saturation, background_hue, settings.hue_tolerance
     )
     if count < max(settings.min_share * sheet.size, 3):
         return none
     scene = np.maximum(medians, 1.0)
     gains = np.clip(np.asarray(model.sheet_bgr) / scene, 1.0 / settings.max_gain, settings.max_gain)
-    if not (shading and settings.shading):
+    if not (shading and settings.shading) or size < 3:
         return SceneExposure(gains, None)
-    return SceneExposure(gains, _shading(hsv[:, :, 2], sheet, settings))
+    return SceneExposure(gains, _shading(value, median, core, settings))
 
 
 def _shading(
-    value: npt.NDArray[np.uint8], sheet: npt.NDArray[np.bool_], settings: ExposureSettings
+    value: npt.NDArray[np.uint8], median: float, core: npt.NDArray[np.bool_], settings: ExposureSettings
 ) -> Shading | None:
     """The factor per block from the sheet's brightness (`value`, one sample per block;
-    `sheet` where the sample is sheet); None if it stays within `shading_min` of the median.
-    Sheet samples next to a non-sheet one are left out (a blurred cloth edge mixes in)."""
-    median = float(np.median(value[sheet]))
-    core = cv2.erode(sheet.astype(np.uint8), np.ones((3, 3), np.uint8)) > 0
-    if core.sum() < 3:
-        return None
+    `median` its median over the sheet, `core` the sheet samples that have no non-sheet
+    neighbour: a blurred cloth edge mixes in); None if it stays within `shading_min` of the
+    median."""
     log_max = float(np.log(settings.shading_max))
     scale = 127.0 / log_max
-    ratio = np.log(median / np.maximum(value.astype(np.float64), 1.0))  # > 0: darker than the median
-    encoded = np.where(core, np.clip(np.rint(128.0 + ratio * scale), 0, 255), 128).astype(np.uint8)
-    smoothed = cv2.medianBlur(encoded, 3)
-    if (
-        float(np.max(np.abs(smoothed[core].astype(np.float64) - 128.0)))
-        <= np.log1p(settings.shading_min) * scale
-    ):
+    encoded, deviation = encoded_deviation(value, core, _encoding(median, scale))
+    if deviation <= np.log1p(settings.shading_min) * scale:
         return None  # even light: the common case costs this much only
     filled = cv2.inpaint(encoded, np.where(core, 0, 255).astype(np.uint8), 2.0, cv2.INPAINT_TELEA)
     filled = cv2.medianBlur(np.asarray(filled, dtype=np.uint8), 3)
@@ -176,6 +166,17 @@ def _shading(
         np.exp(levels * settings.shading_step),
         settings.step,
     )
+
+
+@functools.lru_cache(maxsize=1024)
+def _encoding(median: float, scale: float) -> npt.NDArray[np.uint8]:
+    """(256,) read-only: each value's log-brightness against the sheet's `median`, as
+    128 + log(median / value) * `scale` rounded and clipped to 0-255 (> 128: darker than
+    the median); a median is one of 511 half-steps, so a tracking run builds few."""
+    ratio = np.log(median / np.maximum(np.arange(256, dtype=np.float64), 1.0))
+    table = np.clip(np.rint(128.0 + ratio * scale), 0, 255).astype(np.uint8)
+    table.setflags(write=False)
+    return table
 
 
 __all__ = ["ExposureSettings", "SceneExposure", "Shading", "scene_exposure", "sheet_gains"]

@@ -39,7 +39,14 @@ from robot_app.vision.ga import GASettings, GeneticAlgorithm, SearchBoundsSettin
 from robot_app.vision.poses import AvoidedPoses, PoseLimits, as_poses
 from robot_app.vision.print_periods import PeriodSettings, print_periods
 from robot_app.vision.refinement import Refiner
-from robot_app.vision.tracking_window import TrackingSettings, reachable_regions, window_around
+from robot_app.vision.tracking_window import (
+    TrackingSettings,
+    off_plane,
+    reach_in_depth,
+    reachable_regions,
+    search_tilt_sine,
+    window_around,
+)
 
 HALF_TURN = np.diag([-1.0, -1.0, 1.0, 1.0])  # about the model's z axis, through its origin
 
@@ -164,6 +171,8 @@ class Proposer:
         self.refiner = refiner
         self._seed = seed
         self._print_maps: FloatArray | None = None
+        self._tilt_sine = search_tilt_sine(settings.bounds.max_tilt_deg)  # a tracking window's
+        self._off_plane = off_plane(evaluator.model)
         self.reset()
 
     @property
@@ -312,8 +321,13 @@ class Proposer:
         Raises:
             RuntimeError: nothing kept yet (propose first).
         """
-        window = self.tracking_window(transform_motion)
-        return reachable_regions(window, self.evaluator.model, self.evaluator.rig)
+        frame = self._tracking_frame(transform_motion)
+        # the moved best pose is scored unclipped if no GA pose is in the yaw window (`track`):
+        # the box covers its tilt too, so every pose the frame scores reads coded pixels
+        tilt_sine = max(self._tilt_sine, float(np.hypot(frame.poses[0][2, 0], frame.poses[0][2, 1])))
+        model = self.evaluator.model
+        depth = reach_in_depth(model.radius, self._off_plane, tilt_sine)
+        return reachable_regions(frame.window, model, self.evaluator.rig, depth)
 
     def _tracking_frame(self, transform_motion: FloatArray | None) -> _TrackingFrame:
         """The kept poses moved by `transform_motion` and the window around the best, built

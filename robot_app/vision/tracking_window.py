@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 import numpy.typing as npt
+from numba import njit
 from pydantic import Field, field_validator
 
 from robot_app.arrays import FloatArray
@@ -30,7 +31,11 @@ class TrackingSettings(StrictModel):
         depth_window: half-width of the depth window [m]; the window moves with the
             camera, so a descending camera keeps its cloth.
         verify_every: verify (and decide) on every n-th tracking frame; between them the
-            last verification's appearance is carried over (1: every frame).
+            last verification's appearance is carried over (1: every frame). Kept at 1 by
+            measurement: 2 saves ~0.1-0.5 ms CPU a frame (scripts/bench_recognition.py
+            --speed-only: 3.36 against 3.30 ms, within its noise) and the conveyor cell
+            (bench_conveyor.py, 50 mm/s, 10 episodes) places 10/10 either way, but a
+            carried appearance hides a track drifting off the cloth for that frame.
         yaw_window_deg: half-width of the yaw window around the motion-predicted pose
             [deg]: a tracked cloth turns little between frames, while the hue fitness
             cannot tell a plain cloth from its half turn, so a GA free in yaw flipped a
@@ -79,37 +84,95 @@ def window_around(
     )
 
 
-# The 8 corners of a box, as 0 (low) / 1 (high) per axis.
-_BOX_CORNERS = np.array(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij")).reshape(3, -1).T
+_jit = njit(cache=True, nogil=True, error_model="numpy")
 
 
 def reachable_regions(
-    window: SearchBoundsSettings, model: ClothModel, rig: StereoRig
+    window: SearchBoundsSettings, model: ClothModel, rig: StereoRig, depth: float | None = None
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
     """Per image (left, right), the (u0, v0, u1, v1) box, inclusive and inside the image,
     that the model's points can reach with its origin anywhere in `window`, at any yaw and
-    tilt (the window grown by the model's radius on every side), a few pixels to spare;
-    the whole image when a camera could see the model from behind.
+    at any tilt the search can give it, a few pixels to spare; the whole image when a camera
+    could see the model from behind.
 
-    Only the grown box's 8 corners are projected: a pinhole's u and v are ratios of
-    linear functions of the point, so over a box in front of the camera their extremes
-    (and the least depth) lie at its corners."""
-    low = np.array([window.x[0], window.y[0], window.z[0]]) - model.radius
-    high = np.array([window.x[1], window.y[1], window.z[1]]) + model.radius
-    points = np.where(_BOX_CORNERS == 1, high, low)  # in Σ_CR
+    The window is grown by the model's radius in x and y and by `depth` in depth (None:
+    `reach_in_depth` at `search_tilt_sine(window.max_tilt_deg)`); only the grown box's 8
+    corners are projected: a pinhole's u and v are ratios of linear functions of the point,
+    so over a box in front of the camera their extremes (and the least depth) lie at its
+    corners. Compiled (`_corner_box`): as numpy calls on 8 points it cost ~0.25 ms a
+    tracking frame."""
+    radius = model.radius
+    if depth is None:
+        depth = reach_in_depth(radius, off_plane(model), search_tilt_sine(window.max_tilt_deg))
+    low = np.array([window.x[0] - radius, window.y[0] - radius, window.z[0] - depth])
+    high = np.array([window.x[1] + radius, window.y[1] + radius, window.z[1] + depth])
     width, height = rig.image_size
-    boxes = []
-    for camera, to_camera in ((rig.left, rig.transform_right_to_left), (rig.right, np.eye(4))):
-        X = points @ to_camera[:3, :3].T + to_camera[:3, 3]
-        if np.any(X[:, 2] <= 1e-3):
-            boxes.append(np.array([0, 0, width - 1, height - 1], dtype=np.int64))
-            continue
-        uv = X[:, :2] / X[:, 2:] @ camera.camera_matrix[:2, :2].T + camera.camera_matrix[:2, 2]
-        box = np.array([uv[:, 0].min() - 3, uv[:, 1].min() - 3, uv[:, 0].max() + 4, uv[:, 1].max() + 4])
-        boxes.append(
-            np.clip(np.floor(box), 0, [width - 1, height - 1, width - 1, height - 1]).astype(np.int64)
-        )
-    return boxes[0], boxes[1]
+    left = _corner_box(low, high, rig.transform_right_to_left, rig.left.camera_matrix, width, height)
+    right = _corner_box(low, high, _IDENTITY, rig.right.camera_matrix, width, height)
+    return left, right
 
 
-__all__ = ["TrackingSettings", "reachable_regions", "window_around"]
+def search_tilt_sine(max_tilt_deg: float) -> float:
+    """The sine of the largest tilt the search scores in a window of `max_tilt_deg`: the GA
+    bounds the tilt's quaternion parts ε1, ε2 by sin(max_tilt / 2) each
+    (`SearchBoundsSettings.gene_ranges`), so cos tilt = 1 - 2(ε1² + ε2²) >= 1 - 4
+    sin²(max_tilt / 2) (its diagonal, ~1.4x max_tilt; 1 past a right angle), and the
+    refinement keeps the tilt within max_tilt."""
+    cos_tilt = 1.0 - 4.0 * np.sin(np.deg2rad(max_tilt_deg) / 2.0) ** 2
+    return 1.0 if cos_tilt <= 0.0 else float(np.sqrt(1.0 - cos_tilt * cos_tilt))
+
+
+def reach_in_depth(radius: float, off_plane: float, tilt_sine: float) -> float:
+    """How far in depth [m] a point of a model of `radius` and `off_plane` (`off_plane`)
+    can lie from the model's origin at a tilt whose sine is at most `tilt_sine`: a point p
+    of Σ_M lies at most |p_xy| sin(tilt) + |p_z| from it in depth, and never more than |p|.
+    With a flat model (z = 0) and the search's max_tilt of 20°, 0.48 of the radius: the
+    near side of the window comes less close, and a fifth fewer pixels need colour codes
+    (the bench's tracking cloth) than growing the depth by the radius."""
+    return min(radius, radius * tilt_sine + off_plane)
+
+
+def off_plane(model: ClothModel) -> float:
+    """The largest |z| of a model point [m] (0 for a flat model)."""
+    return max(float(np.max(np.abs(p[:, 2]), initial=0.0)) for p in (model.points_in, model.points_out))
+
+
+_IDENTITY = np.eye(4)
+
+
+@_jit
+def _corner_box(low, high, to_camera, K, width, height):
+    """The (u0, v0, u1, v1) int64 box of `reachable_regions` in one camera: the 8 corners
+    of the box [low, high] (Σ_CR) through `to_camera` (^C T_CR) and `K`, 3 px to spare
+    (4 on the far sides), floored and clipped to the image; the whole image if a corner
+    lies at or behind 1 mm of depth."""
+    u_min, v_min, u_max, v_max = np.inf, np.inf, -np.inf, -np.inf
+    for corner in range(8):
+        p0 = high[0] if corner & 4 else low[0]
+        p1 = high[1] if corner & 2 else low[1]
+        p2 = high[2] if corner & 1 else low[2]
+        x = p0 * to_camera[0, 0] + p1 * to_camera[0, 1] + p2 * to_camera[0, 2] + to_camera[0, 3]
+        y = p0 * to_camera[1, 0] + p1 * to_camera[1, 1] + p2 * to_camera[1, 2] + to_camera[1, 3]
+        z = p0 * to_camera[2, 0] + p1 * to_camera[2, 1] + p2 * to_camera[2, 2] + to_camera[2, 3]
+        if z <= 1e-3:
+            return np.array([0, 0, width - 1, height - 1], dtype=np.int64)
+        u = K[0, 0] * (x / z) + K[0, 1] * (y / z) + K[0, 2]
+        v = K[1, 0] * (x / z) + K[1, 1] * (y / z) + K[1, 2]
+        u_min, u_max = min(u_min, u), max(u_max, u)
+        v_min, v_max = min(v_min, v), max(v_max, v)
+    box = np.empty(4, dtype=np.int64)
+    limits = (width - 1, height - 1, width - 1, height - 1)
+    values = (u_min - 3.0, v_min - 3.0, u_max + 4.0, v_max + 4.0)
+    for k in range(4):
+        box[k] = np.int64(min(max(np.floor(values[k]), 0.0), float(limits[k])))
+    return box
+
+
+__all__ = [
+    "TrackingSettings",
+    "off_plane",
+    "reach_in_depth",
+    "reachable_regions",
+    "search_tilt_sine",
+    "window_around",
+]
