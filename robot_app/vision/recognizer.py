@@ -461,6 +461,7 @@ class Recognizer:
             depth_offset=depth_offset,
             interleaved=v.interleaved,
             agreeing=v.agreeing,
+            outline=v.outline,
         )
 
     def _most_confident(
@@ -610,6 +611,7 @@ class Recognizer:
             v.interleaved,
             self.model.has_texture,
             v.agreeing,
+            v.outline,
         )
 
 
