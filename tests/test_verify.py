@@ -12,7 +12,7 @@ from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.cloth_model import ClothModel
-from robot_app.vision.decide import DecisionSettings, Evidence, confidence, decide
+from robot_app.vision.decide import DecisionSettings, Evidence, confidence, decide, ranking
 from robot_app.vision.exposure import ExposureSettings, sheet_gains
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.photo_model import make_model
@@ -297,5 +297,8 @@ def test_the_outline_decides_only_with_its_weight_and_has_stand_ins() -> None:
     assert confidence(blind, replace(base, outline=0.3)) == confidence(blind, base)
     unmeasured = replace(base, outline=d.outline_unmeasured)
     assert confidence(d, replace(base, outline=np.nan)) == confidence(d, unmeasured)
+    # the alternatives of a pose are ranked without it (and the ranking's other weights are the decision's)
+    assert ranking(d, replace(base, outline=0.2)) == ranking(d, base)
+    assert ranking(d, base) < ranking(d, replace(base, appearance=0.9, agreeing=0.95))
     untextured = replace(base, has_texture=False, outline=np.nan)
     assert confidence(d, untextured) == confidence(d, replace(untextured, outline=d.outline_without_texture))

@@ -54,18 +54,18 @@ The outline (this session's addition): a plain model on another cloth's patch of
 colour (a red plain model on the red stripes or the red patch of another cloth, the other
 colours taken as hidden) agrees in texture wherever it is in view, and only the catalogue's
 rivals rejected it; its outline does not lie on an edge (the colour goes on past it). Its
-weight and a new bias were fitted with the other weights held at the earlier ones (the
-log-odds also rank a pose's alternatives, and a free refit changed that ranking: on the
-bench's 60 scenes a folded stripes print came out half turned): `taskset -c 0 python
-scripts/bench_recognition.py --calibrate --scenes 100 --identification-size 20
---hold-weights`. Fitted first offline on the recognitions of the earlier decision (bias
--24.456, outline 12.499, threshold 0.516: in sample 99.6 % present found, 99.6 % absent
-rejected, where the earlier decision had 99.6 / 97.9 % on the same scenes; 10 random
-halves held out 99.2 / 99.4 %; a free refit of all weights 99.2 / 99.6 %), then by the
-command above on the recognitions of that decision, which printed the weights here
-(bias -23.000, outline 10.227, threshold 0.455; 240 present scenes at the right pose, 480
-absent; in sample 99.6 / 99.6 %). The fit is loose (the two sets are nearly separable, so
-the ridge sets the scale): on the second set the first weights had 99.6 / 99.4 %.
+weight and a new bias were fitted with the other weights held at the earlier ones, and the
+recogniser ranks a pose's alternatives without it (`ranking`): its poses are the earlier
+decision's exactly. (A free refit of all weights, and the outline in the ranking, were
+measured and dropped: on the bench's 60 scenes the free refit turned a folded stripes
+print by half a turn, and the outline in the ranking lost a covered print.) `taskset -c 0
+python scripts/bench_recognition.py --calibrate --scenes 100 --identification-size 20
+--hold-weights` printed bias -22.753, outline 10.752, threshold 0.594: 243 present scenes
+at the right pose, 480 absent; in sample 99.6 % present found and 99.6 % absent rejected,
+where the earlier decision had 99.6 / 97.9 % on the same scenes; 10 random halves held
+out (bias and outline refitted on each half) 99.2 / 99.4 %, without the outline (all
+weights refitted) 97.4 / 97.9 %. The fit is loose: the sets are nearly separable, so the
+ridge sets the scale.
 A model without texture has no outline to check (`outline_without_texture`, 1.0: nothing
 against it); an outline too little of which is in view takes `outline_unmeasured`.
 
@@ -144,8 +144,8 @@ class DecisionSettings(StrictModel):
             (too little of it in view).
     """
 
-    threshold: float = Field(default=0.455, gt=0.0, lt=1.0)
-    bias: float = -23.0
+    threshold: float = Field(default=0.594, gt=0.0, lt=1.0)
+    bias: float = -22.753
     weight_fitness: float = 8.885
     weight_appearance: float = -0.131
     weight_visible: float = 4.051
@@ -153,7 +153,7 @@ class DecisionSettings(StrictModel):
     weight_agreeing: float = -3.089
     weight_appearance_visible: float = 6.162
     weight_agreeing_visible: float = 11.261
-    weight_outline: float = 10.227
+    weight_outline: float = 10.752
     outline_without_texture: float = Field(default=1.0, ge=0.0, le=1.0)
     outline_unmeasured: float = Field(default=0.5, ge=0.0, le=1.0)
     appearance_without_texture: float = Field(default=0.6, ge=-1.0, le=1.0)
@@ -208,9 +208,7 @@ def logit(settings: DecisionSettings, evidence: Evidence) -> float:
         )
     if math.isnan(agreeing):
         agreeing = (appearance + 1.0) / 2.0
-    outline = evidence.outline
-    if math.isnan(outline):
-        outline = settings.outline_unmeasured if evidence.has_texture else settings.outline_without_texture
+    outline = _outline(settings, evidence)
     return (
         settings.bias
         + settings.weight_fitness * evidence.fitness
@@ -222,6 +220,24 @@ def logit(settings: DecisionSettings, evidence: Evidence) -> float:
         + settings.weight_agreeing_visible * agreeing * evidence.visible_fraction
         + settings.weight_outline * outline
     )
+
+
+def ranking(settings: DecisionSettings, evidence: Evidence) -> float:
+    """The log-odds without the outline's term: how the recogniser ranks a pose's
+    alternatives (half and quarter turns, other runs' ends, the alignment's neighbours).
+    The outline says whether the object is the model's cloth, not which of its poses fits
+    best: ranked by it, a print 45 % under a plain sheet of its own colour lost to a plain
+    look-alike of its outline beside it (`test_look_alike_sheet.py`, 7 -> 3 of 8) and a
+    covered print on the bench moved 4 -> 8.5 mm off (then not found). The other weights
+    are held at the earlier ones, so the ranking is the earlier decision's."""
+    return logit(settings, evidence) - settings.weight_outline * _outline(settings, evidence)
+
+
+def _outline(settings: DecisionSettings, evidence: Evidence) -> float:
+    """The outline evidence, its NaN replaced by the stand-in (see `logit`)."""
+    if not math.isnan(evidence.outline):
+        return evidence.outline
+    return settings.outline_unmeasured if evidence.has_texture else settings.outline_without_texture
 
 
 def confidence(settings: DecisionSettings, evidence: Evidence) -> float:
@@ -415,4 +431,5 @@ __all__ = [
     "judge",
     "logit",
     "overlapping",
+    "ranking",
 ]

@@ -42,7 +42,11 @@ inner point on a foreign colour is hidden (an occluder: not counted against the 
 unless its outer point shows the sheet: a foreign region that ends exactly on the outline
 is another cloth's other colours, not a sheet over the cloth (a *seam*, counted against).
 An inner point of another colour than the model's there (a folded corner's back side, an
-occluder of a near hue) is *astray* and left out (`outline_astray` reports its share).
+occluder of a near hue) is *astray* and left out (`outline_astray` reports its share), and
+so is one whose texture cell does not agree (the texture already says the model is not
+there: a textured print under a plain sheet of its own colour, whose sheet goes on past the
+outline, or a fold; without this a covered print lost to a plain sheet of its outline and
+colour beside it, `test_look_alike_sheet.py`).
 `outline` = edges / (edges + same + seams): a share, so a folded corner or a wrong stretch
 costs only its own part.
 
@@ -196,7 +200,7 @@ class Verifier:
         self.settings = settings
         self._foreign = np.ascontiguousarray(foreign_codes(model.background_hue, search, model.hues_in))
         self._samples = _texture_samples(model, settings)
-        self._outline = _outline_pairs(model, settings)
+        self._outline = _outline_pairs(model, settings, self._samples)
         sheet_hue = round(model.background_hue) % HUE_RANGE
         sheet = colours_match(np.arange(COLOUR_CODES), sheet_hue, search.hue_threshold_in)
         self._sheet = np.append(sheet, False)  # OFF_IMAGE
@@ -254,7 +258,7 @@ class Verifier:
         s = self.settings
         (factors_left, index_left), (factors_right, index_right) = (_shade(x) for x in self._shading)
         block = max(x.block if x is not None else 1 for x in self._shading)
-        scores, visible, textured, interleaved, agreeing = appearance(
+        scores, visible, textured, interleaved, agreeing, agree_cells = appearance(
             poses, rig.left.camera_matrix, rig.right.camera_matrix,
             np.ascontiguousarray(rig.transform_right_to_left), px, py, values, cells, n_cells,
             self._images[0], self._images[1], codes_left, codes_right, self._foreign,
@@ -262,7 +266,7 @@ class Verifier:
             float(s.min_points), s.texture_min, s.flat_tolerance,
             s.chroma_tolerance, s.brightness_tolerance, s.partial_low, s.partial_high, s.agree_level,
         )  # fmt: skip
-        outline, astray = self._outline_evidence(poses)
+        outline, astray = self._outline_evidence(poses, agree_cells)
         return [
             Verification(float(a), float(v), float(t), float(i), float(g), float(o), float(r))
             for a, v, t, i, g, o, r in zip(
@@ -270,20 +274,23 @@ class Verifier:
             )
         ]
 
-    def _outline_evidence(self, poses: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """(P,) `Verification.outline` and (P,) `Verification.outline_astray` of each pose."""
+    def _outline_evidence(
+        self, poses: FloatArray, agree_cells: npt.NDArray[np.uint8]
+    ) -> tuple[FloatArray, FloatArray]:
+        """(P,) `Verification.outline` and (P,) `Verification.outline_astray` of each pose
+        (`agree_cells`: (P, 2, cells) the texture cells that agree, from `appearance`)."""
         if self._outline is None or self._images is None:
             nan = np.full(len(poses), np.nan)
             return nan, nan
-        inner, outer, model_bgr = self._outline
+        inner, outer, model_bgr, inner_cells = self._outline
         codes_left, codes_right = self.evaluator.codes
         rig = self.evaluator.rig
         s = self.settings
         counts = outline_contrast(
             poses, rig.left.camera_matrix, rig.right.camera_matrix,
-            np.ascontiguousarray(rig.transform_right_to_left), inner, outer, model_bgr,
-            self._images[0], self._images[1], codes_left, codes_right, self._gains[0], self._gains[1],
-            self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
+            np.ascontiguousarray(rig.transform_right_to_left), inner, outer, model_bgr, inner_cells,
+            agree_cells, self._images[0], self._images[1], codes_left, codes_right, self._gains[0],
+            self._gains[1], self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
         )  # fmt: skip
         edge, same, astray, seam = (counts[:, k] for k in range(4))
         measured = edge + same + seam
@@ -359,14 +366,17 @@ def _shade(shading: Shading | None) -> tuple[FloatArray, npt.NDArray[np.uint8]]:
 
 
 def _outline_pairs(
-    model: ClothModel, settings: VerificationSettings
-) -> tuple[FloatArray, FloatArray, FloatArray] | None:
+    model: ClothModel, settings: VerificationSettings, samples: tuple | None
+) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.int64]] | None:
     """Points just inside and just outside the model's outline, (N, 2) each [m] in Σ_M, and
-    the model photo's (blurred) b, g, r at each inner point; every
+    the model photo's (blurred) b, g, r and the texture cell (of `samples`: its nearest
+    sample's) at each inner point; every
     `outline_spacing` along the outline, across it along its normal. A pair whose inner
     point is not on the model's mask or whose outer point is (a concave corner) is left
     out. None without texture (no mask to tell the sides)."""
     if model.texture_mask is None or model.texture_from_model is None or model.texture_bgr is None:
+        return None
+    if samples is None:
         return None
     A = np.asarray(model.texture_from_model, dtype=float)
     mask = np.asarray(model.texture_mask) > 0
@@ -406,7 +416,18 @@ def _outline_pairs(
         texture = np.asarray(cv2.GaussianBlur(texture, (0, 0), sigma), dtype=np.float32)
     u = np.rint(inner @ A[:, :2].T + A[:, 2]).astype(int)
     colours = texture[u[:, 1], u[:, 0]].astype(np.float64)
-    return np.ascontiguousarray(inner), np.ascontiguousarray(outer), np.ascontiguousarray(colours)
+    px, py, _, cells, _ = samples
+    sample_xy = np.column_stack([px, py]).astype(np.float64)
+    inner_cells = np.empty(len(inner), dtype=np.int64)
+    for start in range(0, len(inner), 256):  # the cell of each inner point's nearest sample
+        d = ((inner[start : start + 256, None, :] - sample_xy[None, :, :]) ** 2).sum(axis=2)
+        inner_cells[start : start + 256] = cells[np.argmin(d, axis=1)]
+    return (
+        np.ascontiguousarray(inner),
+        np.ascontiguousarray(outer),
+        np.ascontiguousarray(colours),
+        np.ascontiguousarray(inner_cells),
+    )
 
 
 def _texture_samples(

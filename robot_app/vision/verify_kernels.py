@@ -125,7 +125,8 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     share of the scored weight on textured cells, and the share of the samples in view
     that lie in partly hidden cells (a hidden share between `partial_low` and
     `partial_high`; cells with fewer than `min_points` samples in view left out), and the
-    share of the scored weight on cells that agree at least `agree_level` (NaN if none).
+    share of the scored weight on cells that agree at least `agree_level` (NaN if none);
+    and (P, 2, n_cells) uint8 per pose and image (left, right): the cell is scored and agrees.
 
     Args:
         transforms: (P, 4, 4) poses ^CR T_M.
@@ -145,6 +146,7 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     height, width = image_left.shape[0], image_left.shape[1]
     n_poses = transforms.shape[0]
     scores = np.empty(n_poses)
+    agree_cells = np.zeros((n_poses, 2, n_cells), np.uint8)
     visible = np.empty(n_poses)
     textured = np.empty(n_poses)
     interleaved = np.empty(n_poses)
@@ -191,6 +193,8 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
                 weight += cell_weights[c]
                 if cell_scores[c] >= agree_level:
                     agreeing_weight += cell_weights[c]
+                    if cell_weights[c] > 0:
+                        agree_cells[p, side, c] = 1
                 if model_rms[c] >= texture_min:
                     textured_weight += cell_weights[c]
         scores[p] = total / weight if weight > 0 else np.nan
@@ -198,7 +202,7 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
         textured[p] = textured_weight / weight if weight > 0 else 0.0
         interleaved[p] = partial / in_view if in_view > 0 else 0.0
         agreeing[p] = agreeing_weight / weight if weight > 0 else np.nan
-    return scores, visible, textured, interleaved, agreeing
+    return scores, visible, textured, interleaved, agreeing, agree_cells
 
 
 @_jit
@@ -220,15 +224,18 @@ def _same_colour(image, u, v, gains, model, chroma_tolerance, bright):
 
 
 @_jit
-def _outline_side(M, inner, outer, model_bgr, image, codes, gains, foreign, sheet, chroma_tolerance,
-                  bright, width, height, counts):  # fmt: skip
+def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, gains, foreign, sheet,
+                  chroma_tolerance, bright, width, height, counts):  # fmt: skip
     """Adds one image's outline pairs to `counts` (edge, same, astray, seam). A pair counts
     where both points land in the image. Its inner point on a foreign colour (an occluder,
     or another cloth's colours) makes it a seam if the outer point shows the sheet (the
     foreign region ends exactly at the outline, as another cloth's does, not an occluder)
     and is otherwise left out; an inner point not showing the model photo's colour there
-    (`_same_colour`) is astray; else the outer point shows the model's colour (same: the
-    region goes on past the outline) or not (edge)."""
+    (`_same_colour`) is astray; a pair whose inner point's texture cell does not agree
+    (`agree[inner_cells[i]]`; -1: no cell) is left out (a textured print under a sheet of
+    its own colour, a fold: the texture says it is not the model there); else the outer
+    point shows the model's colour (same: the region goes on past the outline) or not
+    (edge)."""
     stride = width + 3
     for i in range(inner.shape[0]):
         w = M[2, 0] * inner[i, 0] + M[2, 1] * inner[i, 1] + M[2, 3]
@@ -251,6 +258,9 @@ def _outline_side(M, inner, outer, model_bgr, image, codes, gains, foreign, shee
             if sheet[outside]:
                 counts[3] += 1.0
             continue
+        cell = inner_cells[i]
+        if cell < 0 or agree[cell] == 0:
+            continue
         if not _same_colour(image, u, v, gains, model_bgr[i], chroma_tolerance, bright):
             counts[2] += 1.0
         elif _same_colour(image, uo, vo, gains, model_bgr[i], chroma_tolerance, bright):
@@ -260,9 +270,9 @@ def _outline_side(M, inner, outer, model_bgr, image, codes, gains, foreign, shee
 
 
 @_jit
-def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer, model_bgr, image_left,
-                     image_right, codes_left, codes_right, gains_left, gains_right, foreign, sheet,
-                     chroma_tolerance, brightness_tolerance):  # fmt: skip
+def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer, model_bgr, inner_cells,
+                     agree_cells, image_left, image_right, codes_left, codes_right, gains_left, gains_right,
+                     foreign, sheet, chroma_tolerance, brightness_tolerance):  # fmt: skip
     """For each pose, over both images: the outline pairs that are edges, same, astray and
     seams (`_outline_side`).
 
@@ -271,6 +281,8 @@ def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer,
         K_left, K_right, left_from_right: the rig.
         inner, outer: (N, 2) float64 points just inside and just outside the outline [m].
         model_bgr: (N, 3) float64 the model photo's (blurred) colour at each inner point.
+        inner_cells: (N,) int64 the texture cell of each inner point (-1: none).
+        agree_cells: (P, 2, cells) uint8 per pose and image: the cell agrees (`appearance`).
         image_left, image_right: (H, W, 3) uint8 images.
         codes_left, codes_right: the framed pixel codes of `FitnessEvaluator.codes`.
         gains_left, gains_right: (3,) channel gains of each image (exposure reference).
@@ -292,11 +304,13 @@ def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer,
     for p in range(transforms.shape[0]):
         counts[:] = 0.0
         _projection(P_left, transforms[p], M)
-        _outline_side(M, inner, outer, model_bgr, image_left, codes_left, gains_left, foreign, sheet,
-                      chroma_tolerance, bright, width, height, counts)  # fmt: skip
+        _outline_side(M, inner, outer, model_bgr, inner_cells, agree_cells[p, 0], image_left,
+                      codes_left, gains_left, foreign, sheet, chroma_tolerance, bright, width, height,
+                      counts)  # fmt: skip
         _projection(P_right, transforms[p], M)
-        _outline_side(M, inner, outer, model_bgr, image_right, codes_right, gains_right, foreign, sheet,
-                      chroma_tolerance, bright, width, height, counts)  # fmt: skip
+        _outline_side(M, inner, outer, model_bgr, inner_cells, agree_cells[p, 1], image_right,
+                      codes_right, gains_right, foreign, sheet, chroma_tolerance, bright, width, height,
+                      counts)  # fmt: skip
         out[p, :] = counts
     return out
 
