@@ -194,7 +194,7 @@ def seeds(args: argparse.Namespace, calibration: bool) -> Callable[[str, int], n
 
 
 DUMP_COLUMNS = ("kind", "model", "cloth", "fitness", "search_fitness", "appearance", "visible", "interleaved",
-                "agreeing", "confidence", "found", "err_x_mm", "err_y_mm", "err_yaw_deg", "rival",
+                "agreeing", "outline", "confidence", "found", "err_x_mm", "err_y_mm", "err_yaw_deg", "rival",
                 "rivals_asked", "time_ms")  # fmt: skip
 
 
@@ -213,7 +213,7 @@ def dump_row(kind: str, model: ClothModel, cloth: int, result, truth) -> list:
     """One row of `--dump`: the scene kind, model and cloth, the decision's evidence and error."""
     e = [np.nan] * 4 if truth is None else errors_of(model, result.transform_model_to_camera, truth)
     return [kind, model.name, cloth, result.fitness, result.search_fitness, result.appearance,
-            result.visible_fraction, result.interleaved, result.agreeing, result.confidence,
+            result.visible_fraction, result.interleaved, result.agreeing, result.outline, result.confidence,
             int(result.found), e[0], e[1], e[3], result.rival, result.rivals_asked,
             result.time_s * 1e3]  # fmt: skip
 
@@ -271,13 +271,16 @@ def collect(
     return out
 
 
-FEATURES = ("fitness", "appearance", "visible", "interleaved", "agreeing")
+FEATURES = ("fitness", "appearance", "visible", "interleaved", "agreeing", "outline")
 
 
 def features(rows: list) -> np.ndarray:
-    """(N, 5) the decision's evidence of each row's recognition (`decide.Evidence`)."""
+    """(N, 6) the decision's evidence of each row's recognition (`decide.Evidence`)."""
     return np.array(
-        [[r.search_fitness, r.appearance, r.visible_fraction, r.interleaved, r.agreeing] for _, r, _ in rows]
+        [
+            [r.search_fitness, r.appearance, r.visible_fraction, r.interleaved, r.agreeing, r.outline]
+            for _, r, _ in rows
+        ]
     )
 
 
@@ -288,14 +291,20 @@ def correct(models: list[ClothModel], row: tuple) -> bool:
     return bool(max(abs(e[0]), abs(e[1])) <= 10 and abs(e[3]) <= 10)
 
 
-def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list[ClothModel]) -> None:
+def calibrate(
+    data: dict[str, list], settings: RecognitionSettings, models: list[ClothModel], hold: bool = False
+) -> None:
     """Logistic regression of present at the right pose (1) against absent (0, and the
     wrong pairs of the identification scenes with `--identification-size`) on (fitness,
-    appearance, visible, interleaved, agreeing, appearance·visible, agreeing·visible) by
+    appearance, visible, interleaved, agreeing, appearance·visible, agreeing·visible, outline) by
     Newton's method with a weak ridge
     (present scenes recognised at a wrong pose are left out: neither a right answer to
     accept nor an absent cloth); prints the weights and the threshold that best separates
-    the calibration scenes."""
+    the calibration scenes. With `hold`, every weight but the bias and the outline's is held
+    at the settings' (an offset) and only those two are fitted: the decision's log-odds
+    also rank a pose's alternatives (half turns, other runs' ends), and a free refit with
+    the outline changed that ranking (on the bench's 60 scenes a folded stripes print came
+    out half-turned, a folded square 7 -> 14 mm off)."""
     kinds = ("flat", "wrinkled", "folded", "covered", "crumpled")
     wrong = sum(not correct(models, r) for kind in kinds for r in data.get(kind, []))
     present = [r for kind in kinds for r in data.get(kind, []) if correct(models, r)]
@@ -308,16 +317,24 @@ def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list
     X = np.vstack([features(present), features(absent)])
     X[:, 1] = np.where(np.isnan(X[:, 1]), settings.decide.appearance_nothing_seen, X[:, 1])
     X[:, 4] = np.where(np.isnan(X[:, 4]), (X[:, 1] + 1.0) / 2.0, X[:, 4])
-    X = np.column_stack([X, X[:, 1] * X[:, 2], X[:, 4] * X[:, 2]])  # appearance, agreeing times visible
+    X[:, 5] = np.where(np.isnan(X[:, 5]), settings.decide.outline_unmeasured, X[:, 5])
+    X = np.column_stack([X[:, :5], X[:, 1] * X[:, 2], X[:, 4] * X[:, 2], X[:, 5]])  # products; outline last
     y = np.concatenate([np.ones(len(present)), np.zeros(len(absent))])
     A = np.column_stack([np.ones(len(X)), X])
-    w = np.zeros(A.shape[1])
-    for _ in range(50):
-        p = 1.0 / (1.0 + np.exp(-np.clip(A @ w, -60, 60)))
-        gradient = A.T @ (p - y) + 1e-2 * w
-        hessian = A.T @ (A * (p * (1 - p))[:, None]) + 1e-2 * np.eye(len(w))
+    d = settings.decide
+    held = np.array([d.weight_fitness, d.weight_appearance, d.weight_visible, d.weight_interleaved,
+                     d.weight_agreeing, d.weight_appearance_visible, d.weight_agreeing_visible])  # fmt: skip
+    offset = A[:, 1:8] @ held if hold else np.zeros(len(A))
+    free = A[:, [0, 8]] if hold else A
+    w = np.zeros(free.shape[1])
+    for _ in range(60):
+        p = 1.0 / (1.0 + np.exp(-np.clip(free @ w + offset, -60, 60)))
+        gradient = free.T @ (p - y) + 1e-2 * w
+        hessian = free.T @ (free * (p * (1 - p))[:, None]) + 1e-2 * np.eye(len(w))
         w -= np.linalg.solve(hessian, gradient)
-    z = A @ w
+    z = free @ w + offset
+    if hold:
+        w = np.concatenate([[w[0]], held, [w[1]]])
     candidates = np.sort(z)
     best = max(candidates, key=lambda t: min(np.mean(z[y == 1] >= t), np.mean(z[y == 0] < t)))
     lowest_present = np.sort(z[y == 1])[: max(1, len(z[y == 1]) // 100)]
@@ -329,7 +346,7 @@ def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list
     print(f"  decide.bias={w[0]:.3f} decide.weight_fitness={w[1]:.3f} decide.weight_appearance={w[2]:.3f} "
           f"decide.weight_visible={w[3]:.3f} decide.weight_interleaved={w[4]:.3f} "
           f"decide.weight_agreeing={w[5]:.3f} decide.weight_appearance_visible={w[6]:.3f} "
-          f"decide.weight_agreeing_visible={w[7]:.3f}")  # fmt: skip
+          f"decide.weight_agreeing_visible={w[7]:.3f} decide.weight_outline={w[8]:.3f}")  # fmt: skip
     print(f"  logit of present: min {z[y == 1].min():+.2f}; of absent: max {z[y == 0].max():+.2f}; "
           f"threshold logit {threshold_z:+.2f} = confidence "
           f"{1 / (1 + np.exp(-threshold_z)):.3f}")  # fmt: skip
@@ -338,7 +355,7 @@ def calibrate(data: dict[str, list], settings: RecognitionSettings, models: list
         low, high = np.nanmin(f, axis=0), np.nanmax(f, axis=0)
         print(f"  {kind:14s} fitness {low[0]:.3f}-{high[0]:.3f}, appearance {low[1]:+.2f}-{high[1]:+.2f}, "
               f"visible {low[2]:.2f}-{high[2]:.2f}, interleaved {low[3]:.2f}-{high[3]:.2f}, "
-              f"agreeing {low[4]:.2f}-{high[4]:.2f}")  # fmt: skip
+              f"agreeing {low[4]:.2f}-{high[4]:.2f}, outline {low[5]:.2f}-{high[5]:.2f}")  # fmt: skip
 
 
 def half_turn_symmetric(model: ClothModel) -> bool:
@@ -626,6 +643,9 @@ def main() -> None:
     parser.add_argument("--skip-fullsearch", action="store_true", help="no GA against full search")
     parser.add_argument("--calibrate", action="store_true", help="fit the decision on the calibration seeds")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--hold-weights", action="store_true",
+                        help="with --calibrate: fit only the bias and the outline's weight, the other "
+                        "weights held at the settings' (which also rank a pose's alternatives)")  # fmt: skip
     parser.add_argument("--rivals", choices=("none", "catalogue", "leave-out"), default="none",
                         help="rivals of each single-model decision: none; the other catalogue models "
                         "(of the identification's size there); or those but the scene's cloth")  # fmt: skip
@@ -658,7 +678,7 @@ def main() -> None:
             report_identification(scenes, recognizers, args, args.identification_size, True, dump, wrong)
             data[f"identification{args.identification_size}"] = wrong
         write_dump(args.dump, dump or [])
-        calibrate(data, settings, models)
+        calibrate(data, settings, models, args.hold_weights)
         return
     if not args.skip_speed:
         report_speed(scenes, recognizers, models, args)

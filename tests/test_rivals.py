@@ -151,10 +151,11 @@ def test_a_plain_model_on_part_of_a_catalogue_cloth_is_rejected_by_it(models, st
     left, right = stripes_pair
     # the single-model decision rejects this one itself (confidence 0.07: the verify stage
     # keeps an alternative pose only where the texture agrees better, and the hue's best
-    # here half covers the yellow stripes); the rival test is exercised on an accept
-    # forced by a low threshold (a false accept of the red stripes, yellow taken as hidden)
+    # here half covers the yellow stripes; and the red goes on past its outline); the rival
+    # test is exercised on an accept forced by a threshold of 1e-6 (a false accept of the red
+    # stripes, yellow taken as hidden)
     always = RecognitionSettings.model_validate(
-        {"rivals": {"decisive_confidence": 1.0}, "decide": {"threshold": 0.01}}
+        {"rivals": {"decisive_confidence": 1.0}, "decide": {"threshold": 1e-6}}
     )
     red = Recognizer(models[RED], RIG, always)
     alone = red.recognize(left, right, seed=1)
@@ -177,7 +178,7 @@ def test_recognize_cli_takes_rival_models(models, stripes_pair, tmp_path, capsys
     common = ["recognize", "--model", str(tmp_path / "red.npz"), "--rig", str(tmp_path / "rig.yaml"),
               "--left", str(tmp_path / "left.png"), "--right", str(tmp_path / "right.png"), "--seed", "1",
               "--json", "--set", "rivals.decisive_confidence=1.0",
-              "--set", "decide.threshold=0.01"]  # fmt: skip
+              "--set", "decide.threshold=1e-6"]  # fmt: skip
     assert main(common) == 0
     alone = json.loads(capsys.readouterr().out)
     assert alone["found"] is True and "rival" not in alone

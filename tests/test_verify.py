@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -10,7 +12,7 @@ from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.cloth_model import ClothModel
-from robot_app.vision.decide import DecisionSettings, Evidence, confidence, decide
+from robot_app.vision.decide import DecisionSettings, Evidence, confidence, decide, ranking
 from robot_app.vision.exposure import ExposureSettings, sheet_gains
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.photo_model import make_model
@@ -125,8 +127,9 @@ def test_a_model_without_texture_has_no_appearance_and_is_decided_by_hue() -> No
     result = verifier.verify(POSE)[0]
     assert np.isnan(result.appearance) and result.visible_fraction > 0.95
     d = settings.decide
+    assert np.isnan(result.outline)
     assert confidence(d, Evidence(1.0, result.appearance, 1.0, 0.0, False)) == confidence(
-        d, Evidence(1.0, d.appearance_without_texture, 1.0, 0.0, True)
+        d, Evidence(1.0, d.appearance_without_texture, 1.0, 0.0, True, outline=d.outline_without_texture)
     )
 
 
@@ -179,7 +182,7 @@ def test_the_reported_confidence_is_the_decision_on_the_reported_evidence() -> N
         result = Recognizer(model(index), RIG).recognize(left, right, seed=1)
         evidence = Evidence(
             result.search_fitness, result.appearance, result.visible_fraction, result.interleaved, True,
-            result.agreeing,
+            result.agreeing, result.outline,
         )  # fmt: skip
         assert result.confidence == pytest.approx(confidence(DecisionSettings(), evidence))
         assert result.found == (index == AMBER_COFFEE)
@@ -250,3 +253,52 @@ def test_a_plain_model_is_not_aligned() -> None:
     other = verifier.verify(POSE)[0]
     assert other.textured_share < 0.5 and other.agreeing < VerificationSettings().align_below
     assert verifier.aligned(POSE, other, _ranking) is other
+
+
+def _gains(images: tuple[np.ndarray, np.ndarray], index: int) -> tuple[np.ndarray, np.ndarray]:
+    left, right = (sheet_gains(image, model(index), ExposureSettings()) for image in images)
+    return left, right
+
+
+def test_the_outline_lies_on_an_edge_of_the_cloth_even_covered_or_folded() -> None:
+    cloth = extended_cloth(RED_PLAIN)
+    flat = render_stereo_pair(RIG, [(cloth, POSE)], rng=np.random.default_rng(8), camera=DARK_TINTED)
+    at_truth = verifier_on(RED_PLAIN, *flat, gains=_gains(flat, RED_PLAIN)).verify(POSE)[0]
+    assert at_truth.outline > 0.95 and at_truth.outline_astray < 0.3
+    for colour in OCCLUDER_COLOURS.values():  # a foreign sheet, and a brown one of a near hue
+        cover = occluder_covering(cloth, POSE, 0.45, 1.0, colour_bgr=colour)
+        covered = render_stereo_pair(RIG, [(cloth, POSE)], occluder=cover, rng=np.random.default_rng(2))
+        verifier = verifier_on(RED_PLAIN, *covered, gains=_gains(covered, RED_PLAIN))
+        assert verifier.verify(POSE)[0].outline > 0.95
+    folded = render_stereo_pair(RIG, [(folded_corner(cloth, 0.2, 2.0), POSE)], rng=np.random.default_rng(8))
+    assert verifier_on(RED_PLAIN, *folded, gains=_gains(folded, RED_PLAIN)).verify(POSE)[0].outline > 0.9
+
+
+def test_a_plain_model_on_a_region_of_its_colour_that_goes_on_has_no_outline() -> None:
+    # a plain red model on the red stripes of a red-yellow cloth: the yellow is hidden, what
+    # is in view agrees, but the red goes on past the model's outline (or the yellow ends
+    # where the outline lies: another cloth's edge, not an occluder's)
+    stripes = render_stereo_pair(RIG, [(extended_cloth(2), POSE)], rng=np.random.default_rng(4))
+    on_stripes = verifier_on(RED_PLAIN, *stripes, gains=_gains(stripes, RED_PLAIN)).verify(POSE)[0]
+    assert on_stripes.agreeing > 0.5 and on_stripes.outline < 0.2
+    # the model moved 3 cm within its own red cloth: the outline crosses the cloth
+    plain = render_stereo_pair(RIG, [(extended_cloth(RED_PLAIN), POSE)], rng=np.random.default_rng(8))
+    shifted = [POSE @ make_transform(np.eye(3), offset) for offset in ([0.03, 0, 0], [0, 0.03, 0])]
+    for result in verifier_on(RED_PLAIN, *plain, gains=_gains(plain, RED_PLAIN)).verify(np.array(shifted)):
+        assert result.outline < 0.75 and result.agreeing > 0.6
+
+
+def test_the_outline_decides_only_with_its_weight_and_has_stand_ins() -> None:
+    d = DecisionSettings()
+    base = Evidence(0.9, 0.8, 0.9, 0.05, True, 0.9, 1.0)
+    assert d.weight_outline > 0.0  # the calibrated decision uses the outline
+    assert confidence(d, replace(base, outline=0.3)) < confidence(d, base)
+    blind = DecisionSettings(weight_outline=0.0)
+    assert confidence(blind, replace(base, outline=0.3)) == confidence(blind, base)
+    unmeasured = replace(base, outline=d.outline_unmeasured)
+    assert confidence(d, replace(base, outline=np.nan)) == confidence(d, unmeasured)
+    # the alternatives of a pose are ranked without it (and the ranking's other weights are the decision's)
+    assert ranking(d, replace(base, outline=0.2)) == ranking(d, base)
+    assert ranking(d, base) < ranking(d, replace(base, appearance=0.9, agreeing=0.95))
+    untextured = replace(base, has_texture=False, outline=np.nan)
+    assert confidence(d, untextured) == confidence(d, replace(untextured, outline=d.outline_without_texture))

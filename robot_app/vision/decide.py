@@ -4,13 +4,16 @@ The confidence combines what the other stages measured at the final pose (`Evide
 
     confidence = 1 / (1 + exp(-(bias + w_f · fitness + w_a · appearance + w_v · visible
                                 + w_i · interleaved + w_g · agreeing
-                                + w_av · appearance · visible + w_gv · agreeing · visible)))
+                                + w_av · appearance · visible + w_gv · agreeing · visible
+                                + w_o · outline)))
 
 with `fitness` the search fitness (eqs. 9-11 with occluders taken as hidden, 1.0 = a
-perfect match), `appearance` the verification's agreement of the model photo's texture
-with the images (-1 to 1), `visible` its visible fraction, `interleaved` its share of
-the visible texture in partly hidden cells and `agreeing` its share of cells that agree
-(a folded corner or a sheet of the model's own hue disagrees in one compact region,
+perfect match), `outline` the verification's share of the model's outline lying on an
+edge of the model's colour (`verify.Verification.outline`), `appearance` the
+verification's agreement of the model photo's texture with the images (-1 to 1),
+`visible` its visible fraction, `interleaved` its share of the visible texture in partly
+hidden cells and `agreeing` its share of cells that agree (a folded corner or a sheet of
+the model's own hue disagrees in one compact region,
 which the mean appearance counts twice: -1 against +1). `interleaved` tells a sheet over
 the cloth (one compact hidden region: only the cells along its edge are partly hidden)
 from a cloth of other colours whose stripes or checks of a colour foreign to the model are taken
@@ -46,6 +49,29 @@ crumpled cloth's evidence (appearance -0.97 to +0.35, agreeing 0 to 0.47) is tha
 absent one; one weight vector cannot take both. The clear-table dropped cloth at 4 substeps is
 not a decision case either: its best recognition had search fitness 0.26 and agreeing 0.02
 (the search did not find it).
+
+The outline (this session's addition): a plain model on another cloth's patch of its
+colour (a red plain model on the red stripes or the red patch of another cloth, the other
+colours taken as hidden) agrees in texture wherever it is in view, and only the catalogue's
+rivals rejected it; its outline does not lie on an edge (the colour goes on past it). Its
+weight and a new bias were fitted with the other weights held at the earlier ones, and the
+recogniser ranks a pose's alternatives without it (`ranking`): its poses are the earlier
+decision's exactly. (A free refit of all weights, and the outline in the ranking, were
+measured and dropped: on the bench's 60 scenes the free refit turned a folded stripes
+print by half a turn, and the outline in the ranking lost a covered print.) `taskset -c 0
+python scripts/bench_recognition.py --calibrate --scenes 100 --identification-size 20
+--hold-weights` printed bias -22.753, outline 10.752, threshold 0.594: 243 present scenes
+at the right pose, 480 absent; in sample 99.6 % present found and 99.6 % absent rejected,
+where the earlier decision had 99.6 / 97.9 % on the same scenes; 10 random halves held
+out (bias and outline refitted on each half) 99.2 / 99.4 %, without the outline (all
+weights refitted) 97.4 / 97.9 %. The fit is loose: the sets are nearly separable, so the
+ridge sets the scale. Known cost: a fine print (violet_cells) recognised a few millimetres off
+under a fold or a cover scores an outline of 0.71-0.76, and pick-and-place episode 44 (its
+target, `bench_pick_place.py --first 40 --episodes 25 --workers 1`) went placed ->
+not_present (24/25; with the earlier decision placed). The earlier decision is
+`weight_outline: 0, bias: -14.335, threshold: 0.437` (the same poses).
+A model without texture has no outline to check (`outline_without_texture`, 1.0: nothing
+against it); an outline too little of which is in view takes `outline_unmeasured`.
 
 `threshold` is THE acceptance threshold of the project: the recogniser's `found`, the
 pick-and-place loop and the trials all use it.
@@ -115,10 +141,15 @@ class DecisionSettings(StrictModel):
         appearance_without_texture: the appearance a model without texture (a version 1-2
             file) is taken to have; such a model is decided by hue alone.
         appearance_nothing_seen: the appearance when no cell of the texture is in view.
+        weight_outline: the logistic weight of the outline evidence (`Evidence.outline`).
+        outline_without_texture: the outline evidence a model without texture is taken to
+            have (none against it: decided as before).
+        outline_unmeasured: ... and a model with texture whose outline was not measured
+            (too little of it in view).
     """
 
-    threshold: float = Field(default=0.437, gt=0.0, lt=1.0)
-    bias: float = -14.335
+    threshold: float = Field(default=0.594, gt=0.0, lt=1.0)
+    bias: float = -22.753
     weight_fitness: float = 8.885
     weight_appearance: float = -0.131
     weight_visible: float = 4.051
@@ -126,6 +157,9 @@ class DecisionSettings(StrictModel):
     weight_agreeing: float = -3.089
     weight_appearance_visible: float = 6.162
     weight_agreeing_visible: float = 11.261
+    weight_outline: float = 10.752
+    outline_without_texture: float = Field(default=1.0, ge=0.0, le=1.0)
+    outline_unmeasured: float = Field(default=0.5, ge=0.0, le=1.0)
     appearance_without_texture: float = Field(default=0.6, ge=-1.0, le=1.0)
     appearance_nothing_seen: float = Field(default=-1.0, ge=-1.0, le=1.0)
 
@@ -141,6 +175,8 @@ class Evidence:
         interleaved: share of the visible texture in partly hidden cells.
         has_texture: the model has a texture (a version 3 file).
         agreeing: share of the compared cells that agree (NaN: not measured).
+        outline: share of the outline pairs on an edge of the model's colour
+            (`verify.Verification.outline`; NaN: not measured).
     """
 
     fitness: float
@@ -149,6 +185,7 @@ class Evidence:
     interleaved: float
     has_texture: bool
     agreeing: float = float("nan")
+    outline: float = float("nan")
 
 
 @dataclass(frozen=True)
@@ -175,6 +212,7 @@ def logit(settings: DecisionSettings, evidence: Evidence) -> float:
         )
     if math.isnan(agreeing):
         agreeing = (appearance + 1.0) / 2.0
+    outline = _outline(settings, evidence)
     return (
         settings.bias
         + settings.weight_fitness * evidence.fitness
@@ -184,7 +222,26 @@ def logit(settings: DecisionSettings, evidence: Evidence) -> float:
         + settings.weight_agreeing * agreeing
         + settings.weight_appearance_visible * appearance * evidence.visible_fraction
         + settings.weight_agreeing_visible * agreeing * evidence.visible_fraction
+        + settings.weight_outline * outline
     )
+
+
+def ranking(settings: DecisionSettings, evidence: Evidence) -> float:
+    """The log-odds without the outline's term: how the recogniser ranks a pose's
+    alternatives (half and quarter turns, other runs' ends, the alignment's neighbours).
+    The outline says whether the object is the model's cloth, not which of its poses fits
+    best: ranked by it, a print 45 % under a plain sheet of its own colour lost to a plain
+    look-alike of its outline beside it (`test_look_alike_sheet.py`, 7 -> 3 of 8) and a
+    covered print on the bench moved 4 -> 8.5 mm off (then not found). The other weights
+    are held at the earlier ones, so the ranking is the earlier decision's."""
+    return logit(settings, evidence) - settings.weight_outline * _outline(settings, evidence)
+
+
+def _outline(settings: DecisionSettings, evidence: Evidence) -> float:
+    """The outline evidence, its NaN replaced by the stand-in (see `logit`)."""
+    if not math.isnan(evidence.outline):
+        return evidence.outline
+    return settings.outline_unmeasured if evidence.has_texture else settings.outline_without_texture
 
 
 def confidence(settings: DecisionSettings, evidence: Evidence) -> float:
@@ -378,4 +435,5 @@ __all__ = [
     "judge",
     "logit",
     "overlapping",
+    "ranking",
 ]

@@ -58,6 +58,8 @@ class Recognition:
             cells (`verify.Verification.interleaved`).
         agreeing: the verification's share of compared cells that agree
             (`verify.Verification.agreeing`).
+        outline: the verification's share of the outline lying on an edge of the model's
+            colour (`verify.Verification.outline`; NaN: not measured).
         rival: the catalogue model that explains the recognised region better (`decide.judge`;
             then `found` is False), "" if none did or none was asked.
         rivals_asked: rivals recognised in the pair for this decision (0: not asked).
@@ -77,6 +79,7 @@ class Recognition:
     depth_offset: float = float("nan")
     interleaved: float = 0.0
     agreeing: float = float("nan")
+    outline: float = float("nan")
     rival: str = ""
     rivals_asked: int = 0
 

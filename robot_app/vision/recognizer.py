@@ -61,8 +61,8 @@ from robot_app.vision.decide import (
     RivalVerdict,
     decide,
     judge,
-    logit,
     overlapping,
+    ranking,
 )
 from robot_app.vision.exposure import ExposureSettings, scene_exposure
 from robot_app.vision.fitness import FitnessEvaluator, KernelFitness
@@ -166,7 +166,7 @@ class _Verified:
     pose: FloatArray
     search_fitness: float
     verification: Verification
-    score: float  # the decision's logit: how the alternatives are ranked
+    score: float  # `decide.ranking`: how the alternatives are ranked (the logit without the outline)
 
 
 @dataclass(frozen=True)
@@ -461,6 +461,7 @@ class Recognizer:
             depth_offset=depth_offset,
             interleaved=v.interleaved,
             agreeing=v.agreeing,
+            outline=v.outline,
         )
 
     def _most_confident(
@@ -598,7 +599,7 @@ class Recognizer:
         return self._verified(pose, fitness, verification)
 
     def _verified(self, pose: FloatArray, search_fitness: float, verification: Verification) -> _Verified:
-        score = logit(self.settings.decide, self._evidence(search_fitness, verification))
+        score = ranking(self.settings.decide, self._evidence(search_fitness, verification))
         return _Verified(pose, search_fitness, verification, score)
 
     def _evidence(self, search_fitness: float, verification: Verification) -> Evidence:
@@ -610,6 +611,7 @@ class Recognizer:
             v.interleaved,
             self.model.has_texture,
             v.agreeing,
+            v.outline,
         )
 
 

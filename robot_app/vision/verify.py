@@ -28,6 +28,28 @@ neighbourhood of the pose in the cloth plane (a grid of `align_step` within
 `align_shift` in x and y, then turns within `align_turn_deg`, then half steps) and
 reports the evidence found there; the pose itself is kept (the hue fitness placed it).
 
+Outline (`Verification.outline`): the texture cannot tell a plain model on its own cloth
+from the same model on a patch of another cloth that shows its colour (a plain red model on
+the red stripes of a red-yellow cloth: the yellow is foreign, hence hidden, and the red in
+view agrees). The model photo also holds the cloth's outline. Every `outline_spacing` along
+it (`outline.model_outline`) a pair of points, `outline_inside` inside and `outline_outside`
+outside, is projected into both images. A pair counts where its inner point shows the model
+photo's colour there (chromaticity within `chroma_tolerance`, brightness within
+`brightness_tolerance`, after the exposure gains): it is an *edge* if its outer point does
+not show that colour (the sheet, an occluder, another cloth) and *same* if it does (the
+region goes on past the outline: a patch of a larger print, or a pose off the cloth). An
+inner point on a foreign colour is hidden (an occluder: not counted against the pose)
+unless its outer point shows the sheet: a foreign region that ends exactly on the outline
+is another cloth's other colours, not a sheet over the cloth (a *seam*, counted against).
+An inner point of another colour than the model's there (a folded corner's back side, an
+occluder of a near hue) is *astray* and left out (`outline_astray` reports its share), and
+so is one whose texture cell does not agree (the texture already says the model is not
+there: a textured print under a plain sheet of its own colour, whose sheet goes on past the
+outline, or a fold; without this a covered print lost to a plain sheet of its outline and
+colour beside it, `test_look_alike_sheet.py`).
+`outline` = edges / (edges + same + seams): a share, so a folded corner or a wrong stretch
+costs only its own part.
+
 A model without texture (a version 1-2 file) cannot be verified: `Verification.appearance`
 is NaN and the decision uses its stand-in (`DecisionSettings.appearance_without_texture`).
 """
@@ -48,8 +70,10 @@ from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.exposure import Shading
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.fitness_scores import FitnessSettings, foreign_codes
+from robot_app.vision.hue import COLOUR_CODES, HUE_RANGE, colours_match
+from robot_app.vision.outline import model_outline
 from robot_app.vision.poses import as_poses
-from robot_app.vision.verify_kernels import appearance
+from robot_app.vision.verify_kernels import appearance, outline_contrast
 
 
 class VerificationSettings(StrictModel):
@@ -87,6 +111,11 @@ class VerificationSettings(StrictModel):
         align_shift: the alignment's reach in the cloth plane, x and y [m].
         align_step: its grid step in x and y [m] (halved once at the end).
         align_turn_deg: its reach about the cloth normal [deg] (steps of half of it).
+        outline_spacing: outline pairs every this along the model's outline [m].
+        outline_inside, outline_outside: each pair's inner and outer point lie this far
+            inside and outside the outline [m] (a pose a few millimetres off still puts
+            them on the right sides).
+        outline_min_pairs: pairs (both images) an outline needs to be measured.
     """
 
     spacing: float = Field(default=0.003, gt=0.0005, le=0.02)
@@ -108,6 +137,10 @@ class VerificationSettings(StrictModel):
     align_shift: float = Field(default=0.002, ge=0.0, le=0.01)
     align_step: float = Field(default=0.001, gt=0.0, le=0.01)
     align_turn_deg: float = Field(default=2.0, ge=0.0, le=10.0)
+    outline_spacing: float = Field(default=0.002, gt=0.0005, le=0.02)
+    outline_inside: float = Field(default=0.003, gt=0.0, le=0.02)
+    outline_outside: float = Field(default=0.004, gt=0.0, le=0.02)
+    outline_min_pairs: int = Field(default=10, ge=1)
 
 
 @dataclass(frozen=True)
@@ -128,6 +161,12 @@ class Verification:
             `agree_level`: a compact region that disagrees (a folded corner, a sheet of
             the model's own hue) costs it only its own share, where it pulls the mean
             `appearance` down by twice that (NaN: nothing compared).
+        outline: share of the outline pairs whose inner point shows the model's colour and
+            whose outer point does not (an edge where the outline lies); the rest show the
+            model's colour going on past the outline (NaN: fewer than `outline_min_pairs`
+            such pairs in view, or no texture). See the module docstring.
+        outline_astray: share of the outline pairs in view and not hidden whose inner point
+            shows neither the model's colour there nor a foreign one (NaN: none in view).
     """
 
     appearance: float
@@ -135,6 +174,8 @@ class Verification:
     textured_share: float
     interleaved: float = 0.0
     agreeing: float = float("nan")
+    outline: float = float("nan")
+    outline_astray: float = float("nan")
 
 
 class Verifier:
@@ -159,6 +200,10 @@ class Verifier:
         self.settings = settings
         self._foreign = np.ascontiguousarray(foreign_codes(model.background_hue, search, model.hues_in))
         self._samples = _texture_samples(model, settings)
+        self._outline = _outline_pairs(model, settings, self._samples)
+        sheet_hue = round(model.background_hue) % HUE_RANGE
+        sheet = colours_match(np.arange(COLOUR_CODES), sheet_hue, search.hue_threshold_in)
+        self._sheet = np.append(sheet, False)  # OFF_IMAGE
         self._images: tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]] | None = None
         self._gains = (np.ones(3), np.ones(3))
         self._shading: tuple[Shading | None, Shading | None] = (None, None)
@@ -213,7 +258,7 @@ class Verifier:
         s = self.settings
         (factors_left, index_left), (factors_right, index_right) = (_shade(x) for x in self._shading)
         block = max(x.block if x is not None else 1 for x in self._shading)
-        scores, visible, textured, interleaved, agreeing = appearance(
+        scores, visible, textured, interleaved, agreeing, agree_cells = appearance(
             poses, rig.left.camera_matrix, rig.right.camera_matrix,
             np.ascontiguousarray(rig.transform_right_to_left), px, py, values, cells, n_cells,
             self._images[0], self._images[1], codes_left, codes_right, self._foreign,
@@ -221,10 +266,38 @@ class Verifier:
             float(s.min_points), s.texture_min, s.flat_tolerance,
             s.chroma_tolerance, s.brightness_tolerance, s.partial_low, s.partial_high, s.agree_level,
         )  # fmt: skip
+        outline, astray = self._outline_evidence(poses, agree_cells)
         return [
-            Verification(float(a), float(v), float(t), float(i), float(g))
-            for a, v, t, i, g in zip(scores, visible, textured, interleaved, agreeing, strict=True)
+            Verification(float(a), float(v), float(t), float(i), float(g), float(o), float(r))
+            for a, v, t, i, g, o, r in zip(
+                scores, visible, textured, interleaved, agreeing, outline, astray, strict=True
+            )
         ]
+
+    def _outline_evidence(
+        self, poses: FloatArray, agree_cells: npt.NDArray[np.uint8]
+    ) -> tuple[FloatArray, FloatArray]:
+        """(P,) `Verification.outline` and (P,) `Verification.outline_astray` of each pose
+        (`agree_cells`: (P, 2, cells) the texture cells that agree, from `appearance`)."""
+        if self._outline is None or self._images is None:
+            nan = np.full(len(poses), np.nan)
+            return nan, nan
+        inner, outer, model_bgr, inner_cells = self._outline
+        codes_left, codes_right = self.evaluator.codes
+        rig = self.evaluator.rig
+        s = self.settings
+        counts = outline_contrast(
+            poses, rig.left.camera_matrix, rig.right.camera_matrix,
+            np.ascontiguousarray(rig.transform_right_to_left), inner, outer, model_bgr, inner_cells,
+            agree_cells, self._images[0], self._images[1], codes_left, codes_right, self._gains[0],
+            self._gains[1], self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
+        )  # fmt: skip
+        edge, same, astray, seam = (counts[:, k] for k in range(4))
+        measured = edge + same + seam
+        with np.errstate(invalid="ignore", divide="ignore"):
+            outline = np.where(measured >= s.outline_min_pairs, edge / measured, np.nan)
+            share = np.where(measured + astray > 0, astray / (measured + astray), np.nan)
+        return outline, share
 
     def aligned(
         self,
@@ -290,6 +363,71 @@ def _shade(shading: Shading | None) -> tuple[FloatArray, npt.NDArray[np.uint8]]:
     if shading is None:
         return _EVEN
     return np.asarray(shading.factors, dtype=np.float64), shading.index
+
+
+def _outline_pairs(
+    model: ClothModel, settings: VerificationSettings, samples: tuple | None
+) -> tuple[FloatArray, FloatArray, FloatArray, npt.NDArray[np.int64]] | None:
+    """Points just inside and just outside the model's outline, (N, 2) each [m] in Σ_M, and
+    the model photo's (blurred) b, g, r and the texture cell (of `samples`: its nearest
+    sample's) at each inner point; every
+    `outline_spacing` along the outline, across it along its normal. A pair whose inner
+    point is not on the model's mask or whose outer point is (a concave corner) is left
+    out. None without texture (no mask to tell the sides)."""
+    if model.texture_mask is None or model.texture_from_model is None or model.texture_bgr is None:
+        return None
+    if samples is None:
+        return None
+    A = np.asarray(model.texture_from_model, dtype=float)
+    mask = np.asarray(model.texture_mask) > 0
+    height, width = mask.shape
+
+    def on_mask(points: FloatArray) -> npt.NDArray[np.bool_]:
+        u = np.rint(points @ A[:, :2].T + A[:, 2]).astype(int)
+        inside = (u[:, 0] >= 0) & (u[:, 0] < width) & (u[:, 1] >= 0) & (u[:, 1] < height)
+        inside[inside] = mask[u[inside, 1], u[inside, 0]]
+        return inside
+
+    points, normals = [], []
+    for polygon in model_outline(model):
+        xy = np.asarray(polygon[:, :2], dtype=float)
+        ends = np.roll(xy, -1, axis=0)
+        for start, end in zip(xy, ends, strict=True):
+            length = float(np.linalg.norm(end - start))
+            if length <= 1e-9:
+                continue
+            direction = (end - start) / length
+            steps = np.arange(0.0, length, settings.outline_spacing)
+            points.append(start + steps[:, None] * direction)
+            normals.append(np.tile([direction[1], -direction[0]], (len(steps), 1)))
+    if not points:
+        return None
+    p, n = np.vstack(points), np.vstack(normals)
+    flip = on_mask(p + settings.outline_inside * n) & ~on_mask(p - settings.outline_inside * n)
+    n[flip] *= -1.0  # n points outwards
+    inner, outer = p - settings.outline_inside * n, p + settings.outline_outside * n
+    keep = on_mask(inner) & ~on_mask(outer)
+    if keep.sum() < settings.outline_min_pairs:
+        return None
+    inner, outer = inner[keep], outer[keep]
+    texture = np.asarray(model.texture_bgr, dtype=np.float32)
+    if settings.blur > 0:
+        sigma = settings.blur * float(A[0, 0])
+        texture = np.asarray(cv2.GaussianBlur(texture, (0, 0), sigma), dtype=np.float32)
+    u = np.rint(inner @ A[:, :2].T + A[:, 2]).astype(int)
+    colours = texture[u[:, 1], u[:, 0]].astype(np.float64)
+    px, py, _, cells, _ = samples
+    sample_xy = np.column_stack([px, py]).astype(np.float64)
+    inner_cells = np.empty(len(inner), dtype=np.int64)
+    for start in range(0, len(inner), 256):  # the cell of each inner point's nearest sample
+        d = ((inner[start : start + 256, None, :] - sample_xy[None, :, :]) ** 2).sum(axis=2)
+        inner_cells[start : start + 256] = cells[np.argmin(d, axis=1)]
+    return (
+        np.ascontiguousarray(inner),
+        np.ascontiguousarray(outer),
+        np.ascontiguousarray(colours),
+        np.ascontiguousarray(inner_cells),
+    )
 
 
 def _texture_samples(

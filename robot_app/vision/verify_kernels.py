@@ -1,5 +1,5 @@
-"""Compiled appearance comparison of the verify stage: the model photo's texture samples
-projected into both images at each pose, compared cell by cell."""
+"""Compiled comparisons of the verify stage: the model photo's texture samples projected into
+both images at each pose, compared cell by cell; and the outline's colour contrast."""
 
 from __future__ import annotations
 
@@ -125,7 +125,8 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     share of the scored weight on textured cells, and the share of the samples in view
     that lie in partly hidden cells (a hidden share between `partial_low` and
     `partial_high`; cells with fewer than `min_points` samples in view left out), and the
-    share of the scored weight on cells that agree at least `agree_level` (NaN if none).
+    share of the scored weight on cells that agree at least `agree_level` (NaN if none);
+    and (P, 2, n_cells) uint8 per pose and image (left, right): the cell is scored and agrees.
 
     Args:
         transforms: (P, 4, 4) poses ^CR T_M.
@@ -145,6 +146,7 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     height, width = image_left.shape[0], image_left.shape[1]
     n_poses = transforms.shape[0]
     scores = np.empty(n_poses)
+    agree_cells = np.zeros((n_poses, 2, n_cells), np.uint8)
     visible = np.empty(n_poses)
     textured = np.empty(n_poses)
     interleaved = np.empty(n_poses)
@@ -191,6 +193,8 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
                 weight += cell_weights[c]
                 if cell_scores[c] >= agree_level:
                     agreeing_weight += cell_weights[c]
+                    if cell_weights[c] > 0:
+                        agree_cells[p, side, c] = 1
                 if model_rms[c] >= texture_min:
                     textured_weight += cell_weights[c]
         scores[p] = total / weight if weight > 0 else np.nan
@@ -198,7 +202,117 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
         textured[p] = textured_weight / weight if weight > 0 else 0.0
         interleaved[p] = partial / in_view if in_view > 0 else 0.0
         agreeing[p] = agreeing_weight / weight if weight > 0 else np.nan
-    return scores, visible, textured, interleaved, agreeing
+    return scores, visible, textured, interleaved, agreeing, agree_cells
 
 
-__all__ = ["appearance"]
+@_jit
+def _same_colour(image, u, v, gains, model, chroma_tolerance, bright):
+    """Does the image's (gain-corrected, nearest) pixel at (u, v) show the colour `model`
+    (b, g, r): chromaticity within `chroma_tolerance` and brightness within the factor
+    `bright` either way?"""
+    iu, iv = np.int64(u + 0.5), np.int64(v + 0.5)
+    b = image[iv, iu, 0] * gains[0]
+    g = image[iv, iu, 1] * gains[1]
+    r = image[iv, iu, 2] * gains[2]
+    sum_m = max(model[0] + model[1] + model[2], 1.0)
+    sum_i = max(b + g + r, 1.0)
+    if sum_i > sum_m * bright or sum_m > sum_i * bright:
+        return False
+    d = (model[0] / sum_m - b / sum_i) ** 2 + (model[1] / sum_m - g / sum_i) ** 2
+    d += (model[2] / sum_m - r / sum_i) ** 2
+    return d <= chroma_tolerance * chroma_tolerance
+
+
+@_jit
+def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, gains, foreign, sheet,
+                  chroma_tolerance, bright, width, height, counts):  # fmt: skip
+    """Adds one image's outline pairs to `counts` (edge, same, astray, seam). A pair counts
+    where both points land in the image. Its inner point on a foreign colour (an occluder,
+    or another cloth's colours) makes it a seam if the outer point shows the sheet (the
+    foreign region ends exactly at the outline, as another cloth's does, not an occluder)
+    and is otherwise left out; an inner point not showing the model photo's colour there
+    (`_same_colour`) is astray; a pair whose inner point's texture cell does not agree
+    (`agree[inner_cells[i]]`; -1: no cell) is left out (a textured print under a sheet of
+    its own colour, a fold: the texture says it is not the model there); else the outer
+    point shows the model's colour (same: the region goes on past the outline) or not
+    (edge)."""
+    stride = width + 3
+    for i in range(inner.shape[0]):
+        w = M[2, 0] * inner[i, 0] + M[2, 1] * inner[i, 1] + M[2, 3]
+        wo = M[2, 0] * outer[i, 0] + M[2, 1] * outer[i, 1] + M[2, 3]
+        if w <= 1e-6 or wo <= 1e-6:
+            continue
+        u = (M[0, 0] * inner[i, 0] + M[0, 1] * inner[i, 1] + M[0, 3]) / w
+        v = (M[1, 0] * inner[i, 0] + M[1, 1] * inner[i, 1] + M[1, 3]) / w
+        uo = (M[0, 0] * outer[i, 0] + M[0, 1] * outer[i, 1] + M[0, 3]) / wo
+        vo = (M[1, 0] * outer[i, 0] + M[1, 1] * outer[i, 1] + M[1, 3]) / wo
+        if not (0.0 <= u < width - 0.5 and 0.0 <= v < height - 0.5):
+            continue
+        if not (0.0 <= uo < width - 0.5 and 0.0 <= vo < height - 0.5):
+            continue
+        inside = codes[(np.int64(v + 0.5) + 1) * stride + np.int64(u + 0.5) + 1]
+        outside = codes[(np.int64(vo + 0.5) + 1) * stride + np.int64(uo + 0.5) + 1]
+        if outside == foreign.shape[0] - 1 or inside == foreign.shape[0] - 1:  # OFF_IMAGE: outside the box
+            continue
+        if foreign[inside]:
+            if sheet[outside]:
+                counts[3] += 1.0
+            continue
+        cell = inner_cells[i]
+        if cell < 0 or agree[cell] == 0:
+            continue
+        if not _same_colour(image, u, v, gains, model_bgr[i], chroma_tolerance, bright):
+            counts[2] += 1.0
+        elif _same_colour(image, uo, vo, gains, model_bgr[i], chroma_tolerance, bright):
+            counts[1] += 1.0
+        else:
+            counts[0] += 1.0
+
+
+@_jit
+def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer, model_bgr, inner_cells,
+                     agree_cells, image_left, image_right, codes_left, codes_right, gains_left, gains_right,
+                     foreign, sheet, chroma_tolerance, brightness_tolerance):  # fmt: skip
+    """For each pose, over both images: the outline pairs that are edges, same, astray and
+    seams (`_outline_side`).
+
+    Args:
+        transforms: (P, 4, 4) poses ^CR T_M.
+        K_left, K_right, left_from_right: the rig.
+        inner, outer: (N, 2) float64 points just inside and just outside the outline [m].
+        model_bgr: (N, 3) float64 the model photo's (blurred) colour at each inner point.
+        inner_cells: (N,) int64 the texture cell of each inner point (-1: none).
+        agree_cells: (P, 2, cells) uint8 per pose and image: the cell agrees (`appearance`).
+        image_left, image_right: (H, W, 3) uint8 images.
+        codes_left, codes_right: the framed pixel codes of `FitnessEvaluator.codes`.
+        gains_left, gains_right: (3,) channel gains of each image (exposure reference).
+        foreign: (259,) bool per pixel code: foreign to the model (hidden), and OFF_IMAGE.
+        sheet: (259,) bool per pixel code: the sheet's hue.
+        chroma_tolerance, brightness_tolerance: see `_same_colour` (the factor minus one).
+
+    Returns:
+        (P, 4) counts (edge, same, astray, seam).
+    """
+    height, width = image_left.shape[0], image_left.shape[1]
+    bright = 1.0 + brightness_tolerance
+    out = np.zeros((transforms.shape[0], 4))
+    P_right = np.zeros((3, 4))
+    P_right[:, :3] = K_right
+    P_left = K_left @ np.ascontiguousarray(left_from_right[:3, :])
+    M = np.empty((3, 4), np.float32)
+    counts = np.zeros(4)
+    for p in range(transforms.shape[0]):
+        counts[:] = 0.0
+        _projection(P_left, transforms[p], M)
+        _outline_side(M, inner, outer, model_bgr, inner_cells, agree_cells[p, 0], image_left,
+                      codes_left, gains_left, foreign, sheet, chroma_tolerance, bright, width, height,
+                      counts)  # fmt: skip
+        _projection(P_right, transforms[p], M)
+        _outline_side(M, inner, outer, model_bgr, inner_cells, agree_cells[p, 1], image_right,
+                      codes_right, gains_right, foreign, sheet, chroma_tolerance, bright, width, height,
+                      counts)  # fmt: skip
+        out[p, :] = counts
+    return out
+
+
+__all__ = ["appearance", "outline_contrast"]
