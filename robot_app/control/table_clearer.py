@@ -70,6 +70,7 @@ from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_lost import match_lost, pick_lost
 from robot_app.control.table_recovery import TableRecovery
+from robot_app.control.table_surface import aimed_at, surface_height
 from robot_app.control.table_survey import (
     TablePlane,
     choose_target,
@@ -332,7 +333,9 @@ class TableClearer:
     def _loop_phase(self, record: PhaseRecord, attempt: AttemptState, loop: PickPlaceLoop) -> None:
         if self.on_phase is not None:
             self.on_phase(record, attempt.name)
-        if record.phase == "lift" and record.note.startswith(LIFTED):
+        if record.phase == "approach":
+            self._aim_at_surface(attempt, loop)
+        elif record.phase == "lift" and record.note.startswith(LIFTED):
             self._after_lift(attempt)
         elif record.phase == "transfer" and not self.cell.holding():
             attempt.dropped = True
@@ -406,6 +409,27 @@ class TableClearer:
                 loop.tracker.grasp_point_model = point
                 attempt.grasp_used = True
         attempt.grasp_point_model = loop.tracker.grasp_point_model.copy()
+
+    def _aim_at_surface(self, attempt: AttemptState, loop: PickPlaceLoop) -> None:
+        """Moves the loop's grasp point onto the top surface the survey's pair shows there
+        (`table_surface`), when that is measured and trusted; the notes say what was found."""
+        estimate, settings = loop.tracker.filter.estimate, self.settings.surface
+        if not settings.enabled or attempt.target is None or estimate is None:
+            return
+        pose = estimate.as_transform()
+        point = pose[:3, :3] @ loop.tracker.grasp_point_model + pose[:3, 3]
+        recognizer = self.recognizers[attempt.name]
+        depth = recognizer.settings.depth
+        found = surface_height(
+            self._survey_capture, self.rig, recognizer.model, depth, attempt.target.explained,
+            point, self.table_z, settings,
+        )  # fmt: skip
+        seen = f"surface at {found.z * 1e3:.0f} mm (correlation {found.correlation:.2f}, {found.samples} px)"
+        if not found.trusted:
+            attempt.notes.append(f"grasp on the pose's plane ({point[2] * 1e3:.0f} mm): {seen} not trusted")
+            return
+        loop.tracker.grasp_point_model = aimed_at(pose, loop.tracker.grasp_point_model, found.z)
+        attempt.notes.append(f"grasp aimed at the {seen}; the pose's plane was at {point[2] * 1e3:.0f} mm")
 
     # ------------------------------------------------------------------ checks
     def _after_lift(self, attempt: AttemptState) -> None:
