@@ -39,7 +39,10 @@ class SurfaceSettings(StrictModel):
         enabled: aim the grasp at the measured surface (else at the pose's plane).
         radius: the patch around the grasp point [m]; when it holds too few textured
             pixels, twice that.
-        erode: pixels taken off the edge of the target's visible part [px].
+        close: gaps in the target's visible part up to about twice this wide are closed
+            first (the identification leaves out the blurred pixels along its print's
+            edges, which are the very pixels the pair can correlate) [px].
+        erode: pixels then taken off the edge of the visible part [px].
         min_gradient: a pixel counts if its horizontal grey gradient is at least this
             (lower than the outline's check: the patch lies inside a cloth) [grey levels].
         min_samples: fewer textured pixels in the patch: not measured.
@@ -50,6 +53,7 @@ class SurfaceSettings(StrictModel):
 
     enabled: bool = True
     radius: float = Field(0.02, gt=0.0, le=0.1)
+    close: int = Field(4, ge=0, le=20)
     erode: int = Field(3, ge=0, le=20)
     min_gradient: float = Field(4.0, ge=0.0)
     min_samples: int = Field(40, ge=16)
@@ -99,7 +103,7 @@ def surface_height(
         return SurfaceHeight(float("nan"), float("nan"), 0, False)
     K = rig.right.camera_matrix
     u, v = K[0, 0] * in_camera[0] / in_camera[2] + K[0, 2], K[1, 1] * in_camera[1] / in_camera[2] + K[1, 2]
-    inside = _eroded(visible, settings.erode)
+    inside = _eroded(_closed(visible, settings.close), settings.erode)
     # planes z_W = h in Σ_CR: n = -(R's third row) points away from the camera, d = t_z - h
     normal = -T[2, :3]
     heights = np.arange(table_z - settings.below, table_z + settings.above + 1e-12, settings.coarse_step)
@@ -143,6 +147,13 @@ def aimed_at(
 def _planes(normal: FloatArray, camera_z: float, heights: FloatArray) -> FloatArray:
     """(D, 4) the planes z_W = h for each of `heights`, in Σ_CR."""
     return np.column_stack([np.tile(normal, (len(heights), 1)), camera_z - heights])
+
+
+def _closed(mask: npt.NDArray[np.bool_], pixels: int) -> npt.NDArray[np.bool_]:
+    if pixels == 0:
+        return np.asarray(mask, dtype=bool)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * pixels + 1, 2 * pixels + 1))
+    return np.asarray(cv2.morphologyEx(np.asarray(mask, dtype=np.uint8), cv2.MORPH_CLOSE, kernel), dtype=bool)
 
 
 def _eroded(mask: npt.NDArray[np.bool_], pixels: int) -> npt.NDArray[np.bool_]:
