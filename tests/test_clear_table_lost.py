@@ -163,3 +163,23 @@ def test_after_a_drop_the_job_looks_along_the_way_to_the_box() -> None:
     recovery.looked = [way[0].copy()]
     places = recovery.places_to_look(capture, ident, seen_before, lambda name: True, way)  # type: ignore[arg-type]
     np.testing.assert_allclose(places, [way[1]])  # one look left, the way's first place looked at
+
+
+def test_a_white_cloths_shaded_folds_count_as_its_colours_a_dark_cloths_do_not_grow_light() -> None:
+    from robot_app.control.table_lost import palette_share
+    from robot_app.vision.hue import DARK, LIGHT
+
+    white, black, red = np.array([LIGHT]), np.array([DARK]), np.array([0, 250])
+    # a crumpled white cloth: lit parts light, its folds in its own shade dark, a few tinted
+    heap = np.array([LIGHT] * 50 + [DARK] * 40 + [30] * 10)
+    assert palette_share(heap, white, 10) == pytest.approx(0.9)
+    assert palette_share(heap, black, 10) == pytest.approx(0.4)  # ahead by the white's light half
+    assert palette_share(heap, red, 10) == 0.0
+    # a crumpled black cloth: shade leaves it dark; a white palette takes it too (no hue),
+    # so a lost white and a lost black cloth are not told apart by colour: neither is picked
+    soot = np.array([DARK] * 95 + [LIGHT] * 5)
+    assert palette_share(soot, black, 10) == pytest.approx(0.95)
+    assert palette_share(soot, white, 10) == pytest.approx(1.0)
+    # hues as before: within the threshold on the circle
+    assert palette_share(np.array([5, 252, 128]), red, 10) == pytest.approx(2 / 3)
+    assert palette_share(np.array([], dtype=int), white, 10) == 0.0

@@ -15,6 +15,7 @@ from robot_app.control.episode import EpisodeResult
 from robot_app.control.grasp_point import PileGraspSettings
 from robot_app.control.job_motion import PutBackSettings
 from robot_app.control.limits import LimitReport
+from robot_app.control.table_surface import SurfaceSettings
 
 
 class LostSettings(StrictModel):
@@ -120,6 +121,8 @@ class ClearTableSettings(StrictModel):
             cloth still came up with the other each time; unproven, not in use).
         lost: picking a cloth the job lost (dropped, laid back) and no survey recognised
             since, by an unknown region in its colours and its weight (`table_lost`).
+        surface: the grasp aimed at the top surface the survey's pair shows at the grasp
+            point (`table_surface`), not at the pose's plane (low on a pile).
     """
 
     max_picks: int = Field(15, ge=1)
@@ -138,6 +141,7 @@ class ClearTableSettings(StrictModel):
     look_at_boxes: bool = True
     box_view_height: float = Field(0.42, gt=0.1)
     pile_grasp: PileGraspSettings = Field(default_factory=PileGraspSettings)
+    surface: SurfaceSettings = Field(default_factory=SurfaceSettings)
     put_back: PutBackSettings = Field(default_factory=PutBackSettings)
     look_around: int = Field(2, ge=0, le=10)
     look_apart: float = Field(0.08, gt=0.0)

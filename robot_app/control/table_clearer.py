@@ -70,6 +70,7 @@ from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_lost import match_lost, pick_lost
 from robot_app.control.table_recovery import TableRecovery
+from robot_app.control.table_surface import aimed_at, surface_height
 from robot_app.control.table_survey import (
     TablePlane,
     choose_target,
@@ -332,7 +333,9 @@ class TableClearer:
     def _loop_phase(self, record: PhaseRecord, attempt: AttemptState, loop: PickPlaceLoop) -> None:
         if self.on_phase is not None:
             self.on_phase(record, attempt.name)
-        if record.phase == "lift" and record.note.startswith(LIFTED):
+        if record.phase == "approach":
+            self._aim_at_surface(attempt, loop)
+        elif record.phase == "lift" and record.note.startswith(LIFTED):
             self._after_lift(attempt)
         elif record.phase == "transfer" and not self.cell.holding():
             attempt.dropped = True
@@ -389,7 +392,7 @@ class TableClearer:
 
     def _look_from(self, place: FloatArray) -> bool:
         self.recovery.looked.append(place)
-        offset = self._camera_offset()
+        offset = self.camera_offset()
         self._phase, self._meant = "look around", None
         return self.recovery.look_from(place, offset, self.observation_camera_pose[2, 3])
 
@@ -406,6 +409,27 @@ class TableClearer:
                 loop.tracker.grasp_point_model = point
                 attempt.grasp_used = True
         attempt.grasp_point_model = loop.tracker.grasp_point_model.copy()
+
+    def _aim_at_surface(self, attempt: AttemptState, loop: PickPlaceLoop) -> None:
+        """Moves the loop's grasp point onto the top surface the survey's pair shows there
+        (`table_surface`), when that is measured and trusted; the notes say what was found."""
+        estimate, settings = loop.tracker.filter.estimate, self.settings.surface
+        if not settings.enabled or attempt.target is None or estimate is None:
+            return
+        pose = estimate.as_transform()
+        point = pose[:3, :3] @ loop.tracker.grasp_point_model + pose[:3, 3]
+        recognizer = self.recognizers[attempt.name]
+        depth = recognizer.settings.depth
+        found = surface_height(
+            self._survey_capture, self.rig, recognizer.model, depth, attempt.target.explained,
+            point, self.table_z, settings,
+        )  # fmt: skip
+        seen = f"surface at {found.z * 1e3:.0f} mm (correlation {found.correlation:.2f}, {found.samples} px)"
+        if not found.trusted:
+            attempt.notes.append(f"grasp on the pose's plane ({point[2] * 1e3:.0f} mm): {seen} not trusted")
+            return
+        loop.tracker.grasp_point_model = aimed_at(pose, loop.tracker.grasp_point_model, found.z)
+        attempt.notes.append(f"grasp aimed at the {seen}; the pose's plane was at {point[2] * 1e3:.0f} mm")
 
     # ------------------------------------------------------------------ checks
     def _after_lift(self, attempt: AttemptState) -> None:
@@ -466,13 +490,7 @@ class TableClearer:
             else:
                 attempt.unnamed_along = True
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
-        self._phase = "put back"
-        model = self.recognizers[name].model
-        self.recovery.put_back(
-            self._survey_capture, model, attempt.grasp_point_model, attempt.obstacles_xy, attempt.notes
-        )
-        attempt.put_back = True
-        attempt.put_back_at = self.recovery.put_back_spots[-1].copy()
+        self.put_back(attempt, attempt.grasp_point_model)
         if heavier and self.settings.hidden_cloth_radius > 0:
             # the other cloth hung from the same fingers: it lies under the spot let go at,
             # where no survey may see it (the meant cloth covers it again)
@@ -515,23 +533,48 @@ class TableClearer:
         return None if stayed else name
 
     def _after_release(self, attempt: AttemptState, loop: PickPlaceLoop) -> None:
-        """Looks into the box from above it (`box_check.look_tcp`, as `_look_at_boxes`: the
-        release pose's camera saw a quarter of the floor) and checks; the loop's HOME then
-        starts there. Out of reach: from the release pose, noted."""
+        """Checks the box (`check_box`); the loop's HOME then starts from the look."""
+        self.check_box(attempt)
+        loop.arm.resume_at(self.motion.q)
+
+    # ------------------------------------------------------------------ hand-over (also `table_lost`)
+    @property
+    def survey_capture(self) -> StereoCapture:
+        """The capture of the job's last survey."""
+        return self._survey_capture
+
+    def set_phase(self, phase: str, meant: str | None) -> None:
+        """Names what the job's next motions do, and for which cloth (its callbacks)."""
+        self._phase, self._meant = phase, meant
+
+    def check_box(self, attempt: AttemptState) -> None:
+        """After a release: looks into the box from above it (`box_check.look_tcp`, as
+        `_look_at_boxes`: the release pose's camera saw a quarter of the floor; out of
+        reach: from the release pose, noted) and checks it (`check_release`)."""
         self._phase = "box check"
         height = self.settings.box_view_height
         try:
-            self.motion.move_tcp(look_tcp(attempt.box.centre, height, self._camera_offset()))
+            self.motion.move_tcp(look_tcp(attempt.box.centre, height, self.camera_offset()))
         except IKError:
             attempt.notes.append("box looked into from the release pose: the look above it is out of reach")
         capture = self.cell.capture()
-        loop.arm.resume_at(self.motion.q)
         recognizer = self.recognizers[attempt.name]
         check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings)
 
+    def put_back(self, attempt: AttemptState, grasp_point_model: FloatArray | None) -> None:
+        """Lays a rejected lift back onto free table (`TableRecovery.put_back`) and books
+        where it let go."""
+        self._phase = "put back"
+        model = self.recognizers[attempt.name].model
+        self.recovery.put_back(
+            self._survey_capture, model, grasp_point_model, attempt.obstacles_xy, attempt.notes
+        )
+        attempt.put_back = True
+        attempt.put_back_at = self.recovery.put_back_spots[-1].copy()
+
     def _look_at_boxes(self) -> None:
         """Looks into every box once (the reference of the checks after placing)."""
-        camera_offset = self._camera_offset()
+        camera_offset = self.camera_offset()
         for box in self.boxes.values():
             self._phase = f"look into {box.name}"
             self.motion.move_tcp(look_tcp(box.centre, self.settings.box_view_height, camera_offset))
@@ -544,7 +587,7 @@ class TableClearer:
         self.motion.move_to_joints(self.observation_joints)
 
     # ------------------------------------------------------------------ helpers
-    def _camera_offset(self) -> FloatArray:
+    def camera_offset(self) -> FloatArray:
         """Right camera minus TCP in Σ_W at the observation pose [m] (the hand keeps its orientation)."""
         q = self.observation_joints
         return (

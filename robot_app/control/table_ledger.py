@@ -86,7 +86,14 @@ class TableLedger:
             self.last_pose[d.name] = pose.copy()
             self.last_survey[d.name] = len(self.surveys) + 1
             self.lost.pop(d.name, None)  # recognised again
-            self.records.setdefault(d.name, _new_entry())
+            entry = self.records.setdefault(d.name, _new_entry())
+            if d.name in self.placed_order and d.name not in self.seen_in_box:
+                # booked placed (a double pick's companion, a release not seen in the box),
+                # yet on the table: it is not placed, and may be picked again
+                self.placed_order.remove(d.name)
+                entry["confirmed"] = False
+                notes: list[str] = entry["notes"]  # type: ignore[assignment]
+                notes.append(f"booked placed, yet seen on the table by survey {len(self.surveys) + 1}")
         record = SurveyRecord(
             capture.time,
             wall_s,

@@ -38,19 +38,19 @@ from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
+import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
-from robot_app.control.box_check import look_tcp
 from robot_app.control.cell import StereoCapture
 from robot_app.control.clear_table_records import LostPlace, LostSettings
 from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
 from robot_app.control.intercept import hanging_reach
-from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, check_release, weight_verdict
+from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, weight_verdict
 from robot_app.control.pick_place import LIFTED
 from robot_app.errors import IKError
 from robot_app.vision import Recognizer
 from robot_app.vision.exposure import sheet_gains
-from robot_app.vision.hue import colours_match
+from robot_app.vision.hue import DARK, LIGHT, colours_match
 from robot_app.vision.identify import UnknownRegion
 from robot_app.vision.regions import image_codes, main_codes, undistorted
 
@@ -62,20 +62,32 @@ def colour_shares(
     capture: StereoCapture, region: UnknownRegion, recognizers: Mapping[str, Recognizer]
 ) -> dict[str, float]:
     """Name -> share of `region`'s pixels (in the undistorted right image) in that
-    model's main colours."""
+    model's main colours (`palette_share`)."""
     first = next(iter(recognizers.values()))
     image = undistorted(capture.right_bgr, first.rig.right)
     fitness = first.settings.fitness
     codes = image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness)
     seen = codes[region.mask]
-    if not seen.size:
-        return dict.fromkeys(recognizers, 0.0)
-    shares = {}
-    for name, recognizer in recognizers.items():
-        palette = main_codes(recognizer.model)
-        matching = colours_match(seen[:, None], palette[None, :], fitness.hue_threshold_in)
-        shares[name] = float(np.mean(np.any(matching, axis=1)))
-    return shares
+    return {
+        name: palette_share(seen, main_codes(recognizer.model), fitness.hue_threshold_in)
+        for name, recognizer in recognizers.items()
+    }
+
+
+def palette_share(seen: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> float:
+    """Share of the colour codes `seen` that are in `palette` (a model's main codes): a hue
+    within `hue_threshold` of one of its hues, or one of its tones; a LIGHT tone (a white
+    or light grey cloth, which has no hue) also takes DARK pixels, since a crumpled white
+    cloth's folds lie in its own shade, darker but still without hue (a dark cloth's
+    folds do not get lighter)."""
+    codes = np.asarray(seen).reshape(-1)
+    if not codes.size:
+        return 0.0
+    colours = np.asarray(palette)
+    if np.any(colours == LIGHT) and not np.any(colours == DARK):
+        colours = np.append(colours, DARK)
+    matching = colours_match(codes[:, None], colours[None, :], hue_threshold)
+    return float(np.mean(np.any(matching, axis=1)))
 
 
 def near_the_loss(centre_xy: FloatArray, place: LostPlace, settings: LostSettings) -> bool:
@@ -131,7 +143,7 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
     its box if the load cell reads its weight; books the attempt. Never raises for a
     failed pick (an `InterruptError` from the job's step callback passes)."""
     s, loop, table_z = job.settings.lost, job.loop_settings, job.table_z
-    capture = job._survey_capture
+    capture = job.survey_capture
     box = job.boxes[job.sort.box_for(name)]
     x, y = job.table.point(capture, inner_pixel(region.mask))
     unnamed = name not in job.ledger.lost  # the other cloth of a double pick, never identified
@@ -145,9 +157,10 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
         f"an unknown region {share:.0%} in its colours"
     )
     wall = time.perf_counter()
+    samples, collisions = job.cell.limit_report(job.limits).samples, job.motion.collisions
     outcome, reason, grasps = Outcome.PLACED, "", 0
     try:
-        job._phase, job._meant = "approach", name
+        job.set_phase("approach", name)
         start = job.cell.time
         job.motion.move_tcp([x, y, table_z + loop.pregrasp_height])
         job.motion.move_tcp([x, y, table_z + s.grasp_height], speed=job.settings.put_down_speed)
@@ -155,12 +168,12 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
         job.motion.hold(loop.close_time)
         held = job.cell.grasp()
         grasps = 1
-        _phase(job, "grasp", start, f"blind: {held} hold points")
+        _phase(job, name, "grasp", start, f"blind: {held} hold points")
         start = job.cell.time
-        job._phase = "lift"
+        job.set_phase("lift", name)
         job.motion.move_tcp([x, y, table_z + loop.lift_height])
         lifted = job.cell.holding()
-        _phase(job, "lift", start, LIFTED if lifted else "grasp missed: cloth not lifted")
+        _phase(job, name, "lift", start, LIFTED if lifted else "grasp missed: cloth not lifted")
         if not lifted:
             job.cell.release()
             job.cell.set_gripper(loop.gripper_open)
@@ -171,14 +184,19 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
         job.cell.release()
         job.cell.set_gripper(loop.gripper_open)
         outcome, reason = Outcome.GRASP_FAILED, f"out of reach: {err}"
-    result = _result(job, outcome, reason, attempt.start_time, wall, grasps)
+    report = job.cell.limit_report(job.limits)
+    counts = (report.samples - samples, job.motion.collisions - collisions)
+    result = _result(job, outcome, reason, attempt.start_time, wall, grasps, counts)
     job.ledger.record_attempt(attempt, result, job.cell.time, job.weights.get(name))
     if outcome is Outcome.PLACED and unnamed:
         job.ledger.unnamed.pop()  # that double pick's other cloth is placed
 
 
 def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome, str]:
-    """After a lift that holds something: weigh, then into the box and look (or lay back)."""
+    """After a lift that holds something: weigh, then into the box and look (or lay back),
+    with the job's own hand-over (`TableClearer.put_back`, `TableClearer.check_box`); the
+    transfer and release are the loop's (`PickPlaceLoop`: over the box at
+    `loop.transfer_height`, lowered by `loop.release_fold`), made with the job's motions."""
     loop, table_z = job.loop_settings, job.table_z
     expected = job.weights.get(name)
     if job.weigh is None or expected is None:
@@ -189,18 +207,14 @@ def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome
     attempt.lift_check = verdict
     if verdict != "ok":
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
-        job._phase = "put back"
-        model = job.recognizers[name].model
-        job.recovery.put_back(job._survey_capture, model, None, None, attempt.notes)
-        attempt.put_back = True
-        attempt.put_back_at = job.recovery.put_back_spots[-1].copy()
+        job.put_back(attempt, None)
         return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
     start = job.cell.time
-    job._phase = "transfer"
+    job.set_phase("transfer", name)
     over = attempt.box.centre.copy()
     over[2] = table_z + loop.transfer_height
     job.motion.move_tcp(over)
-    _phase(job, "transfer", start, "")
+    _phase(job, name, "transfer", start, "")
     if not job.cell.holding():
         attempt.dropped = True
         attempt.notes.append("dropped during the transfer (gripper empty over the box)")
@@ -208,7 +222,7 @@ def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome
         job.cell.set_gripper(loop.gripper_open)
         return Outcome.LOST, f"{DROPPED} during the transfer: the gripper came empty over the box"
     start = job.cell.time
-    job._phase = "release"
+    job.set_phase("release", name)
     model = job.recognizers[name].model
     reach = hanging_reach(model.points_in, model.grasp_point)
     low = over.copy()
@@ -219,24 +233,26 @@ def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome
     job.cell.release()
     job.motion.hold(loop.release_wait)
     job.cell.set_gripper(loop.gripper_open)
-    _phase(job, "release", start, "")
-    job._phase = "box check"
-    try:
-        job.motion.move_tcp(look_tcp(attempt.box.centre, job.settings.box_view_height, job._camera_offset()))
-    except IKError:
-        attempt.notes.append("box looked into from the release pose: the look above it is out of reach")
-    check_release(attempt, job.cell.capture(), job.rig, job.recognizers[name], job._views, job.box_settings)
+    _phase(job, name, "release", start, "")
+    job.check_box(attempt)
     return Outcome.PLACED, f"{name} placed (picked blind, its weight read)"
 
 
-def _phase(job: TableClearer, phase: str, start: float, note: str) -> None:
+def _phase(job: TableClearer, name: str, phase: str, start: float, note: str) -> None:
     if job.on_phase is not None:
-        job.on_phase(PhaseRecord(phase, start, job.cell.time, 0.0, note), job._meant or "")
+        job.on_phase(PhaseRecord(phase, start, job.cell.time, 0.0, note), name)
 
 
 def _result(
-    job: TableClearer, outcome: Outcome, reason: str, start: float, wall_start: float, grasps: int
+    job: TableClearer,
+    outcome: Outcome,
+    reason: str,
+    start: float,
+    wall_start: float,
+    grasps: int,
+    counts: tuple[int, int],
 ) -> EpisodeResult:
+    """The blind pick as a loop run's result (`counts`: its commanded samples and collisions)."""
     return EpisodeResult(
         outcome=outcome,
         success=outcome is Outcome.PLACED,
@@ -247,8 +263,8 @@ def _result(
         phases=(),
         recognitions=(),
         limit_report=job.cell.limit_report(job.limits),
-        commanded_samples=0,
-        collisions=0,
+        commanded_samples=counts[0],
+        collisions=counts[1],
         grasp_attempts=grasps,
         observe_returns=0,
         filter_accepted=0,
@@ -257,4 +273,4 @@ def _result(
     )
 
 
-__all__ = ["colour_shares", "inner_pixel", "match_lost", "near_the_loss", "pick_lost"]
+__all__ = ["colour_shares", "inner_pixel", "match_lost", "near_the_loss", "palette_share", "pick_lost"]

@@ -9,8 +9,11 @@ sensing would.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial import cKDTree
 
 from robot_app.arrays import FloatArray
 from robot_app.errors import GraspError
@@ -19,6 +22,10 @@ from robot_app.sim.cloth_body import NODE_MASS, ClothBody
 from robot_app.sim.world import World
 
 HOLD_HEIGHT = 0.05  # a held cloth's median node is at least this far above the table [m]
+REST_CONTACT = (
+    0.025  # a node rests on what lies at most this far under it [m] (layers of a pile ~16 mm apart)
+)
+REST_UNDER = 0.015  # ... and at most this far aside [m]
 
 
 class SimCell:
@@ -80,16 +87,21 @@ class SimCell:
         return any(float(np.median(c.nodes()[:, 2])) > table + HOLD_HEIGHT for c in self.held_cloths())
 
     def held_mass(self, reach: float = 0.3) -> float:
-        """What a load cell in the wrist would weigh [kg]: every cloth node off the table by
-        more than HOLD_HEIGHT within `reach` [m] (horizontally) of the TCP, anchored or
-        lying on what is (the simulated cloth's mass is its node count times NODE_MASS)."""
+        """What a load cell in the wrist would weigh [kg]: the cloth nodes within `reach` [m]
+        (horizontally) of the TCP, more than HOLD_HEIGHT above the table, that nothing
+        holds up but the gripper (`hanging_nodes`): a grasped cloth's part still lying on
+        the pile, or a cloth lying on the pile under the tool, weighs nothing; a cloth that
+        came along, anchored or lying on the one lifted, weighs (the simulated cloth's
+        mass is its node count times NODE_MASS)."""
         tcp = self.world.robot.frame_pose("tcp")[:3, 3]
         table = self.world.config.table.top_z
+        cloths = self.world.cloths
+        nodes = [c.nodes() for c in cloths]
+        hanging = hanging_nodes(nodes, [c.is_grasped for c in cloths], table)
         count = 0
-        for cloth in self.world.cloths:
-            nodes = cloth.nodes()
-            near = np.hypot(nodes[:, 0] - tcp[0], nodes[:, 1] - tcp[1]) <= reach
-            count += int(np.count_nonzero(near & (nodes[:, 2] > table + HOLD_HEIGHT)))
+        for points, free in zip(nodes, hanging, strict=True):
+            near = np.hypot(points[:, 0] - tcp[0], points[:, 1] - tcp[1]) <= reach
+            count += int(np.count_nonzero(near & free & (points[:, 2] > table + HOLD_HEIGHT)))
         return count * NODE_MASS
 
     def collisions(self) -> int:
@@ -97,4 +109,39 @@ class SimCell:
         return 1 if contacts else 0
 
 
-__all__ = ["SimCell"]
+def hanging_nodes(
+    nodes: list[FloatArray], grasped: list[bool], table_z: float, contact: float = REST_CONTACT,
+    under: float = REST_UNDER,
+) -> list[npt.NDArray[np.bool_]]:  # fmt: skip
+    """Per cloth, which of its nodes ((N, 3) [m] each) hang rather than rest: a node rests
+    when it lies within `contact` [m] above the table top `table_z`, or within `contact`
+    above a resting node of a cloth the gripper does not hold, at most `under` [m] aside
+    (any cloth may rest so, on itself too: a fold). A held cloth's nodes rest on what lies
+    under them but hold nothing up: what lies on a hanging cloth hangs with it."""
+    if not nodes:
+        return []
+    points = np.concatenate(nodes)
+    owner = np.concatenate([np.full(len(n), i) for i, n in enumerate(nodes)])
+    held = np.asarray(grasped, dtype=bool)[owner]
+    rest = points[:, 2] <= table_z + contact
+    while True:  # each pass rests the nodes on those found resting so far: a pile, layer by layer
+        support = np.nonzero(rest & ~held)[0]
+        open_ = np.nonzero(~rest)[0]
+        if not len(support) or not len(open_):
+            break
+        tree = cKDTree(points[support, :2])
+        found = []
+        for i, near in zip(open_, tree.query_ball_point(points[open_, :2], under), strict=True):
+            if near:
+                dz = points[i, 2] - points[support[near], 2]
+                if np.any((dz >= 0.0) & (dz <= contact)):
+                    found.append(i)
+        if not found:
+            break
+        rest[found] = True
+    hanging = ~rest
+    bounds = np.cumsum([0, *(len(n) for n in nodes)])
+    return [hanging[a:b] for a, b in itertools.pairwise(bounds)]
+
+
+__all__ = ["SimCell", "hanging_nodes"]

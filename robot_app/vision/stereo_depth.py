@@ -223,6 +223,46 @@ class StereoDepth:
         trusted = best >= s.min_correlation
         return StereoPlane(normal, float(normal @ origin), best, at_pose, bool(trusted))
 
+    def sweep_mask(
+        self,
+        mask: npt.NDArray[np.bool_],
+        planes: FloatArray,
+        pixel_step: int = 1,
+        min_gradient: float | None = None,
+    ) -> tuple[FloatArray, int]:
+        """Correlations through each of `planes` ((D, 4): unit normal n, distance d, n·X = d
+        in Σ_CR) of the right-image pixels in `mask` ((H, W) bool) that have a horizontal
+        grey gradient of at least `min_gradient` (None: the settings'), every `pixel_step`
+        pixels; and how many such pixels there are. A local surface (the top cloth of a
+        pile around a grasp point) rather than the model's footprint; the pose plays no
+        part. (D,) -2 where fewer than 16 pixels were found or land in the left image.
+
+        Raises:
+            RuntimeError: no pair yet (call `update`).
+        """
+        if self._images is None:
+            raise RuntimeError("no stereo pair to measure on: call update(left, right) first")
+        planes = np.ascontiguousarray(planes, dtype=float).reshape(-1, 4)
+        v, u = np.nonzero(mask)
+        if not len(u):
+            return np.full(len(planes), -2.0), 0
+        s = self.settings
+        gradient = s.min_gradient if min_gradient is None else float(min_gradient)
+        box = np.array([u.min(), v.min(), u.max(), v.max()], dtype=np.int64)
+        right, right_origin = _smoothed_crop(self._images[1], box, s.smoothing)
+        pixels, values = edge_samples(right, box - np.tile(right_origin, 2), pixel_step, gradient)
+        pixels += right_origin
+        inside = mask[pixels[:, 1].astype(np.int64), pixels[:, 0].astype(np.int64)]
+        pixels, values = np.ascontiguousarray(pixels[inside]), np.ascontiguousarray(values[inside])
+        if len(values) < 16:
+            return np.full(len(planes), -2.0), len(values)
+        height, width = self._images[0].shape[:2]
+        left, left_origin = _smoothed_crop(
+            self._images[0], np.array([0, 0, width - 1, height - 1]), s.smoothing
+        )
+        prepared = _Sweep(pixels, values, left, left_origin, self)
+        return prepared.scores(planes), len(values)
+
     def _ascend(
         self, prepared: _Sweep, normal: FloatArray, origin: FloatArray
     ) -> tuple[FloatArray, FloatArray, float]:

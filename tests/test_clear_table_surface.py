@@ -1,0 +1,113 @@
+"""The top surface at a grasp point, by the survey's stereo pair (`control.table_surface`):
+synthetic pairs (numpy renderer) of two cloths, one lying on the other, at known heights."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from robot_app.control.table_surface import SurfaceSettings, aimed_at, surface_height
+from robot_app.geometry import make_transform, rotation_about_z
+from robot_app.vision import ModelCamera, PinholeCamera, Recognition, Recognizer, StereoRig, make_model
+from robot_app.vision.identify import IdentifySettings, resolve
+from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic_catalogue import synthetic_cloth
+
+CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
+RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
+STATION = ModelCamera(PinholeCamera.from_fov((480, 360), np.deg2rad(48)), 0.40)
+# the right camera 0.6 m above the table (z = 0), looking straight down
+CAMERA_TO_WORLD = make_transform(np.diag([1.0, -1.0, -1.0]), [0.5, 0.0, 0.6])
+LOWER = make_transform(rotation_about_z(0.2), [-0.03, 0.0, 0.592])  # 8 mm above the table
+UPPER = make_transform(rotation_about_z(-0.4), [0.05, 0.02, 0.548])  # 52 mm: three layers up
+PLAIN = make_transform(rotation_about_z(0.1), [-0.1, -0.12, 0.592])  # a plain yellow cloth apart
+
+
+def _recognizer(index: int, name: str) -> Recognizer:
+    photo, background = render_model_photo(synthetic_cloth(index), STATION, rng=np.random.default_rng(index))
+    return Recognizer(make_model(photo, STATION, background, name=name), RIG)
+
+
+@pytest.fixture(scope="module")
+def pile():
+    left, right = render_stereo_pair(
+        RIG,
+        [(synthetic_cloth(2), LOWER), (synthetic_cloth(10), UPPER), (synthetic_cloth(1), PLAIN)],
+        rng=np.random.default_rng(3),
+    )
+    recognizers = {
+        "lower": _recognizer(2, "lower"),
+        "upper": _recognizer(10, "upper"),
+        "plain": _recognizer(1, "plain"),
+    }
+    seen = {
+        name: Recognition(True, 0.9, pose, 0, 0, 0.0, confidence=0.95, visible_fraction=1.0)
+        for name, pose in (("lower", LOWER), ("upper", UPPER), ("plain", PLAIN))
+    }
+    ident = resolve(recognizers, seen, right, IdentifySettings())
+    capture = SimpleNamespace(left_bgr=left, right_bgr=right, transform_right_camera_to_world=CAMERA_TO_WORLD)
+    return recognizers, {d.name: d for d in ident.detections}, capture
+
+
+def _world(pose_in_camera: np.ndarray, xy_model: tuple[float, float]) -> np.ndarray:
+    return (CAMERA_TO_WORLD @ pose_in_camera @ np.array([*xy_model, 0.0, 1.0]))[:3]
+
+
+@pytest.mark.parametrize(("name", "pose", "xy", "height"), [("upper", UPPER, (0.0, 0.0), 0.052)])
+def test_the_surface_on_top_of_a_pile_is_the_top_cloths(pile, name, pose, xy, height) -> None:
+    recognizers, detections, capture = pile
+    point = _world(pose, xy)
+    assert point[2] == pytest.approx(height, abs=1e-6)
+    point[2] = 0.03  # a pose's plane that lies 22 mm low, as on bench episode 32
+    r = recognizers[name]
+    found = surface_height(
+        capture, RIG, r.model, r.settings.depth, detections[name].explained, point, 0.0, SurfaceSettings()
+    )
+    assert found.trusted
+    assert found.z == pytest.approx(height, abs=0.003)
+
+
+def test_the_lower_cloth_beside_the_top_one_is_measured_at_its_own_height(pile) -> None:
+    recognizers, detections, capture = pile
+    lower = detections["lower"]
+    visible_far = None
+    # a point of the lower cloth well away from the upper one
+    for x in np.linspace(-0.1, 0.0, 11):
+        point = _world(LOWER, (x, 0.0))
+        u, v = CAMERA.project((np.linalg.inv(CAMERA_TO_WORLD) @ np.append(point, 1.0))[None, :3])[0]
+        if lower.explained[round(v), round(u)]:
+            visible_far = point
+            break
+    assert visible_far is not None
+    r = recognizers["lower"]
+    found = surface_height(
+        capture, RIG, r.model, r.settings.depth, lower.explained, visible_far, 0.0, SurfaceSettings()
+    )
+    assert found.trusted and found.z == pytest.approx(0.008, abs=0.003)
+
+
+def test_nothing_visible_or_nothing_textured_around_the_point_is_not_measured(pile) -> None:
+    recognizers, detections, capture = pile
+    # a plain cloth shows the pair nothing to correlate: the job keeps the pose's plane
+    r = recognizers["plain"]
+    centre = _world(PLAIN, (0.0, 0.0))
+    visible = detections["plain"].explained
+    plain = surface_height(capture, RIG, r.model, r.settings.depth, visible, centre, 0.0, SurfaceSettings())
+    assert not plain.trusted
+    r = recognizers["upper"]
+    nothing = np.zeros_like(detections["upper"].explained)
+    found = surface_height(
+        capture, RIG, r.model, r.settings.depth, nothing, [0.5, 0.0, 0.0], 0.0, SurfaceSettings()
+    )
+    assert not found.trusted and np.isnan(found.z)
+
+
+def test_aimed_at_moves_the_grasp_point_along_the_cloths_normal_only() -> None:
+    pose = make_transform(rotation_about_z(0.7) @ np.diag([1.0, -1.0, -1.0]), [0.5, 0.1, 0.02])
+    point = aimed_at(pose, [0.03, -0.02, 0.0], 0.055)
+    world = pose[:3, :3] @ point + pose[:3, 3]
+    before = pose[:3, :3] @ np.array([0.03, -0.02, 0.0]) + pose[:3, 3]
+    assert world[2] == pytest.approx(0.055)
+    assert world[:2] == pytest.approx(before[:2])
