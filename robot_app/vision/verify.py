@@ -286,11 +286,14 @@ class Verifier:
         codes_left, codes_right = self.evaluator.codes
         rig = self.evaluator.rig
         s = self.settings
+        (factors_left, index_left), (factors_right, index_right) = (_shade(x) for x in self._shading)
+        block = max(x.block if x is not None else 1 for x in self._shading)
         counts = outline_contrast(
             poses, rig.left.camera_matrix, rig.right.camera_matrix,
             np.ascontiguousarray(rig.transform_right_to_left), inner, outer, model_bgr, inner_cells,
-            agree_cells, self._images[0], self._images[1], codes_left, codes_right, self._gains[0],
-            self._gains[1], self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
+            agree_cells, self._images[0], self._images[1], codes_left, codes_right,
+            self._gains[0], self._gains[1], factors_left, index_left, factors_right, index_right, block,
+            self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
         )  # fmt: skip
         edge, same, astray, seam = (counts[:, k] for k in range(4))
         measured = edge + same + seam
