@@ -35,9 +35,11 @@ view agrees). The model photo also holds the cloth's outline. Every `outline_spa
 it (`outline.model_outline`) a pair of points, `outline_inside` inside and `outline_outside`
 outside, is projected into both images. A pair counts where its inner point shows the model
 photo's colour there (chromaticity within `chroma_tolerance`, brightness within
-`brightness_tolerance`, after the exposure gains): it is an *edge* if its outer point does
-not show that colour (the sheet, an occluder, another cloth) and *same* if it does (the
-region goes on past the outline: a patch of a larger print, or a pose off the cloth). An
+`brightness_tolerance`, after the exposure gains and the shading, as the texture is
+compared; without the shading the arm's shadow made a cloth's pairs astray): it is an
+*edge* if its outer point does not show that colour (the sheet, an occluder, another cloth)
+and *same* if it does (the region goes on past the outline: a patch of a larger print, or
+a pose off the cloth). An
 inner point on a foreign colour is hidden (an occluder: not counted against the pose)
 unless its outer point shows the sheet: a foreign region that ends exactly on the outline
 is another cloth's other colours, not a sheet over the cloth (a *seam*, counted against).
