@@ -35,9 +35,11 @@ view agrees). The model photo also holds the cloth's outline. Every `outline_spa
 it (`outline.model_outline`) a pair of points, `outline_inside` inside and `outline_outside`
 outside, is projected into both images. A pair counts where its inner point shows the model
 photo's colour there (chromaticity within `chroma_tolerance`, brightness within
-`brightness_tolerance`, after the exposure gains): it is an *edge* if its outer point does
-not show that colour (the sheet, an occluder, another cloth) and *same* if it does (the
-region goes on past the outline: a patch of a larger print, or a pose off the cloth). An
+`brightness_tolerance`, after the exposure gains and the shading, as the texture is
+compared; without the shading the arm's shadow made a cloth's pairs astray): it is an
+*edge* if its outer point does not show that colour (the sheet, an occluder, another cloth)
+and *same* if it does (the region goes on past the outline: a patch of a larger print, or
+a pose off the cloth). An
 inner point on a foreign colour is hidden (an occluder: not counted against the pose)
 unless its outer point shows the sheet: a foreign region that ends exactly on the outline
 is another cloth's other colours, not a sheet over the cloth (a *seam*, counted against).
@@ -286,11 +288,14 @@ class Verifier:
         codes_left, codes_right = self.evaluator.codes
         rig = self.evaluator.rig
         s = self.settings
+        (factors_left, index_left), (factors_right, index_right) = (_shade(x) for x in self._shading)
+        block = max(x.block if x is not None else 1 for x in self._shading)
         counts = outline_contrast(
             poses, rig.left.camera_matrix, rig.right.camera_matrix,
             np.ascontiguousarray(rig.transform_right_to_left), inner, outer, model_bgr, inner_cells,
-            agree_cells, self._images[0], self._images[1], codes_left, codes_right, self._gains[0],
-            self._gains[1], self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
+            agree_cells, self._images[0], self._images[1], codes_left, codes_right,
+            self._gains[0], self._gains[1], factors_left, index_left, factors_right, index_right, block,
+            self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
         )  # fmt: skip
         edge, same, astray, seam = (counts[:, k] for k in range(4))
         measured = edge + same + seam

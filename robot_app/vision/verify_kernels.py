@@ -206,14 +206,16 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
 
 
 @_jit
-def _same_colour(image, u, v, gains, model, chroma_tolerance, bright):
-    """Does the image's (gain-corrected, nearest) pixel at (u, v) show the colour `model`
-    (b, g, r): chromaticity within `chroma_tolerance` and brightness within the factor
-    `bright` either way?"""
+def _same_colour(image, u, v, gains, shade_factors, shade_index, block, model, chroma_tolerance, bright):
+    """Does the image's (gain- and shading-corrected, nearest) pixel at (u, v) show the colour
+    `model` (b, g, r): chromaticity within `chroma_tolerance` and brightness within the
+    factor `bright` either way? (Shading as in `_accumulate`.)"""
     iu, iv = np.int64(u + 0.5), np.int64(v + 0.5)
-    b = image[iv, iu, 0] * gains[0]
-    g = image[iv, iu, 1] * gains[1]
-    r = image[iv, iu, 2] * gains[2]
+    rows, cols = shade_index.shape[0], shade_index.shape[1]
+    shade = shade_factors[shade_index[min(iv // block, rows - 1), min(iu // block, cols - 1)]]
+    b = image[iv, iu, 0] * gains[0] * shade
+    g = image[iv, iu, 1] * gains[1] * shade
+    r = image[iv, iu, 2] * gains[2] * shade
     sum_m = max(model[0] + model[1] + model[2], 1.0)
     sum_i = max(b + g + r, 1.0)
     if sum_i > sum_m * bright or sum_m > sum_i * bright:
@@ -224,8 +226,9 @@ def _same_colour(image, u, v, gains, model, chroma_tolerance, bright):
 
 
 @_jit
-def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, gains, foreign, sheet,
-                  chroma_tolerance, bright, width, height, counts):  # fmt: skip
+def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, gains,
+                  shade_factors, shade_index, block, foreign, sheet, chroma_tolerance, bright, width, height,
+                  counts):  # fmt: skip
     """Adds one image's outline pairs to `counts` (edge, same, astray, seam). A pair counts
     where both points land in the image. Its inner point on a foreign colour (an occluder,
     or another cloth's colours) makes it a seam if the outer point shows the sheet (the
@@ -261,9 +264,11 @@ def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, 
         cell = inner_cells[i]
         if cell < 0 or agree[cell] == 0:
             continue
-        if not _same_colour(image, u, v, gains, model_bgr[i], chroma_tolerance, bright):
+        if not _same_colour(image, u, v, gains, shade_factors, shade_index, block, model_bgr[i],
+                            chroma_tolerance, bright):  # fmt: skip
             counts[2] += 1.0
-        elif _same_colour(image, uo, vo, gains, model_bgr[i], chroma_tolerance, bright):
+        elif _same_colour(image, uo, vo, gains, shade_factors, shade_index, block, model_bgr[i],
+                          chroma_tolerance, bright):  # fmt: skip
             counts[1] += 1.0
         else:
             counts[0] += 1.0
@@ -272,6 +277,7 @@ def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, 
 @_jit
 def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer, model_bgr, inner_cells,
                      agree_cells, image_left, image_right, codes_left, codes_right, gains_left, gains_right,
+                     shade_factors_left, shade_index_left, shade_factors_right, shade_index_right, block,
                      foreign, sheet, chroma_tolerance, brightness_tolerance):  # fmt: skip
     """For each pose, over both images: the outline pairs that are edges, same, astray and
     seams (`_outline_side`).
@@ -286,6 +292,8 @@ def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer,
         image_left, image_right: (H, W, 3) uint8 images.
         codes_left, codes_right: the framed pixel codes of `FitnessEvaluator.codes`.
         gains_left, gains_right: (3,) channel gains of each image (exposure reference).
+        shade_factors_left, shade_index_left, shade_factors_right, shade_index_right, block:
+            each image's shading, as in `appearance`.
         foreign: (259,) bool per pixel code: foreign to the model (hidden), and OFF_IMAGE.
         sheet: (259,) bool per pixel code: the sheet's hue.
         chroma_tolerance, brightness_tolerance: see `_same_colour` (the factor minus one).
@@ -305,12 +313,12 @@ def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer,
         counts[:] = 0.0
         _projection(P_left, transforms[p], M)
         _outline_side(M, inner, outer, model_bgr, inner_cells, agree_cells[p, 0], image_left,
-                      codes_left, gains_left, foreign, sheet, chroma_tolerance, bright, width, height,
-                      counts)  # fmt: skip
+                      codes_left, gains_left, shade_factors_left, shade_index_left, block, foreign, sheet,
+                      chroma_tolerance, bright, width, height, counts)  # fmt: skip
         _projection(P_right, transforms[p], M)
         _outline_side(M, inner, outer, model_bgr, inner_cells, agree_cells[p, 1], image_right,
-                      codes_right, gains_right, foreign, sheet, chroma_tolerance, bright, width, height,
-                      counts)  # fmt: skip
+                      codes_right, gains_right, shade_factors_right, shade_index_right, block, foreign, sheet,
+                      chroma_tolerance, bright, width, height, counts)  # fmt: skip
         out[p, :] = counts
     return out
 
