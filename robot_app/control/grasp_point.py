@@ -20,13 +20,6 @@ Among the target's visible points at least `min_edge_gap` inside its own edge (S
 its hidden points) and from which it hangs at most `max_reach`, the chosen point is the
 one farthest from every obstacle, counted up to `clearance`; among points that all reach
 `clearance`, the one deepest inside its edge.
-
-**The gripper's reach** (`reach`, optional): the two preferences above (deep inside the edge,
-short hanging length) must not cost the clearance a grasp needs. When no point of that pool
-lies at least `reach` from every obstacle, the pool widens step by step (points only
-`edge_gap_floor` inside the edge, then any hanging length) and the first wider pool that holds
-such a point is used; when none does, the first pool's choice stands (a grasp within reach of
-another cloth either way).
 """
 
 from __future__ import annotations
@@ -96,11 +89,6 @@ class PileGraspSettings(StrictModel):
         max_reach: the cloth hangs at most this far below the fingers from the chosen
             point (its farthest S_in point), when any visible point allows it: a cloth
             held near a corner hangs low enough to drag over a box wall [m].
-        reach: the gripper takes every cloth within this distance of its fingers [m]; the
-            pool widens (module docstring) to find a point at least this far from every
-            obstacle (0: off, the preferences decide alone).
-        edge_gap_floor: how far inside the target's edge a widened pool's points still lie
-            [m] (at most `min_edge_gap`).
     """
 
     enabled: bool = True
@@ -108,8 +96,6 @@ class PileGraspSettings(StrictModel):
     min_edge_gap: float = Field(0.02, ge=0.0, le=0.2)
     obstacle_step_px: int = Field(3, ge=1, le=20)
     max_reach: float = Field(0.24, gt=0.0, le=1.0)
-    reach: float = Field(0.0, ge=0.0, le=0.2)
-    edge_gap_floor: float = Field(0.01, ge=0.0, le=0.2)
 
 
 @dataclass(frozen=True)
@@ -195,8 +181,14 @@ def choose_pile_grasp(
     world = transform_points(T, candidates)
     obstacles = np.asarray(obstacles_xy, dtype=float).reshape(-1, 2)
     clear = _nearest(world[:, :2], obstacles)
-    hanging = _farthest(candidates[:, :2], points_in[:, :2])
-    best = _best_in_pools(_pools(edge, hanging, s), clear, edge, s)
+    reach = _farthest(candidates[:, :2], points_in[:, :2])
+    inside = edge >= s.min_edge_gap
+    pool = np.flatnonzero(inside) if np.any(inside) else np.arange(len(candidates))
+    short = pool[reach[pool] <= s.max_reach]
+    pool = short if len(short) else pool
+    # farthest from the obstacles (up to `clearance`), then deepest inside its own edge
+    score = np.minimum(clear[pool], s.clearance) * 1e3 + np.minimum(edge[pool], 1.0) * 1e-3
+    best = int(pool[int(np.argmax(score))])
     point_model = np.array([candidates[best, 0], candidates[best, 1], 0.0])
     return PileGrasp(
         point_model,
@@ -205,37 +197,6 @@ def choose_pile_grasp(
         float(edge[best]),
         share,
     )
-
-
-def _pools(edge: FloatArray, hanging: FloatArray, s: PileGraspSettings) -> list[npt.NDArray[np.intp]]:
-    """Candidate index pools, the preferred first: inside `min_edge_gap` with a short hanging
-    length (`max_reach`), then (with `reach`) inside `edge_gap_floor`, then any length."""
-    everyone = np.arange(len(edge))
-    pools = []
-    gaps = (s.min_edge_gap, min(s.edge_gap_floor, s.min_edge_gap)) if s.reach > 0 else (s.min_edge_gap,)
-    for gap in gaps:
-        inside = np.flatnonzero(edge >= gap)
-        pool = inside if len(inside) else everyone
-        short = pool[hanging[pool] <= s.max_reach]
-        pools.append(short if len(short) else pool)
-        if s.reach > 0:
-            pools.append(pool)
-    return pools
-
-
-def _best_in_pools(
-    pools: list[npt.NDArray[np.intp]], clear: FloatArray, edge: FloatArray, s: PileGraspSettings
-) -> int:
-    """The best candidate of the first pool that holds a point `reach` clear of every
-    obstacle; the first pool's best when none does. Within a pool: farthest from the
-    obstacles (up to `clearance`), then deepest inside its own edge."""
-    choices = []
-    for pool in pools:
-        score = np.minimum(clear[pool], s.clearance) * 1e3 + np.minimum(edge[pool], 1.0) * 1e-3
-        choices.append(int(pool[int(np.argmax(score))]))
-        if s.reach > 0 and clear[choices[-1]] >= s.reach:
-            return choices[-1]
-    return choices[0]
 
 
 def _farthest(points: FloatArray, others: FloatArray) -> FloatArray:

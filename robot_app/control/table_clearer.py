@@ -70,7 +70,7 @@ from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_lost import match_lost, pick_lost
 from robot_app.control.table_recovery import TableRecovery
-from robot_app.control.table_surface import aimed_at, single_layer_grasp, surface_height
+from robot_app.control.table_surface import aimed_at, surface_height
 from robot_app.control.table_survey import (
     TablePlane,
     choose_target,
@@ -285,13 +285,6 @@ class TableClearer:
                 where = f"({spot[0]:.2f}, {spot[1]:.2f})"
                 attempt.notes.append(f"grasp kept away from the cloth laid under {where}")
             attempt.grasp = pile_grasp(target, pose, model, K, obstacles, self.settings.pile_grasp)
-            recognizer = self.recognizers[target.name]
-            attempt.grasp, note = single_layer_grasp(
-                self._survey_capture, self.rig, recognizer, target, pose, obstacles, attempt.grasp,
-                self.table_z, self.settings.surface, self.settings.pile_grasp,
-            )  # fmt: skip
-            if note:
-                attempt.notes.append(note)
         recognizer = pick_recognizer(self.recognizers[target.name], target, self.settings.pick_depth_window)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
         loop = PickPlaceLoop(

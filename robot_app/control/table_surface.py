@@ -27,11 +27,8 @@ from pydantic import Field
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.control.cell import StereoCapture
-from robot_app.control.grasp_point import PileGrasp, PileGraspSettings, choose_pile_grasp, points_in_mask
-from robot_app.control.table_survey import disk_points
-from robot_app.vision import ClothModel, Recognizer
+from robot_app.vision import ClothModel
 from robot_app.vision.camera import StereoRig
-from robot_app.vision.identify import Detection
 from robot_app.vision.stereo_depth import DepthCheckSettings, StereoDepth
 
 
@@ -52,14 +49,6 @@ class SurfaceSettings(StrictModel):
         min_correlation: the best plane's correlation must reach this to be trusted.
         below, above: heights swept, from this below the table to this above it [m].
         coarse_step, fine_step: the sweep's steps; a parabola through the best three [m].
-        single_layer: a surface measured higher than this above the table has a cloth
-            under it, which the grasp's reach takes too; the job then looks for a grasp
-            point where the target lies lower (`layer_tries` times, each time keeping
-            `layer_radius` away from the high points) [m] (0: off).
-        layer_tries: other grasp points measured at most.
-        layer_radius: around each high point, no other point is tried [m].
-        layer_gain: a point replaces the first only when its surface lies at least this
-            much lower [m].
     """
 
     enabled: bool = True
@@ -73,10 +62,6 @@ class SurfaceSettings(StrictModel):
     above: float = Field(0.12, gt=0.0, le=0.3)
     coarse_step: float = Field(0.002, gt=0.0, le=0.01)
     fine_step: float = Field(0.0005, gt=0.0, le=0.005)
-    single_layer: float = Field(0.0, ge=0.0, le=0.1)
-    layer_tries: int = Field(3, ge=1, le=10)
-    layer_radius: float = Field(0.04, gt=0.0, le=0.2)
-    layer_gain: float = Field(0.008, ge=0.0, le=0.1)
 
 
 @dataclass(frozen=True)
@@ -145,65 +130,6 @@ def surface_height(
     return SurfaceHeight(z, best, samples, best >= settings.min_correlation)
 
 
-def single_layer_grasp(
-    capture: StereoCapture,
-    rig: StereoRig,
-    recognizer: Recognizer,
-    target: Detection,
-    pose_world: FloatArray,
-    obstacles_xy: FloatArray,
-    grasp: PileGrasp | None,
-    table_z: float,
-    settings: SurfaceSettings,
-    pile: PileGraspSettings,
-) -> tuple[PileGrasp | None, str]:
-    """The pile grasp moved to where the target lies on no other cloth, if the pair shows
-    one, and a note ("" if unmoved). A surface higher than `settings.single_layer` above
-    the table has a cloth under it, which the grasp's reach takes too, even one no survey
-    identified (wholly hidden). Each try keeps `layer_radius` away from the points found
-    high and re-chooses (`grasp_point.choose_pile_grasp`); a point replaces the first only if
-    its surface lies `layer_gain` lower and it stays as clear of `obstacles_xy` ((M, 2)
-    [m]) as `pile.reach` (or the first point) is."""
-    if grasp is None or not settings.enabled or settings.single_layer <= 0:
-        return grasp, ""
-    model, K = recognizer.model, rig.right.camera_matrix
-    seen = points_in_mask(model.points_in, target.transform_model_to_camera, K, target.explained)
-
-    def height(point_world: FloatArray) -> float:
-        found = surface_height(
-            capture, rig, model, recognizer.settings.depth, target.explained, point_world, table_z, settings
-        )
-        return found.z - table_z if found.trusted else float("nan")
-
-    best, lowest = grasp, height(grasp.point_world)
-    first, tried, avoided = lowest, np.asarray(obstacles_xy, dtype=float).reshape(-1, 2), grasp
-    for _ in range(settings.layer_tries):
-        if not lowest > settings.single_layer:  # NaN (not measured) stops too
-            break
-        tried = np.concatenate([tried, disk_points(avoided.point_world[:2], settings.layer_radius)])
-        other = choose_pile_grasp(model, pose_world, seen, tried, pile)
-        if other is None:
-            break
-        avoided, z = other, height(other.point_world)
-        wanted = min(pile.reach, grasp.clearance)
-        if z < lowest - settings.layer_gain and _clearance(other.point_world, obstacles_xy) >= wanted:
-            best, lowest = other, z
-    if best is grasp:
-        return grasp, ""
-    return (
-        best,
-        f"grasp moved to a single layer: surface {first * 1e3:.0f} -> {lowest * 1e3:.0f} mm above the table",
-    )
-
-
-def _clearance(point_world: FloatArray, obstacles_xy: FloatArray) -> float:
-    """Distance (x, y) from the point to the nearest obstacle [m] (inf: none)."""
-    obstacles = np.asarray(obstacles_xy, dtype=float).reshape(-1, 2)
-    if len(obstacles) == 0:
-        return float("inf")
-    return float(np.min(np.hypot(*(obstacles - np.asarray(point_world)[:2]).T)))
-
-
 def aimed_at(
     transform_model_to_world: npt.ArrayLike, grasp_point_model: npt.ArrayLike, z: float
 ) -> FloatArray:
@@ -242,4 +168,4 @@ def _disk(shape: tuple[int, ...], u: float, v: float, radius: float) -> npt.NDAr
     return np.asarray((cols - u) ** 2 + (rows - v) ** 2 <= radius**2, dtype=bool)
 
 
-__all__ = ["SurfaceHeight", "SurfaceSettings", "aimed_at", "single_layer_grasp", "surface_height"]
+__all__ = ["SurfaceHeight", "SurfaceSettings", "aimed_at", "surface_height"]
