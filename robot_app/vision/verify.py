@@ -50,7 +50,14 @@ there: a textured print under a plain sheet of its own colour, whose sheet goes 
 outline, or a fold; without this a covered print lost to a plain sheet of its outline and
 colour beside it, `test_look_alike_sheet.py`).
 `outline` = edges / (edges + same + seams): a share, so a folded corner or a wrong stretch
-costs only its own part.
+costs only its own part. A seam's inner point is foreign, so it has no texture cell to
+check; where the texture is compared mostly by correlation (`textured_share` at least
+`align_textured_from`, as for alignment) the seams are counted at the rate the cell gate
+lets the model-coloured pairs through (edges / (edges + same + rate · seams)): a fine print
+seen 3-10 mm off disagrees in most cells, and its ungated seams (not investigated further)
+outnumbered the few edges left. A plain model's flat cells need no
+fine alignment, and its seams all count (counting them at the rate too accepted a plain red
+model on the stripes and on the patchwork again).
 
 A model without texture (a version 1-2 file) cannot be verified: `Verification.appearance`
 is NaN and the decision uses its stand-in (`DecisionSettings.appearance_without_texture`).
@@ -268,7 +275,7 @@ class Verifier:
             float(s.min_points), s.texture_min, s.flat_tolerance,
             s.chroma_tolerance, s.brightness_tolerance, s.partial_low, s.partial_high, s.agree_level,
         )  # fmt: skip
-        outline, astray = self._outline_evidence(poses, agree_cells)
+        outline, astray = self._outline_evidence(poses, agree_cells, textured)
         return [
             Verification(float(a), float(v), float(t), float(i), float(g), float(o), float(r))
             for a, v, t, i, g, o, r in zip(
@@ -277,10 +284,11 @@ class Verifier:
         ]
 
     def _outline_evidence(
-        self, poses: FloatArray, agree_cells: npt.NDArray[np.uint8]
+        self, poses: FloatArray, agree_cells: npt.NDArray[np.uint8], textured: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
         """(P,) `Verification.outline` and (P,) `Verification.outline_astray` of each pose
-        (`agree_cells`: (P, 2, cells) the texture cells that agree, from `appearance`)."""
+        (`agree_cells`: (P, 2, cells) the texture cells that agree, from `appearance`;
+        `textured`: (P,) `Verification.textured_share`)."""
         if self._outline is None or self._images is None:
             nan = np.full(len(poses), np.nan)
             return nan, nan
@@ -297,9 +305,16 @@ class Verifier:
             self._gains[0], self._gains[1], factors_left, index_left, factors_right, index_right, block,
             self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
         )  # fmt: skip
-        edge, same, astray, seam = (counts[:, k] for k in range(4))
-        measured = edge + same + seam
+        edge, same, astray, seam, coloured = (counts[:, k] for k in range(5))
         with np.errstate(invalid="ignore", divide="ignore"):
+            # A seam's inner point is foreign: no texture cell to check there. Where the
+            # texture is compared mostly by correlation (as for `aligned`), a pose a few
+            # millimetres off disagrees in most cells, so the seams are counted at the rate
+            # the cell gate lets the model-coloured pairs through (edges and seams alike).
+            # A plain model's cells need no fine alignment: its seams all count.
+            passed = np.where(coloured > 0, (edge + same) / coloured, 0.0)
+            correlated = np.nan_to_num(textured) >= s.align_textured_from
+            measured = edge + same + seam * np.where(correlated, passed, 1.0)
             outline = np.where(measured >= s.outline_min_pairs, edge / measured, np.nan)
             share = np.where(measured + astray > 0, astray / (measured + astray), np.nan)
         return outline, share

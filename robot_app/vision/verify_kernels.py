@@ -229,7 +229,7 @@ def _same_colour(image, u, v, gains, shade_factors, shade_index, block, model, c
 def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, gains,
                   shade_factors, shade_index, block, foreign, sheet, chroma_tolerance, bright, width, height,
                   counts):  # fmt: skip
-    """Adds one image's outline pairs to `counts` (edge, same, astray, seam). A pair counts
+    """Adds one image's outline pairs to `counts` (edge, same, astray, seam, coloured). A pair counts
     where both points land in the image. Its inner point on a foreign colour (an occluder,
     or another cloth's colours) makes it a seam if the outer point shows the sheet (the
     foreign region ends exactly at the outline, as another cloth's does, not an occluder)
@@ -238,7 +238,8 @@ def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, 
     (`agree[inner_cells[i]]`; -1: no cell) is left out (a textured print under a sheet of
     its own colour, a fold: the texture says it is not the model there); else the outer
     point shows the model's colour (same: the region goes on past the outline) or not
-    (edge)."""
+    (edge). counts[4]: the pairs whose inner point shows the model's colour, before the cell
+    gate (edge + same are the share of them the gate lets through)."""
     stride = width + 3
     for i in range(inner.shape[0]):
         w = M[2, 0] * inner[i, 0] + M[2, 1] * inner[i, 1] + M[2, 3]
@@ -262,12 +263,16 @@ def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, 
                 counts[3] += 1.0
             continue
         cell = inner_cells[i]
-        if cell < 0 or agree[cell] == 0:
-            continue
+        checked = cell >= 0 and agree[cell] != 0
         if not _same_colour(image, u, v, gains, shade_factors, shade_index, block, model_bgr[i],
                             chroma_tolerance, bright):  # fmt: skip
-            counts[2] += 1.0
-        elif _same_colour(image, uo, vo, gains, shade_factors, shade_index, block, model_bgr[i],
+            if checked:
+                counts[2] += 1.0
+            continue
+        counts[4] += 1.0
+        if not checked:
+            continue
+        if _same_colour(image, uo, vo, gains, shade_factors, shade_index, block, model_bgr[i],
                           chroma_tolerance, bright):  # fmt: skip
             counts[1] += 1.0
         else:
@@ -280,7 +285,8 @@ def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer,
                      shade_factors_left, shade_index_left, shade_factors_right, shade_index_right, block,
                      foreign, sheet, chroma_tolerance, brightness_tolerance):  # fmt: skip
     """For each pose, over both images: the outline pairs that are edges, same, astray and
-    seams (`_outline_side`).
+    seams, and those whose inner point shows the model's colour before the cell gate
+    (`_outline_side`).
 
     Args:
         transforms: (P, 4, 4) poses ^CR T_M.
@@ -299,16 +305,16 @@ def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer,
         chroma_tolerance, brightness_tolerance: see `_same_colour` (the factor minus one).
 
     Returns:
-        (P, 4) counts (edge, same, astray, seam).
+        (P, 5) counts (edge, same, astray, seam, coloured).
     """
     height, width = image_left.shape[0], image_left.shape[1]
     bright = 1.0 + brightness_tolerance
-    out = np.zeros((transforms.shape[0], 4))
+    out = np.zeros((transforms.shape[0], 5))
     P_right = np.zeros((3, 4))
     P_right[:, :3] = K_right
     P_left = K_left @ np.ascontiguousarray(left_from_right[:3, :])
     M = np.empty((3, 4), np.float32)
-    counts = np.zeros(4)
+    counts = np.zeros(5)
     for p in range(transforms.shape[0]):
         counts[:] = 0.0
         _projection(P_left, transforms[p], M)
