@@ -225,10 +225,7 @@ def _run_in_cell(
         if stop is not None:
             stop()
 
-    boxes = tuple(
-        BoxPlace(b.name, b.centre.copy(), b.inner_size, b.wall_height, s.wall_thickness)
-        for b, s in zip(world.boxes, world.config.all_boxes, strict=True)
-    )
+    boxes = tuple(BoxPlace(b.name, b.centre.copy(), b.inner_size) for b in world.boxes)
     clearer = TableClearer(
         cell,
         kinematics,
