@@ -131,3 +131,15 @@ def test_the_plane_search_finds_the_cloth_from_a_pose_on_its_plane_but_off_by_cm
     )
     error = pose_error(found[0], POSE, model(index).symmetry_angles)
     assert max(abs(error.x_mm), abs(error.y_mm)) < 1.0 and abs(error.yaw_deg) < 1.0
+
+
+def test_peak_shift_finds_a_parabolas_vertex_between_samples() -> None:
+    from robot_app.vision.stereo_depth import peak_shift
+
+    step = 0.002
+    x = np.arange(-3, 4) * step
+    scores = 1.0 - (x - 0.0007) ** 2 * 1e4
+    j = int(np.argmax(scores))
+    assert x[j] + peak_shift(scores, j, step) == pytest.approx(0.0007, abs=1e-9)
+    assert peak_shift(scores, 0, step) == 0.0  # at an end: no neighbour on one side
+    assert peak_shift([0.0, 0.5, 1.0], 1, step) == 0.0  # a straight line does not bend down

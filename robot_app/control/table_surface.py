@@ -29,7 +29,7 @@ from robot_app.config import StrictModel
 from robot_app.control.cell import StereoCapture
 from robot_app.vision import ClothModel
 from robot_app.vision.camera import StereoRig
-from robot_app.vision.stereo_depth import DepthCheckSettings, StereoDepth
+from robot_app.vision.stereo_depth import DepthCheckSettings, StereoDepth, peak_shift
 
 
 class SurfaceSettings(StrictModel):
@@ -121,12 +121,7 @@ def surface_height(
     fine = centre + np.arange(-half, half + 1, dtype=float) * settings.fine_step
     fine_scores, _ = depth.sweep_mask(patch, _planes(normal, T[2, 3], fine), 1, settings.min_gradient)
     j = int(np.argmax(fine_scores))
-    z, best = float(fine[j]), float(fine_scores[j])
-    if 0 < j < len(fine) - 1:
-        a, b, c = fine_scores[j - 1], fine_scores[j], fine_scores[j + 1]
-        curvature = a - 2.0 * b + c
-        if curvature < 0:
-            z += 0.5 * float(a - c) / float(curvature) * settings.fine_step
+    z, best = float(fine[j]) + peak_shift(fine_scores, j, settings.fine_step), float(fine_scores[j])
     return SurfaceHeight(z, best, samples, best >= settings.min_correlation)
 
 

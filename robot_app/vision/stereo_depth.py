@@ -335,13 +335,8 @@ class StereoDepth:
             fine = centre + np.arange(-half, half + 1, dtype=float) * s.fine_step
             scores = scores_at(fine)
             j = int(np.argmax(scores))
-        offset, best = float(fine[j]), float(scores[j])
-        if 0 < j < len(fine) - 1:
-            a, b, c = scores[j - 1], scores[j], scores[j + 1]
-            curvature = a - 2.0 * b + c
-            if curvature < 0:
-                offset += 0.5 * float(a - c) / float(curvature) * s.fine_step
-        return offset, best, at_pose
+        offset = float(fine[j]) + peak_shift(scores, j, s.fine_step)
+        return offset, float(scores[j]), at_pose
 
     def _footprint(self, pose: FloatArray) -> npt.NDArray[np.int64]:
         """(u0, v0, u1, v1) box of the model's points in the right image, with the margin."""
@@ -360,6 +355,17 @@ class StereoDepth:
 
 
 _FACING = np.array([0.0, 0.0, 1.0])  # a plane facing the camera
+
+
+def peak_shift(scores: npt.ArrayLike, j: int, step: float) -> float:
+    """Where the parabola through `scores[j - 1 : j + 2]` peaks, relative to sample `j` [same
+    unit as `step`, the samples' spacing]; 0 at either end or where the three do not bend down."""
+    values = np.asarray(scores, dtype=float)
+    if not 0 < j < len(values) - 1:
+        return 0.0
+    a, b, c = values[j - 1], values[j], values[j + 1]
+    curvature = a - 2.0 * b + c
+    return 0.5 * float(a - c) / float(curvature) * step if curvature < 0 else 0.0
 
 
 def _rotation(axis: int, angle: float) -> FloatArray:
@@ -386,4 +392,4 @@ def _smoothed_crop(
     return crop, np.array([u0, v0], dtype=np.int64)
 
 
-__all__ = ["DepthCheckSettings", "DepthMeasurement", "StereoDepth", "StereoPlane"]
+__all__ = ["DepthCheckSettings", "DepthMeasurement", "StereoDepth", "StereoPlane", "peak_shift"]
