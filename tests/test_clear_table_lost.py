@@ -12,21 +12,14 @@ import pytest
 from robot_app.control.clear_table_records import LostPlace, LostSettings
 from robot_app.control.table_lost import inner_pixel, match_lost, near_the_loss
 from robot_app.geometry import make_transform, rotation_about_z
-from robot_app.vision import ModelCamera, PinholeCamera, Recognition, Recognizer, StereoRig, make_model
+from robot_app.vision import Recognition, Recognizer
 from robot_app.vision.identify import IdentifySettings, resolve
-from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic import render_stereo_pair
 from robot_app.vision.synthetic_catalogue import synthetic_cloth
+from tests.table_scene import CAMERA, RIG, recognizer
 
-CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
-RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
-STATION = ModelCamera(PinholeCamera.from_fov((480, 360), np.deg2rad(48)), 0.40)
 YELLOW = make_transform(rotation_about_z(0.3), [-0.06, -0.02, 0.585])
 VIOLET = make_transform(rotation_about_z(0.1), [0.12, 0.06, 0.585])  # recognised by no model
-
-
-def _recognizer(index: int, name: str) -> Recognizer:
-    photo, background = render_model_photo(synthetic_cloth(index), STATION, rng=np.random.default_rng(index))
-    return Recognizer(make_model(photo, STATION, background, name=name), RIG)
 
 
 @pytest.fixture(scope="module")
@@ -35,9 +28,9 @@ def survey():
         RIG, [(synthetic_cloth(1), YELLOW), (synthetic_cloth(9), VIOLET)], rng=np.random.default_rng(5)
     )
     recognizers = {
-        "yellow": _recognizer(1, "yellow"),
-        "violet": _recognizer(9, "violet"),
-        "stripes": _recognizer(2, "stripes"),
+        "yellow": recognizer(1, "yellow"),
+        "violet": recognizer(9, "violet"),
+        "stripes": recognizer(2, "stripes"),
     }
     seen = Recognition(True, 0.9, YELLOW, 0, 0, 0.0, confidence=0.95, visible_fraction=1.0)
     ident = resolve({"yellow": recognizers["yellow"]}, {"yellow": seen}, right, IdentifySettings())
@@ -62,7 +55,7 @@ def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
     # only the stripes were lost: the region is not theirs, it is left alone
     assert match({"stripes": recognizers["stripes"]}) is None
     # two lost cloths of the same colours: which one it is cannot be told, neither is picked
-    assert match({"violet": recognizers["violet"], "twin": _recognizer(9, "violet twin")}) is None
+    assert match({"violet": recognizers["violet"], "twin": recognizer(9, "violet twin")}) is None
     assert match({}) is None
     # where it was lost matters: far from the way it went, or where a region lay before, no
     here = LostPlace("dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ())

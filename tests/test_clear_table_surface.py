@@ -10,24 +10,17 @@ import pytest
 
 from robot_app.control.table_surface import SurfaceSettings, aimed_at, surface_height
 from robot_app.geometry import make_transform, rotation_about_z
-from robot_app.vision import ModelCamera, PinholeCamera, Recognition, Recognizer, StereoRig, make_model
+from robot_app.vision import Recognition
 from robot_app.vision.identify import IdentifySettings, resolve
-from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
+from robot_app.vision.synthetic import render_stereo_pair
 from robot_app.vision.synthetic_catalogue import synthetic_cloth
+from tests.table_scene import CAMERA, RIG, recognizer
 
-CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
-RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
-STATION = ModelCamera(PinholeCamera.from_fov((480, 360), np.deg2rad(48)), 0.40)
 # the right camera 0.6 m above the table (z = 0), looking straight down
 CAMERA_TO_WORLD = make_transform(np.diag([1.0, -1.0, -1.0]), [0.5, 0.0, 0.6])
 LOWER = make_transform(rotation_about_z(0.2), [-0.03, 0.0, 0.592])  # 8 mm above the table
 UPPER = make_transform(rotation_about_z(-0.4), [0.05, 0.02, 0.548])  # 52 mm: three layers up
 PLAIN = make_transform(rotation_about_z(0.1), [-0.1, -0.12, 0.592])  # a plain yellow cloth apart
-
-
-def _recognizer(index: int, name: str) -> Recognizer:
-    photo, background = render_model_photo(synthetic_cloth(index), STATION, rng=np.random.default_rng(index))
-    return Recognizer(make_model(photo, STATION, background, name=name), RIG)
 
 
 @pytest.fixture(scope="module")
@@ -38,9 +31,9 @@ def pile():
         rng=np.random.default_rng(3),
     )
     recognizers = {
-        "lower": _recognizer(2, "lower"),
-        "upper": _recognizer(10, "upper"),
-        "plain": _recognizer(1, "plain"),
+        "lower": recognizer(2, "lower"),
+        "upper": recognizer(10, "upper"),
+        "plain": recognizer(1, "plain"),
     }
     seen = {
         name: Recognition(True, 0.9, pose, 0, 0, 0.0, confidence=0.95, visible_fraction=1.0)
