@@ -157,11 +157,15 @@ class BoxPlace:
         name: what the sort rule calls it.
         centre: (3,) centre of its floor in Σ_W [m].
         inner_size: inner side [m].
+        wall_height: its walls' height above the table [m] (0: only its floor is known).
+        wall_thickness: [m].
     """
 
     name: str
     centre: FloatArray
     inner_size: float
+    wall_height: float = 0.0
+    wall_thickness: float = 0.0
 
 
 class ClothOutcome(StrEnum):

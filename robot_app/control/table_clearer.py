@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -75,8 +76,10 @@ from robot_app.control.table_survey import (
     TablePlane,
     choose_target,
     disk_points,
+    furniture_mask,
     obstacles_on_table,
     to_world,
+    without_furniture,
 )
 from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.geometry import transform_points
@@ -252,6 +255,13 @@ class TableClearer:
             if names
             else Identification((), (), (), (), {})
         )
+        if ident.unknown:
+            # the boxes are foreground no cloth model explains: known furniture, not a cloth
+            furniture = furniture_mask(
+                capture, self.rig.right, self.boxes.values(), ident.unknown[0].mask.shape
+            )
+            smallest = self.identify_settings.min_unknown_area * furniture.size
+            ident = replace(ident, unknown=without_furniture(ident.unknown, furniture, smallest))
         self._wait(time.process_time() - cpu, len(names) - len(ident.skipped))
         self._survey_capture, self._survey_wall = capture, time.perf_counter() - wall
         at_observation = np.allclose(self.motion.q, self.observation_joints, atol=1e-6)

@@ -7,17 +7,20 @@ Pure functions of one survey's capture and identification (`vision.identify`); t
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
 from robot_app.control.cell import StereoCapture
-from robot_app.geometry import transform_points
+from robot_app.control.clear_table_records import BoxPlace
+from robot_app.geometry import invert_transform, transform_points
 from robot_app.vision import Recognizer
-from robot_app.vision.identify import Detection, Identification
+from robot_app.vision.camera import PinholeCamera
+from robot_app.vision.identify import Detection, Identification, UnknownRegion
 
 
 def to_world(capture: StereoCapture, transform_model_to_camera: FloatArray) -> FloatArray:
@@ -119,3 +122,55 @@ def disk_points(centre_xy: npt.ArrayLike, radius: float, step: float = 0.01) -> 
 
 
 __all__ = ["TablePlane", "choose_target", "disk_points", "obstacles_on_table", "to_world"]
+
+
+def furniture_mask(
+    capture: StereoCapture,
+    camera: PinholeCamera,
+    boxes: Iterable[BoxPlace],
+    shape: tuple[int, int],
+    margin_px: int = 3,
+) -> npt.NDArray[np.bool_]:
+    """(H, W) the pixels of the right image (undistorted, as `vision.identify` sees it)
+    where a collection box stands: the convex hull of each box's outer walls, from their
+    footprint on the table to their tops (`BoxPlace`: the cell's known geometry, laid into
+    the image with the capture's camera pose), grown by `margin_px` for the walls' edges
+    and shading. A box wholly behind the camera adds nothing."""
+    mask = np.zeros(shape, np.uint8)
+    to_camera = invert_transform(capture.transform_right_camera_to_world)
+    for box in boxes:
+        c = np.asarray(box.centre, dtype=float)
+        half = box.inner_size / 2 + box.wall_thickness
+        corners = np.array(
+            [[c[0] + sx * half, c[1] + sy * half, c[2] + z]
+             for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, box.wall_height)]
+        )  # fmt: skip
+        pixels = camera.project(corners @ to_camera[:3, :3].T + to_camera[:3, 3])
+        pixels = pixels[np.all(np.isfinite(pixels), axis=1)]
+        if len(pixels) < 3:
+            continue
+        hull = cv2.convexHull(np.clip(pixels, -1e5, 1e5).astype(np.float32)).astype(np.int32)
+        cv2.fillConvexPoly(mask, hull, 1)
+    if margin_px > 0:
+        mask = np.asarray(cv2.dilate(mask, np.ones((2 * margin_px + 1,) * 2, np.uint8)), dtype=np.uint8)
+    return mask.astype(bool)
+
+
+def without_furniture(
+    regions: Iterable[UnknownRegion], furniture: npt.NDArray[np.bool_], smallest: float
+) -> tuple[UnknownRegion, ...]:
+    """The unknown regions with the `furniture` pixels taken out: each remaining connected
+    piece of at least `smallest` pixels is a region of its own (a cloth beside a box's wall
+    and the box's inside are two things), largest first."""
+    kept: list[UnknownRegion] = []
+    for region in regions:
+        rest = (np.asarray(region.mask, dtype=bool) & ~furniture).astype(np.uint8)
+        count, labels, stats, centroids = cv2.connectedComponentsWithStats(rest, connectivity=8)
+        kept.extend(
+            UnknownRegion(
+                (float(centroids[k][0]), float(centroids[k][1])), int(stats[k, cv2.CC_STAT_AREA]), labels == k
+            )
+            for k in range(1, count)
+            if stats[k, cv2.CC_STAT_AREA] >= smallest
+        )
+    return tuple(sorted(kept, key=lambda region: -region.area))

@@ -225,7 +225,10 @@ def _run_in_cell(
         if stop is not None:
             stop()
 
-    boxes = tuple(BoxPlace(b.name, b.centre.copy(), b.inner_size) for b in world.boxes)
+    boxes = tuple(
+        BoxPlace(b.name, b.centre.copy(), b.inner_size, b.wall_height, s.wall_thickness)
+        for b, s in zip(world.boxes, world.config.all_boxes, strict=True)
+    )
     clearer = TableClearer(
         cell,
         kinematics,
