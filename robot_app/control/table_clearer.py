@@ -45,6 +45,7 @@ from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
+    SheetArea,
     SurveyRecord,
     TableResult,
 )
@@ -78,6 +79,7 @@ from robot_app.control.table_survey import (
     disk_points,
     furniture_mask,
     obstacles_on_table,
+    table_beyond_sheet,
     to_world,
     without_furniture,
 )
@@ -112,6 +114,8 @@ class TableClearer:
         weigh: the wrist load cell: what the gripper carries now [kg] (None: no weight check).
         weights: model name -> the cloth's weight [kg], weighed with its model photo.
         posture_seed: joints [rad] the observation IK starts from (e.g. the arm's home).
+        sheet: the green sheet's extent on the table (None: unknown, the table beyond it
+            is not told from cloths; `ClearTableSettings.off_sheet`).
 
     Raises:
         IKError: the observation pose has no IK solution within the joint limits.
@@ -141,6 +145,7 @@ class TableClearer:
         weigh: Callable[[], float] | None = None,
         weights: Mapping[str, float] | None = None,
         posture_seed: npt.ArrayLike | None = None,
+        sheet: SheetArea | None = None,
     ) -> None:
         if not recognizers:
             raise ValueError("the job needs at least one known cloth")
@@ -168,6 +173,7 @@ class TableClearer:
         self.ground_truth = ground_truth
         self.weigh = weigh
         self.weights = dict(weights or {})
+        self.sheet = sheet
         self.rig = next(iter(self.recognizers.values())).rig
         self.table = TablePlane(self.rig.right.camera_matrix, self.table_z)
         self._phase: str = "survey"
@@ -260,6 +266,11 @@ class TableClearer:
             furniture = furniture_mask(
                 capture, self.rig.right, self.boxes.values(), ident.unknown[0].mask.shape
             )
+            if self.sheet is not None and self.settings.off_sheet.enabled:
+                # ... and so is the bare table beyond the green sheet (a cloth across its edge)
+                furniture |= table_beyond_sheet(
+                    capture, self.rig.right, self.table, self.sheet, self.settings.off_sheet
+                )
             smallest = self.identify_settings.min_unknown_area * furniture.size
             ident = replace(ident, unknown=without_furniture(ident.unknown, furniture, smallest))
         self._wait(time.process_time() - cpu, len(names) - len(ident.skipped))
