@@ -43,6 +43,39 @@ class LostSettings(StrictModel):
     apart: float = Field(0.05, ge=0.0)
 
 
+class OffSheetSettings(StrictModel):
+    """The table beyond the green sheet in a survey image (the `clear.off_sheet` section).
+
+    `identify`'s foreground is whatever is not the sheet, so the bare table around it
+    would count as an unknown cloth, and a cloth lying across the sheet's edge as one
+    region with the table (its colour share then too low to be picked again). Where a
+    pixel's ray meets the table beyond the sheet (`SheetArea`, known from the cell), it is
+    table, not cloth, when its hue is the table's: the most frequent hue of those pixels
+    in that image (the table is the one large coloured surface there), at least
+    `min_saturation` saturated (a white or grey cloth has no hue; the table's shade keeps
+    its hue, darker).
+
+    Attributes:
+        enabled: take the table beyond the sheet out of the unknown regions.
+        hue_tolerance: a pixel within this of the table's hue is table [HSV_FULL steps].
+        min_saturation: ... and at least this saturated [0-255].
+        min_pixels: fewer saturated pixels beyond the sheet than this: no table seen.
+    """
+
+    enabled: bool = True
+    hue_tolerance: int = Field(10, ge=1, le=64)
+    min_saturation: int = Field(15, ge=1, le=255)
+    min_pixels: int = Field(200, ge=1)
+
+
+@dataclass(frozen=True)
+class SheetArea:
+    """The green sheet on the table: an axis-aligned rectangle in Σ_W [m]."""
+
+    x_range: tuple[float, float]
+    y_range: tuple[float, float]
+
+
 @dataclass(frozen=True)
 class LostPlace:
     """How and where the job lost a cloth.
@@ -123,6 +156,7 @@ class ClearTableSettings(StrictModel):
             since, by an unknown region in its colours and its weight (`table_lost`).
         surface: the grasp aimed at the top surface the survey's pair shows at the grasp
             point (`table_surface`), not at the pose's plane (low on a pile).
+        off_sheet: the bare table beyond the green sheet taken out of the unknown regions.
     """
 
     max_picks: int = Field(15, ge=1)
@@ -147,6 +181,7 @@ class ClearTableSettings(StrictModel):
     look_apart: float = Field(0.08, gt=0.0)
     hidden_cloth_radius: float = Field(0.0, ge=0.0, le=0.3)
     lost: LostSettings = Field(default_factory=LostSettings)
+    off_sheet: OffSheetSettings = Field(default_factory=OffSheetSettings)
 
 
 @dataclass(frozen=True)
@@ -157,11 +192,15 @@ class BoxPlace:
         name: what the sort rule calls it.
         centre: (3,) centre of its floor in Σ_W [m].
         inner_size: inner side [m].
+        wall_height: its walls' height above the table [m] (0: only its floor is known).
+        wall_thickness: [m].
     """
 
     name: str
     centre: FloatArray
     inner_size: float
+    wall_height: float = 0.0
+    wall_thickness: float = 0.0
 
 
 class ClothOutcome(StrEnum):

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 
 import numpy as np
 import numpy.typing as npt
@@ -44,6 +45,7 @@ from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
+    SheetArea,
     SurveyRecord,
     TableResult,
 )
@@ -75,8 +77,11 @@ from robot_app.control.table_survey import (
     TablePlane,
     choose_target,
     disk_points,
+    furniture_mask,
     obstacles_on_table,
+    table_beyond_sheet,
     to_world,
+    without_furniture,
 )
 from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.geometry import transform_points
@@ -109,6 +114,8 @@ class TableClearer:
         weigh: the wrist load cell: what the gripper carries now [kg] (None: no weight check).
         weights: model name -> the cloth's weight [kg], weighed with its model photo.
         posture_seed: joints [rad] the observation IK starts from (e.g. the arm's home).
+        sheet: the green sheet's extent on the table (None: unknown, the table beyond it
+            is not told from cloths; `ClearTableSettings.off_sheet`).
 
     Raises:
         IKError: the observation pose has no IK solution within the joint limits.
@@ -138,6 +145,7 @@ class TableClearer:
         weigh: Callable[[], float] | None = None,
         weights: Mapping[str, float] | None = None,
         posture_seed: npt.ArrayLike | None = None,
+        sheet: SheetArea | None = None,
     ) -> None:
         if not recognizers:
             raise ValueError("the job needs at least one known cloth")
@@ -165,6 +173,7 @@ class TableClearer:
         self.ground_truth = ground_truth
         self.weigh = weigh
         self.weights = dict(weights or {})
+        self.sheet = sheet
         self.rig = next(iter(self.recognizers.values())).rig
         self.table = TablePlane(self.rig.right.camera_matrix, self.table_z)
         self._phase: str = "survey"
@@ -252,6 +261,18 @@ class TableClearer:
             if names
             else Identification((), (), (), (), {})
         )
+        if ident.unknown:
+            # the boxes are foreground no cloth model explains: known furniture, not a cloth
+            furniture = furniture_mask(
+                capture, self.rig.right, self.boxes.values(), ident.unknown[0].mask.shape
+            )
+            if self.sheet is not None and self.settings.off_sheet.enabled:
+                # ... and so is the bare table beyond the green sheet (a cloth across its edge)
+                furniture |= table_beyond_sheet(
+                    capture, self.rig.right, self.table, self.sheet, self.settings.off_sheet
+                )
+            smallest = self.identify_settings.min_unknown_area * furniture.size
+            ident = replace(ident, unknown=without_furniture(ident.unknown, furniture, smallest))
         self._wait(time.process_time() - cpu, len(names) - len(ident.skipped))
         self._survey_capture, self._survey_wall = capture, time.perf_counter() - wall
         at_observation = np.allclose(self.motion.q, self.observation_joints, atol=1e-6)

@@ -20,7 +20,13 @@ from pydantic import Field, model_validator
 
 from robot_app.config import SettingValueError, StrictModel
 from robot_app.control.box_check import BoxCheckSettings
-from robot_app.control.clear_table_records import BoxPlace, ClearTableSettings, SurveyRecord, TableResult
+from robot_app.control.clear_table_records import (
+    BoxPlace,
+    ClearTableSettings,
+    SheetArea,
+    SurveyRecord,
+    TableResult,
+)
 from robot_app.control.episode import PhaseRecord
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits, TrajectorySettings
@@ -184,6 +190,12 @@ def run_clear_table(
             )
 
 
+def _sheet(w: WorldConfig) -> SheetArea:
+    """The green sheet on the table: the recognition range and its margin all round."""
+    (cx, cy), (sx, sy), m = w.range.centre_xy, w.range.size_xy, w.range.sheet_margin
+    return SheetArea((cx - sx / 2 - m, cx + sx / 2 + m), (cy - sy / 2 - m, cy + sy / 2 + m))
+
+
 def _run_in_cell(
     config: ClearTableConfig,
     world: World,
@@ -225,7 +237,10 @@ def _run_in_cell(
         if stop is not None:
             stop()
 
-    boxes = tuple(BoxPlace(b.name, b.centre.copy(), b.inner_size) for b in world.boxes)
+    boxes = tuple(
+        BoxPlace(b.name, b.centre.copy(), b.inner_size, b.wall_height, s.wall_thickness)
+        for b, s in zip(world.boxes, world.config.all_boxes, strict=True)
+    )
     clearer = TableClearer(
         cell,
         kinematics,
@@ -250,6 +265,7 @@ def _run_in_cell(
             name: scale.weigh_model(n) for name, n in ((cloth_name(n), n) for n in config.known_numbers)
         },
         posture_seed=w.robot.home_joints,
+        sheet=_sheet(w),
     )
     world.robot.reset_joints(
         clearer.observation_joints

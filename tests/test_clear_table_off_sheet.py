@@ -1,0 +1,167 @@
+"""The bare table beyond the green sheet is known furniture, not an unknown cloth: a cloth
+lying across the sheet's edge is a region of its own (its colours can be tested), its part
+beyond the sheet kept, and the table's shade is not counted as a white cloth's folds.
+
+Synthetic image, ray-cast per pixel (independent of the projection under test): a camera
+0.5 m over the sheet's +y edge sees the green sheet, the beige table beyond it with a dark
+shadow band along the edge (the table's hue, darker), and a white, speckled cloth lying
+across the edge. Ground truth: which pixels show the cloth. `identify`'s foreground is
+"not sheet": cloth, table and shadow together.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import cv2
+import numpy as np
+import pytest
+
+from robot_app.control.clear_table_records import OffSheetSettings, SheetArea
+from robot_app.control.table_lost import palette_share
+from robot_app.control.table_survey import (
+    TablePlane,
+    off_sheet,
+    table_beyond_sheet,
+    without_furniture,
+)
+from robot_app.geometry import make_transform
+from robot_app.vision import PinholeCamera
+from robot_app.vision.hue import DARK, LIGHT, colour_codes
+from robot_app.vision.identify import UnknownRegion
+
+CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(60))
+TABLE = TablePlane(CAMERA.camera_matrix, 0.0)
+SHEET = SheetArea((0.235, 0.865), (-0.375, 0.375))
+SMALLEST = 0.01 * 320 * 240  # IdentifySettings.min_unknown_area of the image
+# BGR as the realistic cell renders them (medians read off an episode's survey image)
+GREEN, BEIGE, SHADE = (43, 161, 25), (167, 180, 198), (64, 67, 71)
+WHITE, WHITE_FOLD, RED = (230, 219, 224), (110, 104, 108), (40, 40, 200)
+CLOTH = (0.45, 0.39, 0.12, 0.12)  # (x, y) centre and size on the table [m]: across the edge
+SHADOW_Y = (0.375, 0.42)  # the shadow band beyond the edge [m]
+NOISE = 1.5  # grey levels: the bare table's saturation spread 38-41 (10-90 %) in that image
+
+
+def _camera_to_world(tilt: float) -> np.ndarray:
+    """A camera 0.5 m over (0.45, 0.38), looking down, tilted by `tilt` [rad] about x_W."""
+    down = np.diag([1.0, -1.0, -1.0])  # optical axis along -z_W
+    c, s = np.cos(tilt), np.sin(tilt)
+    about_x = np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+    return make_transform(about_x @ down, [0.45, 0.38, 0.50])
+
+
+def _table_xy(transform: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    w, h = CAMERA.image_size
+    u, v = np.meshgrid(np.arange(w) + 0.0, np.arange(h) + 0.0)
+    K = CAMERA.camera_matrix
+    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
+    rays = rays @ transform[:3, :3].T
+    t = -transform[2, 3] / rays[..., 2]
+    return transform[0, 3] + t * rays[..., 0], transform[1, 3] + t * rays[..., 1]
+
+
+def _scene(
+    transform: np.ndarray, cloth_colour: tuple[int, int, int] | None = WHITE, seed: int = 0
+) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """(image, truth masks 'sheet', 'cloth', 'shadow', 'table')."""
+    x, y = _table_xy(transform)
+    on_sheet = (
+        (x >= SHEET.x_range[0]) & (x <= SHEET.x_range[1]) & (y >= SHEET.y_range[0]) & (y <= SHEET.y_range[1])
+    )
+    cx, cy, sx, sy = CLOTH
+    cloth = (np.abs(x - cx) <= sx / 2) & (np.abs(y - cy) <= sy / 2) & (cloth_colour is not None)
+    shadow = ~on_sheet & (y >= SHADOW_Y[0]) & (y <= SHADOW_Y[1]) & ~cloth
+    sheet = on_sheet & ~cloth
+    table = ~on_sheet & ~cloth & ~shadow
+    rng = np.random.default_rng(seed)
+    image = np.zeros((*x.shape, 3), float)
+    image[sheet], image[table], image[shadow] = GREEN, BEIGE, SHADE
+    if cloth_colour is not None:
+        image[cloth] = cloth_colour
+        folds = cloth & (rng.random(x.shape) < 0.2)  # its speckles and shaded folds
+        image[folds] = WHITE_FOLD if cloth_colour == WHITE else np.asarray(cloth_colour) * 0.5
+    image += rng.normal(0.0, NOISE, image.shape)
+    image = np.clip(image, 0, 255).astype(np.uint8)
+    return image, {"sheet": sheet, "cloth": cloth, "shadow": shadow, "table": table}
+
+
+def _codes(image: np.ndarray) -> np.ndarray:
+    """Colour codes as the recogniser's fitness makes them (no hue under saturation 40)."""
+    return colour_codes(cv2.cvtColor(image, cv2.COLOR_BGR2HSV_FULL), 40, 0, 128)
+
+
+def _region(mask: np.ndarray) -> UnknownRegion:
+    v, u = np.nonzero(mask)
+    return UnknownRegion((float(u.mean()), float(v.mean())), int(mask.sum()), mask)
+
+
+def _without_table(
+    transform: np.ndarray, image: np.ndarray, foreground: np.ndarray
+) -> tuple[UnknownRegion, ...]:
+    capture = SimpleNamespace(right_bgr=image, transform_right_camera_to_world=transform)
+    table = table_beyond_sheet(capture, CAMERA, TABLE, SHEET, OffSheetSettings())
+    return without_furniture([_region(foreground)], table, SMALLEST)
+
+
+@pytest.mark.parametrize("tilt", [0.0, np.deg2rad(-20), np.deg2rad(10)])
+def test_off_sheet_is_where_the_ray_meets_the_table_beyond_the_sheet(tilt: float) -> None:
+    transform = _camera_to_world(tilt)
+    _, truth = _scene(transform, cloth_colour=None)
+    capture = SimpleNamespace(transform_right_camera_to_world=transform)
+    beyond = off_sheet(capture, TABLE, SHEET, (240, 320))  # type: ignore[arg-type]
+    assert truth["sheet"].sum() > 10000 and (~truth["sheet"]).sum() > 10000
+    assert np.mean(beyond == ~truth["sheet"]) > 0.995  # at most the edge's pixel row differs
+
+
+@pytest.mark.parametrize("tilt", [0.0, np.deg2rad(-20), np.deg2rad(10)])
+def test_a_white_cloth_across_the_sheet_edge_is_a_region_of_its_own(tilt: float) -> None:
+    transform = _camera_to_world(tilt)
+    image, truth = _scene(transform)
+    cloth = truth["cloth"]
+    foreground = ~truth["sheet"]  # identify's "not sheet"
+    share_before = cloth.sum() / foreground.sum()
+    (region,) = _without_table(transform, image, foreground)
+    kept = region.mask
+    assert share_before < 0.5
+    assert (kept & cloth).sum() / kept.sum() > 0.95  # the table and its shadow are gone ...
+    assert (kept & cloth).sum() > 0.9 * cloth.sum()  # ... the cloth stays, beyond the sheet too
+    capture = SimpleNamespace(transform_right_camera_to_world=transform)
+    on_sheet_part = cloth & ~off_sheet(capture, TABLE, SHEET, cloth.shape)  # type: ignore[arg-type]
+    assert on_sheet_part.sum() > 500 and (kept & on_sheet_part).sum() == on_sheet_part.sum()
+    # and the lost-cloth colour test of a white cloth (LIGHT, whose rule also takes DARK)
+    codes = _codes(image)
+    white = np.array([LIGHT])
+    assert palette_share(codes[kept], white, 12) > 0.9
+
+
+def test_the_tables_shade_alone_is_no_white_cloth() -> None:
+    """Without a cloth, what is left of "not sheet" beyond the edge (the table and its
+    dark shadow band, which a white cloth's colour rule would take as its folds) is no
+    region at all."""
+    transform = _camera_to_world(0.0)
+    image, truth = _scene(transform, cloth_colour=None)
+    assert truth["shadow"].sum() > SMALLEST
+    codes = _codes(image)
+    assert palette_share(codes[truth["shadow"]], np.array([LIGHT]), 12) > 0.9  # the trap: DARK
+    assert np.mean(codes[truth["shadow"]] == DARK) > 0.9
+    assert _without_table(transform, image, ~truth["sheet"]) == ()
+
+
+def test_a_coloured_cloth_beyond_the_sheet_is_kept() -> None:
+    transform = _camera_to_world(0.0)
+    image, truth = _scene(transform, cloth_colour=RED)
+    (region,) = _without_table(transform, image, ~truth["sheet"])
+    assert (region.mask & truth["cloth"]).sum() > 0.95 * truth["cloth"].sum()
+    assert (region.mask & truth["cloth"]).sum() / region.area > 0.9  # its blurred rim: a few px more
+
+
+def test_a_view_of_the_sheet_alone_is_unchanged() -> None:
+    """A camera over the middle of the sheet: nothing lies beyond it, so a cloth's region
+    is left as `identify` gave it, bit for bit."""
+    transform = make_transform(np.diag([1.0, -1.0, -1.0]), [0.55, 0.0, 0.40])
+    image = np.full((240, 320, 3), GREEN, np.uint8)
+    cloth = np.zeros((240, 320), bool)
+    cloth[80:160, 100:220] = True
+    image[cloth] = BEIGE  # even in the table's colours: on the sheet it is a cloth
+    (region,) = _without_table(transform, image, cloth)
+    assert np.array_equal(region.mask, cloth)
