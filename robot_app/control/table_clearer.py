@@ -513,13 +513,13 @@ class TableClearer:
     ) -> str | None:
         """The double pick's other cloth among those an earlier survey saw and the pick's
         survey did not (`pick_checks.remembered_companion`), if the check after the lift
-        (`capture`) no longer finds it where it was last seen."""
+        (`capture`) no longer finds it where it was last seen; never a cloth the job moved
+        since (`TableLedger.remembered_poses`)."""
         seen = {attempt.name, *(d.name for d in attempt.others)}
-        placed = set(self.ledger.placed_order)
         footprints = {
             name: transform_points(pose, self.recognizers[name].model.points_in)[:, :2]
-            for name, pose in self.ledger.last_pose.items()
-            if name not in seen and name not in placed and name in self.recognizers
+            for name, pose in self.ledger.remembered_poses(seen).items()
+            if name in self.recognizers
         }
         name = remembered_companion(grasp[:2], extra, footprints, self.weights, self.settings)
         if name is None:
