@@ -336,7 +336,7 @@ class TableClearer:
         if record.phase == "approach":
             self._aim_at_surface(attempt, loop)
         elif record.phase == "lift" and record.note.startswith(LIFTED):
-            self._after_lift(attempt)
+            self._after_lift(attempt, loop)
         elif record.phase == "transfer" and not self.cell.holding():
             attempt.dropped = True
             attempt.notes.append("dropped during the transfer (gripper empty over the box)")
@@ -432,8 +432,9 @@ class TableClearer:
         attempt.notes.append(f"grasp aimed at the {seen}; the pose's plane was at {point[2] * 1e3:.0f} mm")
 
     # ------------------------------------------------------------------ checks
-    def _after_lift(self, attempt: AttemptState) -> None:
-        """Did the meant cloth, and only it, leave the table? Else put it back."""
+    def _after_lift(self, attempt: AttemptState, loop: PickPlaceLoop) -> None:
+        """Did the meant cloth, and only it, leave the table? Else put it back (the loop's
+        abort then goes home from where the put-back ended)."""
         self._phase = "lift check"
         capture = self.cell.capture()
         wall, cpu = time.perf_counter(), time.process_time()
@@ -491,6 +492,7 @@ class TableClearer:
                 attempt.unnamed_along = True
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
         self.put_back(attempt, attempt.grasp_point_model)
+        loop.arm.resume_at(self.motion.q)
         if heavier and self.settings.hidden_cloth_radius > 0:
             # the other cloth hung from the same fingers: it lies under the spot let go at,
             # where no survey may see it (the meant cloth covers it again)
@@ -563,7 +565,8 @@ class TableClearer:
 
     def put_back(self, attempt: AttemptState, grasp_point_model: FloatArray | None) -> None:
         """Lays a rejected lift back onto free table (`TableRecovery.put_back`) and books
-        where it let go."""
+        where it let go; the arm stays above the laid cloth (a loop run then resumes there,
+        `ArmMotion.resume_at`)."""
         self._phase = "put back"
         model = self.recognizers[attempt.name].model
         self.recovery.put_back(

@@ -114,9 +114,9 @@ class TableRecovery:
         the survey's view (`job_motion.lay_out_paths`), from where it was lifted or, with
         `put_back_away`, from the freest spot within that distance (`free_starts`); if no
         such path is reachable, lowers it while moving away from the view's middle. Lets
-        go and returns to the lift pose."""
+        go and rises clear of the laid cloth; the caller goes on from there (no way back
+        to the lift pose: the next move is home)."""
         s, table_z = self.settings, self.table.table_z
-        lifted = self.motion.q
         above = self.motion.tcp_position()
         path = (
             self._lay_out_joints(survey, model, grasp_point_model, obstacles_xy, above, notes)
@@ -141,11 +141,10 @@ class TableRecovery:
         self.motion.hold(self.loop_settings.release_wait)
         self.cell.set_gripper(self.loop_settings.gripper_open)
         self.motion.hold(self.loop_settings.close_time)
-        if path is not None:  # straight up first: the open fingers leave the laid cloth alone
-            up = self.motion.tcp_position()
-            up[2] = table_z + s.put_down_height + s.put_back.max_length
-            self.motion.move_tcp(up)
-        self.motion.move_to_joints(lifted)
+        # straight up first: the open fingers leave the laid cloth alone
+        up = self.motion.tcp_position()
+        up[2] = table_z + s.put_down_height + s.put_back.max_length
+        self.motion.move_tcp(up)
 
     def _lay_out_joints(
         self,
