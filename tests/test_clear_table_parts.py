@@ -409,9 +409,12 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     job._survey_capture = SimpleNamespace(transform_right_camera_to_world=np.eye(4))  # type: ignore[assignment]
     job.sort = SortSettings(default="colours", boxes={"whites": (6, 17, 18)})
     job._hidden_spots = {}
+    job._laid = []  # nothing laid back before
     put_back: list[str] = []
     job.recovery = SimpleNamespace(  # type: ignore[assignment]
-        put_back=lambda *args: put_back.append("No.10"), put_back_spots=[np.zeros(2)]
+        put_back=lambda *args: put_back.append("No.10"),
+        put_back_spots=[np.zeros(2)],
+        laid=[(np.zeros(2), np.zeros(2))],
     )
     four = SimpleNamespace(name="No.4", transform_model_to_camera=np.eye(4))
     attempt = table_clearer.AttemptState(

@@ -190,6 +190,7 @@ class TableClearer:
         self._views: dict[str, BoxView | None] = dict.fromkeys(self.boxes)
         self._collisions = 0
         self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
+        self._laid: list[tuple[AttemptState, FloatArray, FloatArray]] = []  # put-backs: (start, let-go)
         self.recovery.forget()
         self._survey_camera_pose = self.observation_camera_pose.copy()
         interrupted, stop_reason = False, ""
@@ -478,6 +479,13 @@ class TableClearer:
                     source = (
                         f" (identity from memory: seen by survey {survey}, hidden since, gone from there)"
                     )
+            laid = self._laid_near(grasp[:2]) if other is not None else None
+            if laid is not None:
+                attempt.notes.append(
+                    f"double pick: {other} would weigh the extra{source}, but the fingers closed "
+                    f"{laid[1] * 1000:.0f} mm from where {laid[0]} was laid back: identity not sure"
+                )
+                other, source = None, ""
             if other is not None and self.sort.box_for(other) == attempt.box.name:
                 attempt.came_along = (other,)
                 attempt.remembered = (other,) if source else ()
@@ -498,6 +506,25 @@ class TableClearer:
             # where no survey may see it (the meant cloth covers it again)
             self._hidden_spots[name] = self.recovery.put_back_spots[-1].copy()
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
+
+    def _laid_near(self, grasp_xy: FloatArray) -> tuple[str, float] | None:
+        """A cloth the job laid back and has not seen since (`TableLedger.lost`, `unnamed`)
+        whose laid strip (from the lay-out's start to where it was let go) comes within
+        `put_back.free_distance` of `grasp_xy` [m]: (which, how far [m]), or None. Such a
+        cloth may be the double pick's other one, whatever else weighs the extra."""
+        unnamed_ends = [place.end for place in self.ledger.unnamed]
+        for attempt, start, end in self._laid:
+            names = [n for n in (attempt.name, *attempt.laid_back_too) if n in self.ledger.lost]
+            if attempt.unnamed_along and any(np.allclose(end, e) for e in unnamed_ends):
+                names.append(f"the unnamed cloth that came up with {attempt.name}")
+            if not names:
+                continue
+            span = end - start
+            t = float(np.clip((grasp_xy - start) @ span / max(float(span @ span), 1e-12), 0.0, 1.0))
+            distance = float(np.hypot(*(grasp_xy - (start + t * span))))
+            if distance <= self.settings.put_back.free_distance:
+                return " and ".join(names), distance
+        return None
 
     def _stayed(self, name: str, attempt: AttemptState, capture: StereoCapture) -> bool:
         """Does the check after the lift (`capture`) still find `name`, one of the pick's
@@ -574,6 +601,7 @@ class TableClearer:
         )
         attempt.put_back = True
         attempt.put_back_at = self.recovery.put_back_spots[-1].copy()
+        self._laid.append((attempt, *self.recovery.laid[-1]))
 
     def _look_at_boxes(self) -> None:
         """Looks into every box once (the reference of the checks after placing)."""

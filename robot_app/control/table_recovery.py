@@ -55,11 +55,13 @@ class TableRecovery:
         self.loop_settings = loop_settings
         self.looked: list[FloatArray] = []  # places looked at since the last pick attempt
         self.put_back_spots: list[FloatArray] = []
+        self.laid: list[tuple[FloatArray, FloatArray]] = []  # each put-back's (start, let-go) (x, y) [m]
 
     def forget(self) -> None:
         """A new job run: no put-back spots, nothing looked at."""
         self.looked = []
         self.put_back_spots = []
+        self.laid = []
 
     # ------------------------------------------------------------------ looking around
     def places_to_look(
@@ -123,8 +125,9 @@ class TableRecovery:
             if s.put_back.lay_out
             else None
         )
+        start = above[:2].copy()
         if path is not None:
-            over, laid = path
+            start, over, laid = path
             if over is not None:  # over the start, at the lift's height
                 self.motion.move_to_joints(over)
             for q in laid:
@@ -138,6 +141,7 @@ class TableRecovery:
             self.motion.move_tcp(down, speed=s.put_down_speed)
         self.cell.release()
         self.put_back_spots.append(self.motion.tcp_position()[:2])
+        self.laid.append((np.asarray(start, dtype=float).copy(), self.put_back_spots[-1].copy()))
         self.motion.hold(self.loop_settings.release_wait)
         self.cell.set_gripper(self.loop_settings.gripper_open)
         self.motion.hold(self.loop_settings.close_time)
@@ -154,10 +158,10 @@ class TableRecovery:
         obstacles_xy: FloatArray | None,
         above: FloatArray,
         notes: list[str],
-    ) -> tuple[FloatArray | None, list[FloatArray]] | None:
-        """Joints over the start at the lift's height (None: the start is where it was
-        lifted) and those of the first reachable lay-out path from there (most free
-        first), or None."""
+    ) -> tuple[FloatArray, FloatArray | None, list[FloatArray]] | None:
+        """The lay-out's start (x, y) [m], the joints over it at the lift's height (None: it
+        is where the cloth was lifted) and those of the first reachable lay-out path from
+        there (most free first), or None."""
         grasp = grasp_point_model if grasp_point_model is not None else model.grasp_point
         reach = hanging_reach(model.points_in, grasp)
         half_width = cloth_half_width(model.points_in)
@@ -202,7 +206,7 @@ class TableRecovery:
                     f"towards ({path.direction[0]:+.2f}, {path.direction[1]:+.2f})"
                     + ("" if path.fits else ", the laid cloth partly outside the view")
                 )
-                return first, joints
+                return start, first, joints
         return None
 
 
