@@ -108,15 +108,6 @@ class ClearTableSettings(StrictModel):
             after every release (the hand rises out of the box to it) [m].
         pile_grasp: where on the chosen cloth to grasp (away from the other cloths).
         put_back: how a rejected lift is laid back onto the table.
-        put_back_away: a rejected lift (a double pick, a wrong cloth) is carried, at the
-            lift's height, to the spot within this distance of where it was lifted whose
-            laid cloth stays inside the view and farthest from every other cloth the
-            survey saw (`table_recovery.free_starts`), and laid out from there, so that it
-            does not land on the pile it came from (where the next pick takes it along)
-            [m]; 0: laid out from where it was lifted.
-        put_back_step: that search's grid step, and by how much farther from the other
-            cloths a spot must lay the cloth than the lift's own spot [m].
-        put_back_tries: of those spots, the freest this many are tried for reach.
         look_around: when a survey leaves nothing to pick, look again from up to this
             many other poses (the cameras at the observation height over a put-back
             spot, an unknown region, a cloth seen before and not put away) before the
@@ -152,9 +143,6 @@ class ClearTableSettings(StrictModel):
     pile_grasp: PileGraspSettings = Field(default_factory=PileGraspSettings)
     surface: SurfaceSettings = Field(default_factory=SurfaceSettings)
     put_back: PutBackSettings = Field(default_factory=PutBackSettings)
-    put_back_away: float = Field(0.0, ge=0.0, le=0.6)
-    put_back_step: float = Field(0.02, gt=0.0, le=0.1)
-    put_back_tries: int = Field(3, ge=1, le=20)
     look_around: int = Field(2, ge=0, le=10)
     look_apart: float = Field(0.08, gt=0.0)
     hidden_cloth_radius: float = Field(0.0, ge=0.0, le=0.3)

@@ -11,7 +11,6 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from robot_app.arrays import FloatArray
 from robot_app.control.cell import Cell, StereoCapture
@@ -113,11 +112,11 @@ class TableRecovery:
         notes: list[str],
     ) -> None:
         """Lays what the gripper holds back onto the table, spread out over free table in
-        the survey's view (`job_motion.lay_out_paths`), from where it was lifted or, with
-        `put_back_away`, from the freest spot within that distance (`free_starts`); if no
-        such path is reachable, lowers it while moving away from the view's middle. Lets
-        go and rises clear of the laid cloth; the caller goes on from there (no way back
-        to the lift pose: the next move is home)."""
+        the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers
+        it while moving away from the view's middle. Lets go and rises clear of the laid
+        cloth; the caller goes on from there (no way back to the lift pose: the next move
+        is home). Books the laid strip (`laid`: from above where it was lifted to where it
+        was let go)."""
         s, table_z = self.settings, self.table.table_z
         above = self.motion.tcp_position()
         path = (
@@ -125,12 +124,8 @@ class TableRecovery:
             if s.put_back.lay_out
             else None
         )
-        start = above[:2].copy()
         if path is not None:
-            start, over, laid = path
-            if over is not None:  # over the start, at the lift's height
-                self.motion.move_to_joints(over)
-            for q in laid:
+            for q in path:
                 self.motion.move_to_joints(q, speed=s.put_down_speed)
         else:
             outward = above[:2] - survey.transform_right_camera_to_world[:2, 3]
@@ -141,7 +136,7 @@ class TableRecovery:
             self.motion.move_tcp(down, speed=s.put_down_speed)
         self.cell.release()
         self.put_back_spots.append(self.motion.tcp_position()[:2])
-        self.laid.append((np.asarray(start, dtype=float).copy(), self.put_back_spots[-1].copy()))
+        self.laid.append((above[:2].copy(), self.put_back_spots[-1].copy()))
         self.motion.hold(self.loop_settings.release_wait)
         self.cell.set_gripper(self.loop_settings.gripper_open)
         self.motion.hold(self.loop_settings.close_time)
@@ -158,112 +153,37 @@ class TableRecovery:
         obstacles_xy: FloatArray | None,
         above: FloatArray,
         notes: list[str],
-    ) -> tuple[FloatArray, FloatArray | None, list[FloatArray]] | None:
-        """The lay-out's start (x, y) [m], the joints over it at the lift's height (None: it
-        is where the cloth was lifted) and those of the first reachable lay-out path from
-        there (most free first), or None."""
+    ) -> list[FloatArray] | None:
+        """Joints of the first reachable lay-out path (most free first), or None."""
         grasp = grasp_point_model if grasp_point_model is not None else model.grasp_point
         reach = hanging_reach(model.points_in, grasp)
-        half_width = cloth_half_width(model.points_in)
         width, height = self.camera.image_size
         view = self.table.pixels(survey, [0, width - 1, width - 1, 0], [0, 0, height - 1, height - 1])
         obstacles = obstacles_xy if obstacles_xy is not None else np.empty((0, 2))
-        lay_out = self.settings.put_back
-        starts = [above[:2]]
-        if self.settings.put_back_away > 0:
-            away = free_starts(
-                above[:2], reach, half_width, obstacles, view, self.table.table_z, self.settings
+        paths = lay_out_paths(
+            above[:2],
+            reach,
+            self.table.table_z,
+            self.settings.put_down_height,
+            obstacles,
+            view,
+            self.settings.put_back,
+            half_width=cloth_half_width(model.points_in),
+        )
+        for path in paths:
+            joints: list[FloatArray] = []
+            try:
+                for point in path.waypoints:
+                    joints.append(self.motion.solve_tcp(point))
+            except IKError:
+                continue
+            notes.append(
+                f"put back laid out over {min(reach, self.settings.put_back.max_length) * 1000:.0f} mm "
+                f"towards ({path.direction[0]:+.2f}, {path.direction[1]:+.2f})"
+                + ("" if path.fits else ", the laid cloth partly outside the view")
             )
-            starts = [*away[: self.settings.put_back_tries], above[:2]]
-        for start in starts:
-            over = np.array([start[0], start[1], above[2]])
-            paths = lay_out_paths(
-                start,
-                reach,
-                self.table.table_z,
-                self.settings.put_down_height,
-                obstacles,
-                view,
-                lay_out,
-                half_width,
-            )
-            moved = float(np.hypot(*(start - above[:2])))
-            for path in paths:
-                joints: list[FloatArray] = []
-                try:
-                    first = self.motion.solve_tcp(over) if moved > 0 else None
-                    for point in path.waypoints:
-                        joints.append(self.motion.solve_tcp(point))
-                except IKError:
-                    continue
-                notes.append(
-                    (
-                        f"put back {moved * 1000:.0f} mm away from the lift, on the freest table; "
-                        if moved > 0
-                        else "put back "
-                    )
-                    + f"laid out over {min(reach, lay_out.max_length) * 1000:.0f} mm "
-                    f"towards ({path.direction[0]:+.2f}, {path.direction[1]:+.2f})"
-                    + ("" if path.fits else ", the laid cloth partly outside the view")
-                )
-                return start, first, joints
+            return joints
         return None
-
-
-def free_starts(
-    lifted_xy: FloatArray,
-    reach: float,
-    half_width: float,
-    obstacles_xy: FloatArray,
-    view_xy: FloatArray,
-    table_z: float,
-    settings: ClearTableSettings,
-) -> list[FloatArray]:
-    """Where to start laying a rejected lift out instead of where it was lifted
-    (`lifted_xy`, (2,) [m]): the points of a `put_back_step` grid within `put_back_away`
-    of it whose best lay-out path (`lay_out_paths`) keeps the whole laid cloth inside the
-    view (`view_xy`, (4, 2) corners [m]) and farther from every other cloth
-    (`obstacles_xy`, (M, 2) [m]) than the best path from `lifted_xy` does, by at least
-    `put_back_step`: the farthest first (the nearer of equals). A spot's distance is its
-    freest fitting strip's (`reach` long, `half_width` to either side [m]) to the nearest
-    other cloth, counted up to `put_back.free_distance` beyond the half width; empty if
-    no spot is farther. (The put-back then takes the fitting path of most mean freedom
-    from there, as from any start.)"""
-    s = settings
-    obstacles = np.asarray(obstacles_xy, dtype=float).reshape(-1, 2)
-    corners = np.asarray(view_xy, dtype=float).reshape(4, 2)
-    tree = cKDTree(obstacles) if len(obstacles) else None
-    cap = half_width + s.put_back.free_distance
-    none = np.empty((0, 2))  # the paths' fit only: their freedom is measured here, once per strip
-
-    def clearance(start: FloatArray) -> float | None:
-        """The best fitting path's strip: its nearest other cloth [m] (None: none fits)."""
-        paths = lay_out_paths(start, reach, table_z, s.put_down_height, none, corners, s.put_back, half_width)
-        ends = [p.waypoints[-1, :2] for p in paths if p.fits]
-        if not ends:
-            return None
-        if tree is None:
-            return cap
-        strips = start + np.linspace(0.0, 1.0, 11)[None, :, None] * (np.asarray(ends) - start)[:, None, :]
-        distances = tree.query(strips.reshape(-1, 2))[0].reshape(len(ends), -1)
-        return min(cap, float(distances.min(axis=1).max()))
-
-    lifted = np.asarray(lifted_xy, dtype=float).reshape(2)
-    here = clearance(lifted)
-    low, high = corners.min(axis=0), corners.max(axis=0)
-    grid = np.stack(
-        np.meshgrid(*(np.arange(a, b, s.put_back_step) for a, b in zip(low, high, strict=True))), -1
-    )
-    found: list[tuple[float, float, FloatArray]] = []
-    for start in grid.reshape(-1, 2):
-        moved = float(np.hypot(*(start - lifted)))
-        if moved > s.put_back_away:
-            continue
-        free = clearance(start)
-        if free is not None and free >= (here if here is not None else -np.inf) + s.put_back_step:
-            found.append((-free, moved, start))
-    found.sort(key=lambda item: (item[0], item[1]))
-    return [start for _, _, start in found]
 
 
 __all__ = ["TableRecovery"]
