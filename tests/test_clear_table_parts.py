@@ -398,14 +398,23 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     job.table_z = 0.0
     job.weigh = lambda: 0.0469
     job.cell = SimpleNamespace(capture=lambda: None)  # type: ignore[assignment]
-    job.motion = SimpleNamespace(hold=lambda seconds: None, tcp_position=lambda: np.array([0.46, -0.05, 0.4]))  # type: ignore[assignment]
+    job.motion = SimpleNamespace(  # type: ignore[assignment]
+        hold=lambda seconds: None, tcp_position=lambda: np.array([0.46, -0.05, 0.4]), q=np.zeros(7)
+    )
+    resumed: list[np.ndarray] = []
+    loop = SimpleNamespace(
+        arm=SimpleNamespace(resume_at=resumed.append)
+    )  # the loop goes on from the put-back
     job.rig = SimpleNamespace(right=None)  # type: ignore[assignment]
     job._survey_capture = SimpleNamespace(transform_right_camera_to_world=np.eye(4))  # type: ignore[assignment]
     job.sort = SortSettings(default="colours", boxes={"whites": (6, 17, 18)})
     job._hidden_spots = {}
+    job._laid = []  # nothing laid back before
     put_back: list[str] = []
     job.recovery = SimpleNamespace(  # type: ignore[assignment]
-        put_back=lambda *args: put_back.append("No.10"), put_back_spots=[np.zeros(2)]
+        put_back=lambda *args: put_back.append("No.10"),
+        put_back_spots=[np.zeros(2)],
+        laid=[(np.zeros(2), np.zeros(2))],
     )
     four = SimpleNamespace(name="No.4", transform_model_to_camera=np.eye(4))
     attempt = table_clearer.AttemptState(
@@ -419,10 +428,11 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     stays = {"No.10": False, "No.4": True}  # the target left its place, No.4 did not
     monkeypatch.setattr(table_clearer, "still_there", lambda recognizer, *args: stays[recognizer.name])
     with pytest.raises(EpisodeAbortError):
-        job._after_lift(attempt)
+        job._after_lift(attempt, loop)  # type: ignore[arg-type]
     assert attempt.lift_check == "double" and attempt.came_along == () and put_back == ["No.10"]
+    assert len(resumed) == 1
     # gone from its place: it came along, and both go into the colours box
     stays["No.4"] = False
     again = table_clearer.AttemptState(attempt.target, attempt.box, np.eye(4), 0.0, others=(four,))  # type: ignore[arg-type]
-    job._after_lift(again)
-    assert again.came_along == ("No.4",) and put_back == ["No.10"]
+    job._after_lift(again, loop)  # type: ignore[arg-type]
+    assert again.came_along == ("No.4",) and put_back == ["No.10"] and len(resumed) == 1

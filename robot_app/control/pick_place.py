@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
@@ -54,6 +55,56 @@ PhaseCallback = Callable[[PhaseRecord], None]
 StepCallback = Callable[[Cell, StereoCapture | None], None]
 RecognitionCallback = Callable[[VisionCycle], None]
 LIFTED = "cloth lifted"  # a LIFT phase note that starts so: the gripper holds the cloth off the table
+
+
+class HandMotion(Protocol):
+    """What the hand-over to a box needs of an arm mover (`ArmMotion`, `JobMotion`)."""
+
+    def solve_tcp(self, position: npt.ArrayLike) -> FloatArray:
+        """Joints putting the TCP at `position` [m], the cameras looking down."""
+        ...
+
+    def move_to_joints(self, q_goal: npt.ArrayLike, speed: float = 1.0) -> None:
+        """Jerk-limited move to rest at `q_goal` [rad], the limits scaled by `speed`."""
+        ...
+
+    def hold(self, duration: float) -> None:
+        """Holds still for `duration` [s]."""
+        ...
+
+
+def carry_over_box(
+    motion: HandMotion, place_position: FloatArray, table_z: float, settings: LoopSettings
+) -> None:
+    """TRANSFER: the TCP over `place_position` (the box floor's centre, Σ_W [m]) at
+    `transfer_height` above the table."""
+    over = np.asarray(place_position, dtype=float).reshape(3).copy()
+    over[2] = table_z + settings.transfer_height
+    motion.move_to_joints(motion.solve_tcp(over))
+
+
+def release_into_box(
+    motion: HandMotion,
+    cell: Cell,
+    place_position: FloatArray,
+    table_z: float,
+    settings: LoopSettings,
+    reach: float,
+) -> None:
+    """RELEASE: lowers the cloth hanging `reach` [m] below the fingers until its lowest point
+    is `release_clearance` above the box floor, then `release_fold` lower still (folding it
+    onto the floor; never below `min_release_height`), slowly (`release_speed`: a soft body
+    that hits the floor fast goes through it); lets go, waits `release_wait` for the cloth to
+    fall clear and opens the fingers."""
+    s = settings
+    low = np.asarray(place_position, dtype=float).reshape(3).copy()
+    low[2] = table_z + max(
+        s.min_release_height, s.grasp_height + reach + s.release_clearance - s.release_fold
+    )
+    motion.move_to_joints(motion.solve_tcp(low), speed=s.release_speed)
+    cell.release()
+    motion.hold(s.release_wait)  # let the cloth fall clear before the fingers open
+    cell.set_gripper(s.gripper_open)
 
 
 class PickPlaceLoop:
@@ -335,23 +386,11 @@ class PickPlaceLoop:
         return holding
 
     def _transfer(self) -> None:
-        over = self.place_position.copy()
-        over[2] = self.table_z + self.settings.transfer_height
-        self.arm.move_to_joints(self.arm.solve_tcp(over))
+        carry_over_box(self.arm, self.place_position, self.table_z, self.settings)
 
     def _release(self) -> None:
-        s = self.settings
-        # Lower the cloth until its lowest point (at most its longest reach from the grasp
-        # point below the fingers) is just above the floor, slowly: a soft body that hits
-        # the table fast goes through it; `release_fold` lower still, folding it onto the floor.
         reach = hanging_reach(self.model.points_in, self.tracker.grasp_point_model)
-        low = self.place_position.copy()
-        above = s.grasp_height + reach + s.release_clearance - s.release_fold
-        low[2] = self.table_z + max(s.min_release_height, above)
-        self.arm.move_to_joints(self.arm.solve_tcp(low), speed=s.release_speed)
-        self.cell.release()
-        self.arm.hold(s.release_wait)  # let the cloth fall clear before the fingers open
-        self.cell.set_gripper(s.gripper_open)
+        release_into_box(self.arm, self.cell, self.place_position, self.table_z, self.settings, reach)
 
     def _safe_home(self) -> None:
         """After an abort: open, let go and return to the observation pose if possible."""
@@ -436,4 +475,12 @@ def observation_posture(
     return q
 
 
-__all__ = ["LIFTED", "LoopSettings", "PickPlaceLoop", "observation_posture"]
+__all__ = [
+    "LIFTED",
+    "HandMotion",
+    "LoopSettings",
+    "PickPlaceLoop",
+    "carry_over_box",
+    "observation_posture",
+    "release_into_box",
+]

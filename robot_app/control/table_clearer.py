@@ -199,6 +199,7 @@ class TableClearer:
         self._views: dict[str, BoxView | None] = dict.fromkeys(self.boxes)
         self._collisions = 0
         self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
+        self._laid: list[tuple[AttemptState, FloatArray, FloatArray]] = []  # put-backs: (start, let-go)
         self.recovery.forget()
         self._survey_camera_pose = self.observation_camera_pose.copy()
         interrupted, stop_reason = False, ""
@@ -357,7 +358,7 @@ class TableClearer:
         if record.phase == "approach":
             self._aim_at_surface(attempt, loop)
         elif record.phase == "lift" and record.note.startswith(LIFTED):
-            self._after_lift(attempt)
+            self._after_lift(attempt, loop)
         elif record.phase == "transfer" and not self.cell.holding():
             attempt.dropped = True
             attempt.notes.append("dropped during the transfer (gripper empty over the box)")
@@ -453,8 +454,9 @@ class TableClearer:
         attempt.notes.append(f"grasp aimed at the {seen}; the pose's plane was at {point[2] * 1e3:.0f} mm")
 
     # ------------------------------------------------------------------ checks
-    def _after_lift(self, attempt: AttemptState) -> None:
-        """Did the meant cloth, and only it, leave the table? Else put it back."""
+    def _after_lift(self, attempt: AttemptState, loop: PickPlaceLoop) -> None:
+        """Did the meant cloth, and only it, leave the table? Else put it back (the loop's
+        abort then goes home from where the put-back ended)."""
         self._phase = "lift check"
         capture = self.cell.capture()
         wall, cpu = time.perf_counter(), time.process_time()
@@ -498,6 +500,13 @@ class TableClearer:
                     source = (
                         f" (identity from memory: seen by survey {survey}, hidden since, gone from there)"
                     )
+            laid = self._laid_near(grasp[:2]) if other is not None else None
+            if laid is not None:
+                attempt.notes.append(
+                    f"double pick: {other} would weigh the extra{source}, but the fingers closed "
+                    f"{laid[1] * 1000:.0f} mm from where {laid[0]} was laid back: identity not sure"
+                )
+                other, source = None, ""
             if other is not None and self.sort.box_for(other) == attempt.box.name:
                 attempt.came_along = (other,)
                 attempt.remembered = (other,) if source else ()
@@ -512,11 +521,31 @@ class TableClearer:
                 attempt.unnamed_along = True
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
         self.put_back(attempt, attempt.grasp_point_model)
+        loop.arm.resume_at(self.motion.q)
         if heavier and self.settings.hidden_cloth_radius > 0:
             # the other cloth hung from the same fingers: it lies under the spot let go at,
             # where no survey may see it (the meant cloth covers it again)
             self._hidden_spots[name] = self.recovery.put_back_spots[-1].copy()
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
+
+    def _laid_near(self, grasp_xy: FloatArray) -> tuple[str, float] | None:
+        """A cloth the job laid back and has not seen since (`TableLedger.lost`, `unnamed`)
+        whose laid strip (from the lay-out's start to where it was let go) comes within
+        `put_back.free_distance` of `grasp_xy` [m]: (which, how far [m]), or None. Such a
+        cloth may be the double pick's other one, whatever else weighs the extra."""
+        unnamed_ends = [place.end for place in self.ledger.unnamed]
+        for attempt, start, end in self._laid:
+            names = [n for n in (attempt.name, *attempt.laid_back_too) if n in self.ledger.lost]
+            if attempt.unnamed_along and any(np.allclose(end, e) for e in unnamed_ends):
+                names.append(f"the unnamed cloth that came up with {attempt.name}")
+            if not names:
+                continue
+            span = end - start
+            t = float(np.clip((grasp_xy - start) @ span / max(float(span @ span), 1e-12), 0.0, 1.0))
+            distance = float(np.hypot(*(grasp_xy - (start + t * span))))
+            if distance <= self.settings.put_back.free_distance:
+                return " and ".join(names), distance
+        return None
 
     def _stayed(self, name: str, attempt: AttemptState, capture: StereoCapture) -> bool:
         """Does the check after the lift (`capture`) still find `name`, one of the pick's
@@ -534,13 +563,13 @@ class TableClearer:
     ) -> str | None:
         """The double pick's other cloth among those an earlier survey saw and the pick's
         survey did not (`pick_checks.remembered_companion`), if the check after the lift
-        (`capture`) no longer finds it where it was last seen."""
+        (`capture`) no longer finds it where it was last seen; never a cloth the job moved
+        since (`TableLedger.remembered_poses`)."""
         seen = {attempt.name, *(d.name for d in attempt.others)}
-        placed = set(self.ledger.placed_order)
         footprints = {
             name: transform_points(pose, self.recognizers[name].model.points_in)[:, :2]
-            for name, pose in self.ledger.last_pose.items()
-            if name not in seen and name not in placed and name in self.recognizers
+            for name, pose in self.ledger.remembered_poses(seen).items()
+            if name in self.recognizers
         }
         name = remembered_companion(grasp[:2], extra, footprints, self.weights, self.settings)
         if name is None:
@@ -584,7 +613,8 @@ class TableClearer:
 
     def put_back(self, attempt: AttemptState, grasp_point_model: FloatArray | None) -> None:
         """Lays a rejected lift back onto free table (`TableRecovery.put_back`) and books
-        where it let go."""
+        where it let go; the arm stays above the laid cloth (a loop run then resumes there,
+        `ArmMotion.resume_at`)."""
         self._phase = "put back"
         model = self.recognizers[attempt.name].model
         self.recovery.put_back(
@@ -592,6 +622,7 @@ class TableClearer:
         )
         attempt.put_back = True
         attempt.put_back_at = self.recovery.put_back_spots[-1].copy()
+        self._laid.append((attempt, *self.recovery.laid[-1]))
 
     def _look_at_boxes(self) -> None:
         """Looks into every box once (the reference of the checks after placing)."""

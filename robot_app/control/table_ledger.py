@@ -68,6 +68,17 @@ class TableLedger:
         """Empty grasps at `name` so far."""
         return int(self.records.get(name, {}).get("misses", 0))  # type: ignore[call-overload]
 
+    def remembered_poses(self, seen: set[str]) -> dict[str, FloatArray]:
+        """Cloth name -> (4, 4) its pose in Σ_W where a survey last saw it [m], for the cloths
+        that may still lie there: not in `seen` (the names the pick's own survey saw), not
+        placed, and not moved by the job since (dropped or laid back: `lost`; where such a
+        cloth was seen last says nothing of where it lies, nor does its absence from there)."""
+        return {
+            name: pose
+            for name, pose in self.last_pose.items()
+            if name not in seen and name not in self.placed_order and name not in self.lost
+        }
+
     def record_survey(
         self,
         capture: StereoCapture,

@@ -46,7 +46,7 @@ from robot_app.control.clear_table_records import LostPlace, LostSettings
 from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
 from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, weight_verdict
-from robot_app.control.pick_place import LIFTED
+from robot_app.control.pick_place import LIFTED, carry_over_box, release_into_box
 from robot_app.errors import IKError
 from robot_app.vision import Recognizer
 from robot_app.vision.exposure import sheet_gains
@@ -194,9 +194,9 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
 
 def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome, str]:
     """After a lift that holds something: weigh, then into the box and look (or lay back),
-    with the job's own hand-over (`TableClearer.put_back`, `TableClearer.check_box`); the
-    transfer and release are the loop's (`PickPlaceLoop`: over the box at
-    `loop.transfer_height`, lowered by `loop.release_fold`), made with the job's motions."""
+    with the job's own hand-over (`TableClearer.put_back`, `TableClearer.check_box`) and
+    the loop's transfer and release (`pick_place.carry_over_box`, `release_into_box`),
+    made with the job's motions."""
     loop, table_z = job.loop_settings, job.table_z
     expected = job.weights.get(name)
     if job.weigh is None or expected is None:
@@ -211,9 +211,7 @@ def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome
         return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
     start = job.cell.time
     job.set_phase("transfer", name)
-    over = attempt.box.centre.copy()
-    over[2] = table_z + loop.transfer_height
-    job.motion.move_tcp(over)
+    carry_over_box(job.motion, attempt.box.centre, table_z, loop)
     _phase(job, name, "transfer", start, "")
     if not job.cell.holding():
         attempt.dropped = True
@@ -225,14 +223,7 @@ def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome
     job.set_phase("release", name)
     model = job.recognizers[name].model
     reach = hanging_reach(model.points_in, model.grasp_point)
-    low = over.copy()
-    low[2] = table_z + max(
-        loop.min_release_height, loop.grasp_height + reach + loop.release_clearance - loop.release_fold
-    )
-    job.motion.move_tcp(low, speed=loop.release_speed)
-    job.cell.release()
-    job.motion.hold(loop.release_wait)
-    job.cell.set_gripper(loop.gripper_open)
+    release_into_box(job.motion, job.cell, attempt.box.centre, table_z, loop, reach)
     _phase(job, name, "release", start, "")
     job.check_box(attempt)
     return Outcome.PLACED, f"{name} placed (picked blind, its weight read)"

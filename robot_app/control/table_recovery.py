@@ -54,11 +54,13 @@ class TableRecovery:
         self.loop_settings = loop_settings
         self.looked: list[FloatArray] = []  # places looked at since the last pick attempt
         self.put_back_spots: list[FloatArray] = []
+        self.laid: list[tuple[FloatArray, FloatArray]] = []  # each put-back's (start, let-go) (x, y) [m]
 
     def forget(self) -> None:
         """A new job run: no put-back spots, nothing looked at."""
         self.looked = []
         self.put_back_spots = []
+        self.laid = []
 
     # ------------------------------------------------------------------ looking around
     def places_to_look(
@@ -110,10 +112,12 @@ class TableRecovery:
         notes: list[str],
     ) -> None:
         """Lays what the gripper holds back onto the table, spread out over free table in
-        the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers it while
-        moving away from the view's middle. Lets go and returns to the lift pose."""
+        the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers
+        it while moving away from the view's middle. Lets go and rises clear of the laid
+        cloth; the caller goes on from there (no way back to the lift pose: the next move
+        is home). Books the laid strip (`laid`: from above where it was lifted to where it
+        was let go)."""
         s, table_z = self.settings, self.table.table_z
-        lifted = self.motion.q
         above = self.motion.tcp_position()
         path = (
             self._lay_out_joints(survey, model, grasp_point_model, obstacles_xy, above, notes)
@@ -132,14 +136,14 @@ class TableRecovery:
             self.motion.move_tcp(down, speed=s.put_down_speed)
         self.cell.release()
         self.put_back_spots.append(self.motion.tcp_position()[:2])
+        self.laid.append((above[:2].copy(), self.put_back_spots[-1].copy()))
         self.motion.hold(self.loop_settings.release_wait)
         self.cell.set_gripper(self.loop_settings.gripper_open)
         self.motion.hold(self.loop_settings.close_time)
-        if path is not None:  # straight up first: the open fingers leave the laid cloth alone
-            up = self.motion.tcp_position()
-            up[2] = table_z + s.put_down_height + s.put_back.max_length
-            self.motion.move_tcp(up)
-        self.motion.move_to_joints(lifted)
+        # straight up first: the open fingers leave the laid cloth alone
+        up = self.motion.tcp_position()
+        up[2] = table_z + s.put_down_height + s.put_back.max_length
+        self.motion.move_tcp(up)
 
     def _lay_out_joints(
         self,
