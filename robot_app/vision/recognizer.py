@@ -18,8 +18,8 @@ The recogniser composes the stages and holds no search logic of its own:
    `refinement.disagreeing_corner`), the kept pose is polished again with those points
    hidden (`refine.corner_disagreement`); where the pose still scores poorly after the
    depth check (5.), it is also polished with each of a few corners hidden
-   (`refine.corner_hypotheses`: a fold pulls the hue fitness's peak off the truth, where no
-   corner disagrees enough), and the best end replaces it if it scores better with its
+   (`refine.corner_hypotheses`, off by default: a fold pulls the hue fitness's peak off the
+   truth, where no corner disagrees enough), and the best end replaces it if it scores better with its
    own disagreeing corner hidden; the propose stage asks the verify stage
    whether a run ended on a look-alike (`verify.look_alike_below`) and searches elsewhere;
 5. stereo depth (`stereo_depth.StereoDepth`): the plane the pair shows around the pose,
