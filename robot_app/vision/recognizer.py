@@ -16,7 +16,11 @@ The recogniser composes the stages and holds no search logic of its own:
    best's, the most confident is kept (and polished if it was not the polished one); if
    a half-plane of the model disagrees with the image (a folded-over corner,
    `refinement.disagreeing_corner`), the kept pose is polished again with those points
-   hidden (`refine.corner_disagreement`); the propose stage asks the verify stage
+   hidden (`refine.corner_disagreement`); where the pose still scores poorly after the
+   depth check (5.), it is also polished with each of a few corners hidden
+   (`refine.corner_hypotheses`, off by default: a fold pulls the hue fitness's peak off the
+   truth, where no corner disagrees enough), and the best end replaces it if it scores better with its
+   own disagreeing corner hidden; the propose stage asks the verify stage
    whether a run ended on a look-alike (`verify.look_alike_below`) and searches elsewhere;
 5. stereo depth (`stereo_depth.StereoDepth`): the plane the pair shows around the pose,
    without the model's size; a small depth offset is taken, and a pose whose plane is
@@ -72,7 +76,13 @@ from robot_app.vision.plane_search import onto_plane, search_in_plane
 from robot_app.vision.poses import moved
 from robot_app.vision.propose import HALF_TURN, Candidate, ProposalSettings, Proposer
 from robot_app.vision.recognition import Peak, Recognition
-from robot_app.vision.refinement import RefinementSettings, Refiner, disagreeing_corner
+from robot_app.vision.refinement import (
+    CORNER_HYPOTHESES_KEPT,
+    RefinementSettings,
+    Refiner,
+    corner_cuts,
+    disagreeing_corner,
+)
 from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
 from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
@@ -333,7 +343,7 @@ class Recognizer:
         chosen, measurement = self._depth_checked(
             self._without_fold(self._most_confident(proposal.best, proposal.candidates, rng), rng)
         )
-        chosen = self._aligned(chosen)
+        chosen = self._aligned(self._with_corner_hidden(chosen, rng))
         kept = self.proposer.kept_poses
         if kept is not None and chosen.pose is not proposal.best.transform_model_to_camera:
             self.proposer.keep(chosen.pose, kept)  # tracking goes on from the verified pose (a half turn?)
@@ -534,6 +544,74 @@ class Recognizer:
         if not moved_at_all:
             return chosen
         return self._verified(pose, float(self.proposer.fitness()(pose)[0]), self.verifier.verify(pose)[0])
+
+    def _with_corner_hidden(self, chosen: _Verified, rng: np.random.Generator) -> _Verified:
+        """`chosen` or, if its search fitness is below `refine.corner_hypotheses_below`, the best of
+        it polished with each tried corner hidden (`refinement.corner_cuts`) and then without
+        its disagreeing corner (`_without_fold`), if that scores `refine.corner_hypothesis_margin`
+        more by `_explained`; its half and quarter turns are compared as in `_most_confident`. For a
+        print compared mostly by correlation (`verify.align_textured_from`), its aligned texture
+        must also agree at least as well as the pose's."""
+        s = self.settings.refine
+        if not (s.enabled and s.corner_hypotheses and s.corner_disagreement is not None):
+            return chosen
+        if not chosen.search_fitness < s.corner_hypotheses_below:
+            return chosen
+        m, e = self.model, self.evaluator
+        masks = corner_cuts(m.points_in, m.points_out, s.corner_hypotheses, s.corner_hypothesis_share)
+        fitnesses = [
+            (KernelFitness(e, search=True, hidden=h), KernelFitness(e, search=True, subpixel=True, hidden=h))
+            for h in masks
+        ]
+        starts = self.refiner.polish_hidden(
+            chosen.pose, fitnesses, self.proposer.limits(), rng, CORNER_HYPOTHESES_KEPT
+        )
+        ends = [self._without_fold(self._at_depth(T, 0.0), rng) for T in starts]
+        scores = [self._explained(end.pose) for end in ends]
+        k = int(np.argmax(scores))
+        if not scores[k] > self._explained(chosen.pose) + s.corner_hypothesis_margin:
+            return chosen
+        best = ends[k]
+        T = best.pose
+        turns = np.array([T, T @ HALF_TURN, T @ _QUARTER_TURN, T @ _QUARTER_TURN.T])
+        explained = [scores[k], *(self._explained(turn) for turn in turns[1:])]
+        fitness = self.proposer.fitness()(turns)
+        verified = [
+            best,
+            *(
+                self._verified(turn, float(f), v)
+                for turn, f, v in zip(turns[1:], fitness[1:], self.verifier.verify(turns[1:]), strict=True)
+            ),
+        ]
+        level = scores[k] - self.settings.verify.ambiguity_margin
+        first = best.verification.appearance
+        better = [
+            item
+            for item, x in zip(verified[1:], explained[1:], strict=True)
+            if x >= level and item.verification.appearance > first  # NaN: none
+        ]
+        turned = max([best, *better], key=lambda item: item.score)  # the first (best) on ties
+        end = best if turned is best else self._without_fold(turned, rng)
+        if chosen.verification.textured_share >= self.settings.verify.align_textured_from:
+            # a fine print: its texture says more than the hue; aligned, as the decision sees it,
+            # it must agree at least as well (test seeds, covered violet_cells: 4 -> 18 mm off)
+            before = self._aligned(chosen).verification.appearance
+            if not self._aligned(end).verification.appearance >= before:  # NaN: kept
+                return chosen
+        return end
+
+    def _explained(self, pose: FloatArray) -> float:
+        """The search fitness at `pose` with its disagreeing corner hidden (`refinement.disagreeing_corner`
+        at `refine.corner_disagreement`), or without one if none disagrees that much."""
+        m = self.model
+        agree, disagree = self.evaluator.point_agreement(pose)
+        level = self.settings.refine.corner_disagreement
+        hidden = (
+            None if level is None else disagreeing_corner(m.points_in, m.points_out, agree, disagree, level)
+        )
+        if hidden is None:
+            return float(self.proposer.fitness()(pose)[0])
+        return float(KernelFitness(self.evaluator, search=True, hidden=hidden)(pose)[0])
 
     def _depth_checked(self, chosen: _Verified) -> tuple[_Verified, DepthMeasurement]:
         """`chosen` checked against the stereo pair (`stereo_depth.py`): moved to its stereo
