@@ -41,14 +41,18 @@ class TablePlane:
     camera_matrix: FloatArray
     table_z: float
 
+    def _rays(
+        self, capture: StereoCapture, u: npt.ArrayLike, v: npt.ArrayLike
+    ) -> tuple[FloatArray, FloatArray]:
+        """The rays through right-image pixels (u, v) in Σ_W: origin (3, 1), directions (3, N)."""
+        u, v = np.asarray(u, dtype=float).ravel(), np.asarray(v, dtype=float).ravel()
+        rays = np.linalg.solve(self.camera_matrix, np.stack([u, v, np.ones_like(u)]))
+        T = capture.transform_right_camera_to_world
+        return T[:3, 3:4], T[:3, :3] @ rays
+
     def pixels(self, capture: StereoCapture, u: npt.ArrayLike, v: npt.ArrayLike) -> FloatArray:
         """(N, 2) where the rays through right-image pixels (u, v) meet the table plane [m]."""
-        K = self.camera_matrix
-        u, v = np.asarray(u, dtype=float).ravel(), np.asarray(v, dtype=float).ravel()
-        rays = np.linalg.solve(K, np.stack([u, v, np.ones_like(u)]))
-        T = capture.transform_right_camera_to_world
-        directions = T[:3, :3] @ rays
-        origin = T[:3, 3:4]
+        origin, directions = self._rays(capture, u, v)
         dz = directions[2]
         scale = np.where(np.abs(dz) > 1e-9, (self.table_z - origin[2]) / np.where(dz == 0, 1.0, dz), 0.0)
         return np.asarray((origin + scale * directions)[:2].T, dtype=float)
@@ -56,12 +60,8 @@ class TablePlane:
     def ahead(self, capture: StereoCapture, u: npt.ArrayLike, v: npt.ArrayLike) -> npt.NDArray[np.bool_]:
         """(N,) True where the ray through right-image pixel (u, v) goes down to the table
         plane (the others never meet it: `pixels` gives no point of the table for them)."""
-        K = self.camera_matrix
-        u, v = np.asarray(u, dtype=float).ravel(), np.asarray(v, dtype=float).ravel()
-        rays = np.linalg.solve(K, np.stack([u, v, np.ones_like(u)]))
-        T = capture.transform_right_camera_to_world
-        dz = (T[:3, :3] @ rays)[2]
-        return np.asarray((T[2, 3] > self.table_z) & (dz < -1e-9), dtype=bool)
+        origin, directions = self._rays(capture, u, v)
+        return np.asarray((origin[2] > self.table_z) & (directions[2] < -1e-9), dtype=bool)
 
     def point(self, capture: StereoCapture, pixel: tuple[float, float]) -> tuple[float, float]:
         """Where the ray through a right-image pixel meets the table plane, (x, y) [m]."""
