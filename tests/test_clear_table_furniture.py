@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from robot_app.control.clear_table_records import BoxPlace
-from robot_app.control.table_survey import furniture_mask, without_furniture
+from robot_app.control.table_furniture import furniture_mask, without_furniture
 from robot_app.geometry import make_transform
 from robot_app.vision import PinholeCamera
 from robot_app.vision.identify import UnknownRegion

@@ -18,13 +18,9 @@ import numpy as np
 import pytest
 
 from robot_app.control.clear_table_records import OffSheetSettings, SheetArea
+from robot_app.control.table_furniture import off_sheet, table_beyond_sheet, without_furniture
 from robot_app.control.table_lost import palette_share
-from robot_app.control.table_survey import (
-    TablePlane,
-    off_sheet,
-    table_beyond_sheet,
-    without_furniture,
-)
+from robot_app.control.table_survey import TablePlane
 from robot_app.geometry import make_transform
 from robot_app.vision import PinholeCamera
 from robot_app.vision.hue import DARK, LIGHT, colour_codes

@@ -69,6 +69,7 @@ from robot_app.control.pick_handover import check_found_in_place, grasp_in_model
 from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_posture
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
+from robot_app.control.table_furniture import furniture_mask, table_beyond_sheet, without_furniture
 from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_lost import match_lost, pick_lost
 from robot_app.control.table_recovery import TableRecovery
@@ -77,11 +78,8 @@ from robot_app.control.table_survey import (
     TablePlane,
     choose_target,
     disk_points,
-    furniture_mask,
     obstacles_on_table,
-    table_beyond_sheet,
     to_world,
-    without_furniture,
 )
 from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.geometry import transform_points

@@ -1,0 +1,152 @@
+"""The cell's furniture in a clear-table survey image: the collection boxes and the bare
+table beyond the green sheet. `vision.identify` reports every foreground pixel no cloth
+model explains as unknown; these are known, not cloths, and are taken out of the unknown
+regions before the job looks for a lost cloth there (`TableClearer._survey`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+import cv2
+import numpy as np
+import numpy.typing as npt
+
+from robot_app.control.cell import StereoCapture
+from robot_app.control.clear_table_records import BoxPlace, OffSheetSettings, SheetArea
+from robot_app.control.table_survey import TablePlane
+from robot_app.geometry import invert_transform
+from robot_app.vision.camera import PinholeCamera
+from robot_app.vision.identify import UnknownRegion
+from robot_app.vision.regions import undistorted
+
+
+def furniture_mask(
+    capture: StereoCapture,
+    camera: PinholeCamera,
+    boxes: Iterable[BoxPlace],
+    shape: tuple[int, int],
+    margin_px: int = 3,
+) -> npt.NDArray[np.bool_]:
+    """(H, W) the pixels of the right image (undistorted, as `vision.identify` sees it)
+    where a collection box stands: the convex hull of each box's outer walls, from their
+    footprint on the table to their tops (`BoxPlace`: the cell's known geometry, laid into
+    the image with the capture's camera pose), grown by `margin_px` for the walls' edges
+    and shading. A box wholly behind the camera adds nothing."""
+    mask = np.zeros(shape, np.uint8)
+    to_camera = invert_transform(capture.transform_right_camera_to_world)
+    for box in boxes:
+        c = np.asarray(box.centre, dtype=float)
+        half = box.inner_size / 2 + box.wall_thickness
+        corners = np.array(
+            [[c[0] + sx * half, c[1] + sy * half, c[2] + z]
+             for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, box.wall_height)]
+        )  # fmt: skip
+        pixels = camera.project(corners @ to_camera[:3, :3].T + to_camera[:3, 3])
+        pixels = pixels[np.all(np.isfinite(pixels), axis=1)]
+        if len(pixels) < 3:
+            continue
+        hull = cv2.convexHull(np.clip(pixels, -1e5, 1e5).astype(np.float32)).astype(np.int32)
+        cv2.fillConvexPoly(mask, hull, 1)
+    if margin_px > 0:
+        mask = np.asarray(cv2.dilate(mask, np.ones((2 * margin_px + 1,) * 2, np.uint8)), dtype=np.uint8)
+    return mask.astype(bool)
+
+
+OPENING = 5  # px: as `vision.identify` opens the unexplained foreground
+
+
+def without_furniture(
+    regions: Iterable[UnknownRegion], furniture: npt.NDArray[np.bool_], smallest: float
+) -> tuple[UnknownRegion, ...]:
+    """The unknown regions with the `furniture` pixels taken out: each remaining connected
+    piece of at least `smallest` pixels is a region of its own (a cloth beside a box's wall
+    and the box's inside are two things), largest first. A region that lost pixels is
+    opened by `OPENING` px square, as `identify` opens its foreground: the furniture's
+    edges (blurred, of mixed colour) would join its pieces by thin seams."""
+    kept: list[UnknownRegion] = []
+    square = np.ones((OPENING, OPENING), np.uint8)
+    for region in regions:
+        whole = np.asarray(region.mask, dtype=bool)
+        rest = (whole & ~furniture).astype(np.uint8)
+        if np.any(whole & furniture):
+            rest = np.asarray(cv2.morphologyEx(rest, cv2.MORPH_OPEN, square), dtype=np.uint8)
+        count, labels, stats, centroids = cv2.connectedComponentsWithStats(rest, connectivity=8)
+        kept.extend(
+            UnknownRegion(
+                (float(centroids[k][0]), float(centroids[k][1])), int(stats[k, cv2.CC_STAT_AREA]), labels == k
+            )
+            for k in range(1, count)
+            if stats[k, cv2.CC_STAT_AREA] >= smallest
+        )
+    return tuple(sorted(kept, key=lambda region: -region.area))
+
+
+MODE_WINDOW = 2  # the table's hue: the peak of the hue histogram summed over ±this [HSV_FULL steps]
+SMOOTHING = 5  # the hues are read off the image averaged over this many pixels square
+
+
+def off_sheet(
+    capture: StereoCapture, table: TablePlane, sheet: SheetArea, shape: tuple[int, int]
+) -> npt.NDArray[np.bool_]:
+    """(H, W) the right-image pixels whose ray meets the table plane outside the green
+    `sheet` (or never meets it): there, not-sheet is not yet cloth."""
+    h, w = shape
+    v, u = np.mgrid[0:h, 0:w]
+    xy = table.pixels(capture, u, v)
+    on = (
+        (xy[:, 0] >= sheet.x_range[0])
+        & (xy[:, 0] <= sheet.x_range[1])
+        & (xy[:, 1] >= sheet.y_range[0])
+        & (xy[:, 1] <= sheet.y_range[1])
+        & table.ahead(capture, u, v)
+    )
+    return np.asarray(~on.reshape(h, w), dtype=bool)
+
+
+def table_coloured(
+    image_bgr: npt.NDArray[np.uint8], beyond: npt.NDArray[np.bool_], settings: OffSheetSettings
+) -> npt.NDArray[np.bool_]:
+    """(H, W) the `beyond` pixels of `image_bgr` that show the bare table: saturated at
+    least `min_saturation` and within `hue_tolerance` of the table's hue, which is the
+    most frequent hue (HSV_FULL, circular, summed over ±`MODE_WINDOW`) of the saturated
+    `beyond` pixels. Hues are read off the image averaged over `SMOOTHING` px square,
+    and the mask is closed by as much (a dark shade's hue is noise pixel by pixel). Shade
+    keeps a surface's hue, so the table's shadows are table too; a white or grey cloth
+    (no hue) and a cloth of another hue are not."""
+    smooth = cv2.blur(image_bgr, (SMOOTHING, SMOOTHING))
+    hsv = cv2.cvtColor(smooth, cv2.COLOR_BGR2HSV_FULL)
+    hue = hsv[..., 0].astype(np.int32)
+    sample = beyond & (hsv[..., 1] >= settings.min_saturation)
+    if np.count_nonzero(sample) < settings.min_pixels:
+        return np.zeros(beyond.shape, bool)
+    histogram = np.bincount(hue[sample], minlength=256).astype(float)
+    summed = sum(np.roll(histogram, shift) for shift in range(-MODE_WINDOW, MODE_WINDOW + 1))
+    table_hue = int(np.argmax(summed))
+    apart = np.abs((hue - table_hue + 128) % 256 - 128)
+    table = (sample & (apart <= settings.hue_tolerance)).astype(np.uint8)
+    square = np.ones((SMOOTHING, SMOOTHING), np.uint8)
+    closed = cv2.morphologyEx(table, cv2.MORPH_CLOSE, square)
+    return np.asarray(closed.astype(bool) & beyond, dtype=bool)
+
+
+def table_beyond_sheet(
+    capture: StereoCapture,
+    camera: PinholeCamera,
+    table: TablePlane,
+    sheet: SheetArea,
+    settings: OffSheetSettings,
+) -> npt.NDArray[np.bool_]:
+    """(H, W) the pixels of the undistorted right image that show the bare table beyond
+    the green sheet (`off_sheet` and `table_coloured`): known furniture, not a cloth."""
+    image = undistorted(capture.right_bgr, camera)
+    return table_coloured(image, off_sheet(capture, table, sheet, image.shape[:2]), settings)
+
+
+__all__ = [
+    "furniture_mask",
+    "off_sheet",
+    "table_beyond_sheet",
+    "table_coloured",
+    "without_furniture",
+]
