@@ -387,7 +387,11 @@ class TableClearer:
                 if name not in self.ledger.records and name not in seen:
                     lost[name], places[name] = self.recognizers[name], self.ledger.unnamed[-1]
         centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in ident.unknown]
-        return match_lost(self._survey_capture, ident.unknown, centres, lost, places, self.settings.lost)
+        # a heap's own part of a lost cloth is in no colours of any cloth that may lie there
+        on_table = {n: r for n, r in self.recognizers.items() if n not in self.ledger.placed_order}
+        return match_lost(
+            self._survey_capture, ident.unknown, centres, lost, places, self.settings.lost, on_table
+        )
 
     # ------------------------------------------------------------------ looking around
     def _back_to_observation(self) -> None:
