@@ -120,8 +120,8 @@ def own_part(
     for other, recognizer in known.items():
         if other != name:
             own &= ~palette_pixels(codes, main_codes(recognizer.model), threshold)
-    own = cv2.morphologyEx(own.astype(np.uint8), cv2.MORPH_OPEN, np.ones((5, 5), np.uint8))
-    count, labels, stats, centroids = cv2.connectedComponentsWithStats(own, connectivity=8)
+    opened = cv2.morphologyEx(own.astype(np.uint8), cv2.MORPH_OPEN, np.ones((5, 5), np.uint8))
+    count, labels, stats, centroids = cv2.connectedComponentsWithStats(opened, connectivity=8)
     if count < 2:
         return None
     best = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
