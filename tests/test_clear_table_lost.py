@@ -125,11 +125,15 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
         job.ledger.lost[name] = place
     job._lost_to_pick(ident)  # type: ignore[arg-type]
     assert asked[-1][0] == {"No.1"}  # No.3 and No.4 were never seen and nothing came up unnamed
-    assert rivals[-1] == {"No.1", "No.2", "No.3", "No.4"}  # a heap's part: no colours of any of these
+    assert rivals[-1] == {"No.1"}  # a heap's part: in no colours of the candidates ...
+    job.ledger.last_seen = {n: np.zeros(2) for n in ("No.1", "No.2", "No.4")}
+    job._lost_to_pick(ident)  # type: ignore[arg-type]
+    assert rivals[-1] == {"No.1", "No.2", "No.4"}  # ... nor of any cloth a survey saw
     job.ledger.placed_order.append("No.4")
     job._lost_to_pick(ident)  # type: ignore[arg-type]
-    assert rivals[-1] == {"No.1", "No.2", "No.3"}  # a cloth in its box lies on no heap
+    assert rivals[-1] == {"No.1", "No.2"}  # a cloth in its box lies on no heap
     job.ledger.placed_order.clear()
+    job.ledger.last_seen = {}
     nameless = LostPlace("came up with No.1, never identified", np.zeros(2), np.ones(2), ())
     job.ledger.unnamed.append(nameless)
     job._lost_to_pick(ident)  # type: ignore[arg-type]
@@ -140,7 +144,7 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     job._lost_to_pick(ident)  # type: ignore[arg-type]
     assert asked[-1][0] == {"No.3", "No.4"}
     job.settings = ClearTableSettings(lost={"enabled": False})
-    assert job._lost_to_pick(ident) is None and len(asked) == 4  # type: ignore[arg-type]
+    assert job._lost_to_pick(ident) is None and len(asked) == 5  # type: ignore[arg-type]
 
 
 def test_after_a_drop_the_job_looks_along_the_way_to_the_box() -> None:

@@ -35,8 +35,9 @@ class LostSettings(StrictModel):
             loss saw (what was there then is not the lost cloth) [m].
         part_pixels: a region that fails the share test (a heap of cloths laid back
             together) is still picked at the lost cloth's own part: its largest connected
-            piece whose pixels are in that cloth's main colours and in no other unplaced
-            known cloth's, if at least this many pixels (0: off) [px].
+            piece whose pixels are in that cloth's main colours and in no colours of any
+            other cloth that may lie there (the other candidates, and every cloth a survey
+            saw that is not in its box), if at least this many pixels (0: off) [px].
     """
 
     enabled: bool = True
