@@ -110,11 +110,9 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     job.table = SimpleNamespace(point=lambda capture, pixel: (0.5, 0.0))  # type: ignore[assignment]
     job._survey_capture = None  # type: ignore[assignment]
     asked: list[tuple[set[str], dict[str, LostPlace]]] = []
-    rivals: list[set[str]] = []
 
-    def fake_match(capture, regions, centres, lost, places, settings, on_table):
+    def fake_match(capture, regions, centres, lost, places, settings):
         asked.append((set(lost), dict(places)))
-        rivals.append(set(on_table))
         return None
 
     monkeypatch.setattr(table_clearer, "match_lost", fake_match)
@@ -125,15 +123,6 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
         job.ledger.lost[name] = place
     job._lost_to_pick(ident)  # type: ignore[arg-type]
     assert asked[-1][0] == {"No.1"}  # No.3 and No.4 were never seen and nothing came up unnamed
-    assert rivals[-1] == {"No.1"}  # a heap's part: in no colours of the candidates ...
-    job.ledger.last_seen = {n: np.zeros(2) for n in ("No.1", "No.2", "No.4")}
-    job._lost_to_pick(ident)  # type: ignore[arg-type]
-    assert rivals[-1] == {"No.1", "No.2", "No.4"}  # ... nor of any cloth a survey saw
-    job.ledger.placed_order.append("No.4")
-    job._lost_to_pick(ident)  # type: ignore[arg-type]
-    assert rivals[-1] == {"No.1", "No.2"}  # a cloth in its box lies on no heap
-    job.ledger.placed_order.clear()
-    job.ledger.last_seen = {}
     nameless = LostPlace("came up with No.1, never identified", np.zeros(2), np.ones(2), ())
     job.ledger.unnamed.append(nameless)
     job._lost_to_pick(ident)  # type: ignore[arg-type]
@@ -144,7 +133,7 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     job._lost_to_pick(ident)  # type: ignore[arg-type]
     assert asked[-1][0] == {"No.3", "No.4"}
     job.settings = ClearTableSettings(lost={"enabled": False})
-    assert job._lost_to_pick(ident) is None and len(asked) == 5  # type: ignore[arg-type]
+    assert job._lost_to_pick(ident) is None and len(asked) == 3  # type: ignore[arg-type]
 
 
 def test_after_a_drop_the_job_looks_along_the_way_to_the_box() -> None:
@@ -187,64 +176,3 @@ def test_a_white_cloths_shaded_folds_count_as_its_colours_a_dark_cloths_do_not_g
     # hues as before: within the threshold on the circle
     assert palette_share(np.array([5, 252, 128]), red, 10) == pytest.approx(2 / 3)
     assert palette_share(np.array([], dtype=int), white, 10) == 0.0
-
-
-@pytest.fixture(scope="module")
-def heap():
-    """Two lost cloths laid back onto each other: the violet one (on top) covers the middle
-    of the yellow one; neither is recognised, the heap is one unknown region."""
-    under = make_transform(rotation_about_z(0.3), [0.0, 0.0, 0.585])
-    top = make_transform(rotation_about_z(0.1), [0.05, 0.03, 0.580])
-    left, right = render_stereo_pair(
-        RIG, [(synthetic_cloth(1), under), (synthetic_cloth(9), top)], rng=np.random.default_rng(7)
-    )
-    recognizers = {"yellow": recognizer(1, "yellow"), "violet": recognizer(9, "violet")}
-    missed = Recognition(False, 0.1, under, 0, 0, 0.0, confidence=0.0, visible_fraction=0.5)
-    ident = resolve(recognizers, {"yellow": missed, "violet": missed}, right, IdentifySettings())
-    capture = SimpleNamespace(left_bgr=left, right_bgr=right)
-    return recognizers, ident, capture, under, top
-
-
-def _footprint(recognizer: Recognizer, pose: np.ndarray) -> np.ndarray:
-    """The cloth's pixels in the right image (the convex hull of its model points), truth."""
-    import cv2
-
-    from robot_app.geometry import transform_points
-
-    pixels = CAMERA.project(transform_points(pose, recognizer.model.points_in))
-    mask = np.zeros((CAMERA.image_size[1], CAMERA.image_size[0]), np.uint8)
-    cv2.fillConvexPoly(mask, cv2.convexHull(np.round(pixels).astype(np.int32)), 1)
-    return mask.astype(bool)
-
-
-def test_a_heap_of_lost_cloths_gives_each_its_own_part_never_a_rivals(heap) -> None:
-    recognizers, ident, capture, under, top = heap
-    assert len(ident.unknown) == 1  # one region: the heap
-    region = ident.unknown[0]
-    centres = [np.array([0.5, 0.0])]
-    settings = LostSettings()
-    lost = dict(recognizers)
-    # neither cloth holds the whole region's colours: the share test alone picks nothing
-    assert match_lost(capture, ident.unknown, centres, lost, {}, settings) is None
-    matched = match_lost(capture, ident.unknown, centres, lost, {}, settings, on_table=recognizers)
-    assert matched is not None
-    name, part, _ = matched
-    # truth: the part lies on the visible part of the cloth it is named for
-    upper = _footprint(recognizers["violet"], top)
-    visible = upper if name == "violet" else _footprint(recognizers["yellow"], under) & ~upper
-    assert part.area >= settings.part_pixels and part.mask.sum() == part.area
-    assert np.mean(visible[part.mask]) > 0.95
-    u, v = inner_pixel(part.mask)
-    assert visible[round(v), round(u)]
-    other = _footprint(recognizers["yellow"], under) & ~upper if name == "violet" else upper
-    distance = np.min(np.hypot(*(np.argwhere(other)[:, ::-1] - [u, v]).T))
-    assert distance > 10  # the grasp lands well inside the named cloth, away from the other one
-    # a cloth of the same colours may lie there too: no part is that cloth's alone
-    twin = {**recognizers, f"{name} twin": recognizer(1 if name == "yellow" else 9, "twin")}
-    only = {name: recognizers[name]}
-    assert match_lost(capture, ident.unknown, centres, only, {}, settings, on_table=twin) is None
-    # off, or a part smaller than asked for: nothing
-    off = LostSettings(part_pixels=0)
-    assert match_lost(capture, ident.unknown, centres, lost, {}, off, on_table=recognizers) is None
-    huge = LostSettings(part_pixels=int(region.area))
-    assert match_lost(capture, ident.unknown, centres, lost, {}, huge, on_table=recognizers) is None

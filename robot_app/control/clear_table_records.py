@@ -33,11 +33,6 @@ class LostSettings(StrictModel):
             for a put-back) [m].
         apart: ... and farther than this from every unknown region the survey before the
             loss saw (what was there then is not the lost cloth) [m].
-        part_pixels: a region that fails the share test (a heap of cloths laid back
-            together) is still picked at the lost cloth's own part: its largest connected
-            piece whose pixels are in that cloth's main colours and in no colours of any
-            other cloth that may lie there (the other candidates, and every cloth a survey
-            saw that is not in its box), if at least this many pixels (0: off) [px].
     """
 
     enabled: bool = True
@@ -46,7 +41,6 @@ class LostSettings(StrictModel):
     grasp_height: float = Field(0.025, ge=0.02, le=0.08)
     reach: float = Field(0.3, gt=0.0)
     apart: float = Field(0.05, ge=0.0)
-    part_pixels: int = Field(600, ge=0)
 
 
 class OffSheetSettings(StrictModel):

@@ -387,15 +387,7 @@ class TableClearer:
                 if name not in self.ledger.records and name not in seen:
                     lost[name], places[name] = self.recognizers[name], self.ledger.unnamed[-1]
         centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in ident.unknown]
-        # a heap's own part of a lost cloth is in no colours of any cloth that may lie there:
-        # every candidate, and every cloth a survey saw that is not in its box
-        on_table = {
-            **{n: self.recognizers[n] for n in self.ledger.last_seen if n not in self.ledger.placed_order},
-            **lost,
-        }
-        return match_lost(
-            self._survey_capture, ident.unknown, centres, lost, places, self.settings.lost, on_table
-        )
+        return match_lost(self._survey_capture, ident.unknown, centres, lost, places, self.settings.lost)
 
     # ------------------------------------------------------------------ looking around
     def _back_to_observation(self) -> None:

@@ -58,77 +58,36 @@ if TYPE_CHECKING:
     from robot_app.control.table_clearer import TableClearer
 
 
-def _codes(capture: StereoCapture, recognizers: Mapping[str, Recognizer]) -> npt.NDArray[np.int64]:
-    """The colour code of every pixel of the undistorted right image."""
-    first = next(iter(recognizers.values()))
-    image = undistorted(capture.right_bgr, first.rig.right)
-    fitness = first.settings.fitness
-    return np.asarray(image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness))
-
-
 def colour_shares(
     capture: StereoCapture, region: UnknownRegion, recognizers: Mapping[str, Recognizer]
 ) -> dict[str, float]:
     """Name -> share of `region`'s pixels (in the undistorted right image) in that
     model's main colours (`palette_share`)."""
-    seen = _codes(capture, recognizers)[region.mask]
-    threshold = next(iter(recognizers.values())).settings.fitness.hue_threshold_in
+    first = next(iter(recognizers.values()))
+    image = undistorted(capture.right_bgr, first.rig.right)
+    fitness = first.settings.fitness
+    codes = image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness)
+    seen = codes[region.mask]
     return {
-        name: palette_share(seen, main_codes(recognizer.model), threshold)
+        name: palette_share(seen, main_codes(recognizer.model), fitness.hue_threshold_in)
         for name, recognizer in recognizers.items()
     }
 
 
-def palette_pixels(seen: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> npt.NDArray[np.bool_]:
-    """Which colour codes `seen` (any shape) are in `palette` (a model's main codes): a hue
+def palette_share(seen: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> float:
+    """Share of the colour codes `seen` that are in `palette` (a model's main codes): a hue
     within `hue_threshold` of one of its hues, or one of its tones; a LIGHT tone (a white
     or light grey cloth, which has no hue) also takes DARK pixels, since a crumpled white
     cloth's folds lie in its own shade, darker but still without hue (a dark cloth's
     folds do not get lighter)."""
-    codes = np.asarray(seen)
-    colours = np.asarray(palette)
-    if np.any(colours == LIGHT) and not np.any(colours == DARK):
-        colours = np.append(colours, DARK)
-    flat = codes.reshape(-1)
-    matching = colours_match(flat[:, None], colours[None, :], hue_threshold)
-    return np.asarray(np.any(matching, axis=1)).reshape(codes.shape)
-
-
-def palette_share(seen: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> float:
-    """Share of the colour codes `seen` that are in `palette` (`palette_pixels`)."""
     codes = np.asarray(seen).reshape(-1)
     if not codes.size:
         return 0.0
-    return float(np.mean(palette_pixels(codes, palette, hue_threshold)))
-
-
-def own_part(
-    codes: npt.NDArray[np.int64],
-    region: UnknownRegion,
-    name: str,
-    known: Mapping[str, Recognizer],
-    min_pixels: int,
-) -> UnknownRegion | None:
-    """The largest connected piece of `region` whose pixels are in `name`'s main colours
-    and in no other model's of `known` (the cloths that may lie there), opened 5 px as
-    `identify` opens its foreground; None if smaller than `min_pixels` (or `min_pixels`
-    is 0). `codes`: every pixel's colour code (`image_codes`)."""
-    if min_pixels <= 0:
-        return None
-    threshold = known[name].settings.fitness.hue_threshold_in
-    own = region.mask & palette_pixels(codes, main_codes(known[name].model), threshold)
-    for other, recognizer in known.items():
-        if other != name:
-            own &= ~palette_pixels(codes, main_codes(recognizer.model), threshold)
-    opened = cv2.morphologyEx(own.astype(np.uint8), cv2.MORPH_OPEN, np.ones((5, 5), np.uint8))
-    count, labels, stats, centroids = cv2.connectedComponentsWithStats(opened, connectivity=8)
-    if count < 2:
-        return None
-    best = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
-    area = int(stats[best, cv2.CC_STAT_AREA])
-    if area < min_pixels:
-        return None
-    return UnknownRegion((float(centroids[best][0]), float(centroids[best][1])), area, labels == best)
+    colours = np.asarray(palette)
+    if np.any(colours == LIGHT) and not np.any(colours == DARK):
+        colours = np.append(colours, DARK)
+    matching = colours_match(codes[:, None], colours[None, :], hue_threshold)
+    return float(np.mean(np.any(matching, axis=1)))
 
 
 def near_the_loss(centre_xy: FloatArray, place: LostPlace, settings: LostSettings) -> bool:
@@ -151,18 +110,11 @@ def match_lost(
     lost: Mapping[str, Recognizer],
     places: Mapping[str, LostPlace],
     settings: LostSettings,
-    on_table: Mapping[str, Recognizer] | None = None,
 ) -> tuple[str, UnknownRegion, float] | None:
     """The first region (largest first) whose colours are one lost cloth's (`min_share`,
     ahead of every other lost cloth by `margin`) and which lies where that cloth may be
     (`near_the_loss`; `centres`: each region's centre on the table [m], `places`: where
-    each cloth was lost, none: anywhere): (name, region, share), or None.
-
-    A region that fails the share test (a heap of cloths laid back together) gives the
-    lost cloth's own part instead (`own_part`, `part_pixels`): in its colours and in no
-    other colours of `on_table` (every known cloth that may lie there; None: no part
-    test), the cloths most in the region's colours first; (name, part, share in the
-    whole region)."""
+    each cloth was lost, none: anywhere): (name, region, share), or None."""
     if not lost:
         return None
     for region, centre in zip(regions, centres, strict=True):
@@ -170,19 +122,10 @@ def match_lost(
         ranked = sorted(shares.items(), key=lambda item: -item[1])
         name, best = ranked[0]
         runner_up = ranked[1][1] if len(ranked) > 1 else 0.0
-        if best >= settings.min_share and best - runner_up >= settings.margin:
-            if name not in places or near_the_loss(centre, places[name], settings):
-                return name, region, best
+        if best < settings.min_share or best - runner_up < settings.margin:
             continue
-        if on_table is None or settings.part_pixels <= 0:
-            continue
-        codes = _codes(capture, lost)
-        for name, share in ranked:
-            if name in places and not near_the_loss(centre, places[name], settings):
-                continue
-            part = own_part(codes, region, name, {**on_table, name: lost[name]}, settings.part_pixels)
-            if part is not None:
-                return name, part, share
+        if name not in places or near_the_loss(centre, places[name], settings):
+            return name, region, best
     return None
 
 
@@ -211,7 +154,7 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
     attempt = AttemptState(None, box, where, job.cell.time, lost_name=name)
     attempt.notes.append(
         f"lost ({how}), not recognised since: picked blind at ({x:.2f}, {y:.2f}), "
-        f"an unknown region {share:.0%} in its colours ({region.area} px picked from)"
+        f"an unknown region {share:.0%} in its colours"
     )
     wall = time.perf_counter()
     samples, collisions = job.cell.limit_report(job.limits).samples, job.motion.collisions
@@ -321,13 +264,4 @@ def _result(
     )
 
 
-__all__ = [
-    "colour_shares",
-    "inner_pixel",
-    "match_lost",
-    "near_the_loss",
-    "own_part",
-    "palette_pixels",
-    "palette_share",
-    "pick_lost",
-]
+__all__ = ["colour_shares", "inner_pixel", "match_lost", "near_the_loss", "palette_share", "pick_lost"]
