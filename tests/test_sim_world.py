@@ -179,3 +179,15 @@ def test_config_validation_names_the_key() -> None:
             load_world_config(overrides=(f"{key}={value}",))
         assert (bad.value.key, bad.value.value) == (key, value)
     assert ClothPhysicsSettings().settle_time == 1.0
+
+
+def test_set_nodes_lays_a_traced_cloth_back_where_it_was() -> None:
+    with World(SMALL) as world:
+        cloth = world.add_cloth(cloth_spec(4), 0.5, 0.05, 0.4, settle=False)
+        traced = cloth.nodes().copy()
+        traced[:, :2] += (0.03, -0.02)  # the cloth elsewhere, a corner lifted: a traced shape
+        traced[:5, 2] += 0.02
+        cloth.set_nodes(traced)
+        np.testing.assert_allclose(cloth.nodes(), traced, atol=1e-9)  # in nodes()'s own order
+        with pytest.raises(ValueError, match="nodes must be"):
+            cloth.set_nodes(traced[:-1])

@@ -219,6 +219,16 @@ class ClothBody:
         for link in links:
             pb.setCollisionFilterPair(body, self.body_id, link, -1, 0, physicsClientId=self._client)
 
+    def set_nodes(self, nodes: npt.ArrayLike) -> None:
+        """Puts the nodes at `nodes` ((N, 3) in Σ_W [m], the rest mesh's vertex order, as
+        `nodes()` returns them), e.g. a traced cloth reloaded (scripts/heap_replay.py)."""
+        placed = np.asarray(nodes, dtype=float)
+        if placed.shape != (len(self._order), 3):
+            raise ValueError(f"nodes must be ({len(self._order)}, 3), got {placed.shape}")
+        ordered = np.empty_like(placed)
+        ordered[self._order] = placed
+        pb.resetMeshData(self.body_id, vertices=ordered.tolist(), physicsClientId=self._client)
+
     def fold(self, fold: Fold, lift: float | None = None) -> int:
         """Folds the nodes beyond the fold line over onto the cloth, `lift` [m] above it.
 
