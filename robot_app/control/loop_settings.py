@@ -119,12 +119,15 @@ class LoopSettings(StrictModel):
         "fingers open [s] (with release_settle_share null: always this long)",
     )
     release_settle_share: float | None = Field(
-        0.002,
+        None,
         ge=0.0,
         le=1.0,
         description="the fingers open once the right hand camera's successive frames (at "
         "vision_rate_hz) differ in at most this share of pixels release_settle_frames times in a "
-        "row: the cloth under the hand has come to rest (release_watch); null: wait release_wait",
+        "row: the cloth under the hand has come to rest (release_watch); null (default): wait "
+        "release_wait. 0.002 saw the cloth at rest 0.78-0.93 s after letting go in 2 of 4 "
+        "pick-place episodes, and with the joined lowering the clear-table test of three cloths "
+        "into two boxes ended No.6 'partly in whites' in 4 of 5 runs (each alone: 0 of 5)",
     )
     release_settle_frames: int = Field(2, ge=1, le=30, description="still frame pairs in a row")
     release_settle_threshold: float = Field(
