@@ -662,9 +662,12 @@ class TableClearer:
         latency = self.settings.survey_latency
         if latency is None and self.loop_settings.vision_latency is not None:
             latency = recognitions * self.loop_settings.vision_latency
-        ready = self.cell.time + (seconds if latency is None else latency)
-        if meanwhile is not None:
-            meanwhile()
+        duration = seconds if latency is None else latency
+        if meanwhile is None:
+            self.motion.hold(duration)
+            return
+        ready = self.cell.time + duration
+        meanwhile()
         self.motion.hold(max(0.0, ready - self.cell.time))
 
     def _step(self) -> None:
