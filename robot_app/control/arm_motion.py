@@ -21,7 +21,13 @@ from robot_app.control.episode import EpisodeAbortError, Outcome
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits, LimitReport, check_limits
 from robot_app.control.loop_settings import LoopSettings
-from robot_app.control.trajectory import OnlineTrajectory, TrajectorySample, plan_point_to_point
+from robot_app.control.trajectory import (
+    JoinedTrajectory,
+    OnlineTrajectory,
+    TrajectorySample,
+    plan_point_to_point,
+    plan_slowing_down,
+)
 from robot_app.geometry import make_transform
 
 TCP_FRAME = "tcp"
@@ -179,6 +185,31 @@ class ArmMotion:
             a_start=self.command.a,
             dt=self.cell.dt,
         )
+        self.ruckig_times_us.append(trajectory.calculation_time_s * 1e6)
+        steps = round(trajectory.duration / self.cell.dt)
+        for k in range(1, steps + 1):
+            sample = trajectory.sample(k * self.cell.dt)
+            self.send(sample.q, sample.v, sample.a)
+        self.command.v[:] = 0.0
+        self.command.a[:] = 0.0
+
+    def move_slowing_down(self, q_goal: npt.ArrayLike, speed: float, below: float) -> None:
+        """Jerk-limited move to rest at `q_goal` [rad] with the limits scaled by `speed` once
+        the TCP is at or below the height `below` [m] (Σ_W z), at full limits above it,
+        without a stop in between (`trajectory.plan_slowing_down`)."""
+        trajectory = plan_slowing_down(
+            self.command.q,
+            q_goal,
+            self.limits,
+            self.limits.scaled(speed),
+            lambda q: bool(self.tcp_position(q)[2] <= below),
+            v_start=self.command.v,
+            a_start=self.command.a,
+            dt=self.cell.dt,
+        )
+        self._follow(trajectory)
+
+    def _follow(self, trajectory: JoinedTrajectory) -> None:
         self.ruckig_times_us.append(trajectory.calculation_time_s * 1e6)
         steps = round(trajectory.duration / self.cell.dt)
         for k in range(1, steps + 1):

@@ -45,6 +45,7 @@ from robot_app.control.limits import JointLimits
 from robot_app.control.look_then_move import LookThenMoveStrategy
 from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.pose_filter import PoseFilterSettings
+from robot_app.control.release_watch import wait_until_settled
 from robot_app.control.servo import CAMERA_FRAME, ServoStrategy
 from robot_app.control.vision_pipeline import VisionPipeline, VisionResult
 from robot_app.errors import IKError, InterruptError, TrajectoryError
@@ -66,6 +67,11 @@ class HandMotion(Protocol):
 
     def move_to_joints(self, q_goal: npt.ArrayLike, speed: float = 1.0) -> None:
         """Jerk-limited move to rest at `q_goal` [rad], the limits scaled by `speed`."""
+        ...
+
+    def move_slowing_down(self, q_goal: npt.ArrayLike, speed: float, below: float) -> None:
+        """Move to rest at `q_goal` [rad], the limits scaled by `speed` once the TCP is at or
+        below `below` [m], full above, without a stop."""
         ...
 
     def hold(self, duration: float) -> None:
@@ -90,21 +96,43 @@ def release_into_box(
     table_z: float,
     settings: LoopSettings,
     reach: float,
-) -> None:
+) -> str:
     """RELEASE: lowers the cloth hanging `reach` [m] below the fingers until its lowest point
     is `release_clearance` above the box floor, then `release_fold` lower still (folding it
     onto the floor; never below `min_release_height`), slowly (`release_speed`: a soft body
-    that hits the floor fast goes through it); lets go, waits `release_wait` for the cloth to
-    fall clear and opens the fingers."""
+    that hits the floor fast goes through it) from where its lowest point is
+    `release_slow_from` above the floor on, at the full limits above that, without a stop;
+    lets go, waits until the hand camera sees the cloth at rest (`release_watch`; at most
+    `release_wait`) and opens the fingers. Returns a note on the wait."""
     s = settings
     low = np.asarray(place_position, dtype=float).reshape(3).copy()
     low[2] = table_z + max(
         s.min_release_height, s.grasp_height + reach + s.release_clearance - s.release_fold
     )
-    motion.move_to_joints(motion.solve_tcp(low), speed=s.release_speed)
+    q_low = motion.solve_tcp(low)
+    if s.release_slow_from is None:
+        motion.move_to_joints(q_low, speed=s.release_speed)
+    else:
+        slow_below = table_z + s.grasp_height + reach + s.release_slow_from
+        motion.move_slowing_down(q_low, s.release_speed, slow_below)
     cell.release()
-    motion.hold(s.release_wait)  # let the cloth fall clear before the fingers open
+    note = f"waited {s.release_wait:.2f} s after letting go"
+    if s.release_settle_share is None:
+        motion.hold(s.release_wait)  # let the cloth fall clear before the fingers open
+    else:
+        watch = wait_until_settled(
+            motion,
+            cell,
+            rate_hz=s.vision_rate_hz,
+            longest=s.release_wait,
+            threshold=s.release_settle_threshold,
+            share=s.release_settle_share,
+            frames=s.release_settle_frames,
+        )
+        seen = "at rest" if watch.settled else f"still moving ({watch.last_change:.1%} of the view)"
+        note = f"cloth {seen} {watch.waited:.2f} s after letting go ({watch.frames} frames)"
     cell.set_gripper(s.gripper_open)
+    return note
 
 
 class PickPlaceLoop:
@@ -390,7 +418,9 @@ class PickPlaceLoop:
 
     def _release(self) -> None:
         reach = hanging_reach(self.model.points_in, self.tracker.grasp_point_model)
-        release_into_box(self.arm, self.cell, self.place_position, self.table_z, self.settings, reach)
+        self._note = release_into_box(
+            self.arm, self.cell, self.place_position, self.table_z, self.settings, reach
+        )
 
     def _safe_home(self) -> None:
         """After an abort: open, let go and return to the observation pose if possible."""

@@ -204,11 +204,15 @@ class TableClearer:
         last: Identification | None = None
         try:
             self.cell.set_gripper(self.loop_settings.gripper_open)
-            if self.settings.look_at_boxes:
-                self._look_at_boxes()
+            # the first survey's image is taken before the look into the boxes, which is made
+            # while the computer identifies the cloths in it (the arm is free meanwhile)
+            boxes_first: Callable[[], None] | None = (
+                self._look_at_boxes if self.settings.look_at_boxes else None
+            )
             while True:
                 self._back_to_observation()
-                last = self._survey()
+                last = self._survey(meanwhile=boxes_first)
+                boxes_first = None
                 target = choose_target(last, self.ledger.records, self.settings.max_attempts)
                 for place in self._places_to_look(last) if target is None else ():
                     self._record_survey(last, None)
@@ -244,9 +248,17 @@ class TableClearer:
         return self._result(last, stop_reason, interrupted, start, wall_start)
 
     # ------------------------------------------------------------------ survey
-    def _survey(self) -> Identification:
+    def _survey(self, meanwhile: Callable[[], None] | None = None) -> Identification:
+        """Surveys from where the arm is; `meanwhile` moves the arm while the computer
+        identifies (it must bring it back: the job goes on from where it ends)."""
         self._phase, self._meant = "survey", None
         capture = self.cell.capture()
+        at_observation = np.allclose(self.motion.q, self.observation_joints, atol=1e-6)
+        self._survey_camera_pose = (
+            self.observation_camera_pose
+            if at_observation
+            else self.kinematics.frame_pose(self.motion.q, "camera_right_optical")
+        )
         names = [n for n in self.recognizers if n not in self.ledger.seen_in_box]
         wall, cpu = time.perf_counter(), time.process_time()
         ident = (
@@ -272,14 +284,9 @@ class TableClearer:
                 )
             smallest = self.identify_settings.min_unknown_area * furniture.size
             ident = replace(ident, unknown=without_furniture(ident.unknown, furniture, smallest))
-        self._wait(time.process_time() - cpu, len(names) - len(ident.skipped))
         self._survey_capture, self._survey_wall = capture, time.perf_counter() - wall
-        at_observation = np.allclose(self.motion.q, self.observation_joints, atol=1e-6)
-        self._survey_camera_pose = (
-            self.observation_camera_pose
-            if at_observation
-            else self.kinematics.frame_pose(self.motion.q, "camera_right_optical")
-        )
+        self._wait(time.process_time() - cpu, len(names) - len(ident.skipped), meanwhile)
+        self._phase = "survey"
         return ident
 
     def _record_survey(self, ident: Identification, chosen: Detection | None) -> None:
@@ -645,15 +652,21 @@ class TableClearer:
             - self.kinematics.frame_pose(q, "tcp")[:3, 3]
         )
 
-    def _wait(self, seconds: float, recognitions: int) -> None:
+    def _wait(self, seconds: float, recognitions: int, meanwhile: Callable[[], None] | None = None) -> None:
         """Holds the arm while the computer recognises: `clear.survey_latency` if set;
         else, as the loop's own vision (`loop.vision_latency` per recognition, one-shot
         search or check alike), `recognitions` times that; else the measured CPU time
-        `seconds`."""
+        `seconds`. `meanwhile` (moves of the arm) runs first; the hold is what is left."""
         latency = self.settings.survey_latency
         if latency is None and self.loop_settings.vision_latency is not None:
             latency = recognitions * self.loop_settings.vision_latency
-        self.motion.hold(seconds if latency is None else latency)
+        duration = seconds if latency is None else latency
+        if meanwhile is None:
+            self.motion.hold(duration)
+            return
+        ready = self.cell.time + duration
+        meanwhile()
+        self.motion.hold(max(0.0, ready - self.cell.time))
 
     def _step(self) -> None:
         if self.on_step is not None:

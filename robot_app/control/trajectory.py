@@ -129,9 +129,12 @@ def plan_point_to_point(
     *,
     v_start: npt.ArrayLike | None = None,
     a_start: npt.ArrayLike | None = None,
+    v_goal: npt.ArrayLike | None = None,
+    a_goal: npt.ArrayLike | None = None,
     dt: float,
 ) -> JointTrajectory:
-    """Time-optimal jerk-limited trajectory from a state to rest at `q_goal`.
+    """Time-optimal jerk-limited trajectory from a state to rest at `q_goal` (or to the
+    goal state `v_goal`, `a_goal`: a move that another one continues without a stop).
 
     Args:
         q_start: start positions (n,) [rad], within the limits.
@@ -139,6 +142,8 @@ def plan_point_to_point(
         limits: joint limits to respect.
         v_start: start velocities (n,) [rad/s]; zero if None.
         a_start: start accelerations (n,) [rad/s^2]; zero if None.
+        v_goal: goal velocities (n,) [rad/s]; zero (at rest) if None.
+        a_goal: goal accelerations (n,) [rad/s^2]; zero if None.
         dt: control period [s]; the duration is rounded up to a multiple of it so that
             the last control sample lands on the goal.
 
@@ -151,7 +156,7 @@ def plan_point_to_point(
     request = _make_input(limits)
     request.duration_discretization = ruckig.DurationDiscretization.Discrete
     _set_state(request, limits, q_start, v_start, a_start, "start")
-    _set_target(request, limits, q_goal, None)
+    _set_target(request, limits, q_goal, v_goal, a_goal)
     trajectory = ruckig.Trajectory(limits.dof)
     started = time.perf_counter()
     result = _call_ruckig(planner.calculate, request, trajectory)
@@ -160,6 +165,83 @@ def plan_point_to_point(
         raise TrajectoryPlanningError("ruckig failed to plan the point-to-point motion", int(result))
     _check_extrema(trajectory, limits)
     return JointTrajectory(float(trajectory.duration), elapsed, limits, trajectory)
+
+
+class JoinedTrajectory(NamedTuple):
+    """A fast move that hands over, without a stop, to the rest of a slow one.
+
+    `fast` ends in the state `slow` has at `handover` [s] (a multiple of the control
+    period); from there on the joined motion is `slow`'s own. `fast` None: `slow` alone.
+    """
+
+    fast: JointTrajectory | None
+    slow: JointTrajectory
+    handover: float
+
+    @property
+    def duration(self) -> float:
+        """Time to reach the goal [s]."""
+        fast = 0.0 if self.fast is None else self.fast.duration
+        return fast + self.slow.duration - self.handover
+
+    @property
+    def calculation_time_s(self) -> float:
+        """Ruckig's wall time for both plans [s]."""
+        fast = 0.0 if self.fast is None else self.fast.calculation_time_s
+        return fast + self.slow.calculation_time_s
+
+    def sample(self, t: float) -> TrajectorySample:
+        """State at time `t` [s] of the joined motion, clamped into [0, duration]."""
+        if self.fast is None:
+            return self.slow.sample(t)
+        if t <= self.fast.duration:
+            return self.fast.sample(t)
+        state = self.slow.sample(self.handover + min(t, self.duration) - self.fast.duration)
+        return state._replace(time=min(t, self.duration))
+
+
+def plan_slowing_down(
+    q_start: npt.ArrayLike,
+    q_goal: npt.ArrayLike,
+    limits: JointLimits,
+    slow_limits: JointLimits,
+    slow_from: Callable[[FloatArray], bool],
+    *,
+    v_start: npt.ArrayLike | None = None,
+    a_start: npt.ArrayLike | None = None,
+    dt: float,
+) -> JoinedTrajectory:
+    """A move to rest at `q_goal` that runs within `slow_limits` once it is where
+    `slow_from(q)` holds, and within `limits` before, without a stop in between.
+
+    The slow part is the slow move's own (`plan_point_to_point` within `slow_limits`
+    from the start), from its first control sample where `slow_from` holds: there and
+    after, the joined move is where the slow move would be, at the same velocity and
+    acceleration. Up to that state the fast part is the time-optimal move within
+    `limits`. The slow move alone where it starts where `slow_from` holds, where the fast
+    part would gain nothing, and where the fast part would pass a sample where `slow_from`
+    holds before the hand-over (it would be fast where the move must be slow).
+
+    Raises:
+        TrajectoryPlanningError: the slow move cannot be planned (the fast part that
+            cannot is left out: the slow move alone).
+    """
+    slow = plan_point_to_point(q_start, q_goal, slow_limits, v_start=v_start, a_start=a_start, dt=dt)
+    steps = round(slow.duration / dt)
+    handover = next((k for k in range(steps + 1) if slow_from(slow.sample(k * dt).q)), steps)
+    if handover == 0:
+        return JoinedTrajectory(None, slow, 0.0)
+    state = slow.sample(handover * dt)
+    try:
+        fast = plan_point_to_point(
+            q_start, state.q, limits, v_start=v_start, a_start=a_start, v_goal=state.v, a_goal=state.a, dt=dt
+        )
+    except TrajectoryPlanningError:
+        return JoinedTrajectory(None, slow, 0.0)
+    fast_steps = round(fast.duration / dt)
+    if fast_steps >= handover or any(slow_from(fast.sample(k * dt).q) for k in range(1, fast_steps)):
+        return JoinedTrajectory(None, slow, 0.0)  # no gain, or it would be fast where it must be slow
+    return JoinedTrajectory(fast, slow, handover * dt)
 
 
 class OnlineTrajectory:
@@ -439,11 +521,13 @@ def _frozen(values: npt.ArrayLike) -> FloatArray:
 
 
 __all__ = [
+    "JoinedTrajectory",
     "JointTrajectory",
     "OnlineTrajectory",
     "TrajectoryPlanningError",
     "TrajectorySample",
     "TrajectorySamples",
     "plan_point_to_point",
+    "plan_slowing_down",
     "time_optimal_duration",
 ]
