@@ -551,11 +551,16 @@ class Recognizer:
         its disagreeing corner (`_without_fold`), if that scores `refine.corner_hypothesis_margin`
         more by `_explained`; its half and quarter turns are compared as in `_most_confident`. For a
         print compared mostly by correlation (`verify.align_textured_from`), its aligned texture
-        must also agree at least as well as the pose's."""
+        must also agree at least as well as the pose's. An end is adopted only if a corner
+        disagrees there (it is a fold; an end without one is the pose polished again, away from
+        the depth check's: flat cloths 0.3 -> 1.0 mm, z up to 6 mm off on the bench) and its
+        kept part scores `refine.corner_hypothesis_explained` (as a flat cloth does: a
+        look-alike fitted to part of another cloth with the rest hidden does not); corners are
+        tried only from `refine.corner_hypotheses_floor()` up (below, none could reach that)."""
         s = self.settings.refine
         if not (s.enabled and s.corner_hypotheses and s.corner_disagreement is not None):
             return chosen
-        if not chosen.search_fitness < s.corner_hypotheses_below:
+        if not s.corner_hypotheses_floor() <= chosen.search_fitness < s.corner_hypotheses_below:
             return chosen
         m, e = self.model, self.evaluator
         masks = corner_cuts(m.points_in, m.points_out, s.corner_hypotheses, s.corner_hypothesis_share)
@@ -567,9 +572,12 @@ class Recognizer:
             chosen.pose, fitnesses, self.proposer.limits(), rng, CORNER_HYPOTHESES_KEPT
         )
         ends = [self._without_fold(self._at_depth(T, 0.0), rng) for T in starts]
-        scores = [self._explained(end.pose) for end in ends]
+        scores = [self._explained(end.pose, folded=True) for end in ends]
         k = int(np.argmax(scores))
-        if not scores[k] > self._explained(chosen.pose) + s.corner_hypothesis_margin:
+        if not (
+            scores[k] > self._explained(chosen.pose) + s.corner_hypothesis_margin
+            and scores[k] >= s.corner_hypothesis_explained
+        ):
             return chosen
         best = ends[k]
         T = best.pose
@@ -600,9 +608,10 @@ class Recognizer:
                 return chosen
         return end
 
-    def _explained(self, pose: FloatArray) -> float:
+    def _explained(self, pose: FloatArray, *, folded: bool = False) -> float:
         """The search fitness at `pose` with its disagreeing corner hidden (`refinement.disagreeing_corner`
-        at `refine.corner_disagreement`), or without one if none disagrees that much."""
+        at `refine.corner_disagreement`), or without one if none disagrees that much (with
+        `folded`: -inf, the pose is not one of a folded cloth)."""
         m = self.model
         agree, disagree = self.evaluator.point_agreement(pose)
         level = self.settings.refine.corner_disagreement
@@ -610,7 +619,7 @@ class Recognizer:
             None if level is None else disagreeing_corner(m.points_in, m.points_out, agree, disagree, level)
         )
         if hidden is None:
-            return float(self.proposer.fitness()(pose)[0])
+            return -np.inf if folded else float(self.proposer.fitness()(pose)[0])
         return float(KernelFitness(self.evaluator, search=True, hidden=hidden)(pose)[0])
 
     def _depth_checked(self, chosen: _Verified) -> tuple[_Verified, DepthMeasurement]:
