@@ -552,11 +552,13 @@ class Recognizer:
         more by `_explained`; its half and quarter turns are compared as in `_most_confident`. For a
         print compared mostly by correlation (`verify.align_textured_from`), its aligned texture
         must also agree at least as well as the pose's. An end is adopted only if a corner
-        disagrees there (it is a fold; an end without one is the pose polished again, away from
-        the depth check's: flat cloths 0.3 -> 1.0 mm, z up to 6 mm off on the bench) and its
-        kept part scores `refine.corner_hypothesis_explained` (as a flat cloth does: a
-        look-alike fitted to part of another cloth with the rest hidden does not); corners are
-        tried only from `refine.corner_hypotheses_floor()` up (below, none could reach that)."""
+        disagrees there (it is a fold: where the best end has none, the cloth is not taken as
+        folded and the pose is kept; such an end is the pose polished again away from the
+        depth check's: flat cloths 0.3 -> 1.0 mm, z up to 6 mm off on the bench; and passing it
+        over for the next end took a 45 % covered plain square 65 mm off) and its kept part
+        scores `refine.corner_hypothesis_explained` (as a flat cloth does: a look-alike fitted
+        to part of another cloth with the rest hidden does not); corners are tried only from
+        `refine.corner_hypotheses_floor()` up (below, none could reach that)."""
         s = self.settings.refine
         if not (s.enabled and s.corner_hypotheses and s.corner_disagreement is not None):
             return chosen
@@ -572,10 +574,12 @@ class Recognizer:
             chosen.pose, fitnesses, self.proposer.limits(), rng, CORNER_HYPOTHESES_KEPT
         )
         ends = [self._without_fold(self._at_depth(T, 0.0), rng) for T in starts]
-        scores = [self._explained(end.pose, folded=True) for end in ends]
+        folds = [self._corner_explained(end.pose) for end in ends]
+        scores = [score for score, _ in folds]
         k = int(np.argmax(scores))
         if not (
-            scores[k] > self._explained(chosen.pose) + s.corner_hypothesis_margin
+            folds[k][1]  # the best explanation is a fold
+            and scores[k] > self._explained(chosen.pose) + s.corner_hypothesis_margin
             and scores[k] >= s.corner_hypothesis_explained
         ):
             return chosen
@@ -608,10 +612,13 @@ class Recognizer:
                 return chosen
         return end
 
-    def _explained(self, pose: FloatArray, *, folded: bool = False) -> float:
+    def _explained(self, pose: FloatArray) -> float:
         """The search fitness at `pose` with its disagreeing corner hidden (`refinement.disagreeing_corner`
-        at `refine.corner_disagreement`), or without one if none disagrees that much (with
-        `folded`: -inf, the pose is not one of a folded cloth)."""
+        at `refine.corner_disagreement`), or without one if none disagrees that much."""
+        return self._corner_explained(pose)[0]
+
+    def _corner_explained(self, pose: FloatArray) -> tuple[float, bool]:
+        """`_explained` at `pose`, and whether a corner disagrees there (a fold)."""
         m = self.model
         agree, disagree = self.evaluator.point_agreement(pose)
         level = self.settings.refine.corner_disagreement
@@ -619,8 +626,8 @@ class Recognizer:
             None if level is None else disagreeing_corner(m.points_in, m.points_out, agree, disagree, level)
         )
         if hidden is None:
-            return -np.inf if folded else float(self.proposer.fitness()(pose)[0])
-        return float(KernelFitness(self.evaluator, search=True, hidden=hidden)(pose)[0])
+            return float(self.proposer.fitness()(pose)[0]), False
+        return float(KernelFitness(self.evaluator, search=True, hidden=hidden)(pose)[0]), True
 
     def _depth_checked(self, chosen: _Verified) -> tuple[_Verified, DepthMeasurement]:
         """`chosen` checked against the stereo pair (`stereo_depth.py`): moved to its stereo
