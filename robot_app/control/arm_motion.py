@@ -23,6 +23,7 @@ from robot_app.control.limits import JointLimits, LimitReport, check_limits
 from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.trajectory import (
     JoinedTrajectory,
+    JointTrajectory,
     OnlineTrajectory,
     TrajectorySample,
     plan_point_to_point,
@@ -185,13 +186,7 @@ class ArmMotion:
             a_start=self.command.a,
             dt=self.cell.dt,
         )
-        self.ruckig_times_us.append(trajectory.calculation_time_s * 1e6)
-        steps = round(trajectory.duration / self.cell.dt)
-        for k in range(1, steps + 1):
-            sample = trajectory.sample(k * self.cell.dt)
-            self.send(sample.q, sample.v, sample.a)
-        self.command.v[:] = 0.0
-        self.command.a[:] = 0.0
+        self._follow(trajectory)
 
     def move_slowing_down(self, q_goal: npt.ArrayLike, speed: float, below: float) -> None:
         """Jerk-limited move to rest at `q_goal` [rad] with the limits scaled by `speed` once
@@ -209,7 +204,8 @@ class ArmMotion:
         )
         self._follow(trajectory)
 
-    def _follow(self, trajectory: JoinedTrajectory) -> None:
+    def _follow(self, trajectory: JointTrajectory | JoinedTrajectory) -> None:
+        """Send every control sample of `trajectory`, then hold the goal at rest."""
         self.ruckig_times_us.append(trajectory.calculation_time_s * 1e6)
         steps = round(trajectory.duration / self.cell.dt)
         for k in range(1, steps + 1):
