@@ -43,7 +43,12 @@ from robot_app.config import StrictModel
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
 from robot_app.control.logged_cell import LoggedCell
-from robot_app.control.trajectory import plan_point_to_point, plan_slowing_down
+from robot_app.control.trajectory import (
+    JoinedTrajectory,
+    JointTrajectory,
+    plan_point_to_point,
+    plan_slowing_down,
+)
 from robot_app.errors import IKError
 from robot_app.geometry import make_transform
 
@@ -130,10 +135,7 @@ class JobMotion:
         limits = self.limits if speed >= 1.0 else self.limits.scaled(speed)
         start = self.q
         trajectory = plan_point_to_point(start, np.asarray(q_goal, dtype=float), limits, dt=self.cell.dt)
-        steps = round(trajectory.duration / self.cell.dt)
-        for k in range(1, steps + 1):
-            sample = trajectory.sample(k * self.cell.dt)
-            self._send(sample.q, sample.v)
+        self._follow(trajectory)
 
     def move_slowing_down(self, q_goal: npt.ArrayLike, speed: float, below: float) -> None:
         """Jerk-limited move from rest to rest at `q_goal` [rad], the limits scaled by `speed`
@@ -147,6 +149,10 @@ class JobMotion:
             lambda q: bool(self.tcp_position(q)[2] <= below),
             dt=self.cell.dt,
         )
+        self._follow(trajectory)
+
+    def _follow(self, trajectory: JointTrajectory | JoinedTrajectory) -> None:
+        """Send every control sample of `trajectory` after its start."""
         steps = round(trajectory.duration / self.cell.dt)
         for k in range(1, steps + 1):
             sample = trajectory.sample(k * self.cell.dt)
