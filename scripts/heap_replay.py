@@ -17,12 +17,14 @@ pushes a crossed node to the wrong side; README, session 9). Compare physics set
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from robot_app.config import load_config
+from robot_app.errors import ConfigError
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.sim import World
 from robot_app.sim.pile import make_pile
@@ -43,9 +45,14 @@ def main() -> None:
     parser.add_argument("--rest", type=float, default=6.0, help="simulated seconds left alone")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
+    if not args.rest > 0:
+        parser.error(f"--rest must be > 0 s, got {args.rest}")
     data = np.load(DATA)
     times = sorted({key.split("_")[0] for key in data.files}, key=lambda t: float(t[1:]))
-    config = load_config(ClearTableConfig, ROOT / "configs" / "clear_table.yaml", [*EPISODE, *args.set])
+    try:
+        config = load_config(ClearTableConfig, ROOT / "configs" / "clear_table.yaml", [*EPISODE, *args.set])
+    except ConfigError as err:
+        sys.exit(f"heap_replay: {err}")
     slid = 0
     for moment in times:
         start = time.perf_counter()
