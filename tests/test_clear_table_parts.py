@@ -296,6 +296,7 @@ def test_picks_rows_carry_the_simulators_truth_of_each_lift() -> None:
             name=name, box="colours", start_time=start, end_time=end, result=result, lift_check="ok",
             weighed=0.0335, expected_weight=0.0242, put_back=False, dropped=False, box_check=None,
             grasp_clearance=None, came_along=("No.11",) if name == "No.7" else (), remembered=("No.11",),
+            named_by="memory" if name == "No.7" else "", companion_search="", laid_back_too=(),
         )  # fmt: skip
 
     episode = SimpleNamespace(
@@ -405,7 +406,7 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     loop = SimpleNamespace(
         arm=SimpleNamespace(resume_at=resumed.append)
     )  # the loop goes on from the put-back
-    job.rig = SimpleNamespace(right=None)  # type: ignore[assignment]
+    job.rig = SimpleNamespace(right=SimpleNamespace(project=lambda p: np.zeros((1, 2))))  # type: ignore[assignment]
     job._survey_capture = SimpleNamespace(transform_right_camera_to_world=np.eye(4))  # type: ignore[assignment]
     job.sort = SortSettings(default="colours", boxes={"whites": (6, 17, 18)})
     job._hidden_spots = {}
@@ -416,7 +417,8 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
         put_back_spots=[np.zeros(2)],
         laid=[(np.zeros(2), np.zeros(2))],
     )
-    four = SimpleNamespace(name="No.4", transform_model_to_camera=np.eye(4))
+    footprint = np.ones((4, 4), dtype=bool)
+    four = SimpleNamespace(name="No.4", transform_model_to_camera=np.eye(4), footprint=footprint)
     attempt = table_clearer.AttemptState(
         SimpleNamespace(name="No.10"),  # type: ignore[arg-type]
         SimpleNamespace(name="colours"),  # type: ignore[arg-type]

@@ -120,6 +120,12 @@ class ClearTableSettings(StrictModel):
             finds there; if exactly one weighs what the load cell read too much and it goes
             into the same box, both are placed (its identity then comes from memory, and
             the notes say so); 0: off.
+        companion_gone: when no surveyed cloth under the grasp point is a double pick's
+            other cloth, name it by what left the table: of the pick's survey's other
+            cloths whose footprint comes within the meant cloth's hanging reach of the
+            grasp point and whose weight is the extra the load cell read, each is checked
+            in the lift check's images, and the one no longer found in its place (only if
+            exactly one) is named (`pick_checks.gone_companion`); false: off.
         put_down_height: TCP above the table when a lift that took too much (or the
             wrong cloth) is put back.
         put_down_speed: limit scale of the lowering.
@@ -171,6 +177,7 @@ class ClearTableSettings(StrictModel):
     put_down_slide: float = Field(0.06, ge=0.0, le=0.2)
     companion_reach_px: float = Field(20.0, ge=0.0)
     remembered_reach: float = Field(0.04, ge=0.0, le=0.3)
+    companion_gone: bool = True
     survey_latency: float | None = Field(None, ge=0.0)
     look_at_boxes: bool = True
     box_view_height: float = Field(0.42, gt=0.1)
@@ -235,6 +242,11 @@ class PickAttempt:
             survey saw [m] (None: the loop's own grasp point; inf: no other cloth).
         remembered: of `came_along`, the cloths named from an earlier survey (the pick's
             own survey did not see them), not from vision at the lift.
+        named_by: how a double pick's other cloth was named ("grasp": the one surveyed
+            cloth under the grasp point; "gone": the one within reach gone from its place;
+            "memory"; "": not named).
+        companion_search: what the search by what left the table found, in words.
+        laid_back_too: the named other cloth of a double pick put back with it (another box).
     """
 
     name: str
@@ -252,6 +264,9 @@ class PickAttempt:
     check_wall_s: float = 0.0
     grasp_clearance: float | None = None
     remembered: tuple[str, ...] = ()
+    named_by: str = ""
+    companion_search: str = ""
+    laid_back_too: tuple[str, ...] = ()
 
     @property
     def lift_rejected(self) -> bool:

@@ -7,8 +7,9 @@ held) and after RELEASE (the box changed with the cloth's colours).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -44,6 +45,8 @@ class AttemptState:
     laid_back_too: tuple[str, ...] = ()  # known cloths that came along and were put back with it
     put_back_at: FloatArray | None = None  # (2,) where a put-back let go [m]
     unnamed_along: bool = False  # a double pick whose other cloth no survey identified
+    named_by: str = ""  # how a double pick's other cloth was named: "grasp", "gone", "memory"
+    companion_search: str = ""  # what the search for that cloth found (picks.csv, diagnosis)
     lift_check: str = ""
     weighed: float | None = None
     put_back: bool = False
@@ -136,6 +139,67 @@ def remembered_companion(
     return fits[0] if len(fits) == 1 else None
 
 
+class GoneCompanion(NamedTuple):
+    """The search for a double pick's other cloth by what left the table.
+
+    Attributes:
+        name: the one candidate gone from its place, or None.
+        candidates: the surveyed cloths within reach whose weight fits the extra, in order.
+        gone: of `candidates`, those the check after the lift no longer finds in place.
+    """
+
+    name: str | None
+    candidates: tuple[str, ...]
+    gone: tuple[str, ...]
+
+
+def gone_companion(
+    grasp_xy: FloatArray,
+    extra: float,
+    footprints: Mapping[str, FloatArray],
+    reach: float,
+    weights: Mapping[str, float],
+    settings: ClearTableSettings,
+    stayed: Callable[[str], bool],
+) -> GoneCompanion:
+    """The double pick's other cloth named by what left the table: among the cloths the
+    pick's survey saw, those whose footprint comes within `reach` [m] of the grasp point
+    and whose weight is the `extra` [kg] the load cell read are checked (`stayed`, one
+    check each); the name is given only if exactly one of them is gone from its place.
+    Never by weight alone: a single candidate must be found gone too.
+
+    Args:
+        grasp_xy: (2,) where the fingers closed, on the table [m].
+        extra: the load cell's reading less the meant cloth's weight [kg].
+        footprints: cloth name -> (M, 2) table points [m] of its footprint where the pick's
+            survey saw it (the meant cloth left out).
+        reach: how far from the grasp point a cloth that came along can have lain [m]
+            (the meant cloth's hanging reach: a dragged cloth touched it or the fingers).
+        weights: cloth name -> its weight [kg].
+        settings: `weight_tolerance`, `weight_floor`.
+        stayed: name -> does the check after the lift still find it where it was seen?
+
+    Raises:
+        ValueError: `reach` negative or `grasp_xy` not two numbers.
+    """
+    if not reach >= 0.0:
+        raise ValueError(f"reach must be >= 0 m, got {reach}")
+    grasp = np.asarray(grasp_xy, dtype=float)
+    if grasp.shape != (2,):
+        raise ValueError(f"grasp_xy must be (x, y) [m], got shape {grasp.shape}")
+    s = settings
+    candidates = []
+    for name, footprint in footprints.items():
+        points = np.asarray(footprint, dtype=float).reshape(-1, 2)
+        if not len(points) or float(np.min(np.hypot(*(points - grasp).T))) > reach:
+            continue
+        weight = weights.get(name)
+        if weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor:
+            candidates.append(name)
+    gone = tuple(name for name in candidates if not stayed(name))
+    return GoneCompanion(gone[0] if len(gone) == 1 else None, tuple(candidates), gone)
+
+
 def still_there(
     recognizer: Recognizer, capture: StereoCapture, pose_world: FloatArray, same_place: float
 ) -> bool:
@@ -189,9 +253,11 @@ __all__ = [
     "DROPPED",
     "PUT_BACK",
     "AttemptState",
+    "GoneCompanion",
     "agrees",
     "check_release",
     "companion",
+    "gone_companion",
     "remembered_companion",
     "still_there",
     "weight_verdict",

@@ -50,6 +50,7 @@ from robot_app.control.clear_table_records import (
     TableResult,
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
+from robot_app.control.intercept import hanging_reach
 from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
@@ -61,6 +62,7 @@ from robot_app.control.pick_checks import (
     AttemptState,
     check_release,
     companion,
+    gone_companion,
     remembered_companion,
     still_there,
     weight_verdict,
@@ -82,7 +84,7 @@ from robot_app.control.table_survey import (
     to_world,
 )
 from robot_app.errors import IKError, InterruptError, TrajectoryError
-from robot_app.geometry import transform_points
+from robot_app.geometry import invert_transform, transform_points
 from robot_app.vision import Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, UnknownRegion, identify
 
@@ -494,13 +496,27 @@ class TableClearer:
                 self.weights,
                 self.settings,
             )
-            if other is not None and self._stayed(other, attempt, capture):
+            checked: dict[str, bool] = {}  # cloth -> still found in its place (one check each)
+
+            def in_place(name: str) -> bool:
+                if name not in checked:
+                    checked[name] = self._stayed(name, attempt, capture)
+                return checked[name]
+
+            attempt.named_by = "grasp" if other is not None else ""
+            if other is not None and in_place(other):
                 attempt.notes.append(f"{other} weighs the extra but still lies where the survey saw it")
-                other = None  # the extra weight is another cloth's
+                other, attempt.named_by = None, ""  # the extra weight is another cloth's
             source = ""
+            if other is None and self.settings.companion_gone:
+                other = self._gone_companion(attempt, grasp, extra, in_place)
+                attempt.named_by = "gone" if other is not None else ""
+                if other is not None:
+                    source = " (the only cloth within reach of the extra weight gone from its place)"
             if other is None:
                 other = self._remembered_companion(attempt, capture, grasp, extra)
                 if other is not None:
+                    attempt.named_by = "memory"
                     survey = self.ledger.last_survey[other]
                     source = (
                         f" (identity from memory: seen by survey {survey}, hidden since, gone from there)"
@@ -511,10 +527,10 @@ class TableClearer:
                     f"double pick: {other} would weigh the extra{source}, but the fingers closed "
                     f"{laid[1] * 1000:.0f} mm from where {laid[0]} was laid back: identity not sure"
                 )
-                other, source = None, ""
+                other, source, attempt.named_by = None, "", ""
             if other is not None and self.sort.box_for(other) == attempt.box.name:
                 attempt.came_along = (other,)
-                attempt.remembered = (other,) if source else ()
+                attempt.remembered = (other,) if attempt.named_by == "memory" else ()
                 attempt.notes.append(
                     f"double pick ({what}): {other} came along{source}, same box: both placed"
                 )
@@ -562,6 +578,48 @@ class TableClearer:
         attempt.check_wall_s += time.perf_counter() - wall
         self._wait(time.process_time() - cpu, 1)
         return stayed
+
+    def _gone_companion(
+        self, attempt: AttemptState, grasp: FloatArray, extra: float, stayed: Callable[[str], bool]
+    ) -> str | None:
+        """The double pick's other cloth by what left the table (`pick_checks.gone_companion`):
+        of the pick's survey's other cloths within the meant cloth's hanging reach of the
+        grasp point and weighing the extra, the one the check after the lift no longer finds
+        where that survey saw it. Its search goes into `attempt.companion_search`."""
+        if not attempt.others:
+            attempt.companion_search = "no other cloth surveyed"
+            return None
+        model = self.recognizers[attempt.name].model
+        grasp_model = (
+            attempt.grasp_point_model if attempt.grasp_point_model is not None else model.grasp_point
+        )
+        reach = hanging_reach(model.points_in, grasp_model)
+        footprints = {
+            d.name: transform_points(
+                to_world(self._survey_capture, d.transform_model_to_camera),
+                self.recognizers[d.name].model.points_in,
+            )[:, :2]
+            for d in attempt.others
+            if d.name in self.recognizers
+        }
+        found = gone_companion(grasp[:2], extra, footprints, reach, self.weights, self.settings, stayed)
+        pixel = self._survey_pixel(grasp)
+        near = sorted(
+            (float(np.min(np.hypot(*(points - grasp[:2]).T))), d.name, _pixels_away(d.footprint, pixel))
+            for d in attempt.others
+            if (points := footprints.get(d.name)) is not None
+        )
+        attempt.companion_search = (
+            f"extra {extra * 1000:.0f} g, reach {reach * 1000:.0f} mm; surveyed: "
+            + ", ".join(f"{name} {d * 1000:.0f} mm/{px} px" for d, name, px in near)
+            + f"; fit: {' '.join(found.candidates) or '-'}; gone: {' '.join(found.gone) or '-'}"
+        )
+        return found.name
+
+    def _survey_pixel(self, point_world: FloatArray) -> FloatArray:
+        """(u, v) where the pick's survey image shows `point_world` [px]."""
+        to_camera = invert_transform(self._survey_capture.transform_right_camera_to_world)
+        return self.rig.right.project((to_camera[:3, :3] @ point_world + to_camera[:3, 3])[None])[0]
 
     def _remembered_companion(
         self, attempt: AttemptState, capture: StereoCapture, grasp: FloatArray, extra: float
@@ -700,6 +758,15 @@ class TableClearer:
             wall_s=time.perf_counter() - wall_start,
             interrupted=interrupted,
         )
+
+
+def _pixels_away(mask: npt.NDArray[np.bool_], pixel: FloatArray) -> int:
+    """Chessboard distance from `pixel` (u, v) to the nearest pixel of `mask` [px] (as the
+    square window of `pick_checks.companion`); -1 for an empty mask."""
+    v, u = np.nonzero(mask)
+    if not len(u):
+        return -1
+    return int(np.min(np.maximum(np.abs(u - round(pixel[0])), np.abs(v - round(pixel[1])))))
 
 
 __all__ = ["TableClearer"]
