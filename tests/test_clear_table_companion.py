@@ -211,3 +211,33 @@ def test_two_cloths_gone_that_weigh_the_extra_are_put_back_unnamed(monkeypatch: 
         job._after_lift(attempt, LOOP)  # type: ignore[arg-type]
     assert put_back == ["No.3"] and attempt.came_along == () and attempt.unnamed_along
     assert attempt.named_by == "" and "gone: No.12 No.4" in attempt.companion_search
+
+
+# ------------------------------------------------------------------ in the simulated cell
+@pytest.mark.slow
+def test_a_double_pick_of_two_colours_cloths_side_by_side_ends_with_both_in_the_box() -> None:
+    # the first grasp catches the other cloth too (`faults.double_grasps`), which lies beside
+    # the grasp point, not under it: both go into the colours box in that one pick (~20 s)
+    from robot_app.config import load_config
+    from robot_app.experiments.clear_table import ClearTableConfig, run_clear_table
+
+    episode = run_clear_table(
+        load_config(
+            ClearTableConfig,
+            "configs/clear_table.yaml",
+            [
+                "clear.survey_latency=0.3",
+                "loop.vision_latency=0.06",
+                "seed=5",
+                "pile.cloths=[3,12]",
+                "pile.layout=[[0.5,-0.07,0.0],[0.5,0.066,0.0]]",
+                "faults.double_grasps=[1]",
+            ],
+        )
+    )
+    first = episode.result.attempts[0]
+    assert len(episode.lifts[0].lifted) == 2  # the fault took both: a true double pick
+    assert first.lift_check == "double" and first.named_by == "gone", first.companion_search
+    assert first.result.outcome is Outcome.PLACED and len(first.came_along) == 1
+    assert {c.number: c.final for c in episode.verdict.cloths} == {3: "colours", 12: "colours"}
+    assert episode.verdict.wrong_box == 0
