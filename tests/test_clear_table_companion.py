@@ -50,7 +50,7 @@ def test_the_one_candidate_gone_from_its_place_is_named() -> None:
     found = gone_companion(
         np.zeros(2), 0.019, {"No.12": beside, "No.4": far}, 0.14, weights, SETTINGS, stayed
     )
-    assert found.name == "No.12" and found.candidates == ("No.12",) and found.gone == ("No.12",)
+    assert found.names == ("No.12",) and found.candidates == ("No.12",) and found.gone == ("No.12",)
     assert checked == ["No.12"]  # one check per candidate: No.4 lies beyond the reach
 
 
@@ -59,7 +59,7 @@ def test_never_named_by_weight_alone() -> None:
     found = gone_companion(
         np.zeros(2), 0.019, {"No.12": _strip(0.06, 0.26)}, 0.14, {"No.12": 0.018}, SETTINGS, lambda n: True
     )
-    assert found.name is None and found.candidates == ("No.12",) and found.gone == ()
+    assert found.names == () and found.candidates == ("No.12",) and found.gone == ()
 
 
 def test_two_candidates_gone_name_neither() -> None:
@@ -68,21 +68,36 @@ def test_two_candidates_gone_name_neither() -> None:
     weights = {"No.12": 0.018, "No.17": 0.019}
     prints = {"No.12": _strip(0.06, 0.26), "No.17": _strip(-0.26, -0.05)}
     found = gone_companion(np.zeros(2), 0.019, prints, 0.14, weights, SETTINGS, lambda n: False)
-    assert found.name is None and set(found.gone) == {"No.12", "No.17"}
+    assert found.names == () and set(found.gone) == {"No.12", "No.17"}
     # ... and of two that fit, the one gone is named when the other is still in its place
     found = gone_companion(np.zeros(2), 0.019, prints, 0.14, weights, SETTINGS, lambda n: n == "No.12")
-    assert found.name == "No.17"
+    assert found.names == ("No.17",)
 
 
 def test_a_cloth_gone_that_does_not_weigh_the_extra_is_not_named() -> None:
     weights = {"No.12": 0.018, "No.9": 0.040}
     prints = {"No.12": _strip(0.06, 0.26), "No.9": _strip(-0.26, -0.05)}
     found = gone_companion(np.zeros(2), 0.041, prints, 0.14, weights, SETTINGS, lambda n: n == "No.12")
-    assert found.name == "No.9"  # 41 g extra: No.9's weight, No.12 (18 g) is no candidate
+    assert found.names == ("No.9",)  # 41 g extra: No.9's weight
+    found = gone_companion(np.zeros(2), 0.030, prints, 0.14, weights, SETTINGS, lambda n: n == "No.9")
+    assert found.names == ()  # 30 g: No.12 (18 g) is gone but does not weigh it
     found = gone_companion(np.zeros(2), 0.005, prints, 0.14, weights, SETTINGS, lambda n: False)
-    assert found.name is None and found.candidates == ()  # 5 g: neither weighs that
+    assert found.names == () and found.candidates == ()  # 5 g: both too heavy to be checked
     unweighed = gone_companion(np.zeros(2), 0.018, prints, 0.14, {}, SETTINGS, lambda n: False)
-    assert unweighed.name is None  # a cloth of unknown weight is never named
+    assert unweighed.names == () and unweighed.candidates == ()  # unknown weight: never named
+
+
+def test_two_cloths_dragged_along_together_are_named_when_only_they_weigh_the_extra() -> None:
+    # bench episode 9 (this tree): No.13 came up with No.9 and No.2 beside it, 65 g for 25 g
+    weights = {"No.9": 0.017, "No.2": 0.024, "No.4": 0.021}
+    prints = {"No.9": _strip(0.064, 0.20), "No.2": _strip(-0.20, -0.069), "No.4": _strip(0.30, 0.40)}
+    found = gone_companion(np.zeros(2), 0.040, prints, 0.188, weights, SETTINGS, lambda n: False)
+    assert found.names == ("No.9", "No.2") and found.candidates == ("No.9", "No.2")  # No.4 beyond reach
+    # a third cloth gone too makes several sets weigh the extra (No.9 + No.2, No.2 + No.18, ...): none
+    weights["No.18"] = 0.018
+    prints["No.18"] = _strip(0.05, 0.15, y=0.05)
+    found = gone_companion(np.zeros(2), 0.040, prints, 0.188, weights, SETTINGS, lambda n: False)
+    assert found.names == () and len(found.gone) == 3
 
 
 def test_bad_input_is_refused() -> None:

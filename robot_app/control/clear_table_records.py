@@ -121,11 +121,13 @@ class ClearTableSettings(StrictModel):
             into the same box, both are placed (its identity then comes from memory, and
             the notes say so); 0: off.
         companion_gone: when no surveyed cloth under the grasp point is a double pick's
-            other cloth, name it by what left the table: of the pick's survey's other
-            cloths whose footprint comes within the meant cloth's hanging reach of the
-            grasp point and whose weight is the extra the load cell read, each is checked
-            in the lift check's images, and the one no longer found in its place (only if
-            exactly one) is named (`pick_checks.gone_companion`); false: off.
+            other cloth, name it by what left the table: the pick's survey's other cloths
+            whose footprint comes within the meant cloth's hanging reach of the grasp point
+            and that weigh no more than the extra the load cell read are each checked in
+            the lift check's images; of those no longer found in their place, the one set
+            (one cloth, or two dragged along together) whose weight is the extra is named,
+            only if exactly one set is (`pick_checks.gone_companion`); all in the meant
+            cloth's box: all placed, else put back; false: off.
         put_down_height: TCP above the table when a lift that took too much (or the
             wrong cloth) is put back.
         put_down_speed: limit scale of the lowering.

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from itertools import combinations
 from typing import NamedTuple
 
 import numpy as np
@@ -140,17 +141,23 @@ def remembered_companion(
 
 
 class GoneCompanion(NamedTuple):
-    """The search for a double pick's other cloth by what left the table.
+    """The search for a double pick's other cloth(s) by what left the table.
 
     Attributes:
-        name: the one candidate gone from its place, or None.
-        candidates: the surveyed cloths within reach whose weight fits the extra, in order.
+        names: the cloths named (those gone whose weight together is the extra), or ().
+        candidates: the surveyed cloths within reach light enough to be (part of) the
+            extra, in order: each was checked once.
         gone: of `candidates`, those the check after the lift no longer finds in place.
     """
 
-    name: str | None
+    names: tuple[str, ...]
     candidates: tuple[str, ...]
     gone: tuple[str, ...]
+
+
+def weighs(extra: float, weight: float, settings: ClearTableSettings) -> bool:
+    """Is `extra` [kg] what a load of `weight` [kg] reads (`weight_tolerance`, `weight_floor`)?"""
+    return abs(extra - weight) <= weight * settings.weight_tolerance + settings.weight_floor
 
 
 def gone_companion(
@@ -162,11 +169,12 @@ def gone_companion(
     settings: ClearTableSettings,
     stayed: Callable[[str], bool],
 ) -> GoneCompanion:
-    """The double pick's other cloth named by what left the table: among the cloths the
-    pick's survey saw, those whose footprint comes within `reach` [m] of the grasp point
-    and whose weight is the `extra` [kg] the load cell read are checked (`stayed`, one
-    check each); the name is given only if exactly one of them is gone from its place.
-    Never by weight alone: a single candidate must be found gone too.
+    """The double pick's other cloth(s) named by what left the table: the cloths the pick's
+    survey saw whose footprint comes within `reach` [m] of the grasp point and that weigh
+    no more than the `extra` [kg] the load cell read are checked (`stayed`, one check
+    each); of those gone from their place, the one set whose weight together is the extra
+    is named, only if exactly one set of them is (one cloth gone that weighs it, or two
+    dragged along together). Never by weight alone: a named cloth was found gone.
 
     Args:
         grasp_xy: (2,) where the fingers closed, on the table [m].
@@ -175,7 +183,7 @@ def gone_companion(
             survey saw it (the meant cloth left out).
         reach: how far from the grasp point a cloth that came along can have lain [m]
             (the meant cloth's hanging reach: a dragged cloth touched it or the fingers).
-        weights: cloth name -> its weight [kg].
+        weights: cloth name -> its weight [kg] (a cloth of unknown weight is never named).
         settings: `weight_tolerance`, `weight_floor`.
         stayed: name -> does the check after the lift still find it where it was seen?
 
@@ -187,17 +195,22 @@ def gone_companion(
     grasp = np.asarray(grasp_xy, dtype=float)
     if grasp.shape != (2,):
         raise ValueError(f"grasp_xy must be (x, y) [m], got shape {grasp.shape}")
-    s = settings
     candidates = []
     for name, footprint in footprints.items():
         points = np.asarray(footprint, dtype=float).reshape(-1, 2)
         if not len(points) or float(np.min(np.hypot(*(points - grasp).T))) > reach:
             continue
         weight = weights.get(name)
-        if weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor:
+        if weight is not None and extra >= weight * (1 - settings.weight_tolerance) - settings.weight_floor:
             candidates.append(name)
     gone = tuple(name for name in candidates if not stayed(name))
-    return GoneCompanion(gone[0] if len(gone) == 1 else None, tuple(candidates), gone)
+    fits = [
+        subset
+        for size in range(1, len(gone) + 1)
+        for subset in combinations(gone, size)
+        if weighs(extra, sum(weights[n] for n in subset), settings)
+    ]
+    return GoneCompanion(fits[0] if len(fits) == 1 else (), tuple(candidates), gone)
 
 
 def still_there(
@@ -260,5 +273,6 @@ __all__ = [
     "gone_companion",
     "remembered_companion",
     "still_there",
+    "weighs",
     "weight_verdict",
 ]

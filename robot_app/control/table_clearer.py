@@ -486,58 +486,25 @@ class TableClearer:
         if verdict == "double" and attempt.weighed is not None and expected is not None:
             grasp = self.motion.tcp_position()
             grasp[2] = self.table_z
-            extra = attempt.weighed - expected
-            other = companion(
-                self._survey_capture,
-                self.rig.right,
-                grasp,
-                attempt.others,
-                extra,
-                self.weights,
-                self.settings,
-            )
-            checked: dict[str, bool] = {}  # cloth -> still found in its place (one check each)
-
-            def in_place(name: str) -> bool:
-                if name not in checked:
-                    checked[name] = self._stayed(name, attempt, capture)
-                return checked[name]
-
-            attempt.named_by = "grasp" if other is not None else ""
-            if other is not None and in_place(other):
-                attempt.notes.append(f"{other} weighs the extra but still lies where the survey saw it")
-                other, attempt.named_by = None, ""  # the extra weight is another cloth's
-            source = ""
-            if other is None and self.settings.companion_gone:
-                other = self._gone_companion(attempt, grasp, extra, in_place)
-                attempt.named_by = "gone" if other is not None else ""
-                if other is not None:
-                    source = " (the only cloth within reach of the extra weight gone from its place)"
-            if other is None:
-                other = self._remembered_companion(attempt, capture, grasp, extra)
-                if other is not None:
-                    attempt.named_by = "memory"
-                    survey = self.ledger.last_survey[other]
-                    source = (
-                        f" (identity from memory: seen by survey {survey}, hidden since, gone from there)"
-                    )
-            laid = self._laid_near(grasp[:2]) if other is not None else None
+            named, source = self._name_companions(attempt, capture, grasp, attempt.weighed - expected)
+            laid = self._laid_near(grasp[:2]) if named else None
+            listed = " and ".join(named)
             if laid is not None:
                 attempt.notes.append(
-                    f"double pick: {other} would weigh the extra{source}, but the fingers closed "
+                    f"double pick: {listed} would weigh the extra{source}, but the fingers closed "
                     f"{laid[1] * 1000:.0f} mm from where {laid[0]} was laid back: identity not sure"
                 )
-                other, source, attempt.named_by = None, "", ""
-            if other is not None and self.sort.box_for(other) == attempt.box.name:
-                attempt.came_along = (other,)
-                attempt.remembered = (other,) if attempt.named_by == "memory" else ()
+                named, source, attempt.named_by = (), "", ""
+            if named and all(self.sort.box_for(n) == attempt.box.name for n in named):
+                attempt.came_along = named
+                attempt.remembered = named if attempt.named_by == "memory" else ()
                 attempt.notes.append(
-                    f"double pick ({what}): {other} came along{source}, same box: both placed"
+                    f"double pick ({what}): {listed} came along{source}, same box: all placed"
                 )
                 return
-            if other is not None:
-                attempt.notes.append(f"double pick: {other} came along{source}, belongs in another box")
-                attempt.laid_back_too = (other,)
+            if named:
+                attempt.notes.append(f"double pick: {listed} came along{source}, not all in its box")
+                attempt.laid_back_too = named
             else:
                 attempt.unnamed_along = True
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
@@ -579,16 +546,53 @@ class TableClearer:
         self._wait(time.process_time() - cpu, 1)
         return stayed
 
+    def _name_companions(
+        self, attempt: AttemptState, capture: StereoCapture, grasp: FloatArray, extra: float
+    ) -> tuple[tuple[str, ...], str]:
+        """Which other cloth(s) came along with a double pick (`extra` [kg] more than the
+        meant cloth, fingers closed at `grasp` on the table [m], `capture` the check after
+        the lift), and how that is known (words for the notes): the one surveyed cloth
+        under the grasp point that weighs it and is gone from its place (`companion`);
+        else by what left the table (`gone_companion`); else from memory
+        (`remembered_companion`); else () (sets `attempt.named_by`)."""
+        checked: dict[str, bool] = {}  # cloth -> still found in its place (one check each)
+
+        def in_place(name: str) -> bool:
+            if name not in checked:
+                checked[name] = self._stayed(name, attempt, capture)
+            return checked[name]
+
+        s = self.settings
+        other = companion(self._survey_capture, self.rig.right, grasp, attempt.others, extra, self.weights, s)
+        if other is not None and not in_place(other):
+            attempt.named_by = "grasp"
+            return (other,), ""
+        if other is not None:
+            attempt.notes.append(f"{other} weighs the extra but still lies where the survey saw it")
+        if s.companion_gone:
+            gone = self._gone_companion(attempt, grasp, extra, in_place)
+            if gone:
+                attempt.named_by = "gone"
+                return gone, " (gone from its place, within reach, weighing the extra)"
+        other = self._remembered_companion(attempt, capture, grasp, extra)
+        if other is not None:
+            attempt.named_by = "memory"
+            survey = self.ledger.last_survey[other]
+            return (
+                other,
+            ), f" (identity from memory: seen by survey {survey}, hidden since, gone from there)"
+        return (), ""
+
     def _gone_companion(
         self, attempt: AttemptState, grasp: FloatArray, extra: float, stayed: Callable[[str], bool]
-    ) -> str | None:
+    ) -> tuple[str, ...]:
         """The double pick's other cloth by what left the table (`pick_checks.gone_companion`):
         of the pick's survey's other cloths within the meant cloth's hanging reach of the
         grasp point and weighing the extra, the one the check after the lift no longer finds
         where that survey saw it. Its search goes into `attempt.companion_search`."""
         if not attempt.others:
             attempt.companion_search = "no other cloth surveyed"
-            return None
+            return ()
         model = self.recognizers[attempt.name].model
         grasp_model = (
             attempt.grasp_point_model if attempt.grasp_point_model is not None else model.grasp_point
@@ -612,9 +616,9 @@ class TableClearer:
         attempt.companion_search = (
             f"extra {extra * 1000:.0f} g, reach {reach * 1000:.0f} mm; surveyed: "
             + ", ".join(f"{name} {d * 1000:.0f} mm/{px} px" for d, name, px in near)
-            + f"; fit: {' '.join(found.candidates) or '-'}; gone: {' '.join(found.gone) or '-'}"
+            + f"; checked: {' '.join(found.candidates) or '-'}; gone: {' '.join(found.gone) or '-'}"
         )
-        return found.name
+        return found.names
 
     def _survey_pixel(self, point_world: FloatArray) -> FloatArray:
         """(u, v) where the pick's survey image shows `point_world` [px]."""
