@@ -398,7 +398,9 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     job.ledger = TableLedger()
     job.table_z = 0.0
     job.weigh = lambda: 0.0469
-    job.cell = SimpleNamespace(capture=lambda: None)  # type: ignore[assignment]
+    above = np.diag([1.0, -1.0, -1.0, 1.0])
+    above[2, 3] = 0.5  # the lift check's camera, looking down from 0.5 m: No.4's place in view
+    job.cell = SimpleNamespace(capture=lambda: SimpleNamespace(transform_right_camera_to_world=above))  # type: ignore[assignment]
     job.motion = SimpleNamespace(  # type: ignore[assignment]
         hold=lambda seconds: None, tcp_position=lambda: np.array([0.46, -0.05, 0.4]), q=np.zeros(7)
     )
@@ -406,7 +408,8 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     loop = SimpleNamespace(
         arm=SimpleNamespace(resume_at=resumed.append)
     )  # the loop goes on from the put-back
-    job.rig = SimpleNamespace(right=SimpleNamespace(project=lambda p: np.zeros((1, 2))))  # type: ignore[assignment]
+    camera = SimpleNamespace(project=lambda p: np.zeros((len(p), 2)), image_size=(320, 240))
+    job.rig = SimpleNamespace(right=camera)  # type: ignore[assignment]
     job._survey_capture = SimpleNamespace(transform_right_camera_to_world=np.eye(4))  # type: ignore[assignment]
     job.sort = SortSettings(default="colours", boxes={"whites": (6, 17, 18)})
     job._hidden_spots = {}

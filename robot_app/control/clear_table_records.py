@@ -128,6 +128,10 @@ class ClearTableSettings(StrictModel):
             (one cloth, or two dragged along together) whose weight is the extra is named,
             only if exactly one set is (`pick_checks.gone_companion`); all in the meant
             cloth's box: all placed, else put back; false: off.
+        companion_in_view: a candidate of `companion_gone` (and the cloth under the grasp
+            point) is found gone only if at least this share of its place lies in the lift
+            check's right image; else its absence is unknown and nothing is named (a cloth
+            out of view is not found whether it left or not).
         put_down_height: TCP above the table when a lift that took too much (or the
             wrong cloth) is put back.
         put_down_speed: limit scale of the lowering.
@@ -180,6 +184,7 @@ class ClearTableSettings(StrictModel):
     companion_reach_px: float = Field(20.0, ge=0.0)
     remembered_reach: float = Field(0.04, ge=0.0, le=0.3)
     companion_gone: bool = True
+    companion_in_view: float = Field(0.9, gt=0.0, le=1.0)
     survey_latency: float | None = Field(None, ge=0.0)
     look_at_boxes: bool = True
     box_view_height: float = Field(0.42, gt=0.1)

@@ -148,11 +148,14 @@ class GoneCompanion(NamedTuple):
         candidates: the surveyed cloths within reach light enough to be (part of) the
             extra, in order: each was checked once.
         gone: of `candidates`, those the check after the lift no longer finds in place.
+        unseen: of `candidates`, those the check's images do not show enough of to tell
+            (then nothing is named: the unseen one may be what came along).
     """
 
     names: tuple[str, ...]
     candidates: tuple[str, ...]
     gone: tuple[str, ...]
+    unseen: tuple[str, ...] = ()
 
 
 def weighs(extra: float, weight: float, settings: ClearTableSettings) -> bool:
@@ -167,14 +170,15 @@ def gone_companion(
     reach: float,
     weights: Mapping[str, float],
     settings: ClearTableSettings,
-    stayed: Callable[[str], bool],
+    stayed: Callable[[str], bool | None],
 ) -> GoneCompanion:
     """The double pick's other cloth(s) named by what left the table: the cloths the pick's
     survey saw whose footprint comes within `reach` [m] of the grasp point and that weigh
     no more than the `extra` [kg] the load cell read are checked (`stayed`, one check
     each); of those gone from their place, the one set whose weight together is the extra
     is named, only if exactly one set of them is (one cloth gone that weighs it, or two
-    dragged along together). Never by weight alone: a named cloth was found gone.
+    dragged along together). Never by weight alone: a named cloth was found gone; and never
+    while a candidate's place was out of the check's view (its absence is then unknown).
 
     Args:
         grasp_xy: (2,) where the fingers closed, on the table [m].
@@ -186,6 +190,7 @@ def gone_companion(
         weights: cloth name -> its weight [kg] (a cloth of unknown weight is never named).
         settings: `weight_tolerance`, `weight_floor`.
         stayed: name -> does the check after the lift still find it where it was seen?
+            (None: its place is not enough in that check's view to tell.)
 
     Raises:
         ValueError: `reach` negative or `grasp_xy` not two numbers.
@@ -203,7 +208,11 @@ def gone_companion(
         weight = weights.get(name)
         if weight is not None and extra >= weight * (1 - settings.weight_tolerance) - settings.weight_floor:
             candidates.append(name)
-    gone = tuple(name for name in candidates if not stayed(name))
+    verdicts = {name: stayed(name) for name in candidates}
+    gone = tuple(name for name in candidates if verdicts[name] is False)
+    unseen = tuple(name for name in candidates if verdicts[name] is None)
+    if unseen:
+        return GoneCompanion((), tuple(candidates), gone, unseen)
     fits = [
         subset
         for size in range(1, len(gone) + 1)
@@ -211,6 +220,23 @@ def gone_companion(
         if weighs(extra, sum(weights[n] for n in subset), settings)
     ]
     return GoneCompanion(fits[0] if len(fits) == 1 else (), tuple(candidates), gone)
+
+
+def in_view_share(
+    capture: StereoCapture, camera: PinholeCamera, pose_world: FloatArray, points_model: FloatArray
+) -> float:
+    """Share of a cloth's model points (`points_model`, Σ_M, at `pose_world`) that the right
+    camera of `capture` has in its image: how much of its place a check there can see."""
+    to_camera = invert_transform(capture.transform_right_camera_to_world) @ pose_world
+    points = np.asarray(points_model, dtype=float).reshape(-1, 3)
+    inside = to_camera[:3, :3] @ points.T + to_camera[:3, 3:4]
+    ahead = inside[2] > 1e-6
+    if not np.any(ahead):
+        return 0.0
+    u, v = camera.project(inside.T[ahead]).T
+    width, height = camera.image_size
+    seen = (u >= 0) & (u < width) & (v >= 0) & (v < height)
+    return float(np.count_nonzero(seen)) / len(points)
 
 
 def still_there(
@@ -271,6 +297,7 @@ __all__ = [
     "check_release",
     "companion",
     "gone_companion",
+    "in_view_share",
     "remembered_companion",
     "still_there",
     "weighs",

@@ -63,6 +63,7 @@ from robot_app.control.pick_checks import (
     check_release,
     companion,
     gone_companion,
+    in_view_share,
     remembered_companion,
     still_there,
     weight_verdict,
@@ -535,11 +536,16 @@ class TableClearer:
                 return " and ".join(names), distance
         return None
 
-    def _stayed(self, name: str, attempt: AttemptState, capture: StereoCapture) -> bool:
+    def _stayed(self, name: str, attempt: AttemptState, capture: StereoCapture) -> bool | None:
         """Does the check after the lift (`capture`) still find `name`, one of the pick's
-        survey's other cloths, where that survey saw it (then it did not come along)?"""
+        survey's other cloths, where that survey saw it (then it did not come along)?
+        None, unchecked, when less than `clear.companion_in_view` of its place is in that
+        capture's right image (a cloth out of view is not found, whether it left or not)."""
         seen = next(d for d in attempt.others if d.name == name)
         pose = to_world(self._survey_capture, seen.transform_model_to_camera)
+        points = self.recognizers[name].model.points_in
+        if in_view_share(capture, self.rig.right, pose, points) < self.settings.companion_in_view:
+            return None
         wall, cpu = time.perf_counter(), time.process_time()
         stayed = still_there(self.recognizers[name], capture, pose, self.settings.same_place)
         attempt.check_wall_s += time.perf_counter() - wall
@@ -555,20 +561,22 @@ class TableClearer:
         under the grasp point that weighs it and is gone from its place (`companion`);
         else by what left the table (`gone_companion`); else from memory
         (`remembered_companion`); else () (sets `attempt.named_by`)."""
-        checked: dict[str, bool] = {}  # cloth -> still found in its place (one check each)
+        checked: dict[str, bool | None] = {}  # cloth -> still found in its place (one check each)
 
-        def in_place(name: str) -> bool:
+        def in_place(name: str) -> bool | None:
             if name not in checked:
                 checked[name] = self._stayed(name, attempt, capture)
             return checked[name]
 
         s = self.settings
         other = companion(self._survey_capture, self.rig.right, grasp, attempt.others, extra, self.weights, s)
-        if other is not None and not in_place(other):
+        if other is not None and in_place(other) is False:
             attempt.named_by = "grasp"
             return (other,), ""
         if other is not None:
-            attempt.notes.append(f"{other} weighs the extra but still lies where the survey saw it")
+            attempt.notes.append(
+                f"{other} weighs the extra but was not found gone from where the survey saw it"
+            )
         if s.companion_gone:
             gone = self._gone_companion(attempt, grasp, extra, in_place)
             if gone:
@@ -584,7 +592,7 @@ class TableClearer:
         return (), ""
 
     def _gone_companion(
-        self, attempt: AttemptState, grasp: FloatArray, extra: float, stayed: Callable[[str], bool]
+        self, attempt: AttemptState, grasp: FloatArray, extra: float, stayed: Callable[[str], bool | None]
     ) -> tuple[str, ...]:
         """The double pick's other cloth by what left the table (`pick_checks.gone_companion`):
         of the pick's survey's other cloths within the meant cloth's hanging reach of the
@@ -617,6 +625,7 @@ class TableClearer:
             f"extra {extra * 1000:.0f} g, reach {reach * 1000:.0f} mm; surveyed: "
             + ", ".join(f"{name} {d * 1000:.0f} mm/{px} px" for d, name, px in near)
             + f"; checked: {' '.join(found.candidates) or '-'}; gone: {' '.join(found.gone) or '-'}"
+            + (f"; out of view: {' '.join(found.unseen)}" if found.unseen else "")
         )
         return found.names
 
