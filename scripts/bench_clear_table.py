@@ -52,8 +52,10 @@ def episode_overrides(index: int, base_seed: int) -> list[str]:
 
 def double_pick_counts(episode: ClearTableEpisode) -> dict[str, int]:
     """For the detected double picks (two or more cloths lifted, by the simulator's truth,
-    and the lift rejected): the other cloth named (right: every name among the cloths
-    truly lifted; wrong: not), both placed (the named cloth carried into the box), put back."""
+    and the lift rejected): the other cloth named (right: the names are exactly the other
+    cloths truly lifted; wrong: a name not lifted, or a lifted cloth left unnamed, which
+    would ride into the meant cloth's box unbooked), both placed (the named cloth carried
+    into the box), put back."""
     counts = dict.fromkeys(
         ("double_named", "double_named_right", "double_named_wrong", "double_both_placed", "double_put_back"),
         0,
@@ -65,9 +67,9 @@ def double_pick_counts(episode: ClearTableEpisode) -> dict[str, int]:
             continue
         named = set(attempt.came_along) | set(attempt.laid_back_too)
         if named:
-            lifted = {f"No.{n}" for n in lift.lifted}
+            others = {f"No.{n}" for n in lift.lifted} - {lift.meant}
             counts["double_named"] += 1
-            counts["double_named_right" if named <= lifted else "double_named_wrong"] += 1
+            counts["double_named_right" if named == others else "double_named_wrong"] += 1
         if attempt.came_along and attempt.result.outcome is Outcome.PLACED:
             counts["double_both_placed"] += 1
         counts["double_put_back"] += int(attempt.put_back)

@@ -296,7 +296,7 @@ def test_picks_rows_carry_the_simulators_truth_of_each_lift() -> None:
             name=name, box="colours", start_time=start, end_time=end, result=result, lift_check="ok",
             weighed=0.0335, expected_weight=0.0242, put_back=False, dropped=False, box_check=None,
             grasp_clearance=None, came_along=("No.11",) if name == "No.7" else (), remembered=("No.11",),
-            named_by="memory" if name == "No.7" else "", companion_search="", laid_back_too=(),
+            named_by="memory" if name == "No.7" else "", laid_back_too=(),
         )  # fmt: skip
 
     episode = SimpleNamespace(
@@ -308,6 +308,7 @@ def test_picks_rows_carry_the_simulators_truth_of_each_lift() -> None:
     )
     rows = pick_rows(episode)  # type: ignore[arg-type]
     assert [r["lifted_truth"] for r in rows] == ["No.6 No.11", "No.7 No.11"]
+    assert [r["named_by"] for r in rows] == ["", "memory"]  # how the companion was named
     # anchored by the fingers, or dragged along by what they hold
     assert [r["held_truth"] for r in rows] == ["No.6 No.11", "No.7"]
     assert rows[1]["weighed_g"] == 33.5 and rows[1]["lift_check"] == "ok"
@@ -398,9 +399,7 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     job.ledger = TableLedger()
     job.table_z = 0.0
     job.weigh = lambda: 0.0469
-    above = np.diag([1.0, -1.0, -1.0, 1.0])
-    above[2, 3] = 0.5  # the lift check's camera, looking down from 0.5 m: No.4's place in view
-    job.cell = SimpleNamespace(capture=lambda: SimpleNamespace(transform_right_camera_to_world=above))  # type: ignore[assignment]
+    job.cell = SimpleNamespace(capture=lambda: None)  # type: ignore[assignment]
     job.motion = SimpleNamespace(  # type: ignore[assignment]
         hold=lambda seconds: None, tcp_position=lambda: np.array([0.46, -0.05, 0.4]), q=np.zeros(7)
     )
@@ -408,8 +407,7 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     loop = SimpleNamespace(
         arm=SimpleNamespace(resume_at=resumed.append)
     )  # the loop goes on from the put-back
-    camera = SimpleNamespace(project=lambda p: np.zeros((len(p), 2)), image_size=(320, 240))
-    job.rig = SimpleNamespace(right=camera)  # type: ignore[assignment]
+    job.rig = SimpleNamespace(right=None)  # type: ignore[assignment]
     job._survey_capture = SimpleNamespace(transform_right_camera_to_world=np.eye(4))  # type: ignore[assignment]
     job.sort = SortSettings(default="colours", boxes={"whites": (6, 17, 18)})
     job._hidden_spots = {}
@@ -420,8 +418,7 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
         put_back_spots=[np.zeros(2)],
         laid=[(np.zeros(2), np.zeros(2))],
     )
-    footprint = np.ones((4, 4), dtype=bool)
-    four = SimpleNamespace(name="No.4", transform_model_to_camera=np.eye(4), footprint=footprint)
+    four = SimpleNamespace(name="No.4", transform_model_to_camera=np.eye(4))
     attempt = table_clearer.AttemptState(
         SimpleNamespace(name="No.10"),  # type: ignore[arg-type]
         SimpleNamespace(name="colours"),  # type: ignore[arg-type]

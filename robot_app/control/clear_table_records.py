@@ -120,18 +120,6 @@ class ClearTableSettings(StrictModel):
             finds there; if exactly one weighs what the load cell read too much and it goes
             into the same box, both are placed (its identity then comes from memory, and
             the notes say so); 0: off.
-        companion_gone: when no surveyed cloth under the grasp point is a double pick's
-            other cloth, name it by what left the table: the pick's survey's other cloths
-            whose footprint comes within the meant cloth's hanging reach of the grasp point
-            and that weigh no more than the extra the load cell read are each checked in
-            the lift check's images; of those no longer found in their place, the one set
-            (one cloth, or two dragged along together) whose weight is the extra is named,
-            only if exactly one set is (`pick_checks.gone_companion`); all in the meant
-            cloth's box: all placed, else put back; false: off.
-        companion_in_view: a candidate of `companion_gone` (and the cloth under the grasp
-            point) is found gone only if at least this share of its place lies in the lift
-            check's right image; else its absence is unknown and nothing is named (a cloth
-            out of view is not found whether it left or not).
         put_down_height: TCP above the table when a lift that took too much (or the
             wrong cloth) is put back.
         put_down_speed: limit scale of the lowering.
@@ -183,8 +171,6 @@ class ClearTableSettings(StrictModel):
     put_down_slide: float = Field(0.06, ge=0.0, le=0.2)
     companion_reach_px: float = Field(20.0, ge=0.0)
     remembered_reach: float = Field(0.04, ge=0.0, le=0.3)
-    companion_gone: bool = True
-    companion_in_view: float = Field(0.9, gt=0.0, le=1.0)
     survey_latency: float | None = Field(None, ge=0.0)
     look_at_boxes: bool = True
     box_view_height: float = Field(0.42, gt=0.1)
@@ -250,9 +236,8 @@ class PickAttempt:
         remembered: of `came_along`, the cloths named from an earlier survey (the pick's
             own survey did not see them), not from vision at the lift.
         named_by: how a double pick's other cloth was named ("grasp": the one surveyed
-            cloth under the grasp point; "gone": the one within reach gone from its place;
+            cloth under the grasp point that weighs the extra and is gone from its place;
             "memory"; "": not named).
-        companion_search: what the search by what left the table found, in words.
         laid_back_too: the named other cloth of a double pick put back with it (another box).
     """
 
@@ -272,7 +257,6 @@ class PickAttempt:
     grasp_clearance: float | None = None
     remembered: tuple[str, ...] = ()
     named_by: str = ""
-    companion_search: str = ""
     laid_back_too: tuple[str, ...] = ()
 
     @property

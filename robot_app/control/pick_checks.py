@@ -7,10 +7,8 @@ held) and after RELEASE (the box changed with the cloth's colours).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from itertools import combinations
-from typing import NamedTuple
 
 import numpy as np
 
@@ -46,8 +44,7 @@ class AttemptState:
     laid_back_too: tuple[str, ...] = ()  # known cloths that came along and were put back with it
     put_back_at: FloatArray | None = None  # (2,) where a put-back let go [m]
     unnamed_along: bool = False  # a double pick whose other cloth no survey identified
-    named_by: str = ""  # how a double pick's other cloth was named: "grasp", "gone", "memory"
-    companion_search: str = ""  # what the search for that cloth found (picks.csv, diagnosis)
+    named_by: str = ""  # how a double pick's other cloth was named: "grasp" or "memory"
     lift_check: str = ""
     weighed: float | None = None
     put_back: bool = False
@@ -140,105 +137,6 @@ def remembered_companion(
     return fits[0] if len(fits) == 1 else None
 
 
-class GoneCompanion(NamedTuple):
-    """The search for a double pick's other cloth(s) by what left the table.
-
-    Attributes:
-        names: the cloths named (those gone whose weight together is the extra), or ().
-        candidates: the surveyed cloths within reach light enough to be (part of) the
-            extra, in order: each was checked once.
-        gone: of `candidates`, those the check after the lift no longer finds in place.
-        unseen: of `candidates`, those the check's images do not show enough of to tell
-            (then nothing is named: the unseen one may be what came along).
-    """
-
-    names: tuple[str, ...]
-    candidates: tuple[str, ...]
-    gone: tuple[str, ...]
-    unseen: tuple[str, ...] = ()
-
-
-def weighs(extra: float, weight: float, settings: ClearTableSettings) -> bool:
-    """Is `extra` [kg] what a load of `weight` [kg] reads (`weight_tolerance`, `weight_floor`)?"""
-    return abs(extra - weight) <= weight * settings.weight_tolerance + settings.weight_floor
-
-
-def gone_companion(
-    grasp_xy: FloatArray,
-    extra: float,
-    footprints: Mapping[str, FloatArray],
-    reach: float,
-    weights: Mapping[str, float],
-    settings: ClearTableSettings,
-    stayed: Callable[[str], bool | None],
-) -> GoneCompanion:
-    """The double pick's other cloth(s) named by what left the table: the cloths the pick's
-    survey saw whose footprint comes within `reach` [m] of the grasp point and that weigh
-    no more than the `extra` [kg] the load cell read are checked (`stayed`, one check
-    each); of those gone from their place, the one set whose weight together is the extra
-    is named, only if exactly one set of them is (one cloth gone that weighs it, or two
-    dragged along together). Never by weight alone: a named cloth was found gone; and never
-    while a candidate's place was out of the check's view (its absence is then unknown).
-
-    Args:
-        grasp_xy: (2,) where the fingers closed, on the table [m].
-        extra: the load cell's reading less the meant cloth's weight [kg].
-        footprints: cloth name -> (M, 2) table points [m] of its footprint where the pick's
-            survey saw it (the meant cloth left out).
-        reach: how far from the grasp point a cloth that came along can have lain [m]
-            (the meant cloth's hanging reach: a dragged cloth touched it or the fingers).
-        weights: cloth name -> its weight [kg] (a cloth of unknown weight is never named).
-        settings: `weight_tolerance`, `weight_floor`.
-        stayed: name -> does the check after the lift still find it where it was seen?
-            (None: its place is not enough in that check's view to tell.)
-
-    Raises:
-        ValueError: `reach` negative or `grasp_xy` not two numbers.
-    """
-    if not reach >= 0.0:
-        raise ValueError(f"reach must be >= 0 m, got {reach}")
-    grasp = np.asarray(grasp_xy, dtype=float)
-    if grasp.shape != (2,):
-        raise ValueError(f"grasp_xy must be (x, y) [m], got shape {grasp.shape}")
-    candidates = []
-    for name, footprint in footprints.items():
-        points = np.asarray(footprint, dtype=float).reshape(-1, 2)
-        if not len(points) or float(np.min(np.hypot(*(points - grasp).T))) > reach:
-            continue
-        weight = weights.get(name)
-        if weight is not None and extra >= weight * (1 - settings.weight_tolerance) - settings.weight_floor:
-            candidates.append(name)
-    verdicts = {name: stayed(name) for name in candidates}
-    gone = tuple(name for name in candidates if verdicts[name] is False)
-    unseen = tuple(name for name in candidates if verdicts[name] is None)
-    if unseen:
-        return GoneCompanion((), tuple(candidates), gone, unseen)
-    fits = [
-        subset
-        for size in range(1, len(gone) + 1)
-        for subset in combinations(gone, size)
-        if weighs(extra, sum(weights[n] for n in subset), settings)
-    ]
-    return GoneCompanion(fits[0] if len(fits) == 1 else (), tuple(candidates), gone)
-
-
-def in_view_share(
-    capture: StereoCapture, camera: PinholeCamera, pose_world: FloatArray, points_model: FloatArray
-) -> float:
-    """Share of a cloth's model points (`points_model`, Σ_M, at `pose_world`) that the right
-    camera of `capture` has in its image: how much of its place a check there can see."""
-    to_camera = invert_transform(capture.transform_right_camera_to_world) @ pose_world
-    points = np.asarray(points_model, dtype=float).reshape(-1, 3)
-    inside = to_camera[:3, :3] @ points.T + to_camera[:3, 3:4]
-    ahead = inside[2] > 1e-6
-    if not np.any(ahead):
-        return 0.0
-    u, v = camera.project(inside.T[ahead]).T
-    width, height = camera.image_size
-    seen = (u >= 0) & (u < width) & (v >= 0) & (v < height)
-    return float(np.count_nonzero(seen)) / len(points)
-
-
 def still_there(
     recognizer: Recognizer, capture: StereoCapture, pose_world: FloatArray, same_place: float
 ) -> bool:
@@ -292,14 +190,10 @@ __all__ = [
     "DROPPED",
     "PUT_BACK",
     "AttemptState",
-    "GoneCompanion",
     "agrees",
     "check_release",
     "companion",
-    "gone_companion",
-    "in_view_share",
     "remembered_companion",
     "still_there",
-    "weighs",
     "weight_verdict",
 ]

@@ -50,7 +50,6 @@ from robot_app.control.clear_table_records import (
     TableResult,
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
-from robot_app.control.intercept import hanging_reach
 from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
@@ -62,8 +61,6 @@ from robot_app.control.pick_checks import (
     AttemptState,
     check_release,
     companion,
-    gone_companion,
-    in_view_share,
     remembered_companion,
     still_there,
     weight_verdict,
@@ -85,7 +82,7 @@ from robot_app.control.table_survey import (
     to_world,
 )
 from robot_app.errors import IKError, InterruptError, TrajectoryError
-from robot_app.geometry import invert_transform, transform_points
+from robot_app.geometry import transform_points
 from robot_app.vision import Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, UnknownRegion, identify
 
@@ -487,25 +484,46 @@ class TableClearer:
         if verdict == "double" and attempt.weighed is not None and expected is not None:
             grasp = self.motion.tcp_position()
             grasp[2] = self.table_z
-            named, source = self._name_companions(attempt, capture, grasp, attempt.weighed - expected)
-            laid = self._laid_near(grasp[:2]) if named else None
-            listed = " and ".join(named)
+            extra = attempt.weighed - expected
+            other = companion(
+                self._survey_capture,
+                self.rig.right,
+                grasp,
+                attempt.others,
+                extra,
+                self.weights,
+                self.settings,
+            )
+            if other is not None and self._stayed(other, attempt, capture):
+                attempt.notes.append(f"{other} weighs the extra but still lies where the survey saw it")
+                other = None  # the extra weight is another cloth's
+            attempt.named_by = "grasp" if other is not None else ""
+            source = ""
+            if other is None:
+                other = self._remembered_companion(attempt, capture, grasp, extra)
+                if other is not None:
+                    attempt.named_by = "memory"
+                    survey = self.ledger.last_survey[other]
+                    source = (
+                        f" (identity from memory: seen by survey {survey}, hidden since, gone from there)"
+                    )
+            laid = self._laid_near(grasp[:2]) if other is not None else None
             if laid is not None:
                 attempt.notes.append(
-                    f"double pick: {listed} would weigh the extra{source}, but the fingers closed "
+                    f"double pick: {other} would weigh the extra{source}, but the fingers closed "
                     f"{laid[1] * 1000:.0f} mm from where {laid[0]} was laid back: identity not sure"
                 )
-                named, source, attempt.named_by = (), "", ""
-            if named and all(self.sort.box_for(n) == attempt.box.name for n in named):
-                attempt.came_along = named
-                attempt.remembered = named if attempt.named_by == "memory" else ()
+                other, source, attempt.named_by = None, "", ""
+            if other is not None and self.sort.box_for(other) == attempt.box.name:
+                attempt.came_along = (other,)
+                attempt.remembered = (other,) if source else ()
                 attempt.notes.append(
-                    f"double pick ({what}): {listed} came along{source}, same box: all placed"
+                    f"double pick ({what}): {other} came along{source}, same box: both placed"
                 )
                 return
-            if named:
-                attempt.notes.append(f"double pick: {listed} came along{source}, not all in its box")
-                attempt.laid_back_too = named
+            if other is not None:
+                attempt.notes.append(f"double pick: {other} came along{source}, belongs in another box")
+                attempt.laid_back_too = (other,)
             else:
                 attempt.unnamed_along = True
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
@@ -536,103 +554,16 @@ class TableClearer:
                 return " and ".join(names), distance
         return None
 
-    def _stayed(self, name: str, attempt: AttemptState, capture: StereoCapture) -> bool | None:
+    def _stayed(self, name: str, attempt: AttemptState, capture: StereoCapture) -> bool:
         """Does the check after the lift (`capture`) still find `name`, one of the pick's
-        survey's other cloths, where that survey saw it (then it did not come along)?
-        None, unchecked, when less than `clear.companion_in_view` of its place is in that
-        capture's right image (a cloth out of view is not found, whether it left or not)."""
+        survey's other cloths, where that survey saw it (then it did not come along)?"""
         seen = next(d for d in attempt.others if d.name == name)
         pose = to_world(self._survey_capture, seen.transform_model_to_camera)
-        points = self.recognizers[name].model.points_in
-        if in_view_share(capture, self.rig.right, pose, points) < self.settings.companion_in_view:
-            return None
         wall, cpu = time.perf_counter(), time.process_time()
         stayed = still_there(self.recognizers[name], capture, pose, self.settings.same_place)
         attempt.check_wall_s += time.perf_counter() - wall
         self._wait(time.process_time() - cpu, 1)
         return stayed
-
-    def _name_companions(
-        self, attempt: AttemptState, capture: StereoCapture, grasp: FloatArray, extra: float
-    ) -> tuple[tuple[str, ...], str]:
-        """Which other cloth(s) came along with a double pick (`extra` [kg] more than the
-        meant cloth, fingers closed at `grasp` on the table [m], `capture` the check after
-        the lift), and how that is known (words for the notes): the one surveyed cloth
-        under the grasp point that weighs it and is gone from its place (`companion`);
-        else by what left the table (`gone_companion`); else from memory
-        (`remembered_companion`); else () (sets `attempt.named_by`)."""
-        checked: dict[str, bool | None] = {}  # cloth -> still found in its place (one check each)
-
-        def in_place(name: str) -> bool | None:
-            if name not in checked:
-                checked[name] = self._stayed(name, attempt, capture)
-            return checked[name]
-
-        s = self.settings
-        other = companion(self._survey_capture, self.rig.right, grasp, attempt.others, extra, self.weights, s)
-        if other is not None and in_place(other) is False:
-            attempt.named_by = "grasp"
-            return (other,), ""
-        if other is not None:
-            attempt.notes.append(
-                f"{other} weighs the extra but was not found gone from where the survey saw it"
-            )
-        if s.companion_gone:
-            gone = self._gone_companion(attempt, grasp, extra, in_place)
-            if gone:
-                attempt.named_by = "gone"
-                return gone, " (gone from its place, within reach, weighing the extra)"
-        other = self._remembered_companion(attempt, capture, grasp, extra)
-        if other is not None:
-            attempt.named_by = "memory"
-            survey = self.ledger.last_survey[other]
-            return (
-                other,
-            ), f" (identity from memory: seen by survey {survey}, hidden since, gone from there)"
-        return (), ""
-
-    def _gone_companion(
-        self, attempt: AttemptState, grasp: FloatArray, extra: float, stayed: Callable[[str], bool | None]
-    ) -> tuple[str, ...]:
-        """The double pick's other cloth by what left the table (`pick_checks.gone_companion`):
-        of the pick's survey's other cloths within the meant cloth's hanging reach of the
-        grasp point and weighing the extra, the one the check after the lift no longer finds
-        where that survey saw it. Its search goes into `attempt.companion_search`."""
-        if not attempt.others:
-            attempt.companion_search = "no other cloth surveyed"
-            return ()
-        model = self.recognizers[attempt.name].model
-        grasp_model = (
-            attempt.grasp_point_model if attempt.grasp_point_model is not None else model.grasp_point
-        )
-        reach = hanging_reach(model.points_in, grasp_model)
-        footprints = {
-            d.name: transform_points(
-                to_world(self._survey_capture, d.transform_model_to_camera),
-                self.recognizers[d.name].model.points_in,
-            )[:, :2]
-            for d in attempt.others
-            if d.name in self.recognizers
-        }
-        found = gone_companion(grasp[:2], extra, footprints, reach, self.weights, self.settings, stayed)
-        pixel = self._survey_pixel(grasp)
-        near = sorted(
-            (float(np.min(np.hypot(*(points - grasp[:2]).T))), d.name, _pixels_away(d.footprint, pixel))
-            for d in attempt.others
-            if (points := footprints.get(d.name)) is not None
-        )
-        attempt.companion_search = (
-            f"extra {extra * 1000:.0f} g, reach {reach * 1000:.0f} mm; surveyed: "
-            + ", ".join(f"{name} {d * 1000:.0f} mm/{px} px" for d, name, px in near)
-            + f"; checked: {' '.join(found.candidates) or '-'}; gone: {' '.join(found.gone) or '-'}"
-            + (f"; out of view: {' '.join(found.unseen)}" if found.unseen else "")
-        )
-        return found.names
-
-    def _survey_pixel(self, point_world: FloatArray) -> FloatArray:
-        """(u, v) where the pick's survey image shows `point_world` [px]."""
-        to_camera = invert_transform(self._survey_capture.transform_right_camera_to_world)
-        return self.rig.right.project((to_camera[:3, :3] @ point_world + to_camera[:3, 3])[None])[0]
 
     def _remembered_companion(
         self, attempt: AttemptState, capture: StereoCapture, grasp: FloatArray, extra: float
@@ -771,15 +702,6 @@ class TableClearer:
             wall_s=time.perf_counter() - wall_start,
             interrupted=interrupted,
         )
-
-
-def _pixels_away(mask: npt.NDArray[np.bool_], pixel: FloatArray) -> int:
-    """Chessboard distance from `pixel` (u, v) to the nearest pixel of `mask` [px] (as the
-    square window of `pick_checks.companion`); -1 for an empty mask."""
-    v, u = np.nonzero(mask)
-    if not len(u):
-        return -1
-    return int(np.min(np.maximum(np.abs(u - round(pixel[0])), np.abs(v - round(pixel[1])))))
 
 
 __all__ = ["TableClearer"]

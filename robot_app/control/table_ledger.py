@@ -151,7 +151,6 @@ class TableLedger:
                 attempt.grasp.clearance if attempt.grasp is not None and attempt.grasp_used else None,
                 attempt.remembered,
                 attempt.named_by,
-                attempt.companion_search,
                 attempt.laid_back_too,
             )
         )

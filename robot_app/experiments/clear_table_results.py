@@ -86,7 +86,6 @@ def pick_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 "came_along": " ".join(f"{n} (memory)" if n in a.remembered else n for n in a.came_along),
                 "named_by": a.named_by,
                 "laid_back_too": " ".join(a.laid_back_too),
-                "companion_search": a.companion_search,
                 "put_back": a.put_back,
                 "dropped": a.dropped,
                 "box_confirmed": None if check is None else check.confirmed,
