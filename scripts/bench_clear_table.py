@@ -26,7 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from robot_app.config import load_config
-from robot_app.experiments.clear_table import ClearTableConfig, run_clear_table
+from robot_app.control import Outcome
+from robot_app.experiments.clear_table import ClearTableConfig, ClearTableEpisode, run_clear_table
 from robot_app.experiments.clear_table_results import write_clear_table
 from robot_app.sim.realism import REALISM_NAMES
 
@@ -47,6 +48,32 @@ def episode_overrides(index: int, base_seed: int) -> list[str]:
         else:
             overrides.append("faults.double_grasps=[1]")
     return overrides
+
+
+def double_pick_counts(episode: ClearTableEpisode) -> dict[str, int]:
+    """For the detected double picks (two or more cloths lifted, by the simulator's truth,
+    and the lift rejected): the other cloth named (right: the names are exactly the other
+    cloths truly lifted; wrong: a name not lifted, or a lifted cloth left unnamed, which
+    would ride into the meant cloth's box unbooked), both placed (the named cloth carried
+    into the box), put back."""
+    counts = dict.fromkeys(
+        ("double_named", "double_named_right", "double_named_wrong", "double_both_placed", "double_put_back"),
+        0,
+    )
+    attempts = episode.result.attempts
+    for lift in episode.lifts:
+        attempt = next((a for a in attempts if a.start_time <= lift.time <= a.end_time), None)
+        if len(lift.lifted) < 2 or attempt is None or not attempt.lift_rejected:
+            continue
+        named = set(attempt.came_along) | set(attempt.laid_back_too)
+        if named:
+            others = {f"No.{n}" for n in lift.lifted} - {lift.meant}
+            counts["double_named"] += 1
+            counts["double_named_right" if named == others else "double_named_wrong"] += 1
+        if attempt.came_along and attempt.result.outcome is Outcome.PLACED:
+            counts["double_both_placed"] += 1
+        counts["double_put_back"] += int(attempt.put_back)
+    return counts
 
 
 def run_one(job: tuple[int, int, tuple[str, ...], str]) -> dict[str, object]:
@@ -82,6 +109,7 @@ def run_one(job: tuple[int, int, tuple[str, ...], str]) -> dict[str, object]:
         "false_alarms": v.false_alarms,
         "drops": v.drops,
         "drops_detected": v.drops_detected,
+        **double_pick_counts(episode),
         "attempts": len(r.attempts),
         "surveys": len(r.surveys),
         "sim_time_s": r.sim_time,
@@ -176,6 +204,11 @@ def _summary(
         "wrong_lifts": total("wrong_lifts"),
         "wrong_lifts_detected": total("wrong_lifts_detected"),
         "false_alarms": total("false_alarms"),
+        "double_named": total("double_named"),
+        "double_named_right": total("double_named_right"),
+        "double_named_wrong": total("double_named_wrong"),
+        "double_both_placed": total("double_both_placed"),
+        "double_put_back": total("double_put_back"),
         "drops": total("drops"),
         "drops_detected": total("drops_detected"),
         "limit_violations": total("limit_violations"),

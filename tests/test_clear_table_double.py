@@ -81,7 +81,7 @@ def test_without_a_laid_back_cloth_near_the_grasp_both_go_into_the_box(
     _lay_back(job, (0.20, -0.20), (0.30, -0.25))  # laid far from the grasp at (0.50, 0.00)
     attempt = _attempt()
     job._after_lift(attempt, SimpleNamespace(arm=SimpleNamespace(resume_at=lambda q: None)))  # type: ignore[arg-type]
-    assert attempt.came_along == ("No.10",) and put_back == []
+    assert attempt.came_along == ("No.10",) and put_back == [] and attempt.named_by == "memory"
 
 
 def test_a_laid_back_pair_near_the_grasp_makes_the_other_cloth_unsure(
@@ -94,6 +94,7 @@ def test_a_laid_back_pair_near_the_grasp_makes_the_other_cloth_unsure(
     with pytest.raises(EpisodeAbortError):
         job._after_lift(attempt, SimpleNamespace(arm=SimpleNamespace(resume_at=lambda q: None)))  # type: ignore[arg-type]
     assert attempt.came_along == () and attempt.unnamed_along and put_back == ["No.19"]
+    assert attempt.named_by == ""  # the name withdrawn: picks.csv must not say it was named
     assert any("identity not sure" in note and "No.12" in note for note in attempt.notes)
 
 

@@ -296,6 +296,7 @@ def test_picks_rows_carry_the_simulators_truth_of_each_lift() -> None:
             name=name, box="colours", start_time=start, end_time=end, result=result, lift_check="ok",
             weighed=0.0335, expected_weight=0.0242, put_back=False, dropped=False, box_check=None,
             grasp_clearance=None, came_along=("No.11",) if name == "No.7" else (), remembered=("No.11",),
+            named_by="memory" if name == "No.7" else "", laid_back_too=(),
         )  # fmt: skip
 
     episode = SimpleNamespace(
@@ -307,6 +308,7 @@ def test_picks_rows_carry_the_simulators_truth_of_each_lift() -> None:
     )
     rows = pick_rows(episode)  # type: ignore[arg-type]
     assert [r["lifted_truth"] for r in rows] == ["No.6 No.11", "No.7 No.11"]
+    assert [r["named_by"] for r in rows] == ["", "memory"]  # how the companion was named
     # anchored by the fingers, or dragged along by what they hold
     assert [r["held_truth"] for r in rows] == ["No.6 No.11", "No.7"]
     assert rows[1]["weighed_g"] == 33.5 and rows[1]["lift_check"] == "ok"

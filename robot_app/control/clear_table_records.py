@@ -235,6 +235,10 @@ class PickAttempt:
             survey saw [m] (None: the loop's own grasp point; inf: no other cloth).
         remembered: of `came_along`, the cloths named from an earlier survey (the pick's
             own survey did not see them), not from vision at the lift.
+        named_by: how a double pick's other cloth was named ("grasp": the one surveyed
+            cloth under the grasp point that weighs the extra and is gone from its place;
+            "memory"; "": not named).
+        laid_back_too: the named other cloth of a double pick put back with it (another box).
     """
 
     name: str
@@ -252,6 +256,8 @@ class PickAttempt:
     check_wall_s: float = 0.0
     grasp_clearance: float | None = None
     remembered: tuple[str, ...] = ()
+    named_by: str = ""
+    laid_back_too: tuple[str, ...] = ()
 
     @property
     def lift_rejected(self) -> bool:

@@ -497,10 +497,12 @@ class TableClearer:
             if other is not None and self._stayed(other, attempt, capture):
                 attempt.notes.append(f"{other} weighs the extra but still lies where the survey saw it")
                 other = None  # the extra weight is another cloth's
+            attempt.named_by = "grasp" if other is not None else ""
             source = ""
             if other is None:
                 other = self._remembered_companion(attempt, capture, grasp, extra)
                 if other is not None:
+                    attempt.named_by = "memory"
                     survey = self.ledger.last_survey[other]
                     source = (
                         f" (identity from memory: seen by survey {survey}, hidden since, gone from there)"
@@ -511,7 +513,7 @@ class TableClearer:
                     f"double pick: {other} would weigh the extra{source}, but the fingers closed "
                     f"{laid[1] * 1000:.0f} mm from where {laid[0]} was laid back: identity not sure"
                 )
-                other, source = None, ""
+                other, source, attempt.named_by = None, "", ""
             if other is not None and self.sort.box_for(other) == attempt.box.name:
                 attempt.came_along = (other,)
                 attempt.remembered = (other,) if source else ()

@@ -150,6 +150,8 @@ class TableLedger:
                 attempt.check_wall_s,
                 attempt.grasp.clearance if attempt.grasp is not None and attempt.grasp_used else None,
                 attempt.remembered,
+                attempt.named_by,
+                attempt.laid_back_too,
             )
         )
         if attempt.dropped or attempt.put_back:

@@ -84,6 +84,8 @@ def pick_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 "weighed_g": None if a.weighed is None else round(1000 * a.weighed, 1),
                 "expected_g": None if a.expected_weight is None else round(1000 * a.expected_weight, 1),
                 "came_along": " ".join(f"{n} (memory)" if n in a.remembered else n for n in a.came_along),
+                "named_by": a.named_by,
+                "laid_back_too": " ".join(a.laid_back_too),
                 "put_back": a.put_back,
                 "dropped": a.dropped,
                 "box_confirmed": None if check is None else check.confirmed,
