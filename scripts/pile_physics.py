@@ -9,6 +9,11 @@ the job's grasp does, so double picks happen), lifts it to 0.40 m, lowers it aga
 0.05 m, lets go and lets the pile settle. A blow-up: a node faster than 5 m/s, a node
 more than 20 mm inside the table, an edge still 1.5x its rest length after settling,
 or a cloth off the table. Compare settings with `--set world.cloth.substeps=1`.
+
+`--alone S` then leaves the pile alone for S more seconds (the arm away) and prints how far
+each cloth's mean node moved on the table [mm] and its deepest node's depth in the table
+[mm] (negative: above it): a put-back heap that slides by itself (the simulator artefact
+README's "Cloths through the table" describes) shows as a cloth moving hundreds of mm.
 """
 
 from __future__ import annotations
@@ -16,6 +21,8 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+
+import numpy as np
 
 from robot_app.config import load_config
 from robot_app.experiments.clear_table import ClearTableConfig
@@ -35,7 +42,16 @@ def main() -> None:
     parser.add_argument(
         "--lay-out", type=float, default=0.0, metavar="M", help="put down laid out over M metres (0: slid)"
     )
+    parser.add_argument(
+        "--alone",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="then leave the pile alone S s, print each cloth's slide",
+    )
     args = parser.parse_args()
+    if args.alone < 0:
+        parser.error(f"--alone must be >= 0 s, got {args.alone}")
     blown = 0
     for seed in args.seeds:
         overrides = [
@@ -50,8 +66,24 @@ def main() -> None:
         with World(config.world) as world:
             pile = make_pile(world, config.pile, seed=seed)
             result = pile_trial(world, pile, PileTrialSettings(lay_out=args.lay_out))
+            alone = ""
+            if args.alone > 0:
+                before = [cloth.body.nodes() for cloth in pile.cloths]
+                for _ in range(round(args.alone / world.dt)):
+                    world.step()
+                after = [cloth.body.nodes() for cloth in pile.cloths]
+                top = world.config.table.top_z
+                moved = [
+                    float(np.hypot(*(a.mean(axis=0) - b.mean(axis=0))[:2])) * 1000
+                    for a, b in zip(after, before, strict=True)
+                ]
+                depth = [(top - float(a[:, 2].min())) * 1000 for a in after]
+                alone = (
+                    f" | {args.alone:g} s alone: moved mm {[round(m) for m in moved]}, "
+                    f"depth mm {[round(d) for d in depth]}"
+                )
         blown += result.blew_up
-        print(f"seed {seed}: {result.line()}  [{time.perf_counter() - start:.0f} s wall]", flush=True)
+        print(f"seed {seed}: {result.line()}{alone}  [{time.perf_counter() - start:.0f} s wall]", flush=True)
     shown = " ".join([*args.set, *([f"--lay-out {args.lay_out}"] if args.lay_out else [])]) or "config"
     print(f"blow-ups: {blown} of {len(args.seeds)} (settings: {shown})")
 
