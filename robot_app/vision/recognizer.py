@@ -32,7 +32,9 @@ The recogniser composes the stages and holds no search logic of its own:
    (a fine-grained print needs sub-millimetre alignment; the pose is kept); one-shot and
    check only: a tracked pose's evidence is its own, so a drift off the cloth shows;
 7. decide (`decide.decide`): `found` = confidence >= `decide.threshold`, the one
-   acceptance threshold.
+   acceptance threshold; besides the verification's evidence it weighs what one compact
+   cause cannot explain at the reported pose (`Verifier.unexplained`, `unexplained.py`;
+   one-shot and check only).
 
 Multi-step recognition (`Recognizer.track`) proposes from the kept poses moved by the
 camera motion (Sec. II-E), with colour codes only where the tracking window reaches
@@ -85,6 +87,7 @@ from robot_app.vision.refinement import (
     disagreeing_corner,
 )
 from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
+from robot_app.vision.unexplained import Unexplained
 from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
 _Method = TypeVar("_Method", bound=Callable[..., "Recognition"])
@@ -444,7 +447,7 @@ class Recognizer:
             self._last_verification = self.verifier.verify(pose)[0]
             self._frames_since_verified = 0
         chosen = _Verified(pose, best.search_fitness, self._last_verification, 0.0)
-        return self._result(chosen, count, before, start, (), float("nan"))
+        return self._result(chosen, count, before, start, (), float("nan"), Unexplained())
 
     def _result(
         self,
@@ -454,9 +457,15 @@ class Recognizer:
         start: float,
         peaks: tuple[Peak, ...],
         depth_offset: float,
+        unexplained: Unexplained | None = None,
     ) -> Recognition:
+        """The decided recognition at `chosen`; `unexplained` measured there unless given
+        (a tracking frame gives `Unexplained()`: nothing against, 0.3-0.5 ms saved)."""
         v = chosen.verification
-        decision = decide(self.settings.decide, self._evidence(chosen.search_fitness, v))
+        if unexplained is None:
+            unexplained = self.verifier.unexplained(chosen.pose)
+        evidence = replace(self._evidence(chosen.search_fitness, v), scattered=unexplained.scattered)
+        decision = decide(self.settings.decide, evidence)
         return Recognition(
             found=decision.found,
             fitness=float(self.evaluator.evaluate(chosen.pose)[0]),
@@ -473,6 +482,7 @@ class Recognizer:
             interleaved=v.interleaved,
             agreeing=v.agreeing,
             outline=v.outline,
+            scattered=unexplained.scattered,
         )
 
     def _most_confident(

@@ -126,7 +126,8 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     that lie in partly hidden cells (a hidden share between `partial_low` and
     `partial_high`; cells with fewer than `min_points` samples in view left out), and the
     share of the scored weight on cells that agree at least `agree_level` (NaN if none);
-    and (P, 2, n_cells) uint8 per pose and image (left, right): the cell is scored and agrees.
+    and (P, 2, n_cells) uint8 per pose and image (left, right): the cell is scored and agrees;
+    and the same shape: the cell is scored (compared).
 
     Args:
         transforms: (P, 4, 4) poses ^CR T_M.
@@ -147,6 +148,7 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     n_poses = transforms.shape[0]
     scores = np.empty(n_poses)
     agree_cells = np.zeros((n_poses, 2, n_cells), np.uint8)
+    compared_cells = np.zeros((n_poses, 2, n_cells), np.uint8)
     visible = np.empty(n_poses)
     textured = np.empty(n_poses)
     interleaved = np.empty(n_poses)
@@ -191,6 +193,8 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
                     model_rms[c] = np.sqrt(var / 3.0)
                 total += cell_scores[c] * cell_weights[c]
                 weight += cell_weights[c]
+                if cell_weights[c] > 0:
+                    compared_cells[p, side, c] = 1
                 if cell_scores[c] >= agree_level:
                     agreeing_weight += cell_weights[c]
                     if cell_weights[c] > 0:
@@ -202,7 +206,7 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
         textured[p] = textured_weight / weight if weight > 0 else 0.0
         interleaved[p] = partial / in_view if in_view > 0 else 0.0
         agreeing[p] = agreeing_weight / weight if weight > 0 else np.nan
-    return scores, visible, textured, interleaved, agreeing, agree_cells
+    return scores, visible, textured, interleaved, agreeing, agree_cells, compared_cells
 
 
 @_jit
