@@ -87,7 +87,7 @@ from robot_app.vision.hue import COLOUR_CODES, HUE_RANGE, colours_match
 from robot_app.vision.outline import model_outline
 from robot_app.vision.poses import as_poses
 from robot_app.vision.unexplained import DisagreementShape, Unexplained, point_looks
-from robot_app.vision.verify_kernels import appearance, outline_contrast
+from robot_app.vision.verify_kernels import AGREES, appearance, outline_contrast
 
 
 class VerificationSettings(StrictModel):
@@ -271,7 +271,7 @@ class Verifier:
             return [Verification(float("nan"), float(v), 0.0, 0.0, float("nan")) for v in seen]
         if self._images is None:
             raise RuntimeError("no stereo pair to verify on: call update(left, right) first")
-        scores, visible, textured, interleaved, agreeing, agree_cells, _ = self._appearance(poses)
+        scores, visible, textured, interleaved, agreeing, agree_cells = self._appearance(poses)
         outline, astray = self._outline_evidence(poses, agree_cells, textured)
         return [
             Verification(float(a), float(v), float(t), float(i), float(g), float(o), float(r))
@@ -311,8 +311,8 @@ class Verifier:
             return None
         if self._images is None:
             raise RuntimeError("no stereo pair to verify on: call update(left, right) first")
-        found = self._appearance(as_poses(transform_model_to_camera))
-        return np.asarray(found[5][0] > 0), np.asarray(found[6][0] > 0)
+        verdicts = self._appearance(as_poses(transform_model_to_camera))[5][0]
+        return np.asarray(verdicts == AGREES), np.asarray(verdicts > 0)
 
     def _appearance(self, poses: FloatArray) -> tuple[npt.NDArray[Any], ...]:
         """`verify_kernels.appearance` of (P, 4, 4) poses on the current pair (needs the texture)."""
@@ -337,7 +337,8 @@ class Verifier:
         self, poses: FloatArray, agree_cells: npt.NDArray[np.uint8], textured: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
         """(P,) `Verification.outline` and (P,) `Verification.outline_astray` of each pose
-        (`agree_cells`: (P, 2, cells) the texture cells that agree, from `appearance`;
+        (`agree_cells`: (P, 2, cells) the texture cells' verdicts (`verify_kernels.AGREES`),
+        from `appearance`;
         `textured`: (P,) `Verification.textured_share`)."""
         if self._outline is None or self._images is None:
             nan = np.full(len(poses), np.nan)
