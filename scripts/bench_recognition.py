@@ -346,8 +346,8 @@ def calibrate(
     X = np.vstack([features(present), features(absent)])
     X[:, 1] = np.where(np.isnan(X[:, 1]), d.appearance_nothing_seen, X[:, 1])
     X[:, 4] = np.where(np.isnan(X[:, 4]), (X[:, 1] + 1.0) / 2.0, X[:, 4])
+    below_knee = np.where(np.isnan(X[:, 5]), 0.0, np.maximum(d.outline_knee - X[:, 5], 0.0))  # measured only
     X[:, 5] = np.where(np.isnan(X[:, 5]), d.outline_unmeasured, X[:, 5])
-    below_knee = np.maximum(d.outline_knee - X[:, 5], 0.0)
     products = [X[:, 1] * X[:, 2], X[:, 4] * X[:, 2]]
     X = np.column_stack([X[:, :5], *products, X[:, 5], below_knee, X[:, 6]])
     y = np.concatenate([np.ones(len(present)), np.zeros(len(absent))])

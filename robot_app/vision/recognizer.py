@@ -32,9 +32,9 @@ The recogniser composes the stages and holds no search logic of its own:
    (a fine-grained print needs sub-millimetre alignment; the pose is kept); one-shot and
    check only: a tracked pose's evidence is its own, so a drift off the cloth shows;
 7. decide (`decide.decide`): `found` = confidence >= `decide.threshold`, the one
-   acceptance threshold; besides the verification's evidence it weighs what one compact
+   acceptance threshold; besides the verification's evidence it can weigh what one compact
    cause cannot explain at the reported pose (`Verifier.unexplained`, `unexplained.py`;
-   one-shot and check only).
+   one-shot and check only; weight 0 by default, not adopted).
 
 Multi-step recognition (`Recognizer.track`) proposes from the kept poses moved by the
 camera motion (Sec. II-E), with colour codes only where the tracking window reaches
@@ -462,8 +462,9 @@ class Recognizer:
         """The decided recognition at `chosen`; `unexplained` measured there unless given
         (a tracking frame gives `Unexplained()`: nothing against, 0.3-0.5 ms saved)."""
         v = chosen.verification
-        if unexplained is None:
-            unexplained = self.verifier.unexplained(chosen.pose)
+        if unexplained is None:  # measured only where the decision weighs it
+            weighed = self.settings.decide.weight_scattered != 0.0
+            unexplained = self.verifier.unexplained(chosen.pose) if weighed else Unexplained()
         evidence = replace(self._evidence(chosen.search_fitness, v), scattered=unexplained.scattered)
         decision = decide(self.settings.decide, evidence)
         return Recognition(

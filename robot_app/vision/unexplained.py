@@ -9,18 +9,23 @@ disagreement scattered all over the model: a yellow-dots-on-cyan model on a plai
 cloth sees cyan at every dot, and no sheet over part of a cloth hides dots everywhere
 (confidence 0.594-0.630 before, on test and calibration seeds).
 
-`scattered` is the share of the looks at S_in points (each point in each image whose
-texture cell was compared, `Verifier.agreeing_cells`; by hue for a model without texture,
-`point_looks`) that disagree and lie outside the half-plane of the model (`DIRECTIONS`
-directions, up to half of the points) that holds the most disagreeing minus agreeing
-looks; what that half-plane holds wrongly (its agreeing looks) counts too. One sheet or
-one fold: close to 0; the dots model on plain cyan: 0.35. By texture rather than hue: a
-sheet of one of a print's own colours matches some of its points by hue, which splits its
-region into agreeing and disagreeing points (a covered astronaut print scored 0.22 by
-hue), while its texture disagrees all over it (0.02).
+`scattered` is the share of the looks at S_in points (each point in each image) that
+disagree and lie outside the half-plane of the model (`DIRECTIONS` directions, up to half
+of the points) that holds the most disagreeing minus agreeing looks; what that half-plane
+holds wrongly (its agreeing looks) counts too. It is measured twice, by the colour each
+point sees (`point_looks`) and by whether its texture cell agrees
+(`Verifier.agreeing_cells`), and the smaller is kept (`Verifier.unexplained`; the colour
+alone without texture): the disagreement must be scattered by both. One sheet or one
+fold: close to 0; the dots model on plain cyan: 0.23 by colour, 0.35 by texture. By colour
+alone a sheet of one of a print's own colours matches some of its points, which splits
+its region (a covered astronaut print 0.22; by texture 0.02); by texture alone a plain
+cloth under a strong colour cast (a flat yellow square, 0.35, found 0.625 -> 0.001 on the
+full run) or a fine print seen a few millimetres off disagrees in cells all over it,
+while its colours match (by colour about 0).
 
 It is measured once, at the pose the recogniser reports (`Recognizer._result`, one-shot
-and check), and weighed by the decision (`DecisionSettings.weight_scattered`); it does not
+and check) where the decision weighs it (`DecisionSettings.weight_scattered`: 0 by
+default, measured and not adopted, see `decide.py`); it does not
 rank a pose's alternatives (`decide.ranking`), so the recognised poses are those without
 it. Tried and not kept: a missing part that is no fold (the sheet beyond a line whose
 mirror image the texture agrees with, where a fold's flap would disagree), which the

@@ -282,7 +282,8 @@ class Verifier:
 
     def unexplained(self, transform_model_to_camera: FloatArray) -> Unexplained:
         """What one compact cause does not explain at one pose (`unexplained.py`): the S_in
-        points' texture cells that disagree outside one half-plane of the model.
+        points that disagree outside one half-plane of the model, by colour and by texture
+        cell; the smaller of the two.
 
         Raises:
             RuntimeError: no pair yet (call `update`).
@@ -296,7 +297,9 @@ class Verifier:
         cells, compared = found
         agree = cells[:, point_cells].sum(axis=0).astype(float)  # the texture's looks per S_in point
         disagree = (compared & ~cells)[:, point_cells].sum(axis=0).astype(float)
-        return self._shape.unexplained(looks, (agree, disagree))
+        by_colour = self._shape.unexplained(looks).scattered
+        by_texture = self._shape.unexplained(looks, (agree, disagree)).scattered
+        return Unexplained(min(by_colour, by_texture))
 
     def agreeing_cells(
         self, transform_model_to_camera: FloatArray
