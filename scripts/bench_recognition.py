@@ -194,8 +194,8 @@ def seeds(args: argparse.Namespace, calibration: bool) -> Callable[[str, int], n
 
 
 DUMP_COLUMNS = ("kind", "model", "cloth", "fitness", "search_fitness", "appearance", "visible", "interleaved",
-                "agreeing", "outline", "confidence", "found", "err_x_mm", "err_y_mm", "err_yaw_deg", "rival",
-                "rivals_asked", "time_ms")  # fmt: skip
+                "agreeing", "outline", "scattered", "confidence", "found", "err_x_mm", "err_y_mm",
+                "err_yaw_deg", "rival", "rivals_asked", "time_ms")  # fmt: skip
 
 
 def arm(recognizers: list[Recognizer], index: int, args, size: int = N, leave_out: int | None = None) -> None:
@@ -213,7 +213,8 @@ def dump_row(kind: str, model: ClothModel, cloth: int, result, truth) -> list:
     """One row of `--dump`: the scene kind, model and cloth, the decision's evidence and error."""
     e = [np.nan] * 4 if truth is None else errors_of(model, result.transform_model_to_camera, truth)
     return [kind, model.name, cloth, result.fitness, result.search_fitness, result.appearance,
-            result.visible_fraction, result.interleaved, result.agreeing, result.outline, result.confidence,
+            result.visible_fraction, result.interleaved, result.agreeing, result.outline, result.scattered,
+            result.confidence,
             int(result.found), e[0], e[1], e[3], result.rival, result.rivals_asked,
             result.time_s * 1e3]  # fmt: skip
 
@@ -271,17 +272,18 @@ def collect(
     return out
 
 
-FEATURES = ("fitness", "appearance", "visible", "interleaved", "agreeing", "outline")
+FEATURES = ("fitness", "appearance", "visible", "interleaved", "agreeing", "outline", "scattered")
 
 
 def features(rows: list) -> np.ndarray:
-    """(N, 6) the decision's evidence of each row's recognition (`decide.Evidence`)."""
+    """(N, 7) the decision's evidence of each row's recognition (`decide.Evidence`)."""
     return np.array(
         [
-            [r.search_fitness, r.appearance, r.visible_fraction, r.interleaved, r.agreeing, r.outline]
+            [r.search_fitness, r.appearance, r.visible_fraction, r.interleaved, r.agreeing, r.outline,
+             r.scattered]
             for _, r, _ in rows
         ]
-    )
+    )  # fmt: skip
 
 
 def correct(models: list[ClothModel], row: tuple) -> bool:
@@ -291,20 +293,46 @@ def correct(models: list[ClothModel], row: tuple) -> bool:
     return bool(max(abs(e[0]), abs(e[1])) <= 10 and abs(e[3]) <= 10)
 
 
+def _logistic(free: np.ndarray, offset: np.ndarray, y: np.ndarray, ridge: float = 1e-2) -> np.ndarray:
+    """Weights of a logistic regression of y on `free` plus a fixed `offset`, by Newton's
+    method with step halving (a plain Newton step overshoots on nearly separable sets) and
+    a weak ridge."""
+
+    def loss(w: np.ndarray) -> float:
+        z = free @ w + offset
+        return float(np.sum(np.logaddexp(0.0, z) - y * z) + 0.5 * ridge * w @ w)
+
+    w = np.zeros(free.shape[1])
+    current = loss(w)
+    for _ in range(200):
+        p = 1.0 / (1.0 + np.exp(-np.clip(free @ w + offset, -60, 60)))
+        gradient = free.T @ (p - y) + ridge * w
+        hessian = free.T @ (free * (p * (1 - p))[:, None]) + ridge * np.eye(len(w))
+        step, scale = np.linalg.solve(hessian, gradient), 1.0
+        while scale > 1e-6 and loss(w - scale * step) > current:
+            scale /= 2
+        w = w - scale * step
+        previous, current = current, loss(w)
+        if previous - current < 1e-9:
+            break
+    return w
+
+
 def calibrate(
     data: dict[str, list], settings: RecognitionSettings, models: list[ClothModel], hold: bool = False
 ) -> None:
     """Logistic regression of present at the right pose (1) against absent (0, and the
     wrong pairs of the identification scenes with `--identification-size`) on (fitness,
-    appearance, visible, interleaved, agreeing, appearance·visible, agreeing·visible, outline) by
-    Newton's method with a weak ridge
+    appearance, visible, interleaved, agreeing, appearance·visible, agreeing·visible, outline,
+    outline below its knee, scattered) by Newton's method with a weak ridge
     (present scenes recognised at a wrong pose are left out: neither a right answer to
     accept nor an absent cloth); prints the weights and the threshold that best separates
-    the calibration scenes. With `hold`, every weight but the bias and the outline's is held
-    at the settings' (an offset) and only those two are fitted: the decision's log-odds
-    also rank a pose's alternatives (half turns, other runs' ends), and a free refit with
-    the outline changed that ranking (on the bench's 60 scenes a folded stripes print came
-    out half-turned, a folded square 7 -> 14 mm off)."""
+    the calibration scenes. With `hold`, the weights that rank a pose's alternatives are
+    held at the settings' (an offset) and only the bias and the weights of the terms that
+    say whether it is the cloth at all (`decide._whether_terms`: outline, outline below its
+    knee, scattered) are fitted: a free refit with the outline changed that
+    ranking (on the bench's 60 scenes a folded stripes print came out half-turned, a folded
+    square 7 -> 14 mm off)."""
     kinds = ("flat", "wrinkled", "folded", "covered", "crumpled")
     wrong = sum(not correct(models, r) for kind in kinds for r in data.get(kind, []))
     present = [r for kind in kinds for r in data.get(kind, []) if correct(models, r)]
@@ -314,27 +342,24 @@ def calibrate(
         if kind.startswith("absent") or kind.startswith("identification")
         for r in data[kind]
     ]
+    d = settings.decide
     X = np.vstack([features(present), features(absent)])
-    X[:, 1] = np.where(np.isnan(X[:, 1]), settings.decide.appearance_nothing_seen, X[:, 1])
+    X[:, 1] = np.where(np.isnan(X[:, 1]), d.appearance_nothing_seen, X[:, 1])
     X[:, 4] = np.where(np.isnan(X[:, 4]), (X[:, 1] + 1.0) / 2.0, X[:, 4])
-    X[:, 5] = np.where(np.isnan(X[:, 5]), settings.decide.outline_unmeasured, X[:, 5])
-    X = np.column_stack([X[:, :5], X[:, 1] * X[:, 2], X[:, 4] * X[:, 2], X[:, 5]])  # products; outline last
+    below_knee = np.where(np.isnan(X[:, 5]), 0.0, np.maximum(d.outline_knee - X[:, 5], 0.0))  # measured only
+    X[:, 5] = np.where(np.isnan(X[:, 5]), d.outline_unmeasured, X[:, 5])
+    products = [X[:, 1] * X[:, 2], X[:, 4] * X[:, 2]]
+    X = np.column_stack([X[:, :5], *products, X[:, 5], below_knee, X[:, 6]])
     y = np.concatenate([np.ones(len(present)), np.zeros(len(absent))])
     A = np.column_stack([np.ones(len(X)), X])
-    d = settings.decide
     held = np.array([d.weight_fitness, d.weight_appearance, d.weight_visible, d.weight_interleaved,
                      d.weight_agreeing, d.weight_appearance_visible, d.weight_agreeing_visible])  # fmt: skip
     offset = A[:, 1:8] @ held if hold else np.zeros(len(A))
-    free = A[:, [0, 8]] if hold else A
-    w = np.zeros(free.shape[1])
-    for _ in range(60):
-        p = 1.0 / (1.0 + np.exp(-np.clip(free @ w + offset, -60, 60)))
-        gradient = free.T @ (p - y) + 1e-2 * w
-        hessian = free.T @ (free * (p * (1 - p))[:, None]) + 1e-2 * np.eye(len(w))
-        w -= np.linalg.solve(hessian, gradient)
+    free = A[:, [0, 8, 9, 10]] if hold else A
+    w = _logistic(free, offset, y)
     z = free @ w + offset
     if hold:
-        w = np.concatenate([[w[0]], held, [w[1]]])
+        w = np.concatenate([[w[0]], held, w[1:]])
     candidates = np.sort(z)
     best = max(candidates, key=lambda t: min(np.mean(z[y == 1] >= t), np.mean(z[y == 0] < t)))
     lowest_present = np.sort(z[y == 1])[: max(1, len(z[y == 1]) // 100)]
@@ -346,16 +371,20 @@ def calibrate(
     print(f"  decide.bias={w[0]:.3f} decide.weight_fitness={w[1]:.3f} decide.weight_appearance={w[2]:.3f} "
           f"decide.weight_visible={w[3]:.3f} decide.weight_interleaved={w[4]:.3f} "
           f"decide.weight_agreeing={w[5]:.3f} decide.weight_appearance_visible={w[6]:.3f} "
-          f"decide.weight_agreeing_visible={w[7]:.3f} decide.weight_outline={w[8]:.3f}")  # fmt: skip
+          f"decide.weight_agreeing_visible={w[7]:.3f} decide.weight_outline={w[8]:.3f} "
+          f"decide.weight_outline_below_knee={w[9]:.3f} decide.weight_scattered={w[10]:.3f}")  # fmt: skip
     print(f"  logit of present: min {z[y == 1].min():+.2f}; of absent: max {z[y == 0].max():+.2f}; "
           f"threshold logit {threshold_z:+.2f} = confidence "
-          f"{1 / (1 + np.exp(-threshold_z)):.3f}")  # fmt: skip
+          f"{1 / (1 + np.exp(-threshold_z)):.3f}; in sample present found "
+          f"{np.mean(z[y == 1] >= threshold_z):.1%}, absent rejected "
+          f"{np.mean(z[y == 0] < threshold_z):.1%}")  # fmt: skip
     for kind, rows in data.items():
         f = features(rows)
         low, high = np.nanmin(f, axis=0), np.nanmax(f, axis=0)
         print(f"  {kind:14s} fitness {low[0]:.3f}-{high[0]:.3f}, appearance {low[1]:+.2f}-{high[1]:+.2f}, "
               f"visible {low[2]:.2f}-{high[2]:.2f}, interleaved {low[3]:.2f}-{high[3]:.2f}, "
-              f"agreeing {low[4]:.2f}-{high[4]:.2f}, outline {low[5]:.2f}-{high[5]:.2f}")  # fmt: skip
+              f"agreeing {low[4]:.2f}-{high[4]:.2f}, outline {low[5]:.2f}-{high[5]:.2f}, "
+              f"scattered {low[6]:.2f}-{high[6]:.2f}")  # fmt: skip
 
 
 def half_turn_symmetric(model: ClothModel) -> bool:
@@ -453,14 +482,16 @@ def report_identification(
     calibration: bool = False,
     dump: list | None = None,
     wrong: list | None = None,
+    rounds: int = 1,
 ) -> None:
     """Model i on a scene of cloth j alone, for i, j < size; with `dump`, one `dump_row` per
     recognition; with `wrong`, the (index, recognition, None) of every i != j (negatives
-    for `--calibrate`)."""
+    for `--calibrate`); `rounds` scenes of each cloth (each another pose and camera)."""
     rng = seeds(args, calibration)
     false_accepts, missed, rejected_by_rival, times = [], [], 0, {True: [], False: []}
-    for j in range(size):
-        left, right, truth = scenes.present("flat", j, rng(f"identification{size}", j))
+    for round_, j in ((r, j) for r in range(rounds) for j in range(size)):
+        section = f"identification{size}" + (f"r{round_}" if round_ else "")
+        left, right, truth = scenes.present("flat", j, rng(section, j))
         for i in range(size):
             arm(recognizers, i, args, size, leave_out=j)
             result = recognizers[i].recognize(left, right, seed=i * size + j)
@@ -476,7 +507,8 @@ def report_identification(
                 false_accepts.append((i, j, round(result.confidence, 3)))
             if not result.found and i == j:
                 missed.append(j)
-    print(f"{size}x{size} identification (model i on a scene of cloth j alone, realistic camera): "
+    print(f"{size}x{size} identification (model i on a scene of cloth j alone, realistic camera"
+          f"{f', {rounds} scenes of each cloth' if rounds > 1 else ''}): "
           f"false accepts {len(false_accepts)} (goal 0: {verdict(not false_accepts)}) {false_accepts[:6]}; "
           f"own cloth missed {len(missed)} {missed}")  # fmt: skip
     if times[True]:
@@ -659,6 +691,9 @@ def main() -> None:
     parser.add_argument("--identification-size", type=int, default=0,
                         help="with --calibrate: also an NxN identification on calibration seeds, its wrong "
                         "pairs as absent scenes")  # fmt: skip
+    parser.add_argument("--identification-rounds", type=int, default=1,
+                        help="with --calibrate --identification-size: scenes of each cloth (each another "
+                        "pose and camera; more wrong pairs near the threshold)")  # fmt: skip
     parser.add_argument(
         "--set", dest="overrides", action="append", default=[], help="RecognitionSettings key=value"
     )
@@ -675,7 +710,8 @@ def main() -> None:
         data = collect(scenes, recognizers, args, calibration=True, dump=dump)
         if args.identification_size:
             wrong: list = []
-            report_identification(scenes, recognizers, args, args.identification_size, True, dump, wrong)
+            size, rounds = args.identification_size, args.identification_rounds
+            report_identification(scenes, recognizers, args, size, True, dump, wrong, rounds)
             data[f"identification{args.identification_size}"] = wrong
         write_dump(args.dump, dump or [])
         calibrate(data, settings, models, args.hold_weights)

@@ -35,6 +35,7 @@ RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
 STATION = ModelCamera(PinholeCamera.from_fov((480, 360), np.deg2rad(48)), 0.40)
 STRIPES_POSE = make_transform(rotation_about_z(0.3), [0.02, -0.01, 0.58])
 RED, YELLOW, STRIPES, CYAN, PATCHWORK = 0, 1, 2, 6, 11
+FORCED_ACCEPT = {"threshold": 1e-6, "weight_outline_below_knee": 0.0, "weight_scattered": 0.0}
 
 
 def _model(index: int) -> ClothModel:
@@ -153,9 +154,10 @@ def test_a_plain_model_on_part_of_a_catalogue_cloth_is_rejected_by_it(models, st
     # keeps an alternative pose only where the texture agrees better, and the hue's best
     # here half covers the yellow stripes; and the red goes on past its outline); the rival
     # test is exercised on an accept forced by a threshold of 1e-6 (a false accept of the red
-    # stripes, yellow taken as hidden)
+    # stripes, yellow taken as hidden) and, since the outline's knee and the scattered
+    # disagreement (confidence 6e-9 with them), without those two terms (1.4e-4)
     always = RecognitionSettings.model_validate(
-        {"rivals": {"decisive_confidence": 1.0}, "decide": {"threshold": 1e-6}}
+        {"rivals": {"decisive_confidence": 1.0}, "decide": FORCED_ACCEPT}
     )
     red = Recognizer(models[RED], RIG, always)
     alone = red.recognize(left, right, seed=1)
@@ -178,7 +180,7 @@ def test_recognize_cli_takes_rival_models(models, stripes_pair, tmp_path, capsys
     common = ["recognize", "--model", str(tmp_path / "red.npz"), "--rig", str(tmp_path / "rig.yaml"),
               "--left", str(tmp_path / "left.png"), "--right", str(tmp_path / "right.png"), "--seed", "1",
               "--json", "--set", "rivals.decisive_confidence=1.0",
-              "--set", "decide.threshold=1e-6"]  # fmt: skip
+              *(f"--set=decide.{key}={value}" for key, value in FORCED_ACCEPT.items())]  # fmt: skip
     assert main(common) == 0
     alone = json.loads(capsys.readouterr().out)
     assert alone["found"] is True and "rival" not in alone

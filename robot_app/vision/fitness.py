@@ -204,16 +204,31 @@ class FitnessEvaluator:
         Returns:
             (N_in,) agreeing and (N_in,) disagreeing counts, each 0-2.
         """
+        n_in = len(self.model.points_in)
+        points = self._point_set(1)
+        table = self._search_table
+        agree, disagree = np.zeros(n_in), np.zeros(n_in)
+        for codes in self.point_codes(transform_model_to_right):
+            k = points.row_offsets[:n_in].astype(np.int64) + 2 * codes
+            score, seen = table[k], table[k + 1] > 0
+            agree += score > 0
+            disagree += seen & (score <= 0)
+        return agree, disagree
+
+    def point_codes(self, transform_model_to_right: FloatArray) -> npt.NDArray[np.int64]:
+        """(2, N_in) the pixel code each S_in point lands on at one pose, in the left and the
+        right image (nearest pixel, as the kernels read it; `OFF_IMAGE` out of view)."""
         T = as_poses(transform_model_to_right)[0]
         width, height = self.rig.image_size
         points = self._point_set(1)
         n_in = len(self.model.points_in)
         xyz = np.stack([points.x[:n_in], points.y[:n_in], points.z[:n_in], np.ones(n_in, np.float32)])
-        table = self._search_table
-        agree, disagree = np.zeros(n_in), np.zeros(n_in)
-        for K, to_camera, codes in (
-            (self.rig.left.camera_matrix, self._left_from_right, self.codes[0]),
-            (self.rig.right.camera_matrix, np.eye(4), self.codes[1]),
+        out = np.empty((2, n_in), dtype=np.int64)
+        for side, (K, to_camera, codes) in enumerate(
+            (
+                (self.rig.left.camera_matrix, self._left_from_right, self.codes[0]),
+                (self.rig.right.camera_matrix, np.eye(4), self.codes[1]),
+            )
         ):
             projected = np.asarray(K, dtype=float) @ (to_camera @ T)[:3] @ xyz
             w = projected[2]
@@ -222,11 +237,8 @@ class FitnessEvaluator:
             v = np.where(front, projected[1] / np.where(front, w, 1.0), -10.0) + 1.5
             u = np.clip(u, 0.0, width + 1).astype(np.int64)  # as the kernels: floor(u + 0.5) + 1
             v = np.clip(v, 0.0, height + 1).astype(np.int64)
-            k = points.row_offsets[:n_in].astype(np.int64) + 2 * codes[v * (width + 3) + u].astype(np.int64)
-            score, seen = table[k], table[k + 1] > 0
-            agree += score > 0
-            disagree += seen & (score <= 0)
-        return agree, disagree
+            out[side] = codes[v * (width + 3) + u]
+        return out
 
     def kernel_arguments(
         self, *, stride: int = 1, search: bool = False

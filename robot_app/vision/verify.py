@@ -59,6 +59,9 @@ outnumbered the few edges left. A plain model's flat cells need no
 fine alignment, and its seams all count (counting them at the rate too accepted a plain red
 model on the stripes and on the patchwork again).
 
+Unexplained (`Verifier.unexplained`, `unexplained.py`): at the reported pose, the S_in
+points whose texture cells disagree outside one compact region (a half-plane).
+
 A model without texture (a version 1-2 file) cannot be verified: `Verification.appearance`
 is NaN and the decision uses its stand-in (`DecisionSettings.appearance_without_texture`).
 """
@@ -67,6 +70,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -82,7 +86,8 @@ from robot_app.vision.fitness_scores import FitnessSettings, foreign_codes
 from robot_app.vision.hue import COLOUR_CODES, HUE_RANGE, colours_match
 from robot_app.vision.outline import model_outline
 from robot_app.vision.poses import as_poses
-from robot_app.vision.verify_kernels import appearance, outline_contrast
+from robot_app.vision.unexplained import DisagreementShape, Unexplained, point_looks
+from robot_app.vision.verify_kernels import AGREES, appearance, outline_contrast
 
 
 class VerificationSettings(StrictModel):
@@ -213,6 +218,11 @@ class Verifier:
         sheet_hue = round(model.background_hue) % HUE_RANGE
         sheet = colours_match(np.arange(COLOUR_CODES), sheet_hue, search.hue_threshold_in)
         self._sheet = np.append(sheet, False)  # OFF_IMAGE
+        self._hue_threshold = search.hue_threshold_in
+        self._shape = DisagreementShape(model.points_in)
+        self._point_cells = (
+            None if self._samples is None else _nearest_cells(model.points_in[:, :2], self._samples)
+        )
         self._images: tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]] | None = None
         self._gains = (np.ones(3), np.ones(3))
         self._shading: tuple[Shading | None, Shading | None] = (None, None)
@@ -261,20 +271,7 @@ class Verifier:
             return [Verification(float("nan"), float(v), 0.0, 0.0, float("nan")) for v in seen]
         if self._images is None:
             raise RuntimeError("no stereo pair to verify on: call update(left, right) first")
-        px, py, values, cells, n_cells = self._samples
-        codes_left, codes_right = self.evaluator.codes
-        rig = self.evaluator.rig
-        s = self.settings
-        (factors_left, index_left), (factors_right, index_right) = (_shade(x) for x in self._shading)
-        block = max(x.block if x is not None else 1 for x in self._shading)
-        scores, visible, textured, interleaved, agreeing, agree_cells = appearance(
-            poses, rig.left.camera_matrix, rig.right.camera_matrix,
-            np.ascontiguousarray(rig.transform_right_to_left), px, py, values, cells, n_cells,
-            self._images[0], self._images[1], codes_left, codes_right, self._foreign,
-            self._gains[0], self._gains[1], factors_left, index_left, factors_right, index_right, block,
-            float(s.min_points), s.texture_min, s.flat_tolerance,
-            s.chroma_tolerance, s.brightness_tolerance, s.partial_low, s.partial_high, s.agree_level,
-        )  # fmt: skip
+        scores, visible, textured, interleaved, agreeing, agree_cells = self._appearance(poses)
         outline, astray = self._outline_evidence(poses, agree_cells, textured)
         return [
             Verification(float(a), float(v), float(t), float(i), float(g), float(o), float(r))
@@ -283,11 +280,68 @@ class Verifier:
             )
         ]
 
+    def unexplained(self, transform_model_to_camera: FloatArray) -> Unexplained:
+        """What one compact cause does not explain at one pose (`unexplained.py`): the S_in
+        points that disagree outside one half-plane of the model, by colour and by texture
+        cell; the smaller of the two.
+
+        Raises:
+            RuntimeError: no pair yet (call `update`).
+        """
+        pose = as_poses(transform_model_to_camera)[0]
+        codes = self.evaluator.point_codes(pose)
+        looks = point_looks(codes, self.model.hues_in, self._foreign, self._sheet, self._hue_threshold)
+        found, point_cells = self.agreeing_cells(pose), self._point_cells
+        if found is None or point_cells is None:
+            return self._shape.unexplained(looks)
+        cells, compared = found
+        agree = cells[:, point_cells].sum(axis=0).astype(float)  # the texture's looks per S_in point
+        disagree = (compared & ~cells)[:, point_cells].sum(axis=0).astype(float)
+        by_colour = self._shape.unexplained(looks).scattered
+        by_texture = self._shape.unexplained(looks, (agree, disagree)).scattered
+        return Unexplained(min(by_colour, by_texture))
+
+    def agreeing_cells(
+        self, transform_model_to_camera: FloatArray
+    ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]] | None:
+        """(2, cells) twice at one pose, per image (left, right): the texture cell is compared
+        and agrees (`Verification.agreeing`'s cells), and it is compared; None without texture.
+
+        Raises:
+            RuntimeError: no pair yet (call `update`).
+        """
+        if self._samples is None:
+            return None
+        if self._images is None:
+            raise RuntimeError("no stereo pair to verify on: call update(left, right) first")
+        verdicts = self._appearance(as_poses(transform_model_to_camera))[5][0]
+        return np.asarray(verdicts == AGREES), np.asarray(verdicts > 0)
+
+    def _appearance(self, poses: FloatArray) -> tuple[npt.NDArray[Any], ...]:
+        """`verify_kernels.appearance` of (P, 4, 4) poses on the current pair (needs the texture)."""
+        if self._samples is None or self._images is None:
+            raise RuntimeError("no texture or no stereo pair to compare (see `verify`)")
+        px, py, values, cells, n_cells = self._samples
+        codes_left, codes_right = self.evaluator.codes
+        rig = self.evaluator.rig
+        s = self.settings
+        (factors_left, index_left), (factors_right, index_right) = (_shade(x) for x in self._shading)
+        block = max(x.block if x is not None else 1 for x in self._shading)
+        return appearance(
+            poses, rig.left.camera_matrix, rig.right.camera_matrix,
+            np.ascontiguousarray(rig.transform_right_to_left), px, py, values, cells, n_cells,
+            self._images[0], self._images[1], codes_left, codes_right, self._foreign,
+            self._gains[0], self._gains[1], factors_left, index_left, factors_right, index_right, block,
+            float(s.min_points), s.texture_min, s.flat_tolerance,
+            s.chroma_tolerance, s.brightness_tolerance, s.partial_low, s.partial_high, s.agree_level,
+        )  # fmt: skip
+
     def _outline_evidence(
         self, poses: FloatArray, agree_cells: npt.NDArray[np.uint8], textured: FloatArray
     ) -> tuple[FloatArray, FloatArray]:
         """(P,) `Verification.outline` and (P,) `Verification.outline_astray` of each pose
-        (`agree_cells`: (P, 2, cells) the texture cells that agree, from `appearance`;
+        (`agree_cells`: (P, 2, cells) the texture cells' verdicts (`verify_kernels.AGREES`),
+        from `appearance`;
         `textured`: (P,) `Verification.textured_share`)."""
         if self._outline is None or self._images is None:
             nan = np.full(len(poses), np.nan)
@@ -436,18 +490,24 @@ def _outline_pairs(
         texture = np.asarray(cv2.GaussianBlur(texture, (0, 0), sigma), dtype=np.float32)
     u = np.rint(inner @ A[:, :2].T + A[:, 2]).astype(int)
     colours = texture[u[:, 1], u[:, 0]].astype(np.float64)
-    px, py, _, cells, _ = samples
-    sample_xy = np.column_stack([px, py]).astype(np.float64)
-    inner_cells = np.empty(len(inner), dtype=np.int64)
-    for start in range(0, len(inner), 256):  # the cell of each inner point's nearest sample
-        d = ((inner[start : start + 256, None, :] - sample_xy[None, :, :]) ** 2).sum(axis=2)
-        inner_cells[start : start + 256] = cells[np.argmin(d, axis=1)]
+    inner_cells = _nearest_cells(inner, samples)
     return (
         np.ascontiguousarray(inner),
         np.ascontiguousarray(outer),
         np.ascontiguousarray(colours),
         np.ascontiguousarray(inner_cells),
     )
+
+
+def _nearest_cells(points: FloatArray, samples: tuple) -> npt.NDArray[np.int64]:
+    """(N,) the cell of each of (N, 2) points' nearest texture sample (of `_texture_samples`)."""
+    px, py, _, cells, _ = samples
+    sample_xy = np.column_stack([px, py]).astype(np.float64)
+    out = np.empty(len(points), dtype=np.int64)
+    for start in range(0, len(points), 256):
+        d = ((points[start : start + 256, None, :] - sample_xy[None, :, :]) ** 2).sum(axis=2)
+        out[start : start + 256] = cells[np.argmin(d, axis=1)]
+    return out
 
 
 def _texture_samples(

@@ -9,6 +9,7 @@ from numba import njit
 from robot_app.vision.fitness_kernels import _projection
 
 _jit = njit(cache=True, fastmath=True, nogil=True, error_model="numpy")
+AGREES, DISAGREES = 1, 2  # a texture cell's verdict in `appearance`'s agree_cells (0: not compared)
 
 
 @_jit
@@ -126,7 +127,8 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
     that lie in partly hidden cells (a hidden share between `partial_low` and
     `partial_high`; cells with fewer than `min_points` samples in view left out), and the
     share of the scored weight on cells that agree at least `agree_level` (NaN if none);
-    and (P, 2, n_cells) uint8 per pose and image (left, right): the cell is scored and agrees.
+    and (P, 2, n_cells) uint8 per pose and image (left, right): the cell is scored and agrees
+    (`AGREES`), is scored and does not (`DISAGREES`), or is not scored (0).
 
     Args:
         transforms: (P, 4, 4) poses ^CR T_M.
@@ -194,7 +196,9 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
                 if cell_scores[c] >= agree_level:
                     agreeing_weight += cell_weights[c]
                     if cell_weights[c] > 0:
-                        agree_cells[p, side, c] = 1
+                        agree_cells[p, side, c] = AGREES
+                elif cell_weights[c] > 0:
+                    agree_cells[p, side, c] = DISAGREES
                 if model_rms[c] >= texture_min:
                     textured_weight += cell_weights[c]
         scores[p] = total / weight if weight > 0 else np.nan
@@ -235,7 +239,7 @@ def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, 
     foreign region ends exactly at the outline, as another cloth's does, not an occluder)
     and is otherwise left out; an inner point not showing the model photo's colour there
     (`_same_colour`) is astray; a pair whose inner point's texture cell does not agree
-    (`agree[inner_cells[i]]`; -1: no cell) is left out (a textured print under a sheet of
+    (`agree[inner_cells[i]] != AGREES`; -1: no cell) is left out (a textured print under a sheet of
     its own colour, a fold: the texture says it is not the model there); else the outer
     point shows the model's colour (same: the region goes on past the outline) or not
     (edge). counts[4]: the pairs whose inner point shows the model's colour, before the cell
@@ -263,7 +267,7 @@ def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, 
                 counts[3] += 1.0
             continue
         cell = inner_cells[i]
-        checked = cell >= 0 and agree[cell] != 0
+        checked = cell >= 0 and agree[cell] == AGREES
         if not _same_colour(image, u, v, gains, shade_factors, shade_index, block, model_bgr[i],
                             chroma_tolerance, bright):  # fmt: skip
             if checked:
