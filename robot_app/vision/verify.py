@@ -219,10 +219,8 @@ class Verifier:
         sheet = colours_match(np.arange(COLOUR_CODES), sheet_hue, search.hue_threshold_in)
         self._sheet = np.append(sheet, False)  # OFF_IMAGE
         self._hue_threshold = search.hue_threshold_in
-        self._shape = DisagreementShape(model.points_in)
-        self._point_cells = (
-            None if self._samples is None else _nearest_cells(model.points_in[:, :2], self._samples)
-        )
+        # built on the first `unexplained` (the decision weighs it only when configured to)
+        self._shape_and_cells: tuple[DisagreementShape, npt.NDArray[np.int64] | None] | None = None
         self._images: tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]] | None = None
         self._gains = (np.ones(3), np.ones(3))
         self._shading: tuple[Shading | None, Shading | None] = (None, None)
@@ -291,14 +289,21 @@ class Verifier:
         pose = as_poses(transform_model_to_camera)[0]
         codes = self.evaluator.point_codes(pose)
         looks = point_looks(codes, self.model.hues_in, self._foreign, self._sheet, self._hue_threshold)
-        found, point_cells = self.agreeing_cells(pose), self._point_cells
+        if self._shape_and_cells is None:
+            points_in = self.model.points_in
+            self._shape_and_cells = (
+                DisagreementShape(points_in),
+                None if self._samples is None else _nearest_cells(points_in[:, :2], self._samples),
+            )
+        shape, point_cells = self._shape_and_cells
+        found = self.agreeing_cells(pose)
         if found is None or point_cells is None:
-            return self._shape.unexplained(looks)
+            return shape.unexplained(looks)
         cells, compared = found
         agree = cells[:, point_cells].sum(axis=0).astype(float)  # the texture's looks per S_in point
         disagree = (compared & ~cells)[:, point_cells].sum(axis=0).astype(float)
-        by_colour = self._shape.unexplained(looks).scattered
-        by_texture = self._shape.unexplained(looks, (agree, disagree)).scattered
+        by_colour = shape.unexplained(looks).scattered
+        by_texture = shape.unexplained(looks, (agree, disagree)).scattered
         return Unexplained(min(by_colour, by_texture))
 
     def agreeing_cells(
