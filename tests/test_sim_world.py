@@ -191,3 +191,36 @@ def test_set_nodes_lays_a_traced_cloth_back_where_it_was() -> None:
         np.testing.assert_allclose(cloth.nodes(), traced, atol=1e-9)  # in nodes()'s own order
         with pytest.raises(ValueError, match="nodes must be"):
             cloth.set_nodes(traced[:-1])
+
+
+@pytest.mark.parametrize("solid", [True, False])
+def test_the_table_is_solid_to_sunk_cloth_nodes(solid: bool) -> None:
+    """A node pybullet's soft contact let into the table top is set back onto it after the
+    step (`world.cloth.solid_table`); off, it stays sunk. A node beyond the table's edge
+    (falling to the floor) is not touched."""
+    config = SMALL.model_copy(update={"cloth": ClothPhysicsSettings(solid_table=solid)})
+    with World(config) as world:
+        top = world.config.table.top_z
+        cloth = world.add_cloth(cloth_spec(4), 0.5, 0.05, 0.4, settle=False)
+        nodes = cloth.nodes().copy()
+        nodes[:3, 2] = top - 0.015  # three nodes 15 mm into the table
+        cloth.set_nodes(nodes)
+        world.step()
+        after = cloth.nodes()
+        if solid:
+            assert np.all(after[:3, 2] >= top - 1e-3), after[:3, 2] - top
+            assert world.table_corrections >= 3
+        else:
+            assert np.all(after[:3, 2] < top - 0.01), after[:3, 2] - top
+            assert world.table_corrections == 0
+    with World(config) as world:
+        top = world.config.table.top_z
+        (tx, _), (sx, _) = world.config.table.centre_xy, world.config.table.size_xy
+        cloth = world.add_cloth(cloth_spec(4), 0.5, 0.05, 0.4, settle=False)
+        nodes = cloth.nodes().copy()
+        nodes[:, 0] += tx + sx / 2 + 0.3 - nodes[:, 0].min()  # the whole cloth beyond the table's edge
+        nodes[:, 2] = top - 0.05
+        cloth.set_nodes(nodes)
+        world.step()
+        assert world.table_corrections == 0
+        assert float(cloth.nodes()[:, 2].max()) < top - 0.04  # falling to the floor, not lifted

@@ -294,6 +294,30 @@ class ClothBody:
             pb.resetMeshData(self.body_id, vertices=nodes.tolist(), physicsClientId=self._client)
         return count
 
+    def lift_free_nodes(
+        self, below: float, to: float, where: Callable[[FloatArray], npt.NDArray[np.bool_]]
+    ) -> int:
+        """Puts the free nodes lower than `below` [m] for which `where(nodes)` holds at height
+        `to` [m] (Σ_W z): a solid surface that pybullet's soft contact let them into
+        (`World.step`'s solid table). Only positions change, as in `move_free_nodes`.
+
+        Returns:
+            The number of nodes moved.
+        """
+        _, positions = pb.getMeshData(
+            self.body_id, -1, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=self._client
+        )
+        nodes = np.asarray(positions, dtype=float)
+        sunk = nodes[:, 2] < below
+        if not np.any(sunk):
+            return 0
+        sunk &= np.asarray(where(nodes), dtype=bool) & ~self._held
+        count = int(np.count_nonzero(sunk))
+        if count:
+            nodes[sunk, 2] = to
+            pb.resetMeshData(self.body_id, vertices=nodes.tolist(), physicsClientId=self._client)
+        return count
+
     def remove(self) -> None:
         """Deletes the soft body from its client."""
         self.release()

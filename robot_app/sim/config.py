@@ -160,6 +160,12 @@ class ClothPhysicsSettings(StrictModel):
         "cloths and the table, whose contacts then fling them off at 10-30 m/s (powers of two: "
         "pybullet's fixed-step accumulator then takes exactly this many solver steps per step)",
     )
+    solid_table: bool = Field(
+        True,
+        description="after every step, a free cloth node pybullet's soft contact let into the table top "
+        "is set back onto it (World.step); without it, a node trapped in the table under another cloth "
+        "made put-back heaps slide off the table by themselves (scripts/pile_physics.py --alone)",
+    )
     sdf_voxel_size: float = Field(
         0.25,
         gt=0.005,

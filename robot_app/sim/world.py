@@ -93,6 +93,7 @@ class World:
         if c.cloth.substeps > 1:  # 1: pybullet's default single step (pick-place's physics unchanged)
             pb.setPhysicsEngineParameter(numSubSteps=c.cloth.substeps, physicsClientId=client)
         self.time = 0.0
+        self.table_corrections = 0  # cloth nodes set back onto the solid table (`step`)
         self._cache = cache_dir()
         top = c.table.top_z
         tx, ty = c.table.centre_xy
@@ -165,12 +166,32 @@ class World:
         if self.conveyor is None or not self.conveyor.running:
             for _ in range(n):
                 pb.stepSimulation(physicsClientId=self._client)
+                self._keep_cloths_on_table()
             self.time += n * self.dt
             return
         for _ in range(n):
             self.conveyor.carry(self.cloths, self.time, self.dt)
             pb.stepSimulation(physicsClientId=self._client)
+            self._keep_cloths_on_table()
             self.time += self.dt
+
+    def _keep_cloths_on_table(self) -> None:
+        """The table is solid (`world.cloth.solid_table`): a free cloth node inside its top is
+        set back onto it, at the collision margin's height where a resting node lies.
+        pybullet's soft-rigid contact lets a node pressed by another cloth sink in; trapped
+        there under the other cloth it pushed the pair along the table by itself (the heap
+        slide, README "Cloths through the table")."""
+        c = self.config
+        if not c.cloth.solid_table or not self.cloths:
+            return
+        top = c.table.top_z
+        (tx, ty), (sx, sy) = c.table.centre_xy, c.table.size_xy
+
+        def over_table(nodes: FloatArray) -> npt.NDArray[np.bool_]:
+            return np.asarray((np.abs(nodes[:, 0] - tx) < sx / 2) & (np.abs(nodes[:, 1] - ty) < sy / 2))
+
+        for cloth in self.cloths:
+            self.table_corrections += cloth.lift_free_nodes(top, top + c.cloth.collision_margin, over_table)
 
     def add_cloth(
         self,
