@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+import numpy.typing as npt
 from pydantic import Field
 
 from robot_app.arrays import FloatArray
@@ -28,7 +29,8 @@ class PlaneSearchSettings(StrictModel):
         enabled: search again on the stereo plane when the depth check asks for it.
         radius: the coarse grid covers this around the pose's origin on the plane [m].
         coarse_step: its step [m].
-        yaw_range: ... and yaws within this of the pose's and of its half turn [deg].
+        yaw_range: ... and yaws within this of the pose's and of its half and quarter
+            turns [deg]; from 45 on (where those ranges meet) every yaw, evenly.
         yaw_step: in these steps [deg].
         stride: every n-th model point scored on the coarse grid.
         shortlist: the best this many distinct poses of the coarse grid (farther apart
@@ -107,23 +109,16 @@ def search_in_plane(
     """
     s = settings
     span = np.arange(-s.radius, s.radius + 1e-12, s.coarse_step)
-    turns = np.deg2rad(np.arange(-s.yaw_range, s.yaw_range + 1e-9, s.yaw_step))
-    yaws = np.concatenate([turns + quarter * np.pi / 2.0 for quarter in range(4)])
+    if s.yaw_range >= 45.0:  # the quarter turns' ranges meet: every yaw, evenly
+        yaws = np.deg2rad(np.arange(0.0, 360.0 - 1e-9, s.yaw_step))
+    else:
+        turns = np.deg2rad(np.arange(-s.yaw_range, s.yaw_range + 1e-9, s.yaw_step))
+        yaws = np.concatenate([turns + quarter * np.pi / 2.0 for quarter in range(4)])
     a, b, yaw = (g.ravel() for g in np.meshgrid(span, span, yaws, indexing="ij"))
     poses = poses_on_plane(pose, np.column_stack([a, b]), yaw)
     order = np.argsort(-coarse(poses), kind="stable")
-    chosen: list[int] = []
     wanted = s.shortlist if rank is not None else s.candidates
-    for k in order:
-        distinct = all(
-            np.hypot(a[k] - a[j], b[k] - b[j]) > 2.0 * s.coarse_step
-            or abs(np.angle(np.exp(1j * (yaw[k] - yaw[j])))) > np.deg2rad(20.0)
-            for j in chosen
-        )
-        if distinct:
-            chosen.append(int(k))
-            if len(chosen) == wanted:
-                break
+    chosen = _distinct(order, a, b, yaw, 2.0 * s.coarse_step, np.deg2rad(20.0), wanted)
     if rank is not None:
         ranked = np.argsort(-rank(poses[chosen]), kind="stable")[: s.candidates]
         chosen = [chosen[int(k)] for k in ranked]
@@ -135,6 +130,32 @@ def search_in_plane(
             best = _best(best, around, np.deg2rad(np.arange(-4, 5) * yaw_step), fitness)
         out.append(best)
     return np.array(out)
+
+
+def _distinct(
+    order: npt.NDArray[np.intp],
+    a: FloatArray,
+    b: FloatArray,
+    yaw: FloatArray,
+    separation: float,
+    turn: float,
+    wanted: int,
+) -> list[int]:
+    """The first `wanted` of the grid poses in `order` (indices) that lie farther than
+    `separation` in the plane (offsets `a`, `b` [m]) or `turn` in yaw [rad] from every one
+    taken before them (greedy, in `order`)."""
+    free = np.ones(len(a), dtype=bool)
+    chosen: list[int] = []
+    while len(chosen) < wanted:
+        left = order[free[order]]
+        if not len(left):
+            break
+        k = int(left[0])
+        chosen.append(k)
+        near = np.hypot(a - a[k], b - b[k]) <= separation
+        near &= np.abs(np.angle(np.exp(1j * (yaw - yaw[k])))) <= turn
+        free &= ~near
+    return chosen
 
 
 def _best(base: FloatArray, span: FloatArray, yaws: FloatArray, fitness: Fitness) -> FloatArray:
