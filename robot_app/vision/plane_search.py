@@ -118,7 +118,7 @@ def search_in_plane(
     poses = poses_on_plane(pose, np.column_stack([a, b]), yaw)
     order = np.argsort(-coarse(poses), kind="stable")
     wanted = s.shortlist if rank is not None else s.candidates
-    chosen = _distinct(order, a, b, yaw, 2.0 * s.coarse_step, np.deg2rad(20.0), wanted)
+    chosen = _distinct(order, span, yaws, 2.0 * s.coarse_step, np.deg2rad(20.0), wanted)
     if rank is not None:
         ranked = np.argsort(-rank(poses[chosen]), kind="stable")[: s.candidates]
         chosen = [chosen[int(k)] for k in ranked]
@@ -134,27 +134,38 @@ def search_in_plane(
 
 def _distinct(
     order: npt.NDArray[np.intp],
-    a: FloatArray,
-    b: FloatArray,
-    yaw: FloatArray,
+    span: FloatArray,
+    yaws: FloatArray,
     separation: float,
     turn: float,
     wanted: int,
 ) -> list[int]:
-    """The first `wanted` of the grid poses in `order` (indices) that lie farther than
-    `separation` in the plane (offsets `a`, `b` [m]) or `turn` in yaw [rad] from every one
-    taken before them (greedy, in `order`)."""
-    free = np.ones(len(a), dtype=bool)
+    """The first `wanted` poses in `order` (flat indices of the grid `span` x `span` x `yaws`,
+    `np.meshgrid(..., indexing="ij")` raveled) that lie farther than `separation` in the plane
+    [m] or `turn` in yaw [rad] from every one taken before them (greedy, in `order`). Each
+    pose taken blocks its neighbours in a box of the grid around it, so the cost does not
+    grow with the grid."""
+    n, m = len(span), len(yaws)
+    step = float(span[1] - span[0]) if n > 1 else separation + 1.0
+    reach = int(np.ceil(separation / step)) + 1
+    box = np.arange(-reach, reach + 1)
+    blocked = np.zeros(n * n * m, dtype=bool)
     chosen: list[int] = []
-    while len(chosen) < wanted:
-        left = order[free[order]]
-        if not len(left):
+    for k in order:
+        if blocked[k]:
+            continue
+        chosen.append(int(k))
+        if len(chosen) == wanted:
             break
-        k = int(left[0])
-        chosen.append(k)
-        near = np.hypot(a - a[k], b - b[k]) <= separation
-        near &= np.abs(np.angle(np.exp(1j * (yaw - yaw[k])))) <= turn
-        free &= ~near
+        i, j = divmod(int(k) // m, n)
+        rows, cols = i + box, j + box
+        rows, cols = rows[(rows >= 0) & (rows < n)], cols[(cols >= 0) & (cols < n)]
+        y = int(k) % m
+        near_yaw = np.flatnonzero(np.abs(np.angle(np.exp(1j * (yaws - yaws[y])))) <= turn)
+        near_plane = np.hypot(span[rows][:, None] - span[i], span[cols][None, :] - span[j]) <= separation
+        r, c = np.nonzero(near_plane)
+        flat = ((rows[r] * n + cols[c]) * m)[:, None] + near_yaw[None, :]
+        blocked[flat.ravel()] = True
     return chosen
 
 
