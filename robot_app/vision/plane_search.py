@@ -1,13 +1,15 @@
 """Search on a known plane: where on the stereo pair's plane does the model fit best?
 
 When the stereo depth check finds that the pair shows the cloth's plane elsewhere than the
-pose the hue search ended on (a corner folded under: the search fitted a smaller model
-farther away, or tilted), the pose is searched again with its plane held at the stereo
-plane: only the position on the plane and the yaw about its normal are free, so the
-cloth keeps the size the model photo gives it. The search is three grids, each around
-the best of the one before: coarse (every `coarse_step` within `radius`, yaws within
-`yaw_range` of the pose's and of its half and quarter turns, on every `stride`-th model
-point), then finer on every point, then on the sub-pixel fitness.
+pose the hue search ended on (a corner folded under, or a sheet of a near hue over part
+of the cloth: the search fitted a smaller model farther away, or tilted), the pose is
+searched again with its plane held at the stereo plane: only the position on the plane
+and the yaw about its normal are free, so the cloth keeps the size the model photo gives
+it. The search is three grids, each around the best of the one before: coarse (every
+`coarse_step` within `radius`, every yaw by default (else yaws within `yaw_range` of the
+pose's and of its half and quarter turns), on every `stride`-th model point; its
+`shortlist` best distinct poses are ranked by the texture), then finer on every point,
+then on the sub-pixel fitness.
 """
 
 from __future__ import annotations
