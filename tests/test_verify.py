@@ -345,3 +345,29 @@ def test_a_fine_print_seen_four_millimetres_off_keeps_its_outline_on_the_cloth_e
         truth, moved = verifier_on(cells, *images, gains=_gains(images, cells)).verify(np.array([POSE, off]))
         assert moved.agreeing < 0.35 < truth.agreeing
         assert truth.outline > 0.95 and moved.outline > 0.9
+
+
+def test_a_ranking_without_the_outline_ranks_poses_as_with_it() -> None:
+    # the plane search ranks 128 poses by `decide.ranking`, which leaves the outline out, so
+    # it verifies them without measuring the outline; the evidence it does use is the same
+    cloth = extended_cloth(AMBER_COFFEE)
+    cover = occluder_covering(cloth, POSE, 0.45, 1.0, colour_bgr=OCCLUDER_COLOURS["brown"])
+    images = render_stereo_pair(RIG, [(cloth, POSE)], occluder=cover, rng=np.random.default_rng(3))
+    verifier = verifier_on(AMBER_COFFEE, *images, gains=_gains(images, AMBER_COFFEE))
+    offsets = np.random.default_rng(4).uniform(-0.01, 0.01, (12, 3))
+    poses = np.array(
+        [POSE @ make_transform(rotation_from_rpy(0, 0, 5 * z), [x, y, 0]) for x, y, z in offsets]
+    )
+    poses = np.concatenate([POSE[None], poses, (POSE @ HALF_TURN)[None]])
+    full, lean = verifier.verify(poses), verifier.verify(poses, outline=False)
+    assert np.isfinite(full[0].outline) and all(np.isnan(v.outline) for v in lean)
+    assert all(np.isnan(v.outline_astray) for v in lean)
+    d = DecisionSettings()
+
+    def rank(v):
+        return ranking(
+            d, Evidence(0.9, v.appearance, v.visible_fraction, v.interleaved, True, v.agreeing, v.outline)
+        )
+
+    assert [rank(v) for v in lean] == pytest.approx([rank(v) for v in full], abs=1e-9)
+    assert rank(lean[0]) > rank(lean[-1])  # the texture still tells the half turn

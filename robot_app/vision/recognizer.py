@@ -696,9 +696,10 @@ class Recognizer:
         return self._at_depth(best, offset), measurement
 
     def _logits(self, poses: FloatArray) -> FloatArray:
-        """(P,) the decision's log-odds at each of (P, 4, 4) poses."""
+        """(P,) the ranking of each of (P, 4, 4) poses (`decide.ranking`: the decision's log-odds
+        without the outline's terms, so the outline is not measured)."""
         fitness = self.proposer.fitness()(poses)
-        verified = self.verifier.verify(poses)
+        verified = self.verifier.verify(poses, outline=False)
         return np.array(
             [self._verified(T, float(f), v).score for T, f, v in zip(poses, fitness, verified, strict=True)]
         )

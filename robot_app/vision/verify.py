@@ -257,8 +257,10 @@ class Verifier:
         )
         self._shading = (None, None) if shading is None else shading
 
-    def verify(self, transforms_model_to_camera: npt.ArrayLike) -> list[Verification]:
-        """The appearance check of each of (P, 4, 4) or (4, 4) poses.
+    def verify(self, transforms_model_to_camera: npt.ArrayLike, outline: bool = True) -> list[Verification]:
+        """The appearance check of each of (P, 4, 4) or (4, 4) poses; with `outline` false the
+        outline is not measured (`Verification.outline` and `outline_astray` NaN: for a ranking
+        of poses, which leaves the outline out, `decide.ranking`; it saves 20-50 % of the time).
 
         Raises:
             RuntimeError: no pair yet (call `update`).
@@ -270,11 +272,14 @@ class Verifier:
         if self._images is None:
             raise RuntimeError("no stereo pair to verify on: call update(left, right) first")
         scores, visible, textured, interleaved, agreeing, agree_cells = self._appearance(poses)
-        outline, astray = self._outline_evidence(poses, agree_cells, textured)
+        if outline:
+            outlines, astray = self._outline_evidence(poses, agree_cells, textured)
+        else:
+            outlines = astray = np.full(len(poses), np.nan)
         return [
             Verification(float(a), float(v), float(t), float(i), float(g), float(o), float(r))
             for a, v, t, i, g, o, r in zip(
-                scores, visible, textured, interleaved, agreeing, outline, astray, strict=True
+                scores, visible, textured, interleaved, agreeing, outlines, astray, strict=True
             )
         ]
 
