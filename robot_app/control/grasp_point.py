@@ -20,23 +20,11 @@ Among the target's visible points at least `min_edge_gap` inside its own edge (S
 its hidden points) and from which it hangs at most `max_reach`, the chosen point is the
 one farthest from every obstacle, counted up to `clearance`; among points that all reach
 `clearance`, the one deepest inside its edge.
-
-**Layers beneath** (`layers`): a cloth hidden *under* the target is no obstacle the survey
-saw, yet the fingers reaching into the target take it too. Given the top surface's height
-at a point (`surface`: the survey's stereo pair, `table_surface.SurfaceProbe`), the layers
-beneath it are counted: up to `on_table` above the table none, then one more per
-`layer_step`. A few well-spread points of the pool are measured (`probes`: half the best by
-the score above, each at least `probe_spacing` from the others, half spread over the rest
-of the pool) and the chosen one is the best-scored of those with the fewest layers beneath
-and a clearance of at least `layer_min_clearance` (or the best's, if lower); a point not
-measured or not trusted counts as half a layer. Nothing measured: the choice above stands.
 """
 
 from __future__ import annotations
 
 import contextlib
-import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -101,14 +89,6 @@ class PileGraspSettings(StrictModel):
         max_reach: the cloth hangs at most this far below the fingers from the chosen
             point (its farthest S_in point), when any visible point allows it: a cloth
             held near a corner hangs low enough to drag over a box wall [m].
-        layers: prefer points with no cloth beneath, by the surface height measured there
-            (module docstring; False: the clearance choice alone).
-        probes: points whose surface is measured.
-        probe_spacing: the best-scored probes lie at least this far apart [m].
-        on_table: a surface up to this above the table has no cloth beneath [m].
-        layer_step: each further layer beneath raises the surface by about this [m].
-        layer_min_clearance: a probe nearer than this to another cloth (and nearer than
-            the best-scored point) is not chosen for its layers [m].
     """
 
     enabled: bool = True
@@ -116,12 +96,6 @@ class PileGraspSettings(StrictModel):
     min_edge_gap: float = Field(0.02, ge=0.0, le=0.2)
     obstacle_step_px: int = Field(3, ge=1, le=20)
     max_reach: float = Field(0.24, gt=0.0, le=1.0)
-    layers: bool = True
-    probes: int = Field(8, ge=1, le=40)
-    probe_spacing: float = Field(0.03, gt=0.0, le=0.3)
-    on_table: float = Field(0.017, gt=0.0, le=0.1)
-    layer_step: float = Field(0.016, gt=0.0, le=0.1)
-    layer_min_clearance: float = Field(0.04, ge=0.0, le=0.3)
 
 
 @dataclass(frozen=True)
@@ -134,12 +108,6 @@ class PileGrasp:
         clearance: distance (x, y) to the nearest obstacle point [m] (inf: no obstacle).
         edge_gap: distance to the target's own edge or hidden part [m].
         visible: the share of the target's S_in points seen [0-1].
-        surface: the surface's height above the table measured at the point [m] (NaN: not
-            measured or not trusted).
-        layers: cloths beneath the point by that height (NaN: not measured).
-        probed: points whose surface was measured (0: none).
-        layered: the probes with no cloth beneath / measured at all.
-        moved: the layers chose another point than the clearance alone.
     """
 
     point_model: FloatArray
@@ -147,11 +115,6 @@ class PileGrasp:
     clearance: float
     edge_gap: float
     visible: float
-    surface: float = math.nan
-    layers: float = math.nan
-    probed: int = 0
-    layered: tuple[int, int] = (0, 0)
-    moved: bool = False
 
 
 def points_in_mask(
@@ -189,7 +152,6 @@ def choose_pile_grasp(
     visible: npt.NDArray[np.bool_],
     obstacles_xy: npt.ArrayLike,
     settings: PileGraspSettings | None = None,
-    surface: Callable[[FloatArray], float] | None = None,
 ) -> PileGrasp | None:
     """The grasp point on the target away from the obstacles (module docstring).
 
@@ -199,9 +161,6 @@ def choose_pile_grasp(
         visible: (N_in,) which S_in points are seen.
         obstacles_xy: (M, 2) points of other cloths in Σ_W (x, y) [m].
         settings: see `PileGraspSettings`.
-        surface: the top surface's height above the table [m] at a point (3,) of the
-            target at its surveyed pose (Σ_W [m]), NaN when not measured or not trusted (None, or
-            `settings.layers` False: the layers are not looked at).
 
     Returns:
         The point, or None when fewer than 10 % of the S_in points are seen (the loop's
@@ -229,24 +188,7 @@ def choose_pile_grasp(
     pool = short if len(short) else pool
     # farthest from the obstacles (up to `clearance`), then deepest inside its own edge
     score = np.minimum(clear[pool], s.clearance) * 1e3 + np.minimum(edge[pool], 1.0) * 1e-3
-    order = pool[np.argsort(-score, kind="stable")]
-    best = int(order[0])
-    found = math.nan
-    layers = math.nan
-    probed, layered, moved = 0, (0, 0), False
-    if surface is not None and s.layers:
-        probes = _spread(world[:, :2], order, s.probes, s.probe_spacing)
-        heights = np.array([surface(world[i]) for i in probes], dtype=float)
-        beneath = _layers(heights, s.on_table, s.layer_step)
-        nearest_allowed = min(s.layer_min_clearance, float(clear[best]))
-        allowed = clear[probes] >= nearest_allowed
-        rank = np.where(allowed, np.where(np.isnan(beneath), 0.5, beneath), np.inf)
-        pick = int(np.argmin(rank))  # the probes are in score order: ties go to the better score
-        moved = int(probes[pick]) != best
-        best = int(probes[pick])
-        found, layers = float(heights[pick]), float(beneath[pick])
-        probed = len(probes)
-        layered = (int(np.count_nonzero(beneath == 0)), int(np.count_nonzero(np.isfinite(beneath))))
+    best = int(pool[int(np.argmax(score))])
     point_model = np.array([candidates[best, 0], candidates[best, 1], 0.0])
     return PileGrasp(
         point_model,
@@ -254,50 +196,7 @@ def choose_pile_grasp(
         float(clear[best]),
         float(edge[best]),
         share,
-        found,
-        layers,
-        probed,
-        layered,
-        moved,
     )
-
-
-def layers_beneath(heights: npt.ArrayLike, on_table: float, layer_step: float) -> FloatArray:
-    """Cloths lying under a top surface `heights` [m] above the table: 0 up to `on_table`,
-    then one more per `layer_step` [m]; NaN where the height is NaN."""
-    return _layers(np.asarray(heights, dtype=float), on_table, layer_step)
-
-
-def _layers(heights: FloatArray, on_table: float, layer_step: float) -> FloatArray:
-    with np.errstate(invalid="ignore"):
-        above = np.maximum(heights - on_table, 0.0)
-        return np.where(np.isnan(heights), np.nan, np.ceil(above / layer_step))
-
-
-def _spread(
-    points: FloatArray, order: npt.NDArray[np.intp], count: int, spacing: float
-) -> npt.NDArray[np.intp]:
-    """Up to `count` indices into `points` ((N, 2) [m]), the first `order[0]`: half of
-    them the best in `order` lying at least `spacing` apart, the rest each the point of
-    `order` farthest from those taken (a coarse cover of the whole pool). Returned in
-    `order`'s order."""
-    taken = [int(order[0])]
-    for i in order[1:]:
-        if len(taken) >= max(1, (count + 1) // 2):
-            break
-        if np.min(np.hypot(*(points[taken] - points[i]).T)) >= spacing:
-            taken.append(int(i))
-    gaps = np.min(
-        np.hypot(*(points[order][:, None, :] - points[taken][None, :, :]).transpose(2, 0, 1)), axis=1
-    )
-    while len(taken) < min(count, len(order)):
-        j = int(np.argmax(gaps))
-        if gaps[j] < spacing / 2:
-            break
-        taken.append(int(order[j]))
-        gaps = np.minimum(gaps, np.hypot(*(points[order] - points[order[j]]).T))
-    rank = {int(i): k for k, i in enumerate(order)}
-    return np.array(sorted(taken, key=rank.__getitem__), dtype=np.intp)
 
 
 def _farthest(points: FloatArray, others: FloatArray) -> FloatArray:
@@ -316,11 +215,4 @@ def _nearest(points: FloatArray, others: FloatArray) -> FloatArray:
     return np.asarray(distances, dtype=float)
 
 
-__all__ = [
-    "PileGrasp",
-    "PileGraspSettings",
-    "choose_pile_grasp",
-    "layers_beneath",
-    "points_in_mask",
-    "visible_grasp_point",
-]
+__all__ = ["PileGrasp", "PileGraspSettings", "choose_pile_grasp", "points_in_mask", "visible_grasp_point"]

@@ -6,8 +6,6 @@ loop's search found the target where the survey saw it.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-
 import numpy as np
 
 from robot_app.arrays import FloatArray
@@ -35,13 +33,11 @@ def pile_grasp(
     camera_matrix: FloatArray,
     obstacles_xy: FloatArray,
     settings: PileGraspSettings,
-    surface: Callable[[FloatArray], float] | None = None,
 ) -> PileGrasp | None:
     """Where on `target` (at `pose_world`) to grasp: seen by the survey and away from every
-    other cloth it saw (`obstacles_xy`, (M, 2) [m]), preferring no cloth beneath by the
-    `surface` height there (`grasp_point.choose_pile_grasp`)."""
+    other cloth it saw (`obstacles_xy`, (M, 2) [m]; `grasp_point.choose_pile_grasp`)."""
     seen = points_in_mask(model.points_in, target.transform_model_to_camera, camera_matrix, target.explained)
-    return choose_pile_grasp(model, pose_world, seen, obstacles_xy, settings, surface)
+    return choose_pile_grasp(model, pose_world, seen, obstacles_xy, settings)
 
 
 def grasp_in_model(

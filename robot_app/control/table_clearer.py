@@ -50,7 +50,6 @@ from robot_app.control.clear_table_records import (
     TableResult,
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
-from robot_app.control.grasp_point import PileGrasp
 from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
@@ -74,7 +73,7 @@ from robot_app.control.table_furniture import furniture_mask, table_beyond_sheet
 from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_lost import match_lost, pick_lost
 from robot_app.control.table_recovery import TableRecovery
-from robot_app.control.table_surface import SurfaceProbe, aimed_at, surface_height
+from robot_app.control.table_surface import aimed_at, surface_height
 from robot_app.control.table_survey import (
     TablePlane,
     choose_target,
@@ -312,12 +311,7 @@ class TableClearer:
                 obstacles = np.concatenate([obstacles, disk_points(spot, self.settings.hidden_cloth_radius)])
                 where = f"({spot[0]:.2f}, {spot[1]:.2f})"
                 attempt.notes.append(f"grasp kept away from the cloth laid under {where}")
-            wall, cpu = time.perf_counter(), time.process_time()
-            probe = self._surface_probe(target)
-            attempt.grasp = pile_grasp(target, pose, model, K, obstacles, self.settings.pile_grasp, probe)
-            if attempt.grasp is not None and attempt.grasp.probed:
-                self._note_layers(attempt, attempt.grasp, time.perf_counter() - wall)
-                self._wait(time.process_time() - cpu, 1)
+            attempt.grasp = pile_grasp(target, pose, model, K, obstacles, self.settings.pile_grasp)
         recognizer = pick_recognizer(self.recognizers[target.name], target, self.settings.pick_depth_window)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
         loop = PickPlaceLoop(
@@ -430,37 +424,6 @@ class TableClearer:
         return self.recovery.look_from(place, offset, self.observation_camera_pose[2, 3])
 
     # ------------------------------------------------------------------ grasp point
-    def _surface_probe(self, target: Detection) -> Callable[[FloatArray], float] | None:
-        """The top surface's height above the table at a point of `target` on the survey's
-        pair (NaN: not trusted), for the pile grasp's layers; None when those are off."""
-        if not (self.settings.pile_grasp.layers and self.settings.surface.enabled):
-            return None
-        probe: list[SurfaceProbe] = []
-
-        def height(point_world: FloatArray) -> float:
-            if not probe:  # the pair is taken on the first point only
-                recognizer = self.recognizers[target.name]
-                probe.append(
-                    SurfaceProbe(
-                        self._survey_capture, self.rig, recognizer.model, recognizer.settings.depth,
-                        target.explained, self.table_z, self.settings.surface,
-                    )
-                )  # fmt: skip
-            found = probe[0].at(point_world)
-            return found.z - self.table_z if found.trusted else float("nan")
-
-        return height
-
-    @staticmethod
-    def _note_layers(attempt: AttemptState, grasp: PileGrasp, wall_s: float) -> None:
-        on_table, measured = grasp.layered
-        surface = "not measured" if np.isnan(grasp.surface) else f"{grasp.surface * 1e3:.0f} mm"
-        attempt.notes.append(
-            f"layers: {grasp.probed} points probed in {wall_s * 1e3:.0f} ms, {measured} measured, "
-            f"{on_table} with nothing beneath; grasp surface {surface} "
-            + ("(moved there for the layers)" if grasp.moved else "(the clearance choice)")
-        )
-
     def _use_pile_grasp(
         self, loop: PickPlaceLoop, transform_model_to_world: FloatArray, attempt: AttemptState
     ) -> None:

@@ -81,72 +81,6 @@ class SurfaceHeight:
     trusted: bool
 
 
-class SurfaceProbe:
-    """`surface_height` at many points of one target on one survey pair: the pair is taken
-    (`StereoDepth.update`) and the target's visible part closed and eroded once.
-
-    Args:
-        capture, rig, model, depth_settings, visible, table_z, settings: as `surface_height`.
-    """
-
-    def __init__(
-        self,
-        capture: StereoCapture,
-        rig: StereoRig,
-        model: ClothModel,
-        depth_settings: DepthCheckSettings,
-        visible: npt.NDArray[np.bool_],
-        table_z: float,
-        settings: SurfaceSettings,
-    ) -> None:
-        self.depth = StereoDepth(model, rig, depth_settings)
-        self.depth.update(capture.left_bgr, capture.right_bgr)
-        self.transform_camera_to_world = np.asarray(capture.transform_right_camera_to_world, dtype=float)
-        self.camera_matrix = rig.right.camera_matrix
-        self.visible = np.asarray(visible, dtype=bool)
-        self.inside = _eroded(_closed(self.visible, settings.close), settings.erode)
-        self.table_z = float(table_z)
-        self.settings = settings
-
-    def at(self, point_world: npt.ArrayLike) -> SurfaceHeight:
-        """The top surface at `point_world` ((3,) or (2,): on the table [m], Σ_W)."""
-        settings, T, K = self.settings, self.transform_camera_to_world, self.camera_matrix
-        point = np.asarray(point_world, dtype=float).ravel()
-        point = np.array([point[0], point[1], point[2] if len(point) > 2 else self.table_z])
-        in_camera = T[:3, :3].T @ (point - T[:3, 3])
-        if in_camera[2] <= 1e-6:
-            return SurfaceHeight(float("nan"), float("nan"), 0, False)
-        u, v = (
-            K[0, 0] * in_camera[0] / in_camera[2] + K[0, 2],
-            K[1, 1] * in_camera[1] / in_camera[2] + K[1, 2],
-        )
-        # planes z_W = h in Σ_CR: n = -(R's third row) points away from the camera, d = t_z - h
-        normal = -T[2, :3]
-        heights = np.arange(
-            self.table_z - settings.below, self.table_z + settings.above + 1e-12, settings.coarse_step
-        )
-        samples, scores = 0, np.full(len(heights), -2.0)
-        for scale in (1.0, 2.0):
-            radius_px = scale * settings.radius * K[0, 0] / in_camera[2]
-            patch = self.inside & _disk(self.visible.shape, u, v, radius_px)
-            scores, samples = self.depth.sweep_mask(
-                patch, _planes(normal, T[2, 3], heights), 1, settings.min_gradient
-            )
-            if samples >= settings.min_samples:
-                break
-        if samples < settings.min_samples or float(scores.max()) <= -2.0:
-            return SurfaceHeight(float("nan"), float("nan"), samples, False)
-        centre = float(heights[int(np.argmax(scores))])
-        half = round(settings.coarse_step / settings.fine_step)
-        fine = centre + np.arange(-half, half + 1, dtype=float) * settings.fine_step
-        fine_scores, _ = self.depth.sweep_mask(
-            patch, _planes(normal, T[2, 3], fine), 1, settings.min_gradient
-        )
-        j = int(np.argmax(fine_scores))
-        z, best = float(fine[j]) + peak_shift(fine_scores, j, settings.fine_step), float(fine_scores[j])
-        return SurfaceHeight(z, best, samples, best >= settings.min_correlation)
-
-
 def surface_height(
     capture: StereoCapture,
     rig: StereoRig,
@@ -159,7 +93,36 @@ def surface_height(
 ) -> SurfaceHeight:
     """The top surface's height at `point_world` ((3,) or (2,) [m], Σ_W), measured on the
     pair of `capture` inside `visible` ((H, W) the target's pixels in the right image)."""
-    return SurfaceProbe(capture, rig, model, depth_settings, visible, table_z, settings).at(point_world)
+    depth = StereoDepth(model, rig, depth_settings)
+    depth.update(capture.left_bgr, capture.right_bgr)
+    T = np.asarray(capture.transform_right_camera_to_world, dtype=float)
+    point = np.asarray(point_world, dtype=float).ravel()
+    point = np.array([point[0], point[1], point[2] if len(point) > 2 else table_z])
+    in_camera = T[:3, :3].T @ (point - T[:3, 3])
+    if in_camera[2] <= 1e-6:
+        return SurfaceHeight(float("nan"), float("nan"), 0, False)
+    K = rig.right.camera_matrix
+    u, v = K[0, 0] * in_camera[0] / in_camera[2] + K[0, 2], K[1, 1] * in_camera[1] / in_camera[2] + K[1, 2]
+    inside = _eroded(_closed(visible, settings.close), settings.erode)
+    # planes z_W = h in Σ_CR: n = -(R's third row) points away from the camera, d = t_z - h
+    normal = -T[2, :3]
+    heights = np.arange(table_z - settings.below, table_z + settings.above + 1e-12, settings.coarse_step)
+    samples, scores = 0, np.full(len(heights), -2.0)
+    for scale in (1.0, 2.0):
+        radius_px = scale * settings.radius * K[0, 0] / in_camera[2]
+        patch = inside & _disk(visible.shape, u, v, radius_px)
+        scores, samples = depth.sweep_mask(patch, _planes(normal, T[2, 3], heights), 1, settings.min_gradient)
+        if samples >= settings.min_samples:
+            break
+    if samples < settings.min_samples or float(scores.max()) <= -2.0:
+        return SurfaceHeight(float("nan"), float("nan"), samples, False)
+    centre = float(heights[int(np.argmax(scores))])
+    half = round(settings.coarse_step / settings.fine_step)
+    fine = centre + np.arange(-half, half + 1, dtype=float) * settings.fine_step
+    fine_scores, _ = depth.sweep_mask(patch, _planes(normal, T[2, 3], fine), 1, settings.min_gradient)
+    j = int(np.argmax(fine_scores))
+    z, best = float(fine[j]) + peak_shift(fine_scores, j, settings.fine_step), float(fine_scores[j])
+    return SurfaceHeight(z, best, samples, best >= settings.min_correlation)
 
 
 def aimed_at(
@@ -200,4 +163,4 @@ def _disk(shape: tuple[int, ...], u: float, v: float, radius: float) -> npt.NDAr
     return np.asarray((cols - u) ** 2 + (rows - v) ** 2 <= radius**2, dtype=bool)
 
 
-__all__ = ["SurfaceHeight", "SurfaceProbe", "SurfaceSettings", "aimed_at", "surface_height"]
+__all__ = ["SurfaceHeight", "SurfaceSettings", "aimed_at", "surface_height"]
