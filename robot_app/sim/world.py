@@ -34,6 +34,7 @@ from robot_app.sim.lighting import draw_lighting
 from robot_app.sim.robot import SimRobot
 from robot_app.sim.stereo import StereoCamera
 
+SUNK = 0.003  # [m] a cloth node deeper than this in the table top is set back onto it (`World.step`)
 FLIP_FACE_UP = np.diag([1.0, -1.0, -1.0])  # Σ_M of a face-up cloth: z into the table
 OCCLUDER_RGBA = (0.12, 0.25, 0.85, 1.0)  # the blue paper of Fig. 11 (b)
 SETTLE_CHECK_STEPS = 12
@@ -176,11 +177,12 @@ class World:
             self.time += self.dt
 
     def _keep_cloths_on_table(self) -> None:
-        """The table is solid (`world.cloth.solid_table`): a free cloth node inside its top is
-        set back onto it, at the collision margin's height where a resting node lies.
-        pybullet's soft-rigid contact lets a node pressed by another cloth sink in; trapped
-        there under the other cloth it pushed the pair along the table by itself (the heap
-        slide, README "Cloths through the table")."""
+        """The table is solid (`world.cloth.solid_table`): a free cloth node more than `SUNK`
+        inside its top is set back onto it, at the collision margin (where a node resting in
+        a pile lies). pybullet's soft-rigid contact lets a node pressed by another cloth sink
+        in; trapped there under the other cloth it pushed the pair along the table by itself
+        (the heap slide, README "Cloths through the table"). A lone cloth's resting nodes lie
+        within 0.3 mm of the top and are never touched."""
         c = self.config
         if not c.cloth.solid_table or not self.cloths:
             return
@@ -191,7 +193,9 @@ class World:
             return np.asarray((np.abs(nodes[:, 0] - tx) < sx / 2) & (np.abs(nodes[:, 1] - ty) < sy / 2))
 
         for cloth in self.cloths:
-            self.table_corrections += cloth.lift_free_nodes(top, top + c.cloth.collision_margin, over_table)
+            self.table_corrections += cloth.lift_free_nodes(
+                top - SUNK, top + c.cloth.collision_margin, over_table
+            )
 
     def add_cloth(
         self,
