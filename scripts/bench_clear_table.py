@@ -21,6 +21,7 @@ import csv
 import json
 import multiprocessing as mp
 import time
+from multiprocessing.pool import Pool
 from pathlib import Path
 
 import numpy as np
@@ -124,6 +125,16 @@ def run_one(job: tuple[int, int, tuple[str, ...], str]) -> dict[str, object]:
     }
 
 
+def episode_pool(workers: int) -> Pool:
+    """Worker processes that run each episode in a fresh process of its own. pybullet's
+    deformable world carries state from one world to the next within a process (neither
+    `disconnect` nor `resetSimulation` clears it): the same pile, built again after another
+    one, settles differently from step 11 on. An episode then depended on the episodes the
+    worker had run before it. In a fresh process, an episode repeats the same episode run
+    alone (`--first N --episodes 1`), so runs can be paired pick for pick."""
+    return mp.get_context("spawn").Pool(workers, maxtasksperchild=1)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     parser.add_argument("--episodes", type=int, default=50)
@@ -140,7 +151,7 @@ def main() -> None:
     jobs = [(i, args.seed, fixed, str(out)) for i in range(args.first, args.first + args.episodes)]
     rows: list[dict[str, object]] = []
     start = time.perf_counter()
-    with mp.get_context("spawn").Pool(args.workers, maxtasksperchild=10) as pool:
+    with episode_pool(args.workers) as pool:
         for row in pool.imap_unordered(run_one, jobs):
             rows.append(row)
             done = len(rows)
