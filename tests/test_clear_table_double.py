@@ -41,9 +41,8 @@ def _job(monkeypatch: pytest.MonkeyPatch, put_back: list[str]) -> table_clearer.
     job._hidden_spots = {}
     job._laid = []
     job.recovery = SimpleNamespace(  # type: ignore[assignment]
-        put_back=lambda *args: put_back.append("No.19"),
+        put_back=lambda *args: (put_back.append("No.19"), (np.zeros(2), np.zeros(2)))[1],
         put_back_spots=[np.zeros(2)],
-        laid=[(np.zeros(2), np.zeros(2))],
     )
     monkeypatch.setattr(table_clearer, "companion", lambda *args: None)  # no surveyed cloth by the grasp
     monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: "No.10")  # memory names No.10

@@ -414,9 +414,8 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     job._laid = []  # nothing laid back before
     put_back: list[str] = []
     job.recovery = SimpleNamespace(  # type: ignore[assignment]
-        put_back=lambda *args: put_back.append("No.10"),
+        put_back=lambda *args: (put_back.append("No.10"), (np.zeros(2), np.zeros(2)))[1],
         put_back_spots=[np.zeros(2)],
-        laid=[(np.zeros(2), np.zeros(2))],
     )
     four = SimpleNamespace(name="No.4", transform_model_to_camera=np.eye(4))
     attempt = table_clearer.AttemptState(

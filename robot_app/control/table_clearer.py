@@ -624,12 +624,12 @@ class TableClearer:
         `ArmMotion.resume_at`)."""
         self._phase = "put back"
         model = self.recognizers[attempt.name].model
-        self.recovery.put_back(
+        start, end = self.recovery.put_back(
             self._survey_capture, model, grasp_point_model, attempt.obstacles_xy, attempt.notes
         )
         attempt.put_back = True
-        attempt.put_back_at = self.recovery.put_back_spots[-1].copy()
-        self._laid.append((attempt, *self.recovery.laid[-1]))
+        attempt.put_back_at = end.copy()
+        self._laid.append((attempt, start, end))
 
     def _look_at_boxes(self) -> None:
         """Looks into every box once (the reference of the checks after placing)."""

@@ -54,13 +54,11 @@ class TableRecovery:
         self.loop_settings = loop_settings
         self.looked: list[FloatArray] = []  # places looked at since the last pick attempt
         self.put_back_spots: list[FloatArray] = []
-        self.laid: list[tuple[FloatArray, FloatArray]] = []  # each put-back's (start, let-go) (x, y) [m]
 
     def forget(self) -> None:
         """A new job run: no put-back spots, nothing looked at."""
         self.looked = []
         self.put_back_spots = []
-        self.laid = []
 
     # ------------------------------------------------------------------ looking around
     def places_to_look(
@@ -110,13 +108,13 @@ class TableRecovery:
         grasp_point_model: FloatArray | None,
         obstacles_xy: FloatArray | None,
         notes: list[str],
-    ) -> None:
+    ) -> tuple[FloatArray, FloatArray]:
         """Lays what the gripper holds back onto the table, spread out over free table in
         the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers
         it while moving away from the view's middle. Lets go and rises clear of the laid
         cloth; the caller goes on from there (no way back to the lift pose: the next move
-        is home). Books the laid strip (`laid`: from above where it was lifted to where it
-        was let go)."""
+        is home). Returns the laid strip: from above where it was lifted to where it was let
+        go ((2,) x, y [m] each)."""
         s, table_z = self.settings, self.table.table_z
         above = self.motion.tcp_position()
         path = (
@@ -136,7 +134,7 @@ class TableRecovery:
             self.motion.move_tcp(down, speed=s.put_down_speed)
         self.cell.release()
         self.put_back_spots.append(self.motion.tcp_position()[:2])
-        self.laid.append((above[:2].copy(), self.put_back_spots[-1].copy()))
+        strip = (above[:2].copy(), self.put_back_spots[-1].copy())
         self.motion.hold(self.loop_settings.release_wait)
         self.cell.set_gripper(self.loop_settings.gripper_open)
         self.motion.hold(self.loop_settings.close_time)
@@ -144,6 +142,7 @@ class TableRecovery:
         up = self.motion.tcp_position()
         up[2] = table_z + s.put_down_height + s.put_back.max_length
         self.motion.move_tcp(up)
+        return strip
 
     def _lay_out_joints(
         self,
