@@ -122,10 +122,7 @@ class ClothBody:
 
     def nodes(self) -> FloatArray:
         """(N, 3) current node positions in Σ_W [m], in the rest mesh's vertex order."""
-        _, positions = pb.getMeshData(
-            self.body_id, -1, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=self._client
-        )
-        nodes = np.asarray(positions, dtype=float)[self._order]
+        nodes = self._simulation_nodes()[self._order]
         nodes.setflags(write=False)
         return nodes
 
@@ -227,7 +224,7 @@ class ClothBody:
             raise ValueError(f"nodes must be ({len(self._order)}, 3), got {placed.shape}")
         ordered = np.empty_like(placed)
         ordered[self._order] = placed
-        pb.resetMeshData(self.body_id, vertices=ordered.tolist(), physicsClientId=self._client)
+        self._write_nodes(ordered)
 
     def fold(self, fold: Fold, lift: float | None = None) -> int:
         """Folds the nodes beyond the fold line over onto the cloth, `lift` [m] above it.
@@ -249,7 +246,7 @@ class ClothBody:
         nodes[flap] += (2.0 * self._margin if lift is None else lift) * up
         ordered = np.empty_like(nodes)
         ordered[self._order] = nodes
-        pb.resetMeshData(self.body_id, vertices=ordered.tolist(), physicsClientId=self._client)
+        self._write_nodes(ordered)
         return int(np.count_nonzero(flap))
 
     def translate(self, dx: float, dy: float) -> None:
@@ -283,15 +280,12 @@ class ClothBody:
             The number of nodes moved.
         """
         shift = np.asarray(displacement, dtype=float).reshape(3)
-        _, positions = pb.getMeshData(
-            self.body_id, -1, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=self._client
-        )
-        nodes = np.asarray(positions, dtype=float)
+        nodes = self._simulation_nodes()
         moving = np.asarray(where(nodes), dtype=bool) & ~self._held
         count = int(np.count_nonzero(moving))
         if count:
             nodes[moving] += shift
-            pb.resetMeshData(self.body_id, vertices=nodes.tolist(), physicsClientId=self._client)
+            self._write_nodes(nodes)
         return count
 
     def lift_free_nodes(
@@ -304,10 +298,7 @@ class ClothBody:
         Returns:
             The number of nodes moved.
         """
-        _, positions = pb.getMeshData(
-            self.body_id, -1, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=self._client
-        )
-        nodes = np.asarray(positions, dtype=float)
+        nodes = self._simulation_nodes()
         sunk = nodes[:, 2] < below
         if not np.any(sunk):
             return 0
@@ -315,7 +306,7 @@ class ClothBody:
         count = int(np.count_nonzero(sunk))
         if count:
             nodes[sunk, 2] = to
-            pb.resetMeshData(self.body_id, vertices=nodes.tolist(), physicsClientId=self._client)
+            self._write_nodes(nodes)
         return count
 
     def remove(self) -> None:
@@ -323,11 +314,19 @@ class ClothBody:
         self.release()
         pb.removeBody(self.body_id, physicsClientId=self._client)
 
-    def _node_order(self, expected: FloatArray) -> npt.NDArray[np.int64]:
+    def _simulation_nodes(self) -> FloatArray:
+        """(N, 3) node positions in Σ_W [m], in pybullet's node order."""
         _, positions = pb.getMeshData(
             self.body_id, -1, flags=pb.MESH_DATA_SIMULATION_MESH, physicsClientId=self._client
         )
-        loaded = np.asarray(positions, dtype=float)
+        return np.asarray(positions, dtype=float)
+
+    def _write_nodes(self, nodes: FloatArray) -> None:
+        """Puts the nodes at `nodes` ((N, 3) in Σ_W [m], pybullet's node order)."""
+        pb.resetMeshData(self.body_id, vertices=nodes.tolist(), physicsClientId=self._client)
+
+    def _node_order(self, expected: FloatArray) -> npt.NDArray[np.int64]:
+        loaded = self._simulation_nodes()
         if len(loaded) != len(expected):
             raise SimulationError(
                 f"soft body has {len(loaded)} nodes but the mesh has {len(expected)} vertices"
