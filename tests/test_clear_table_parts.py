@@ -63,6 +63,11 @@ def test_clear_table_config_checks_its_boxes_and_keeps_the_job_defaults() -> Non
     assert any("bins" in str(p) for p in err.value.problems)
     with pytest.raises(ConfigError):
         load_config(ClearTableConfig, None, ["known=[0, 3]"])
+    with pytest.raises(ConfigError) as err:  # a sort entry no cloth could ever match
+        load_config(ClearTableConfig, None, ["sort.default=colours", "sort.boxes.whites=[6, 25]"])
+    assert "No.25" in str(err.value)
+    with pytest.raises(ConfigError):
+        load_config(ClearTableConfig, None, ["sort.default=colours", 'sort.boxes.whites=["No.6", "no17"]'])
 
 
 class _FakeCell:

@@ -82,5 +82,23 @@ class SortSettings(StrictModel):
                     expected=", ".join(box_names),
                 )
 
+    def check_cloths(self, cloth_names: tuple[str, ...], key: str = "sort") -> None:
+        """Every cloth the rule names is one the job could meet (a misspelt name or a number
+        outside the catalogue would otherwise be silently never sorted).
+
+        Raises:
+            ConfigError: a cloth of `boxes` is not one of `cloth_names`.
+        """
+        for box, cloths in self.boxes.items():
+            for cloth in cloths:
+                if cloth not in cloth_names:
+                    raise ConfigError(
+                        f"{key}.boxes.{box}: {cloth} is not a cloth of the catalogue "
+                        f"({cloth_names[0]}-{cloth_names[-1]})",
+                        key=f"{key}.boxes.{box}",
+                        value=cloth,
+                        expected=", ".join(cloth_names),
+                    )
+
 
 __all__ = ["SortSettings", "cloth_name"]

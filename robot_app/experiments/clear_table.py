@@ -120,6 +120,7 @@ class ClearTableConfig(StrictModel):
     def _consistent(self) -> ClearTableConfig:
         names = tuple(b.name for b in self.world.all_boxes)
         self.sort.check_boxes(names, key="sort")
+        self.sort.check_cloths(tuple(cloth_name(n) for n in range(1, CATALOGUE_SIZE + 1)), key="sort")
         if self.known is not None and any(not 1 <= n <= CATALOGUE_SIZE for n in self.known):
             raise SettingValueError(
                 "known", f"catalogue numbers are 1-{CATALOGUE_SIZE}, got {list(self.known)}", list(self.known)
