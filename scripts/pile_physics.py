@@ -13,24 +13,60 @@ or a cloth off the table. Compare settings with `--set world.cloth.substeps=1`.
 `--alone S` then leaves the pile alone for S more seconds (the arm away) and prints how far
 each cloth's mean node moved on the table [mm] and its deepest node's depth in the table
 [mm] (negative: above it): a put-back heap that slides by itself (the simulator artefact
-README's "Cloths through the table" describes) shows as a cloth moving hundreds of mm.
+docs/history.md describes) shows as a cloth moving hundreds of mm. Each seed runs in a fresh
+process (`sim.fresh_process`), so its line does not depend on the seeds before it.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from robot_app.config import load_config
+from robot_app.errors import ConfigError
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.sim import World
 from robot_app.sim.checks import PileTrialSettings, pile_trial
+from robot_app.sim.fresh_process import fresh_process_pool
 from robot_app.sim.pile import make_pile
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[1] / "configs" / "clear_table.yaml"
+
+
+def one_seed(job: tuple[int, tuple[int, int], str, tuple[str, ...], float, float]) -> tuple[str, bool]:
+    """The trial of one seed (run in a fresh process): its printed line and whether it blew up."""
+    seed, count, config_path, settings, lay_out, alone_s = job
+    overrides = [
+        f"seed={seed}",
+        f"pile.count=[{count[0]},{count[1]}]",
+        "pile.overlap=overlap",
+        "pile.min_overlap=0.2",
+        *settings,
+    ]
+    config = load_config(ClearTableConfig, Path(config_path), overrides)
+    start = time.perf_counter()
+    with World(config.world) as world:
+        pile = make_pile(world, config.pile, seed=seed)
+        result = pile_trial(world, pile, PileTrialSettings(lay_out=lay_out))
+        alone = ""
+        if alone_s > 0:
+            before = [cloth.body.nodes() for cloth in pile.cloths]
+            for _ in range(round(alone_s / world.dt)):
+                world.step()
+            after = [cloth.body.nodes() for cloth in pile.cloths]
+            top = world.config.table.top_z
+            moved = [
+                float(np.hypot(*(a.mean(axis=0) - b.mean(axis=0))[:2])) * 1000
+                for a, b in zip(after, before, strict=True)
+            ]
+            depth = [(top - float(a[:, 2].min())) * 1000 for a in after]
+            shown = f"moved mm {[round(m) for m in moved]}, depth mm {[round(d) for d in depth]}"
+            alone = f" | {alone_s:g} s alone: {shown}"
+    return f"seed {seed}: {result.line()}{alone}  [{time.perf_counter() - start:.0f} s wall]", result.blew_up
 
 
 def main() -> None:
@@ -52,38 +88,21 @@ def main() -> None:
     args = parser.parse_args()
     if args.alone < 0:
         parser.error(f"--alone must be >= 0 s, got {args.alone}")
+    try:  # bad settings stop here, before any process starts
+        load_config(
+            ClearTableConfig, Path(args.config), [f"pile.count=[{args.count[0]},{args.count[1]}]", *args.set]
+        )
+    except ConfigError as err:
+        sys.exit(f"pile_physics: {err}")
+    jobs = [
+        (seed, tuple(args.count), args.config, tuple(args.set), args.lay_out, args.alone)
+        for seed in args.seeds
+    ]
     blown = 0
-    for seed in args.seeds:
-        overrides = [
-            f"seed={seed}",
-            f"pile.count=[{args.count[0]},{args.count[1]}]",
-            "pile.overlap=overlap",
-            "pile.min_overlap=0.2",
-            *args.set,
-        ]
-        config = load_config(ClearTableConfig, Path(args.config), overrides)
-        start = time.perf_counter()
-        with World(config.world) as world:
-            pile = make_pile(world, config.pile, seed=seed)
-            result = pile_trial(world, pile, PileTrialSettings(lay_out=args.lay_out))
-            alone = ""
-            if args.alone > 0:
-                before = [cloth.body.nodes() for cloth in pile.cloths]
-                for _ in range(round(args.alone / world.dt)):
-                    world.step()
-                after = [cloth.body.nodes() for cloth in pile.cloths]
-                top = world.config.table.top_z
-                moved = [
-                    float(np.hypot(*(a.mean(axis=0) - b.mean(axis=0))[:2])) * 1000
-                    for a, b in zip(after, before, strict=True)
-                ]
-                depth = [(top - float(a[:, 2].min())) * 1000 for a in after]
-                alone = (
-                    f" | {args.alone:g} s alone: moved mm {[round(m) for m in moved]}, "
-                    f"depth mm {[round(d) for d in depth]}"
-                )
-        blown += result.blew_up
-        print(f"seed {seed}: {result.line()}{alone}  [{time.perf_counter() - start:.0f} s wall]", flush=True)
+    with fresh_process_pool(1) as pool:  # each seed the first world of its process: repeatable
+        for line, blew_up in pool.imap(one_seed, jobs):
+            blown += blew_up
+            print(line, flush=True)
     shown = " ".join([*args.set, *([f"--lay-out {args.lay_out}"] if args.lay_out else [])]) or "config"
     print(f"blow-ups: {blown} of {len(args.seeds)} (settings: {shown})")
 
