@@ -13,12 +13,20 @@ import pytest
 
 from robot_app.config import load_config
 from robot_app.experiments.clear_table import ClearTableConfig, ClearTableEpisode, run_clear_table
+from robot_app.sim.fresh_process import run_in_fresh_process
 
 CONFIG = "configs/clear_table.yaml"
 FIXED = ["clear.survey_latency=0.3", "loop.vision_latency=0.06", "seed=5"]
 
 
 def job(*overrides: str) -> ClearTableEpisode:
+    """The job in a fresh process (`sim.fresh_process`): a soft pile settles differently
+    after another world ran in the same process, so the verdict would depend on the tests
+    run before this one."""
+    return run_in_fresh_process(_job_here, overrides)
+
+
+def _job_here(overrides: tuple[str, ...]) -> ClearTableEpisode:
     return run_clear_table(load_config(ClearTableConfig, CONFIG, [*FIXED, *overrides]))
 
 
