@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from robot_app.control.limits import JointLimits, LimitReport, check_limits
-from robot_app.control.trajectory import OnlineTrajectory, plan_point_to_point
+from robot_app.control.online_trajectory import OnlineTrajectory
+from robot_app.control.trajectory import plan_point_to_point
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "pa10.urdf"
 

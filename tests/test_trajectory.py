@@ -18,12 +18,9 @@ from robot_app.control.limits import (
     TrajectorySettings,
     check_limits,
 )
-from robot_app.control.trajectory import (
-    OnlineTrajectory,
-    TrajectoryPlanningError,
-    _call_ruckig,
-    plan_point_to_point,
-)
+from robot_app.control.online_trajectory import OnlineTrajectory
+from robot_app.control.ruckig_input import TrajectoryPlanningError, call_ruckig
+from robot_app.control.trajectory import plan_point_to_point
 from robot_app.errors import ConfigError, InputError, TrajectoryError
 
 URDF = Path(__file__).resolve().parents[1] / "urdf" / "pa10.urdf"
@@ -326,7 +323,7 @@ def test_ruckig_exceptions_become_typed_errors() -> None:
     request = ruckig.InputParameter(1)
     request.max_velocity, request.max_acceleration, request.max_jerk = [-1.0], [1.0], [1.0]
     with pytest.raises(TrajectoryPlanningError, match="maximum velocity limit") as info:
-        _call_ruckig(ruckig.Ruckig(1, DT).calculate, request, ruckig.Trajectory(1))
+        call_ruckig(ruckig.Ruckig(1, DT).calculate, request, ruckig.Trajectory(1))
     assert info.value.code == -100
 
 
@@ -345,7 +342,7 @@ def test_ruckig_calculation_failures_keep_their_code() -> None:
     request.max_acceleration = [h("0x1.1e83645a3c688p+1")] * 2
     request.max_jerk = [h("0x1.66243d70cb82ap+4")] * 2
     with pytest.raises(TrajectoryPlanningError, match="synchronisation failed") as info:
-        _call_ruckig(ruckig.Ruckig(2, DT).update, request, ruckig.OutputParameter(2))
+        call_ruckig(ruckig.Ruckig(2, DT).update, request, ruckig.OutputParameter(2))
     assert info.value.code == int(ruckig.Result.ErrorSynchronizationCalculation)
 
 

@@ -25,6 +25,7 @@ from robot_app.control.limits import (
     check_limits,
 )
 from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.online_trajectory import OnlineTrajectory
 from robot_app.control.pick_place import PickPlaceLoop, observation_posture
 from robot_app.control.pose_filter import (
     FilterUpdate,
@@ -46,7 +47,6 @@ from robot_app.control.robot_models import (
 )
 from robot_app.control.trajectory import (
     JointTrajectory,
-    OnlineTrajectory,
     TrajectoryPlanningError,
     TrajectorySample,
     TrajectorySamples,

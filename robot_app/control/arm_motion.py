@@ -21,10 +21,10 @@ from robot_app.control.episode import EpisodeAbortError, Outcome
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits, LimitReport, check_limits
 from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.online_trajectory import OnlineTrajectory
 from robot_app.control.trajectory import (
     JoinedTrajectory,
     JointTrajectory,
-    OnlineTrajectory,
     TrajectorySample,
     plan_point_to_point,
     plan_slowing_down,

@@ -47,12 +47,9 @@ from robot_app.control.episode import EpisodeAbortError, Outcome
 from robot_app.control.height_profile import HeightProfile, cloth_surface, tcp_height, vertical_speed
 from robot_app.control.intercept import JointFollower, TrackFilter, hanging_reach
 from robot_app.control.loop_settings import LoopSettings
-from robot_app.control.trajectory import (
-    RESULT_POSITIONAL_LIMITS,
-    OnlineTrajectory,
-    TrajectoryPlanningError,
-    time_optimal_duration,
-)
+from robot_app.control.online_trajectory import OnlineTrajectory
+from robot_app.control.ruckig_input import RESULT_POSITIONAL_LIMITS, TrajectoryPlanningError
+from robot_app.control.trajectory import time_optimal_duration
 
 CAMERA_FRAME = "camera_right_optical"
 TRACK_BANDWIDTH = 20.0  # [rad/s] of the smooth copy of the prediction: a step taken up in ~0.2 s

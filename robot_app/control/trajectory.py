@@ -1,12 +1,13 @@
-"""Jerk-limited joint trajectories with ruckig, offline and replanned online.
+"""Offline jerk-limited joint trajectories with ruckig.
 
-`plan_point_to_point` computes one time-optimal trajectory between two states;
-`OnlineTrajectory` replans every control cycle toward a target that may move (the
-pick-and-place loop's servo target). Both keep velocity, acceleration and jerk within a
-`JointLimits`; position limits are enforced here because ruckig's community edition
-ignores `min_position`/`max_position`: targets outside the range are rejected as invalid
-input, and a trajectory whose position extrema leave the range (an overshoot from a
-fast start) raises with ruckig's `ErrorPositionalLimits` code, as ruckig Pro would.
+`plan_point_to_point` computes one time-optimal trajectory between two states,
+`plan_slowing_down` one that slows to other limits where the hand must go slowly, and
+`time_optimal_duration` times a move without sampling it. Velocity, acceleration and jerk
+stay within a `JointLimits`; position limits are enforced by `ruckig_input` (ruckig's
+community edition ignores them): targets outside the range are rejected as invalid input,
+and a trajectory whose position extrema leave the range (an overshoot from a fast start)
+raises with ruckig's `ErrorPositionalLimits` code, as ruckig Pro would. The online
+replanning toward a moving target is `online_trajectory.OnlineTrajectory`.
 """
 
 from __future__ import annotations
@@ -22,33 +23,17 @@ import ruckig
 
 from robot_app.arrays import FloatArray
 from robot_app.control.limits import JointLimits
-from robot_app.errors import TrajectoryError
-
-RESULT_INVALID_INPUT = int(ruckig.Result.ErrorInvalidInput)
-RESULT_POSITIONAL_LIMITS = int(ruckig.Result.ErrorPositionalLimits)
-_ROUNDING = 1e-10  # [rad] position extrema may touch a limit this far beyond by rounding
-
-
-class TrajectoryPlanningError(TrajectoryError):
-    """Ruckig could not plan the requested motion.
-
-    Attributes:
-        code: ruckig's `Result` code (e.g. -100 invalid input, -102 positional limits).
-    """
-
-    def __init__(self, message: str, code: int) -> None:
-        super().__init__(f"{message} (ruckig result {_result_name(code)} = {code})")
-        self.code = code
-
-
-class TrajectorySample(NamedTuple):
-    """One commanded joint state: positions [rad], velocities [rad/s], accelerations
-    [rad/s^2] and its time [s] since the trajectory (or online run) started."""
-
-    q: FloatArray
-    v: FloatArray
-    a: FloatArray
-    time: float
+from robot_app.control.ruckig_input import (
+    TrajectoryPlanningError,
+    TrajectorySample,
+    call_ruckig,
+    check_extrema,
+    check_period,
+    frozen,
+    make_input,
+    set_state,
+    set_target,
+)
 
 
 class TrajectorySamples(NamedTuple):
@@ -81,7 +66,7 @@ class JointTrajectory:
             raise ValueError(f"sample time must be finite, got {t}")
         t = float(min(max(t, 0.0), self.duration))
         q, v, a = self._trajectory.at_time(t)
-        return TrajectorySample(_frozen(q), _frozen(v), _frozen(a), t)
+        return TrajectorySample(frozen(q), frozen(v), frozen(a), t)
 
     def samples(self, dt: float) -> TrajectorySamples:
         """Samples every `dt` [s] from 0 to the duration, the goal included."""
@@ -112,11 +97,11 @@ def time_optimal_duration(
         TrajectoryPlanningError: ruckig rejects the input or fails.
     """
     planner = ruckig.Ruckig(limits.dof)
-    request = _make_input(limits)
-    _set_state(request, limits, q, v, a, "start")
-    _set_target(request, limits, q_target, v_target)
+    request = make_input(limits)
+    set_state(request, limits, q, v, a, "start")
+    set_target(request, limits, q_target, v_target)
     trajectory = ruckig.Trajectory(limits.dof)
-    result = _call_ruckig(planner.calculate, request, trajectory)
+    result = call_ruckig(planner.calculate, request, trajectory)
     if result != ruckig.Result.Working:
         raise TrajectoryPlanningError("ruckig failed to time the motion", int(result))
     return float(trajectory.duration)
@@ -151,19 +136,19 @@ def plan_point_to_point(
         TrajectoryPlanningError: ruckig rejects the input or fails; start or goal outside
             the position limits (code -100); the motion would overshoot them (code -102).
     """
-    _check_period(dt)
+    check_period(dt)
     planner = ruckig.Ruckig(limits.dof, dt)
-    request = _make_input(limits)
+    request = make_input(limits)
     request.duration_discretization = ruckig.DurationDiscretization.Discrete
-    _set_state(request, limits, q_start, v_start, a_start, "start")
-    _set_target(request, limits, q_goal, v_goal, a_goal)
+    set_state(request, limits, q_start, v_start, a_start, "start")
+    set_target(request, limits, q_goal, v_goal, a_goal)
     trajectory = ruckig.Trajectory(limits.dof)
     started = time.perf_counter()
-    result = _call_ruckig(planner.calculate, request, trajectory)
+    result = call_ruckig(planner.calculate, request, trajectory)
     elapsed = time.perf_counter() - started
     if result != ruckig.Result.Working:
         raise TrajectoryPlanningError("ruckig failed to plan the point-to-point motion", int(result))
-    _check_extrema(trajectory, limits)
+    check_extrema(trajectory, limits)
     return JointTrajectory(float(trajectory.duration), elapsed, limits, trajectory)
 
 
@@ -244,286 +229,9 @@ def plan_slowing_down(
     return JoinedTrajectory(fast, slow, handover * dt)
 
 
-class OnlineTrajectory:
-    """Ruckig in online mode: call `step()` once per control cycle of `dt` [s].
-
-    The target may change between steps (`set_target`); ruckig then replans from the
-    current commanded state, so position, velocity and acceleration stay continuous
-    and jerk stays bounded across replans.
-
-    Attributes:
-        limits: joint limits respected by every sample.
-        dt: control period [s].
-        finished: True once the commanded state has reached the current target.
-        last_calculation_time_s: ruckig's own timing of its latest replan [s].
-    """
-
-    def __init__(self, limits: JointLimits, dt: float, q_init: npt.ArrayLike) -> None:
-        _check_period(dt)
-        self.limits = limits
-        self.dt = float(dt)
-        self._planner = ruckig.Ruckig(limits.dof, self.dt)
-        self._input = _make_input(limits)
-        self._output = ruckig.OutputParameter(limits.dof)
-        self._calculation_times: list[float] = []
-        self.last_calculation_time_s = 0.0
-        self.reset(q_init)
-
-    def reset(self, q: npt.ArrayLike, v: npt.ArrayLike | None = None, a: npt.ArrayLike | None = None) -> None:
-        """Restarts from state (q [rad], v [rad/s], a [rad/s^2]); the target becomes q at rest."""
-        _set_state(self._input, self.limits, q, v, a, "current")
-        _set_target(self._input, self.limits, q, None)
-        self._planner.reset()
-        self._time = 0.0
-        self.finished = not np.any(self._input.current_velocity) and not np.any(
-            self._input.current_acceleration
-        )
-
-    def set_target(
-        self,
-        q_target: npt.ArrayLike,
-        v_target: npt.ArrayLike | None = None,
-        a_target: npt.ArrayLike | None = None,
-        *,
-        minimum_duration: float | None = None,
-        synchronized: bool = True,
-    ) -> None:
-        """Sets the target positions [rad], velocities [rad/s] and accelerations [rad/s^2].
-
-        A target at rest or moving at constant velocity needs no acceleration. A target
-        that accelerates (e.g. a sinusoid) should pass it: a time-optimal replan toward a
-        state whose acceleration it does not know chatters at the acceleration limit.
-        Velocities and accelerations default to zero.
-
-        `minimum_duration` [s] makes the plan take at least that long (ruckig's own
-        option): a moving target state is then met when it is due, not as early as the
-        limits allow (an intercept). None: time-optimal.
-
-        `synchronized` (default) makes every joint arrive together (ruckig's time
-        synchronisation: a straight-ish path in joint space). False lets each joint reach
-        its own target state as fast as it can: for tracking a target that moves a little
-        every period, where synchronising all joints to the slowest one's small correction
-        bends the others' motion.
-        """
-        if minimum_duration is not None and not (np.isfinite(minimum_duration) and minimum_duration >= 0):
-            raise ValueError(f"minimum_duration must be finite and >= 0 [s], got {minimum_duration}")
-        if minimum_duration is not None and not synchronized:
-            raise ValueError("a minimum_duration needs the joints synchronized")
-        _set_target(self._input, self.limits, q_target, v_target, a_target)
-        self._input.minimum_duration = None if minimum_duration is None else float(minimum_duration)
-        self._input.synchronization = (
-            ruckig.Synchronization.Time if synchronized else ruckig.Synchronization.No
-        )
-        self.finished = False
-
-    def step(self) -> TrajectorySample:
-        """Advances one period and returns the new commanded state.
-
-        Raises:
-            TrajectoryPlanningError: ruckig reports an error, or the replanned motion
-                would leave the position limits (code -102); the state is not advanced.
-        """
-        self._clip_rounding_excess()
-        try:
-            result = _call_ruckig(self._planner.update, self._input, self._output)
-        except TrajectoryPlanningError as err:
-            if err.code != int(ruckig.Result.ErrorSynchronizationCalculation):
-                raise
-            # Step 2 also fails now and then on a state that sits at a limit to within a
-            # few ulps without exceeding it (seen in the hypothesis test of the online
-            # replanning); the same state pulled inside by 1e-12 relative replans.
-            self._pull_inside(1e-12)
-            result = _call_ruckig(self._planner.update, self._input, self._output)
-        if result not in (ruckig.Result.Working, ruckig.Result.Finished):
-            raise TrajectoryPlanningError("ruckig failed to replan the online motion", int(result))
-        if self._output.new_calculation:
-            _check_extrema(self._output.trajectory, self.limits)
-            self.last_calculation_time_s = self._output.calculation_duration * 1e-6  # ruckig gives [us]
-            self._calculation_times.append(self.last_calculation_time_s)
-        self._output.pass_to_input(self._input)
-        self._time += self.dt
-        self.finished = result == ruckig.Result.Finished
-        return self.state
-
-    def _clip_rounding_excess(self) -> None:
-        # Ruckig's own output can sit one ulp beyond a velocity limit it drove at, and its
-        # next synchronisation then fails ("error in step 2"); states only ever get here
-        # through ruckig or the validated reset, so clipping moves them by rounding only.
-        request = self._input
-        bounds = {"current_velocity": self.limits.velocity, "current_acceleration": self.limits.acceleration}
-        for name, bound in bounds.items():
-            values = np.array(getattr(request, name), dtype=float)
-            if np.any(np.abs(values) > bound):
-                setattr(request, name, np.clip(values, -bound, bound).tolist())
-
-    def _pull_inside(self, fraction: float) -> None:
-        """Scales the current velocity and acceleration by (1 - fraction)."""
-        request = self._input
-        for name in ("current_velocity", "current_acceleration"):
-            values = np.array(getattr(request, name), dtype=float)
-            setattr(request, name, (values * (1.0 - fraction)).tolist())
-
-    @property
-    def state(self) -> TrajectorySample:
-        """The latest commanded state (the initial one before any step)."""
-        request = self._input
-        return TrajectorySample(
-            _frozen(request.current_position),
-            _frozen(request.current_velocity),
-            _frozen(request.current_acceleration),
-            self._time,
-        )
-
-    @property
-    def target(self) -> FloatArray:
-        """Current target positions [rad]."""
-        return _frozen(self._input.target_position)
-
-    @property
-    def time_to_target(self) -> float:
-        """Time [s] the latest plan still needs to reach its target (0 before any step and
-        once reached): when a command given now will have acted."""
-        if self._time == 0.0 or self.finished:
-            return 0.0
-        return max(0.0, float(self._output.trajectory.duration) - float(self._output.time))
-
-    @property
-    def calculation_times(self) -> FloatArray:
-        """Ruckig's calculation time of every replan so far [s] (for statistics)."""
-        return _frozen(self._calculation_times)
-
-
-def _make_input(limits: JointLimits) -> ruckig.InputParameter:
-    request = ruckig.InputParameter(limits.dof)
-    request.max_velocity = limits.velocity.tolist()
-    request.max_acceleration = limits.acceleration.tolist()
-    request.max_jerk = limits.jerk.tolist()
-    return request
-
-
-def _set_state(
-    request: ruckig.InputParameter,
-    limits: JointLimits,
-    q: npt.ArrayLike,
-    v: npt.ArrayLike | None,
-    a: npt.ArrayLike | None,
-    what: str,
-) -> None:
-    q_arr = _vector(q, limits.dof, f"{what} positions")
-    v_arr = np.zeros(limits.dof) if v is None else _vector(v, limits.dof, f"{what} velocities")
-    a_arr = np.zeros(limits.dof) if a is None else _vector(a, limits.dof, f"{what} accelerations")
-    _check_within(q_arr, limits, f"{what} positions")
-    _check_bound(v_arr, limits.velocity, f"{what} velocities", limits)
-    _check_bound(a_arr, limits.acceleration, f"{what} accelerations", limits)
-    request.current_position = q_arr.tolist()
-    request.current_velocity = v_arr.tolist()
-    request.current_acceleration = a_arr.tolist()
-
-
-def _set_target(
-    request: ruckig.InputParameter,
-    limits: JointLimits,
-    q: npt.ArrayLike,
-    v: npt.ArrayLike | None,
-    a: npt.ArrayLike | None = None,
-) -> None:
-    q_arr = _vector(q, limits.dof, "target positions")
-    v_arr = np.zeros(limits.dof) if v is None else _vector(v, limits.dof, "target velocities")
-    a_arr = np.zeros(limits.dof) if a is None else _vector(a, limits.dof, "target accelerations")
-    _check_within(q_arr, limits, "target positions")
-    _check_bound(v_arr, limits.velocity, "target velocities", limits)
-    _check_bound(a_arr, limits.acceleration, "target accelerations", limits)
-    # The velocity the target state drifts to while its acceleration ramps to zero at the
-    # jerk limit must be within the limit too, or no trajectory through it respects it.
-    drift = v_arr + a_arr * np.abs(a_arr) / (2.0 * limits.jerk)
-    _check_bound(drift, limits.velocity, "target velocity + drift while its acceleration ramps down", limits)
-    request.target_position = q_arr.tolist()
-    request.target_velocity = v_arr.tolist()
-    request.target_acceleration = a_arr.tolist()
-
-
-def _vector(value: npt.ArrayLike, dof: int, what: str) -> FloatArray:
-    array = np.asarray(value, dtype=float).reshape(-1)
-    if array.shape != (dof,):
-        raise ValueError(f"{what} must have {dof} values, got shape {np.shape(value)}")
-    if not np.all(np.isfinite(array)):
-        raise TrajectoryPlanningError(f"{what} must be finite, got {array.tolist()}", RESULT_INVALID_INPUT)
-    return array
-
-
-def _check_within(q: FloatArray, limits: JointLimits, what: str) -> None:
-    outside = np.flatnonzero((q < limits.lower) | (q > limits.upper))
-    if outside.size:
-        i = int(outside[0])
-        raise TrajectoryPlanningError(
-            f"{what}: joint {_joint_name(limits, i)} at {q[i]:.4f} rad is outside "
-            f"[{limits.lower[i]:.4f}, {limits.upper[i]:.4f}] rad",
-            RESULT_INVALID_INPUT,
-        )
-
-
-def _check_bound(values: FloatArray, bound: FloatArray, what: str, limits: JointLimits) -> None:
-    outside = np.flatnonzero(np.abs(values) > bound)
-    if outside.size:
-        i = int(outside[0])
-        raise TrajectoryPlanningError(
-            f"{what}: joint {_joint_name(limits, i)} has |{values[i]:.4f}| above its limit {bound[i]:.4f}",
-            RESULT_INVALID_INPUT,
-        )
-
-
-def _check_extrema(trajectory: ruckig.Trajectory, limits: JointLimits) -> None:
-    for i, extremum in enumerate(trajectory.position_extrema):
-        if extremum.min < limits.lower[i] - _ROUNDING or extremum.max > limits.upper[i] + _ROUNDING:
-            raise TrajectoryPlanningError(
-                f"joint {_joint_name(limits, i)} would reach [{extremum.min:.4f}, {extremum.max:.4f}] rad, "
-                f"outside its range [{limits.lower[i]:.4f}, {limits.upper[i]:.4f}] rad",
-                RESULT_POSITIONAL_LIMITS,
-            )
-
-
-def _call_ruckig(method: Callable[..., ruckig.Result], *args: object) -> ruckig.Result:
-    """Calls ruckig; its exceptions (thrown instead of negative results by the Python
-    build) become `TrajectoryPlanningError` with the code ruckig would have returned."""
-    try:
-        return method(*args)
-    except ruckig.RuckigError as err:
-        message = str(err).strip().removeprefix("[ruckig]").strip()
-        if message.startswith("error in step 1"):
-            code, what = int(ruckig.Result.ErrorExecutionTimeCalculation), "calculation failed"
-        elif message.startswith("error in step 2"):
-            code, what = int(ruckig.Result.ErrorSynchronizationCalculation), "synchronisation failed"
-        else:
-            code, what = RESULT_INVALID_INPUT, "invalid trajectory input"
-        raise TrajectoryPlanningError(f"{what}: {message.splitlines()[0]}", code) from err
-
-
-def _check_period(dt: float) -> None:
-    if not (np.isfinite(dt) and dt > 0.0):
-        raise ValueError(f"control period dt must be > 0 [s], got {dt}")
-
-
-def _joint_name(limits: JointLimits, index: int) -> str:
-    return limits.names[index] if limits.names else str(index)
-
-
-def _result_name(code: int) -> str:
-    try:
-        return ruckig.Result(code).name
-    except ValueError:
-        return "unknown"
-
-
-def _frozen(values: npt.ArrayLike) -> FloatArray:
-    array = np.array(values, dtype=float)
-    array.setflags(write=False)
-    return array
-
-
 __all__ = [
     "JoinedTrajectory",
     "JointTrajectory",
-    "OnlineTrajectory",
     "TrajectoryPlanningError",
     "TrajectorySample",
     "TrajectorySamples",
