@@ -195,7 +195,7 @@ def seeds(args: argparse.Namespace, calibration: bool) -> Callable[[str, int], n
 
 
 DUMP_COLUMNS = ("kind", "model", "cloth", "fitness", "search_fitness", "appearance", "visible", "interleaved",
-                "agreeing", "outline", "scattered", "confidence", "found", "err_x_mm", "err_y_mm",
+                "agreeing", "outline", "confidence", "found", "err_x_mm", "err_y_mm",
                 "err_yaw_deg", "rival", "rivals_asked", "time_ms")  # fmt: skip
 
 
@@ -214,7 +214,7 @@ def dump_row(kind: str, model: ClothModel, cloth: int, result, truth) -> list:
     """One row of `--dump`: the scene kind, model and cloth, the decision's evidence and error."""
     e = [np.nan] * 4 if truth is None else errors_of(model, result.transform_model_to_camera, truth)
     return [kind, model.name, cloth, result.fitness, result.search_fitness, result.appearance,
-            result.visible_fraction, result.interleaved, result.agreeing, result.outline, result.scattered,
+            result.visible_fraction, result.interleaved, result.agreeing, result.outline,
             result.confidence,
             int(result.found), e[0], e[1], e[3], result.rival, result.rivals_asked,
             result.time_s * 1e3]  # fmt: skip
@@ -273,15 +273,14 @@ def collect(
     return out
 
 
-FEATURES = ("fitness", "appearance", "visible", "interleaved", "agreeing", "outline", "scattered")
+FEATURES = ("fitness", "appearance", "visible", "interleaved", "agreeing", "outline")
 
 
 def features(rows: list) -> np.ndarray:
-    """(N, 7) the decision's evidence of each row's recognition (`decide.Evidence`)."""
+    """(N, 6) the decision's evidence of each row's recognition (`decide.Evidence`)."""
     return np.array(
         [
-            [r.search_fitness, r.appearance, r.visible_fraction, r.interleaved, r.agreeing, r.outline,
-             r.scattered]
+            [r.search_fitness, r.appearance, r.visible_fraction, r.interleaved, r.agreeing, r.outline]
             for _, r, _ in rows
         ]
     )  # fmt: skip
@@ -324,16 +323,15 @@ def calibrate(
 ) -> None:
     """Logistic regression of present at the right pose (1) against absent (0, and the
     wrong pairs of the identification scenes with `--identification-size`) on (fitness,
-    appearance, visible, interleaved, agreeing, appearance·visible, agreeing·visible, outline,
-    outline below its knee, scattered) by Newton's method with a weak ridge
+    appearance, visible, interleaved, agreeing, appearance·visible, agreeing·visible, outline)
+    by Newton's method with a weak ridge
     (present scenes recognised at a wrong pose are left out: neither a right answer to
     accept nor an absent cloth); prints the weights and the threshold that best separates
     the calibration scenes. With `hold`, the weights that rank a pose's alternatives are
     held at the settings' (an offset) and only the bias and the weights of the terms that
-    say whether it is the cloth at all (`decide._whether_terms`: outline, outline below its
-    knee, scattered) are fitted: a free refit with the outline changed that
-    ranking (on the bench's 60 scenes a folded stripes print came out half-turned, a folded
-    square 7 -> 14 mm off)."""
+    say whether it is the cloth at all (`decide._whether_terms`: the outline) are fitted: a
+    free refit with the outline changed that ranking (on the bench's 60 scenes a folded
+    stripes print came out half-turned, a folded square 7 -> 14 mm off)."""
     kinds = ("flat", "wrinkled", "folded", "covered", "crumpled")
     wrong = sum(not correct(models, r) for kind in kinds for r in data.get(kind, []))
     present = [r for kind in kinds for r in data.get(kind, []) if correct(models, r)]
@@ -347,16 +345,15 @@ def calibrate(
     X = np.vstack([features(present), features(absent)])
     X[:, 1] = np.where(np.isnan(X[:, 1]), d.appearance_nothing_seen, X[:, 1])
     X[:, 4] = np.where(np.isnan(X[:, 4]), (X[:, 1] + 1.0) / 2.0, X[:, 4])
-    below_knee = np.where(np.isnan(X[:, 5]), 0.0, np.maximum(d.outline_knee - X[:, 5], 0.0))  # measured only
     X[:, 5] = np.where(np.isnan(X[:, 5]), d.outline_unmeasured, X[:, 5])
     products = [X[:, 1] * X[:, 2], X[:, 4] * X[:, 2]]
-    X = np.column_stack([X[:, :5], *products, X[:, 5], below_knee, X[:, 6]])
+    X = np.column_stack([X[:, :5], *products, X[:, 5]])
     y = np.concatenate([np.ones(len(present)), np.zeros(len(absent))])
     A = np.column_stack([np.ones(len(X)), X])
     held = np.array([d.weight_fitness, d.weight_appearance, d.weight_visible, d.weight_interleaved,
                      d.weight_agreeing, d.weight_appearance_visible, d.weight_agreeing_visible])  # fmt: skip
     offset = A[:, 1:8] @ held if hold else np.zeros(len(A))
-    free = A[:, [0, 8, 9, 10]] if hold else A
+    free = A[:, [0, 8]] if hold else A
     w = _logistic(free, offset, y)
     z = free @ w + offset
     if hold:
@@ -372,8 +369,7 @@ def calibrate(
     print(f"  decide.bias={w[0]:.3f} decide.weight_fitness={w[1]:.3f} decide.weight_appearance={w[2]:.3f} "
           f"decide.weight_visible={w[3]:.3f} decide.weight_interleaved={w[4]:.3f} "
           f"decide.weight_agreeing={w[5]:.3f} decide.weight_appearance_visible={w[6]:.3f} "
-          f"decide.weight_agreeing_visible={w[7]:.3f} decide.weight_outline={w[8]:.3f} "
-          f"decide.weight_outline_below_knee={w[9]:.3f} decide.weight_scattered={w[10]:.3f}")  # fmt: skip
+          f"decide.weight_agreeing_visible={w[7]:.3f} decide.weight_outline={w[8]:.3f}")  # fmt: skip
     print(f"  logit of present: min {z[y == 1].min():+.2f}; of absent: max {z[y == 0].max():+.2f}; "
           f"threshold logit {threshold_z:+.2f} = confidence "
           f"{1 / (1 + np.exp(-threshold_z)):.3f}; in sample present found "
@@ -384,8 +380,7 @@ def calibrate(
         low, high = np.nanmin(f, axis=0), np.nanmax(f, axis=0)
         print(f"  {kind:14s} fitness {low[0]:.3f}-{high[0]:.3f}, appearance {low[1]:+.2f}-{high[1]:+.2f}, "
               f"visible {low[2]:.2f}-{high[2]:.2f}, interleaved {low[3]:.2f}-{high[3]:.2f}, "
-              f"agreeing {low[4]:.2f}-{high[4]:.2f}, outline {low[5]:.2f}-{high[5]:.2f}, "
-              f"scattered {low[6]:.2f}-{high[6]:.2f}")  # fmt: skip
+              f"agreeing {low[4]:.2f}-{high[4]:.2f}, outline {low[5]:.2f}-{high[5]:.2f}")  # fmt: skip
 
 
 def half_turn_symmetric(model: ClothModel) -> bool:

@@ -35,7 +35,7 @@ RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
 STATION = ModelCamera(PinholeCamera.from_fov((480, 360), np.deg2rad(48)), 0.40)
 STRIPES_POSE = make_transform(rotation_about_z(0.3), [0.02, -0.01, 0.58])
 RED, YELLOW, STRIPES, CYAN, PATCHWORK = 0, 1, 2, 6, 11
-FORCED_ACCEPT = {"threshold": 1e-6, "weight_outline_below_knee": 0.0, "weight_scattered": 0.0}
+FORCED_ACCEPT = {"threshold": 1e-6}
 
 
 def _model(index: int) -> ClothModel:
@@ -154,8 +154,7 @@ def test_a_plain_model_on_part_of_a_catalogue_cloth_is_rejected_by_it(models, st
     # keeps an alternative pose only where the texture agrees better, and the hue's best
     # here half covers the yellow stripes; and the red goes on past its outline); the rival
     # test is exercised on an accept forced by a threshold of 1e-6 (a false accept of the red
-    # stripes, yellow taken as hidden) and, since the outline's knee and the scattered
-    # disagreement (confidence 6e-9 with them), without those two terms (1.4e-4)
+    # stripes, yellow taken as hidden; confidence 1.4e-4)
     always = RecognitionSettings.model_validate(
         {"rivals": {"decisive_confidence": 1.0}, "decide": FORCED_ACCEPT}
     )

@@ -77,31 +77,8 @@ decision is `weight_outline: 0, bias: -14.335, threshold: 0.437` (the same poses
 A model without texture has no outline to check (`outline_without_texture`, 1.0: nothing
 against it); an outline too little of which is in view takes `outline_unmeasured`.
 
-Session 11 (the identification bench's last false accepts, all models of the cyan band on
-another cloth's cyan): two more terms say whether it is the cloth, fitted like the outline
-with the ranking's weights held. The outline's *knee* (`outline_knee` 0.75, below which
-each step of a measured outline costs `weight_outline_below_knee` more: a plain cyan model
-inside a patchwork's cyan patches, its colour going on past 45 % of its outline, scored
-0.733-0.786 with the linear term alone; an unmeasured outline pays no knee) and
-`scattered` (`unexplained.py`: disagreement outside one half-plane of the model, by colour
-and by texture, the smaller; a dots model on a plain cloth of its ground colour, 0.594-0.630
-before). `taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 100
---identification-size 20 --identification-rounds 4 --hold-weights` (4 identification
-scenes of each cloth: the false accepts are rare, one round held 2 of them) printed bias
--23.880, outline 12.120, knee -11.576, scattered -13.730, threshold 0.535: 246 present
-scenes at the right pose against 1620 absent; in sample 100 / 99.9 % (present found /
-absent rejected), where the earlier decision had 100 / 99.6 % (7 false accepts). A third
-term, a missing part that is no fold (the sheet beyond a line whose mirror image the
-texture agrees with: where a fold's flap would show its back side), was measured and got
-no weight (-0.57); it is not kept. NOT ADOPTED (the defaults are the earlier decision,
-both weights 0): on the test seeds it took the identification's false accepts from 2 / 2
-to 1 / 0 (12x12 / 20x20) and rejected the full run's half-turned folded scene 90, but the
-full run's present found fell 98.8 -> 98.4 % (`--skip-speed --skip-fullsearch`: a flat
-yellow square at the right pose, 0.625 -> 0.489 by the refitted bias and outline weight,
-and a covered violet_cells 5.7 mm off, 0.596 -> 0.480, under the new threshold); a
-texture-only `scattered` (threshold 0.590) had 97.8 %. `--set decide.bias=-23.880
---set decide.weight_outline=12.120 --set decide.weight_outline_below_knee=-11.576 --set
-decide.weight_scattered=-13.730 --set decide.threshold=0.535` gives it back.
+Session 11 measured two more such terms (the outline's knee and a scattered disagreement);
+they were not adopted and are gone (history: docs/history.md, "Recognition").
 
 `threshold` is THE acceptance threshold of the project: the recogniser's `found`, the
 pick-and-place loop and the trials all use it.
@@ -176,11 +153,6 @@ class DecisionSettings(StrictModel):
             have (none against it: decided as before).
         outline_unmeasured: ... and a model with texture whose outline was not measured
             (too little of it in view).
-        outline_knee: below this outline evidence each step down also costs
-            `weight_outline_below_knee` (a cloth's own outline lies on an edge nearly
-            everywhere it is seen: present calibration scenes 0.72-1.00).
-        weight_outline_below_knee: the logistic weight of `outline_knee - outline` where positive.
-        weight_scattered: ... of `Evidence.scattered` (`unexplained.py`).
     """
 
     threshold: float = Field(default=0.594, gt=0.0, lt=1.0)
@@ -197,9 +169,6 @@ class DecisionSettings(StrictModel):
     outline_unmeasured: float = Field(default=0.5, ge=0.0, le=1.0)
     appearance_without_texture: float = Field(default=0.6, ge=-1.0, le=1.0)
     appearance_nothing_seen: float = Field(default=-1.0, ge=-1.0, le=1.0)
-    outline_knee: float = Field(default=0.75, ge=0.0, le=1.0)
-    weight_outline_below_knee: float = 0.0
-    weight_scattered: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -215,8 +184,6 @@ class Evidence:
         agreeing: share of the compared cells that agree (NaN: not measured).
         outline: share of the outline pairs on an edge of the model's colour
             (`verify.Verification.outline`; NaN: not measured).
-        scattered: share of the looks that disagree outside one compact region
-            (`unexplained.Unexplained.scattered`; 0: not measured).
     """
 
     fitness: float
@@ -226,7 +193,6 @@ class Evidence:
     has_texture: bool
     agreeing: float = float("nan")
     outline: float = float("nan")
-    scattered: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -267,7 +233,7 @@ def logit(settings: DecisionSettings, evidence: Evidence) -> float:
 
 
 def ranking(settings: DecisionSettings, evidence: Evidence) -> float:
-    """The log-odds without `_whether_terms` (the outline's and the others'): how the
+    """The log-odds without `_whether_terms` (the outline's): how the
     recogniser ranks a pose's alternatives (half and quarter turns, other runs' ends, the
     alignment's neighbours).
     The outline says whether the object is the model's cloth, not which of its poses fits
@@ -280,16 +246,8 @@ def ranking(settings: DecisionSettings, evidence: Evidence) -> float:
 
 def _whether_terms(settings: DecisionSettings, evidence: Evidence) -> float:
     """The log-odds terms that say whether the object is the model's cloth, not which of its
-    poses fits best: the outline (with its knee) and the scattered disagreement
-    (`unexplained.py`). `ranking` leaves them out."""
-    outline = _outline(settings, evidence)
-    # the knee only on a measured outline: a stand-in (`outline_unmeasured`) says nothing against
-    short = 0.0 if math.isnan(evidence.outline) else max(settings.outline_knee - evidence.outline, 0.0)
-    return (
-        settings.weight_outline * outline
-        + settings.weight_outline_below_knee * short
-        + settings.weight_scattered * evidence.scattered
-    )
+    poses fits best: the outline. `ranking` leaves them out."""
+    return settings.weight_outline * _outline(settings, evidence)
 
 
 def _outline(settings: DecisionSettings, evidence: Evidence) -> float:

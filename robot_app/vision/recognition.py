@@ -60,9 +60,6 @@ class Recognition:
             (`verify.Verification.agreeing`).
         outline: the verification's share of the outline lying on an edge of the model's
             colour (`verify.Verification.outline`; NaN: not measured).
-        scattered: the share of the texture's looks that disagree outside one compact
-            region of the model (`unexplained.Unexplained`; the decision weighs it; 0 for a
-            tracking frame, not measured).
         rival: the catalogue model that explains the recognised region better (`decide.judge`;
             then `found` is False), "" if none did or none was asked.
         rivals_asked: rivals recognised in the pair for this decision (0: not asked).
@@ -83,7 +80,6 @@ class Recognition:
     interleaved: float = 0.0
     agreeing: float = float("nan")
     outline: float = float("nan")
-    scattered: float = 0.0
     rival: str = ""
     rivals_asked: int = 0
 

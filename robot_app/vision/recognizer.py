@@ -32,9 +32,7 @@ The recogniser composes the stages and holds no search logic of its own:
    (a fine-grained print needs sub-millimetre alignment; the pose is kept); one-shot and
    check only: a tracked pose's evidence is its own, so a drift off the cloth shows;
 7. decide (`decide.decide`): `found` = confidence >= `decide.threshold`, the one
-   acceptance threshold; besides the verification's evidence it can weigh what one compact
-   cause cannot explain at the reported pose (`Verifier.unexplained`, `unexplained.py`;
-   one-shot and check only; weight 0 by default, not adopted).
+   acceptance threshold.
 
 Multi-step recognition (`Recognizer.track`) proposes from the kept poses moved by the
 camera motion (Sec. II-E), with colour codes only where the tracking window reaches
@@ -87,7 +85,6 @@ from robot_app.vision.refinement import (
     disagreeing_corner,
 )
 from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
-from robot_app.vision.unexplained import Unexplained
 from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
 _Method = TypeVar("_Method", bound=Callable[..., "Recognition"])
@@ -447,7 +444,7 @@ class Recognizer:
             self._last_verification = self.verifier.verify(pose)[0]
             self._frames_since_verified = 0
         chosen = _Verified(pose, best.search_fitness, self._last_verification, 0.0)
-        return self._result(chosen, count, before, start, (), float("nan"), Unexplained())
+        return self._result(chosen, count, before, start, (), float("nan"))
 
     def _result(
         self,
@@ -457,15 +454,10 @@ class Recognizer:
         start: float,
         peaks: tuple[Peak, ...],
         depth_offset: float,
-        unexplained: Unexplained | None = None,
     ) -> Recognition:
-        """The decided recognition at `chosen`; `unexplained` measured there unless given
-        (a tracking frame gives `Unexplained()`: nothing against, 0.3-0.5 ms saved)."""
+        """The decided recognition at `chosen`."""
         v = chosen.verification
-        if unexplained is None:  # measured only where the decision weighs it
-            weighed = self.settings.decide.weight_scattered != 0.0
-            unexplained = self.verifier.unexplained(chosen.pose) if weighed else Unexplained()
-        evidence = replace(self._evidence(chosen.search_fitness, v), scattered=unexplained.scattered)
+        evidence = self._evidence(chosen.search_fitness, v)
         decision = decide(self.settings.decide, evidence)
         return Recognition(
             found=decision.found,
@@ -483,7 +475,6 @@ class Recognizer:
             interleaved=v.interleaved,
             agreeing=v.agreeing,
             outline=v.outline,
-            scattered=unexplained.scattered,
         )
 
     def _most_confident(

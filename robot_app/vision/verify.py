@@ -59,9 +59,6 @@ outnumbered the few edges left. A plain model's flat cells need no
 fine alignment, and its seams all count (counting them at the rate too accepted a plain red
 model on the stripes and on the patchwork again).
 
-Unexplained (`Verifier.unexplained`, `unexplained.py`): at the reported pose, the S_in
-points whose texture cells disagree outside one compact region (a half-plane).
-
 A model without texture (a version 1-2 file) cannot be verified: `Verification.appearance`
 is NaN and the decision uses its stand-in (`DecisionSettings.appearance_without_texture`).
 """
@@ -86,8 +83,7 @@ from robot_app.vision.fitness_scores import FitnessSettings, foreign_codes
 from robot_app.vision.hue import COLOUR_CODES, HUE_RANGE, colours_match
 from robot_app.vision.outline import model_outline
 from robot_app.vision.poses import as_poses
-from robot_app.vision.unexplained import DisagreementShape, Unexplained, point_looks
-from robot_app.vision.verify_kernels import AGREES, appearance, outline_contrast
+from robot_app.vision.verify_kernels import appearance, outline_contrast
 
 
 class VerificationSettings(StrictModel):
@@ -218,9 +214,6 @@ class Verifier:
         sheet_hue = round(model.background_hue) % HUE_RANGE
         sheet = colours_match(np.arange(COLOUR_CODES), sheet_hue, search.hue_threshold_in)
         self._sheet = np.append(sheet, False)  # OFF_IMAGE
-        self._hue_threshold = search.hue_threshold_in
-        # built on the first `unexplained` (the decision weighs it only when configured to)
-        self._shape_and_cells: tuple[DisagreementShape, npt.NDArray[np.int64] | None] | None = None
         self._images: tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]] | None = None
         self._gains = (np.ones(3), np.ones(3))
         self._shading: tuple[Shading | None, Shading | None] = (None, None)
@@ -282,50 +275,6 @@ class Verifier:
                 scores, visible, textured, interleaved, agreeing, outlines, astray, strict=True
             )
         ]
-
-    def unexplained(self, transform_model_to_camera: FloatArray) -> Unexplained:
-        """What one compact cause does not explain at one pose (`unexplained.py`): the S_in
-        points that disagree outside one half-plane of the model, by colour and by texture
-        cell; the smaller of the two.
-
-        Raises:
-            RuntimeError: no pair yet (call `update`).
-        """
-        pose = as_poses(transform_model_to_camera)[0]
-        codes = self.evaluator.point_codes(pose)
-        looks = point_looks(codes, self.model.hues_in, self._foreign, self._sheet, self._hue_threshold)
-        if self._shape_and_cells is None:
-            points_in = self.model.points_in
-            self._shape_and_cells = (
-                DisagreementShape(points_in),
-                None if self._samples is None else _nearest_cells(points_in[:, :2], self._samples),
-            )
-        shape, point_cells = self._shape_and_cells
-        found = self.agreeing_cells(pose)
-        if found is None or point_cells is None:
-            return shape.unexplained(looks)
-        cells, compared = found
-        agree = cells[:, point_cells].sum(axis=0).astype(float)  # the texture's looks per S_in point
-        disagree = (compared & ~cells)[:, point_cells].sum(axis=0).astype(float)
-        by_colour = shape.unexplained(looks).scattered
-        by_texture = shape.unexplained(looks, (agree, disagree)).scattered
-        return Unexplained(min(by_colour, by_texture))
-
-    def agreeing_cells(
-        self, transform_model_to_camera: FloatArray
-    ) -> tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]] | None:
-        """(2, cells) twice at one pose, per image (left, right): the texture cell is compared
-        and agrees (`Verification.agreeing`'s cells), and it is compared; None without texture.
-
-        Raises:
-            RuntimeError: no pair yet (call `update`).
-        """
-        if self._samples is None:
-            return None
-        if self._images is None:
-            raise RuntimeError("no stereo pair to verify on: call update(left, right) first")
-        verdicts = self._appearance(as_poses(transform_model_to_camera))[5][0]
-        return np.asarray(verdicts == AGREES), np.asarray(verdicts > 0)
 
     def _appearance(self, poses: FloatArray) -> tuple[npt.NDArray[Any], ...]:
         """`verify_kernels.appearance` of (P, 4, 4) poses on the current pair (needs the texture)."""
