@@ -93,32 +93,6 @@ class LostPlace:
     before: tuple[tuple[float, float], ...]
 
 
-class IntoBoxSettings(StrictModel):
-    """How a cloth is put into its box (the `clear.into_box` section).
-
-    A cloth let go low folds onto the box floor under the fingers into a crumple that
-    stands 6-10 cm tall (the fingers held it there); the box's walls are 10 cm. The third
-    cloth put onto two such crumples lay over the rim and slid over a wall (bench episode 6:
-    No.8 on the table, No.2 dragged partly out).
-
-    Attributes:
-        press: after the fingers open, close them and lower them onto the box floor's
-            middle to `press_height` above it at `press_speed`, then rise: the heap is
-            pressed down, as one pushes laundry down into a bin.
-        press_height: TCP above the box floor at the bottom of the press [m] (the
-            fingertips reach about 3 cm below the TCP).
-        press_speed: limit scale of the press down [-].
-        spread: let each cloth go this far off the box floor's middle, on the box's sides
-            in turn (-y, +y, -x, +x), so that the crumples lie side by side
-            (`TableClearer.release_spot`) [m]; 0: over the middle.
-    """
-
-    press: bool = False
-    press_height: float = Field(0.04, ge=0.035, le=0.1)
-    press_speed: float = Field(0.2, gt=0.0, le=1.0)
-    spread: float = Field(0.0, ge=0.0, le=0.06)
-
-
 class ClearTableSettings(StrictModel):
     """How the table is cleared (the `clear` section). Lengths [m], times cell time [s].
 
@@ -183,7 +157,6 @@ class ClearTableSettings(StrictModel):
         surface: the grasp aimed at the top surface the survey's pair shows at the grasp
             point (`table_surface`), not at the pose's plane (low on a pile).
         off_sheet: the bare table beyond the green sheet taken out of the unknown regions.
-        into_box: how a cloth is put into its box (`IntoBoxSettings`).
     """
 
     max_picks: int = Field(15, ge=1)
@@ -209,7 +182,6 @@ class ClearTableSettings(StrictModel):
     hidden_cloth_radius: float = Field(0.0, ge=0.0, le=0.3)
     lost: LostSettings = Field(default_factory=LostSettings)
     off_sheet: OffSheetSettings = Field(default_factory=OffSheetSettings)
-    into_box: IntoBoxSettings = Field(default_factory=IntoBoxSettings)
 
 
 @dataclass(frozen=True)
@@ -383,7 +355,6 @@ __all__ = [
     "ClearTableSettings",
     "ClothOutcome",
     "ClothRecord",
-    "IntoBoxSettings",
     "LostPlace",
     "LostSettings",
     "PickAttempt",

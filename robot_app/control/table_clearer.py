@@ -45,7 +45,6 @@ from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
-    IntoBoxSettings,
     SheetArea,
     SurveyRecord,
     TableResult,
@@ -86,27 +85,6 @@ from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.geometry import transform_points
 from robot_app.vision import Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, UnknownRegion, identify
-
-SPREAD_SIDES = ((0.0, -1.0), (0.0, 1.0), (-1.0, 0.0), (1.0, 0.0))  # `TableClearer.release_spot`
-
-
-def press_into_box(
-    motion: JobMotion, cell: Cell, centre: npt.ArrayLike, settings: IntoBoxSettings, loop: LoopSettings
-) -> None:
-    """Presses a box's contents down: closes the fingers (`loop.close_time`) and lowers them
-    onto the middle of the box floor (`centre`, Σ_W [m]) to `settings.press_height` above it
-    at `settings.press_speed`; the hand stays there, the fingers closed. A cloth let go low folds onto
-    the floor into a crumple as tall as the fingers held it (6-10 cm against the 10 cm walls);
-    pressed, the heap leaves room under the rim for the next cloth.
-
-    Raises:
-        IKError: the press is out of reach (the fingers are closed then).
-    """
-    cell.set_gripper(0.0)
-    motion.hold(loop.close_time)
-    bottom = np.asarray(centre, dtype=float).reshape(3).copy()
-    bottom[2] += settings.press_height
-    motion.move_tcp(bottom, speed=settings.press_speed)
 
 
 class TableClearer:
@@ -217,7 +195,6 @@ class TableClearer:
         wall_start, start = time.perf_counter(), self.cell.time
         self.ledger = TableLedger()
         self._views: dict[str, BoxView | None] = dict.fromkeys(self.boxes)
-        self._released: dict[str, int] = {}  # box -> cloths let go over it
         self._collisions = 0
         self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
         self._laid: list[tuple[AttemptState, FloatArray, FloatArray]] = []  # put-backs: (start, let-go)
@@ -343,7 +320,7 @@ class TableClearer:
             recognizer,
             self.limits,
             self._survey_camera_pose,
-            self.release_spot(box),
+            box.centre,
             self.table_z,
             self._loop_settings(target.name),
             self.filter_settings,
@@ -628,50 +605,18 @@ class TableClearer:
         self._phase, self._meant = phase, meant
 
     def check_box(self, attempt: AttemptState) -> None:
-        """After a release: presses the box's contents down (`press_box`), looks into the
-        box from above it (`box_check.look_tcp`, as `_look_at_boxes`: the release pose's
-        camera saw a quarter of the floor; out of reach: from the release pose, noted) and
-        checks it (`check_release`)."""
-        self._released[attempt.box.name] = self._released.get(attempt.box.name, 0) + 1
-        pressed = self.press_box(attempt)
+        """After a release: looks into the box from above it (`box_check.look_tcp`, as
+        `_look_at_boxes`: the release pose's camera saw a quarter of the floor; out of
+        reach: from the release pose, noted) and checks it (`check_release`)."""
         self._phase = "box check"
         height = self.settings.box_view_height
         try:
             self.motion.move_tcp(look_tcp(attempt.box.centre, height, self.camera_offset()))
         except IKError:
             attempt.notes.append("box looked into from the release pose: the look above it is out of reach")
-        if pressed:
-            self.cell.set_gripper(self.loop_settings.gripper_open)  # as for the reference look
-            self.motion.hold(self.loop_settings.close_time)
         capture = self.cell.capture()
         recognizer = self.recognizers[attempt.name]
         check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings)
-
-    def release_spot(self, box: BoxPlace) -> FloatArray:
-        """(3,) where over `box` the next cloth is let go [m] (Σ_W): its floor's middle, or with
-        `clear.into_box.spread` > 0 that far off it, on the side of the box after the one the last
-        cloth into that box went to (-y, +y, -x, +x, in turn), so that the crumples lie side by
-        side rather than on one another."""
-        spot = np.asarray(box.centre, dtype=float).copy()
-        spread = self.settings.into_box.spread
-        if spread > 0:
-            n = self._released.get(box.name, 0)
-            spot[:2] += spread * np.array(SPREAD_SIDES[n % len(SPREAD_SIDES)], dtype=float)
-        return spot
-
-    def press_box(self, attempt: AttemptState) -> bool:
-        """After the fingers let go over the box: presses its contents down
-        (`press_into_box`, `clear.into_box.press`); the fingers stay closed (`check_box` opens them).
-        True if it pressed."""
-        if not self.settings.into_box.press:
-            return False
-        self._phase = "press"
-        try:
-            centre, settings = attempt.box.centre, self.settings.into_box
-            press_into_box(self.motion, self.cell, centre, settings, self.loop_settings)
-        except IKError:
-            attempt.notes.append("box not pressed: the press is out of reach")
-        return True
 
     def put_back(self, attempt: AttemptState, grasp_point_model: FloatArray | None) -> None:
         """Lays a rejected lift back onto free table (`TableRecovery.put_back`) and books
@@ -759,4 +704,4 @@ class TableClearer:
         )
 
 
-__all__ = ["TableClearer", "press_into_box"]
+__all__ = ["TableClearer"]

@@ -211,8 +211,7 @@ def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome
         return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
     start = job.cell.time
     job.set_phase("transfer", name)
-    spot = job.release_spot(attempt.box)
-    carry_over_box(job.motion, spot, table_z, loop)
+    carry_over_box(job.motion, attempt.box.centre, table_z, loop)
     _phase(job, name, "transfer", start, "")
     if not job.cell.holding():
         attempt.dropped = True
@@ -224,7 +223,7 @@ def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome
     job.set_phase("release", name)
     model = job.recognizers[name].model
     reach = hanging_reach(model.points_in, model.grasp_point)
-    release_into_box(job.motion, job.cell, spot, table_z, loop, reach)
+    release_into_box(job.motion, job.cell, attempt.box.centre, table_z, loop, reach)
     _phase(job, name, "release", start, "")
     job.check_box(attempt)
     return Outcome.PLACED, f"{name} placed (picked blind, its weight read)"
