@@ -19,17 +19,18 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import multiprocessing as mp
+import sys
 import time
-from multiprocessing.pool import Pool
 from pathlib import Path
 
 import numpy as np
 
 from robot_app.config import load_config
 from robot_app.control import Outcome
+from robot_app.errors import ConfigError
 from robot_app.experiments.clear_table import ClearTableConfig, ClearTableEpisode, run_clear_table
 from robot_app.experiments.clear_table_results import write_clear_table
+from robot_app.sim.fresh_process import fresh_process_pool
 from robot_app.sim.realism import REALISM_NAMES
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[1] / "configs" / "clear_table.yaml"
@@ -125,16 +126,6 @@ def run_one(job: tuple[int, int, tuple[str, ...], str]) -> dict[str, object]:
     }
 
 
-def episode_pool(workers: int) -> Pool:
-    """Worker processes that run each episode in a fresh process of its own. pybullet's
-    deformable world carries state from one world to the next within a process (neither
-    `disconnect` nor `resetSimulation` clears it): the same pile, built again after another
-    one, settles differently from step 11 on. An episode then depended on the episodes the
-    worker had run before it. In a fresh process, an episode repeats the same episode run
-    alone (`--first N --episodes 1`), so runs can be paired pick for pick."""
-    return mp.get_context("spawn").Pool(workers, maxtasksperchild=1)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     parser.add_argument("--episodes", type=int, default=50)
@@ -145,13 +136,20 @@ def main() -> None:
     parser.add_argument("--realism", choices=REALISM_NAMES, default="realistic")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
+    if args.episodes < 1 or args.workers < 1 or args.first < 0 or args.seed < 0:
+        parser.error("--episodes and --workers must be >= 1, --first and --seed >= 0")
+    fixed = (f"world.realism={args.realism}", *args.set)
+    try:  # bad settings stop here, not as a crash in every episode
+        load_config(ClearTableConfig, DEFAULT_CONFIG, [*fixed, *episode_overrides(args.first, args.seed)])
+    except ConfigError as err:
+        sys.exit(f"bench_clear_table: {err}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    fixed = (f"world.realism={args.realism}", *args.set)
     jobs = [(i, args.seed, fixed, str(out)) for i in range(args.first, args.first + args.episodes)]
     rows: list[dict[str, object]] = []
     start = time.perf_counter()
-    with episode_pool(args.workers) as pool:
+    # each episode the first world of a fresh process: it depends on its seed and settings only
+    with fresh_process_pool(args.workers) as pool:
         for row in pool.imap_unordered(run_one, jobs):
             rows.append(row)
             done = len(rows)

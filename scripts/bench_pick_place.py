@@ -17,12 +17,14 @@ import argparse
 import csv
 import json
 import multiprocessing as mp
+import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
 from robot_app.config import load_config
+from robot_app.errors import ConfigError
 from robot_app.experiments.pick_place_episode import PickPlaceConfig, run_episode
 from robot_app.sim.config import CATALOGUE_SIZE
 from robot_app.sim.realism import REALISM_NAMES
@@ -77,9 +79,15 @@ def main() -> None:
     parser.add_argument("--realism", choices=REALISM_NAMES, default="realistic")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     args = parser.parse_args()
+    if args.episodes < 1 or args.workers < 1 or args.first < 0 or args.seed < 0:
+        parser.error("--episodes and --workers must be >= 1, --first and --seed >= 0")
+    fixed = (f"world.realism={args.realism}", "world.cameras.image_size=[320,240]", *args.set)
+    try:  # bad settings stop here, not as a crash in every episode
+        load_config(PickPlaceConfig, None, [*fixed, *episode_overrides(args.first, args.seed)])
+    except ConfigError as err:
+        sys.exit(f"bench_pick_place: {err}")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    fixed = (f"world.realism={args.realism}", "world.cameras.image_size=[320,240]", *args.set)
     jobs = [(i, args.seed, fixed) for i in range(args.first, args.first + args.episodes)]
     rows: list[dict[str, object]] = []
     start = time.perf_counter()

@@ -1,8 +1,8 @@
 """An episode of the clear-table bench depends only on its seed and settings, not on the
 episodes its worker ran before (issue 17g). pybullet's deformable world carries state
 from one world to the next within a process, so the bench runs each episode in a fresh
-process (`episode_pool`); here the same pile is settled first, and again after another
-pile, in the bench's own pool: the nodes must be equal to the bit."""
+process (`sim.fresh_process.fresh_process_pool`); here the same pile is settled first, and
+again after another pile, in that pool: the nodes must be equal to the bit."""
 
 from __future__ import annotations
 
@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+from robot_app.sim.fresh_process import fresh_process_pool
 
 SCRIPTS = Path(__file__).resolve().parents[1] / "scripts"
 
@@ -35,10 +37,7 @@ def settled_pile_digest(index: int) -> str:
 
 @pytest.mark.slow
 def test_an_episode_after_others_settles_as_it_does_first() -> None:
-    sys.path.insert(0, str(SCRIPTS))
-    import bench_clear_table as bench
-
-    with bench.episode_pool(1) as pool:
+    with fresh_process_pool(1) as pool:
         # in one process these were three different piles: 9 settled after 9 diverged at step 11
         digests = list(pool.imap(settled_pile_digest, [9, 3, 9]))
     assert digests[0] == digests[2]
