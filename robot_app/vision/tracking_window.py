@@ -31,11 +31,17 @@ class TrackingSettings(StrictModel):
         depth_window: half-width of the depth window [m]; the window moves with the
             camera, so a descending camera keeps its cloth.
         verify_every: verify (and decide) on every n-th tracking frame; between them the
-            last verification's appearance is carried over (1: every frame). Kept at 1 by
-            measurement: 2 saves ~0.1-0.5 ms CPU a frame (scripts/bench_recognition.py
-            --speed-only: 3.36 against 3.30 ms, within its noise) and the conveyor cell
-            (bench_conveyor.py, 50 mm/s, 10 episodes) places 10/10 either way, but a
-            carried appearance hides a track drifting off the cloth for that frame.
+            last verification's appearance is carried over (1: every frame), so a wrong
+            pose is tracked at most n - 1 frames unverified. Kept at 1 by measurement: 2
+            saves ~0.1-0.5 ms CPU a frame (scripts/bench_recognition.py --speed-only: 3.36
+            against 3.30 ms, within its noise) and the conveyor cell (bench_conveyor.py,
+            50 mm/s, 10 episodes) places 10/10 either way, but a carried appearance hides a
+            track drifting off the cloth for that frame. Measured again in session 13 on
+            the cheaper frame: 2 saves 0.16-0.23 ms a frame over 150 frames, five
+            --speed-only runs' median 2.73 against 2.77 ms; bench_conveyor.py servo 25 and
+            50 mm/s, 20 episodes each: placed 20 + 20 against 20 + 19, but the grasp offset's
+            95th percentile at 25 mm/s 10.1 -> 26.1 mm (episode 19, navy No.15: 9.7 -> 39.6
+            mm) and the descent's tracking error p95 9.1 -> 17.5 mm: not adopted.
         yaw_window_deg: half-width of the yaw window around the motion-predicted pose
             [deg]: a tracked cloth turns little between frames, while the hue fitness
             cannot tell a plain cloth from its half turn, so a GA free in yaw flipped a
