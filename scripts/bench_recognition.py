@@ -18,6 +18,8 @@ weights and threshold on them and prints them) and reported on the test seeds (t
         # the decision's fit (decide.py's weights came from this command); with
         # --kinds flat,wrinkled,folded,covered,crumpled,absent_family,absent_other crumpled
         # cloths join the present ones (tried, not adopted: decide.py)
+    taskset -c 0 python scripts/bench_recognition.py --track-profile 150
+        # where a tracking update's CPU time goes, stage by stage, over 150 frames
     taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-fullsearch --scenes 60 --dump d.csv
         # a lean accuracy run; d.csv holds every recognition's evidence (study the misses)
     taskset -c 0 python scripts/bench_recognition.py --skip-speed --skip-fullsearch --quick --scenes 60 \
@@ -594,6 +596,80 @@ def report_speed(scenes: Scenes, recognizers: list[Recognizer], models: list[Clo
           f"context switches{note}")  # fmt: skip
 
 
+# The stages of a tracking frame that `--track-profile` times: (owner, attribute, label),
+# inclusive CPU times, nested stages indented under their caller.
+TRACK_STAGES = (
+    ("robot_app.vision.propose:Proposer", "tracking_regions", "window and pixel regions"),
+    ("robot_app.vision.recognizer", "scene_exposure", "exposure (both images)"),
+    ("robot_app.vision.fitness:FitnessEvaluator", "update", "colour codes (both images)"),
+    ("robot_app.vision.propose:Proposer", "track", "propose (GA + refine)"),
+    ("robot_app.vision.ga:GeneticAlgorithm", "evolve", "  GA generations"),
+    ("robot_app.vision.refinement:Refiner", "climb", "  refine climb"),
+    ("robot_app.vision.verify:Verifier", "verify", "verify"),
+    ("robot_app.vision.recognizer:Recognizer", "_result", "decide and report"),
+)
+
+
+def profile_tracking(scenes: Scenes, recognizers: list[Recognizer], models: list[ClothModel], args) -> None:
+    """Where a tracking update's CPU time goes: the speed figures' tracking scene, for
+    `--track-profile` frames (the motion turned back where the cloth would leave the area),
+    each frame rendered before its update as the speed figures do; thread CPU time of every
+    update and of its stages (`TRACK_STAGES`, inclusive; a few us of timing overhead each)."""
+    import importlib
+
+    totals: dict[str, float] = dict.fromkeys([label for _, _, label in TRACK_STAGES], 0.0)
+    active = [False]
+
+    def timed(function, label):
+        def wrapper(*a, **k):
+            if not active[0]:
+                return function(*a, **k)
+            start = time.thread_time()
+            try:
+                return function(*a, **k)
+            finally:
+                totals[label] += time.thread_time() - start
+
+        return wrapper
+
+    for where, name, label in TRACK_STAGES:
+        module_name, _, class_name = where.partition(":")
+        owner = importlib.import_module(module_name)
+        owner = getattr(owner, class_name) if class_name else owner
+        setattr(owner, name, timed(getattr(owner, name), label))
+    rng = seeds(args, False)
+    index = 3
+    recognizer = recognizers[index]
+    left, right, _ = scenes.present("flat", index, rng("speed", index))
+    recognizer.recognize(left, right, seed=0)  # compiled, as the speed figures' one-shot runs leave it
+    pose = random_pose(rng("track", 0), models[index])
+    camera = CameraRealism.draw(rng("track", 1))
+    r = rng("track", 2)
+    left, right = render_stereo_pair(RIG, [(scenes.cloths[index], pose)], rng=r, camera=camera)
+    recognizer.recognize(left, right, seed=0)
+    step = make_transform(rotation_about_z(0.01), [0.003, -0.002, -0.002])
+    cpu = []
+    for _ in range(args.track_profile):
+        x, y, z = (invert_transform(step) @ pose)[:3, 3]
+        if abs(x) > 0.2 or abs(y) > 0.15 or z < 0.45:  # turn back before the cloth leaves the area
+            step = invert_transform(step)
+        motion = invert_transform(step)
+        pose = motion @ pose
+        left, right = render_stereo_pair(RIG, [(scenes.cloths[index], pose)], rng=r, camera=camera)
+        active[0] = True
+        start = time.thread_time()
+        recognizer.track(left, right, motion)
+        cpu.append(time.thread_time() - start)
+        active[0] = False
+    ms = np.array(cpu) * 1e3
+    every = recognizer.settings.propose.tracking.verify_every
+    print(f"tracking profile ({len(ms)} frames, verified every {every}): CPU median "
+          f"{np.median(ms):.2f} ms, mean {ms.mean():.2f}, 90th percentile {np.percentile(ms, 90):.2f}; "
+          "per stage, mean ms a frame:")  # fmt: skip
+    for label, total in totals.items():
+        print(f"  {label:32s} {total / len(ms) * 1e3:6.3f}  ({total / len(ms) * 1e3 / ms.mean():5.1%})")
+
+
 def report_batch(scenes: Scenes, models: list[ClothModel], args) -> None:
     """`robot-app recognize --pairs` in a fresh process on PNG files: first line after start,
     then the time between lines."""
@@ -698,6 +774,8 @@ def main() -> None:
     parser.add_argument("--identification-rounds", type=int, default=1,
                         help="with --calibrate --identification-size: scenes of each cloth (each another "
                         "pose and camera; more wrong pairs near the threshold)")  # fmt: skip
+    parser.add_argument("--track-profile", type=int, default=0, metavar="FRAMES",
+                        help="only the tracking update's CPU time per stage, over FRAMES frames")  # fmt: skip
     parser.add_argument(
         "--set", dest="overrides", action="append", default=[], help="RecognitionSettings key=value"
     )
@@ -719,6 +797,9 @@ def main() -> None:
             data[f"identification{args.identification_size}"] = wrong
         write_dump(args.dump, dump or [])
         calibrate(data, settings, models, args.hold_weights)
+        return
+    if args.track_profile:
+        profile_tracking(scenes, recognizers, models, args)
         return
     if not args.skip_speed:
         report_speed(scenes, recognizers, models, args)

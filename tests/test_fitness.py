@@ -18,7 +18,7 @@ from robot_app.vision.fitness_kernels import bgr_codes, gain_levels, hsv_codes
 from robot_app.vision.fitness_scores import OFF_IMAGE, OUTSIDE_ROW, FitnessSettings, score_table, seen_table
 from robot_app.vision.hue import DARK, LIGHT, colour_codes, hue_distance, to_hsv
 from robot_app.vision.photo_model import ModelSettings, make_model
-from robot_app.vision.pixel_codes import colour_table
+from robot_app.vision.pixel_codes import box_spans, colour_table
 from robot_app.vision.poses import AvoidedPoses
 from robot_app.vision.recognizer import RecognitionSettings
 from robot_app.vision.synthetic import SyntheticCloth, render_model_photo, render_stereo_pair
@@ -204,7 +204,7 @@ def test_pixel_codes_by_colour_table_agree_with_the_conversion() -> None:
                 colour_table(*thresholds),
                 OFF_IMAGE,
                 gain_levels(np.ones(3)),
-                np.array([0, 0, 10**6, 10**6]),
+                box_spans([0, 0, 10**6, 10**6], 41),
             ),
             expected,
         )
@@ -229,8 +229,8 @@ def test_the_colour_table_is_kept_in_the_cache_folder_and_rebuilt_when_damaged(
 def test_pixel_codes_only_inside_the_region_the_rest_off_the_image() -> None:
     bgr = np.random.default_rng(5).integers(0, 256, (30, 40, 3)).astype(np.uint8)
     table = colour_table(40, 40, 128)
-    full = bgr_codes(bgr, table, OFF_IMAGE, gain_levels(np.ones(3)), np.array([0, 0, 39, 29]))
-    part = bgr_codes(bgr, table, OFF_IMAGE, gain_levels(np.ones(3)), np.array([5, 7, 20, 11]))
+    full = bgr_codes(bgr, table, OFF_IMAGE, gain_levels(np.ones(3)), box_spans([0, 0, 39, 29], 30))
+    part = bgr_codes(bgr, table, OFF_IMAGE, gain_levels(np.ones(3)), box_spans([5, 7, 20, 11], 30))
     framed = full.reshape(33, 43)  # one frame pixel left and top, two right and bottom
     inside = np.zeros_like(framed, dtype=bool)
     inside[8:13, 6:22] = True

@@ -92,19 +92,19 @@ def sheet_sample(image, step, min_saturation, background_hue, hue_tolerance):
     median = np.nan
     if count:
         median = (_ranked(counts[3], (count - 1) // 2) + _ranked(counts[3], count // 2)) / 2.0
-    core = np.zeros((height, width), dtype=np.bool_)
-    size = 0
+    # the erosion by rows, then by columns (a 3 x 3 square is both): 4 reads a sample, not 9
+    across = np.empty((height, width), dtype=np.bool_)
     for v in range(height):
         for u in range(width):
-            if not sheet[v, u]:
-                continue
-            inner = True
-            for y in range(max(v - 1, 0), min(v + 2, height)):
-                for x in range(max(u - 1, 0), min(u + 2, width)):
-                    inner = inner and sheet[y, x]
-            if inner:
-                core[v, u] = True
-                size += 1
+            across[v, u] = sheet[v, max(u - 1, 0)] & sheet[v, u] & sheet[v, min(u + 1, width - 1)]
+    core = np.empty((height, width), dtype=np.bool_)
+    size = 0
+    for v in range(height):
+        above, below = max(v - 1, 0), min(v + 1, height - 1)
+        for u in range(width):
+            inner = across[above, u] & across[v, u] & across[below, u]
+            core[v, u] = inner
+            size += inner
     return sheet, count, medians, value, median, core, size
 
 
@@ -131,42 +131,32 @@ def encoded_deviation(value, core, levels):
         for u in range(width):
             if core[v, u]:
                 encoded[v, u] = levels[value[v, u]]
+    # the 3 x 3 median as the median of (largest low, median middle, smallest high) of its
+    # three columns, each column sorted once a row (not 19 compare-exchanges a sample)
+    low = np.empty(width, dtype=np.uint8)
+    middle = np.empty(width, dtype=np.uint8)
+    high = np.empty(width, dtype=np.uint8)
     deviation = 0
     for v in range(height):
         above, below = max(v - 1, 0), min(v + 1, height - 1)
         for u in range(width):
+            a, b, c = encoded[above, u], encoded[v, u], encoded[below, u]
+            a, b = min(a, b), max(a, b)
+            b, c = min(b, c), max(b, c)
+            a, b = min(a, b), max(a, b)
+            low[u], middle[u], high[u] = a, b, c
+        for u in range(width):
             if not core[v, u]:
                 continue
             left, right = max(u - 1, 0), min(u + 1, width - 1)
-            median = _median9(
-                encoded[above, left], encoded[above, u], encoded[above, right],
-                encoded[v, left], encoded[v, u], encoded[v, right],
-                encoded[below, left], encoded[below, u], encoded[below, right],
-            )  # fmt: skip
+            largest_low = max(low[left], low[u], low[right])
+            smallest_high = min(high[left], high[u], high[right])
+            median = _median3(_median3(middle[left], middle[u], middle[right]), largest_low, smallest_high)
             deviation = max(deviation, int(abs(np.int64(median) - 128)))
     return encoded, deviation
 
 
 @_jit
-def _median9(p0, p1, p2, p3, p4, p5, p6, p7, p8):
-    """The median of nine values by the classic 19 compare-exchanges network."""
-    p1, p2 = min(p1, p2), max(p1, p2)
-    p4, p5 = min(p4, p5), max(p4, p5)
-    p7, p8 = min(p7, p8), max(p7, p8)
-    p0, p1 = min(p0, p1), max(p0, p1)
-    p3, p4 = min(p3, p4), max(p3, p4)
-    p6, p7 = min(p6, p7), max(p6, p7)
-    p1, p2 = min(p1, p2), max(p1, p2)
-    p4, p5 = min(p4, p5), max(p4, p5)
-    p7, p8 = min(p7, p8), max(p7, p8)
-    p0, p3 = min(p0, p3), max(p0, p3)
-    p5, p8 = min(p5, p8), max(p5, p8)
-    p4, p7 = min(p4, p7), max(p4, p7)
-    p3, p6 = min(p3, p6), max(p3, p6)
-    p1, p4 = min(p1, p4), max(p1, p4)
-    p2, p5 = min(p2, p5), max(p2, p5)
-    p4, p7 = min(p4, p7), max(p4, p7)
-    p4, p2 = min(p4, p2), max(p4, p2)
-    p6, p4 = min(p6, p4), max(p6, p4)
-    p4, p2 = min(p4, p2), max(p4, p2)
-    return p4
+def _median3(a, b, c):
+    """The median of three values."""
+    return max(min(a, b), min(max(a, b), c))

@@ -37,7 +37,7 @@ from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.exposure import Shading
 from robot_app.vision.fitness_kernels import normalised, score_poses
 from robot_app.vision.fitness_scores import COLUMNS, OUTSIDE_ROW, FitnessSettings, score_table, seen_table
-from robot_app.vision.pixel_codes import checked_image, pixel_codes
+from robot_app.vision.pixel_codes import box_spans, checked_image, pixel_codes
 from robot_app.vision.poses import AvoidedPoses, as_poses
 
 
@@ -98,9 +98,10 @@ class FitnessEvaluator:
             gains: per image, (3,) factors of the b, g, r channels that map the scene's
                 exposure and white balance onto the model photo's before the colour codes
                 are taken (`exposure.sheet_gains`); None: as they are.
-            regions: per image, (4,) int64 (u0, v0, u1, v1) inclusive: only pixels there
-                get a code, the others count as off the image (a tracking frame's search
-                cannot reach them); None: the whole images.
+            regions: per image, (H, 2) int64 row spans (first and last column of each row,
+                inclusive; `pixel_codes.box_spans` of a box): only pixels there get a code,
+                the others count as off the image (a tracking frame's search cannot reach
+                them, `tracking_window.reachable_regions`); None: the whole images.
             shading: per image, the light's factor per block on top of `gains`
                 (`exposure.scene_exposure`); None: even light.
 
@@ -111,8 +112,10 @@ class FitnessEvaluator:
         unit = np.ones(3)
         left_gains, right_gains = (unit, unit) if gains is None else gains
         width, height = self.rig.image_size
-        whole = np.array([0, 0, width - 1, height - 1], dtype=np.int64)
-        left_box, right_box = (whole, whole) if regions is None else regions
+        if regions is None:
+            whole = box_spans([0, 0, width - 1, height - 1], height)
+            regions = (whole, whole)
+        left_box, right_box = regions
         left_shading, right_shading = (None, None) if shading is None else shading
         for side, image, camera, gain, box, shade in (
             ("left", image_left_bgr, self.rig.left, left_gains, left_box, left_shading),

@@ -59,7 +59,7 @@ def every_colour():
 
 
 @_jit
-def bgr_codes(bgr, table, fill, levels, box):
+def bgr_codes(bgr, table, fill, levels, spans):
     """(H, W, 3) BGR image -> flat pixel codes framed like `hsv_codes`'s, each pixel looked
     up in `table` ((2^24,) code of every colour, index b << 16 | g << 8 | r): one gather per
     pixel instead of an HSV conversion and a pass over it (0.27 against 0.78 ms per
@@ -67,17 +67,16 @@ def bgr_codes(bgr, table, fill, levels, box):
     Each channel value first goes through its row of `levels` ((3, 256) uint8, b, g, r):
     the exposure gains of `exposure.py` as look-up tables (`gain_levels`), which map the
     scene's exposure and white balance onto the model photo's; identity rows change
-    nothing. Only pixels inside `box` ((4,) int64 u0, v0, u1, v1, inclusive; clipped to
-    the image) get their code, the others `fill` as the frame (a tracking frame needs
-    only the region its window can reach)."""
+    nothing. Only pixels inside `spans` ((H, 2) int64: row v from u = spans[v, 0] to
+    spans[v, 1] inclusive, clipped to the image; empty where the end is below the start;
+    `pixel_codes.box_spans` of a box) get their code, the others `fill` as the frame (a
+    tracking frame needs only the region its window can reach)."""
     height, width = bgr.shape[0], bgr.shape[1]
     stride = width + 3
     out = np.full((height + 3) * stride, fill, dtype=np.uint16)
-    u0, v0 = max(box[0], 0), max(box[1], 0)
-    u1, v1 = min(box[2], width - 1), min(box[3], height - 1)
-    for v in range(v0, v1 + 1):
+    for v in range(height):
         base = (v + 1) * stride + 1
-        for u in range(u0, u1 + 1):
+        for u in range(max(spans[v, 0], 0), min(spans[v, 1], width - 1) + 1):
             b = np.int64(levels[0, bgr[v, u, 0]])
             g = np.int64(levels[1, bgr[v, u, 1]])
             r = np.int64(levels[2, bgr[v, u, 2]])
@@ -86,20 +85,18 @@ def bgr_codes(bgr, table, fill, levels, box):
 
 
 @_jit
-def bgr_codes_shaded(bgr, table, fill, levels, index, block, box):
+def bgr_codes_shaded(bgr, table, fill, levels, index, block, spans):
     """`bgr_codes` under uneven light: the channel rows are those of the pixel's block,
     `levels[index[v // block, u // block]]` ((L, 3, 256) uint8: the gains times each shading
     level's factor, `shaded_levels`); blocks past `index`'s last row or column take it."""
     height, width = bgr.shape[0], bgr.shape[1]
     stride = width + 3
     out = np.full((height + 3) * stride, fill, dtype=np.uint16)
-    u0, v0 = max(box[0], 0), max(box[1], 0)
-    u1, v1 = min(box[2], width - 1), min(box[3], height - 1)
     rows, cols = index.shape[0], index.shape[1]
-    for v in range(v0, v1 + 1):
+    for v in range(height):
         base = (v + 1) * stride + 1
         i = min(v // block, rows - 1)
-        start = u0
+        start, u1 = max(spans[v, 0], 0), min(spans[v, 1], width - 1)
         while start <= u1:
             j = min(start // block, cols - 1)
             stop = u1 + 1 if j == cols - 1 else min((j + 1) * block, u1 + 1)

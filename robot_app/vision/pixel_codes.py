@@ -39,7 +39,7 @@ def pixel_codes(
     camera: PinholeCamera,
     thresholds: tuple[int, int, int],
     gains: FloatArray,
-    box: npt.NDArray[np.int64],
+    spans: npt.NDArray[np.int64],
     shading: Shading | None = None,
 ) -> npt.NDArray[np.uint16]:
     """The framed pixel codes of one image (undistorted first if `camera` has distortion).
@@ -49,20 +49,44 @@ def pixel_codes(
         camera: its camera.
         thresholds: (min_saturation, min_value, value_split) of `FitnessSettings`.
         gains: (3,) exposure gains of b, g, r (`exposure.sheet_gains`).
-        box: (4,) int64 (u0, v0, u1, v1) inclusive: only pixels there get a code, the
-            others `OFF_IMAGE`.
+        spans: (H, 2) int64, per row the first and last column inclusive (`box_spans` of a
+            box; empty where the last is below the first): only pixels there get a code,
+            the others `OFF_IMAGE`.
     """
     if camera.has_distortion:
         K = camera.camera_matrix
         image = np.asarray(cv2.undistort(image, K, camera.dist_coeffs, None, K), dtype=np.uint8)
     table = colour_table(*thresholds)
-    box = np.ascontiguousarray(box, dtype=np.int64)
+    spans = np.ascontiguousarray(spans, dtype=np.int64)
+    if spans.shape != (image.shape[0], 2):
+        raise ValueError(f"spans must be ({image.shape[0]}, 2), one per image row, got {spans.shape}")
+    gains = np.asarray(gains, dtype=np.float64)
     if shading is None:
-        return bgr_codes(np.ascontiguousarray(image), table, OFF_IMAGE, gain_levels(gains), box)
+        return bgr_codes(np.ascontiguousarray(image), table, OFF_IMAGE, _gain_levels(gains.tobytes()), spans)
     levels = shaded_levels(gains, shading.factors)
     return bgr_codes_shaded(
-        np.ascontiguousarray(image), table, OFF_IMAGE, levels, shading.index, shading.block, box
+        np.ascontiguousarray(image), table, OFF_IMAGE, levels, shading.index, shading.block, spans
     )
+
+
+def box_spans(box: npt.ArrayLike, height: int) -> npt.NDArray[np.int64]:
+    """(height, 2) int64 row spans of the (u0, v0, u1, v1) box, inclusive (rows outside it
+    empty: (0, -1)); columns are clipped by the kernels, rows here."""
+    u0, v0, u1, v1 = (int(x) for x in np.asarray(box).ravel())
+    spans = np.zeros((height, 2), dtype=np.int64)
+    spans[:, 1] = -1
+    rows = slice(max(v0, 0), max(min(v1, height - 1) + 1, 0))
+    spans[rows, 0], spans[rows, 1] = u0, u1
+    return spans
+
+
+@functools.lru_cache(maxsize=64)
+def _gain_levels(gains: bytes) -> npt.NDArray[np.uint8]:
+    """`gain_levels` of the (3,) float64 gains given as their bytes, cached: gains are the
+    model sheet's colour over the scene sheet's integer medians, so a tracking run sees the
+    same few again and again (12 numpy calls saved a frame and image). Only `bgr_codes`
+    reads the array (left writable: a read-only one is another type to the compiled kernel)."""
+    return gain_levels(np.frombuffer(gains, dtype=np.float64))
 
 
 @functools.lru_cache(maxsize=4)
@@ -141,4 +165,4 @@ def checked_image(image: npt.ArrayLike, camera: PinholeCamera, side: str) -> npt
     return array
 
 
-__all__ = ["cache_dir", "checked_image", "colour_table", "pixel_codes"]
+__all__ = ["box_spans", "cache_dir", "checked_image", "colour_table", "pixel_codes"]

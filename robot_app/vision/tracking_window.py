@@ -31,11 +31,17 @@ class TrackingSettings(StrictModel):
         depth_window: half-width of the depth window [m]; the window moves with the
             camera, so a descending camera keeps its cloth.
         verify_every: verify (and decide) on every n-th tracking frame; between them the
-            last verification's appearance is carried over (1: every frame). Kept at 1 by
-            measurement: 2 saves ~0.1-0.5 ms CPU a frame (scripts/bench_recognition.py
-            --speed-only: 3.36 against 3.30 ms, within its noise) and the conveyor cell
-            (bench_conveyor.py, 50 mm/s, 10 episodes) places 10/10 either way, but a
-            carried appearance hides a track drifting off the cloth for that frame.
+            last verification's appearance is carried over (1: every frame), so a wrong
+            pose is tracked at most n - 1 frames unverified. Kept at 1 by measurement: 2
+            saves ~0.1-0.5 ms CPU a frame (scripts/bench_recognition.py --speed-only: 3.36
+            against 3.30 ms, within its noise) and the conveyor cell (bench_conveyor.py,
+            50 mm/s, 10 episodes) places 10/10 either way, but a carried appearance hides a
+            track drifting off the cloth for that frame. Measured again in session 13 on
+            the cheaper frame: 2 saves 0.16-0.23 ms a frame over 150 frames, five
+            --speed-only runs' median 2.73 against 2.77 ms; bench_conveyor.py servo 25 and
+            50 mm/s, 20 episodes each: placed 20 + 20 against 20 + 19, but the grasp offset's
+            95th percentile at 25 mm/s 10.1 -> 26.1 mm (episode 19, navy No.15: 9.7 -> 39.6
+            mm) and the descent's tracking error p95 9.1 -> 17.5 mm: not adopted.
         yaw_window_deg: half-width of the yaw window around the motion-predicted pose
             [deg]: a tracked cloth turns little between frames, while the hue fitness
             cannot tell a plain cloth from its half turn, so a GA free in yaw flipped a
@@ -74,8 +80,12 @@ def window_around(
 ) -> SearchBoundsSettings:
     """The search window around `pose` ^CR T_M: `tracking.window` in x-y, `depth_window` in
     depth, the tilt and yaw bounds of `bounds`."""
-    x, y, z = pose[:3, 3]
-    return SearchBoundsSettings(
+    x, y, z = (float(value) for value in pose[:3, 3])
+    if not np.isfinite([x, y, z]).all():
+        raise ValueError(f"the tracking window needs a finite pose position, got {(x, y, z)}")
+    # built without pydantic's validation (~0.05-0.08 ms a tracking frame with the caches
+    # cold): the ranges increase (windows > 0, depth clamped), tilt and yaw come from `bounds`
+    return SearchBoundsSettings.model_construct(
         x=(x - tracking.window, x + tracking.window),
         y=(y - tracking.window, y + tracking.window),
         z=(max(z - tracking.depth_window, 1e-3), max(z + tracking.depth_window, 2e-3)),
@@ -90,25 +100,29 @@ _jit = njit(cache=True, nogil=True, error_model="numpy")
 def reachable_regions(
     window: SearchBoundsSettings, model: ClothModel, rig: StereoRig, depth: float | None = None
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
-    """Per image (left, right), the (u0, v0, u1, v1) box, inclusive and inside the image,
-    that the model's points can reach with its origin anywhere in `window`, at any yaw and
-    at any tilt the search can give it, a few pixels to spare; the whole image when a camera
-    could see the model from behind.
+    """Per image (left, right), the (H, 2) row spans (first and last column of each row,
+    inclusive; (0, -1) for a row without any) that the model's points can reach with its
+    origin anywhere in `window`, at any yaw and at any tilt the search can give it, a few
+    pixels to spare; the whole image when a camera could see the model from behind.
 
-    The window is grown by the model's radius in x and y and by `depth` in depth (None:
-    `reach_in_depth` at `search_tilt_sine(window.max_tilt_deg)`); only the grown box's 8
-    corners are projected: a pinhole's u and v are ratios of linear functions of the point,
-    so over a box in front of the camera their extremes (and the least depth) lie at its
-    corners. Compiled (`_corner_box`): as numpy calls on 8 points it cost ~0.25 ms a
-    tracking frame."""
+    A point of the model lies within `model.radius` (its farthest point) of the origin
+    across the camera's axis and within `depth` along it (None: `reach_in_depth` at
+    `search_tilt_sine(window.max_tilt_deg)`): the points reach no farther than the window's
+    box grown by a disk of that radius in x-y and by `depth` in depth. That set is convex
+    and lies inside the box grown by a 16-gon around the disk (`_SIDES`), whose 128
+    corners are projected; each row's span is that of their convex hull, 4 px to spare
+    around it (a point is read at its nearest pixel, or at the two around it), and never
+    wider than the box of the grown window's 8 corners (`_corner_box`, which was the
+    region before: a disk's square, 21 % more pixels for the bench's tracking cloth).
+    Compiled (`_hull_spans`, ~20 us an image)."""
     radius = model.radius
     if depth is None:
         depth = reach_in_depth(radius, off_plane(model), search_tilt_sine(window.max_tilt_deg))
-    low = np.array([window.x[0] - radius, window.y[0] - radius, window.z[0] - depth])
-    high = np.array([window.x[1] + radius, window.y[1] + radius, window.z[1] + depth])
+    low = np.array([window.x[0], window.y[0], window.z[0] - depth])
+    high = np.array([window.x[1], window.y[1], window.z[1] + depth])
     width, height = rig.image_size
-    left = _corner_box(low, high, rig.transform_right_to_left, rig.left.camera_matrix, width, height)
-    right = _corner_box(low, high, _IDENTITY, rig.right.camera_matrix, width, height)
+    left = _hull_spans(low, high, radius, rig.transform_right_to_left, rig.left.camera_matrix, width, height)
+    right = _hull_spans(low, high, radius, _IDENTITY, rig.right.camera_matrix, width, height)
     return left, right
 
 
@@ -166,6 +180,100 @@ def _corner_box(low, high, to_camera, K, width, height):
     for k in range(4):
         box[k] = np.int64(min(max(np.floor(values[k]), 0.0), float(limits[k])))
     return box
+
+
+_SIDES = 16  # the polygon around the model's disk: its sides touch the circle (1.9 % more area)
+_MARGIN = 4.0  # pixels to spare around the hull (the box had 3 on its near sides, 4 on its far)
+
+
+@_jit
+def _hull_spans(low, high, radius, to_camera, K, width, height):
+    """The (height, 2) int64 row spans of `reachable_regions` in one camera: the box
+    [low, high] (Σ_CR) grown in x-y by a `_SIDES`-gon whose sides touch the circle of
+    `radius` (so it holds the disk and lies in its square), its corners through
+    `to_camera` (^C T_CR) and `K`; per row, the columns of their convex hull within
+    `_MARGIN` rows, `_MARGIN` px to spare, inside the box of `_corner_box`; the whole
+    image if a corner lies at or behind 1 mm of depth."""
+    grown_low = np.array([low[0] - radius, low[1] - radius, low[2]])
+    grown_high = np.array([high[0] + radius, high[1] + radius, high[2]])
+    box = _corner_box(grown_low, grown_high, to_camera, K, width, height)
+    spans = np.zeros((height, 2), dtype=np.int64)
+    spans[:, 1] = -1
+    n = 8 * _SIDES
+    u = np.empty(n)
+    v = np.empty(n)
+    outer = radius / np.cos(np.pi / _SIDES)
+    k = 0
+    for corner in range(8):
+        for side in range(_SIDES):
+            angle = (side + 0.5) * (2.0 * np.pi / _SIDES)
+            p0 = (high[0] if corner & 4 else low[0]) + outer * np.cos(angle)
+            p1 = (high[1] if corner & 2 else low[1]) + outer * np.sin(angle)
+            p2 = high[2] if corner & 1 else low[2]
+            x = p0 * to_camera[0, 0] + p1 * to_camera[0, 1] + p2 * to_camera[0, 2] + to_camera[0, 3]
+            y = p0 * to_camera[1, 0] + p1 * to_camera[1, 1] + p2 * to_camera[1, 2] + to_camera[1, 3]
+            z = p0 * to_camera[2, 0] + p1 * to_camera[2, 1] + p2 * to_camera[2, 2] + to_camera[2, 3]
+            if z <= 1e-3:
+                spans[:, 0], spans[:, 1] = 0, width - 1
+                return spans
+            u[k] = K[0, 0] * (x / z) + K[0, 1] * (y / z) + K[0, 2]
+            v[k] = K[1, 0] * (x / z) + K[1, 1] * (y / z) + K[1, 2]
+            k += 1
+    hull_u, hull_v = _convex_hull(u, v)
+    m = hull_u.shape[0]
+    first = max(int(np.floor(hull_v.min() - _MARGIN)), box[1])
+    last = min(int(np.ceil(hull_v.max() + _MARGIN)), box[3])
+    for row in range(first, last + 1):
+        top, bottom = row - _MARGIN, row + _MARGIN
+        a, b = np.inf, -np.inf
+        for e in range(m):  # each hull edge's part within the rows [top, bottom]
+            ua, va = hull_u[e], hull_v[e]
+            ub, vb = hull_u[(e + 1) % m], hull_v[(e + 1) % m]
+            if max(va, vb) < top or min(va, vb) > bottom:
+                continue
+            if va == vb:
+                a, b = min(a, ua, ub), max(b, ua, ub)
+                continue
+            t_top, t_bottom = (top - va) / (vb - va), (bottom - va) / (vb - va)
+            for t in (max(min(t_top, t_bottom), 0.0), min(max(t_top, t_bottom), 1.0)):
+                end = ua + t * (ub - ua)  # the ends of the edge's part within the rows
+                a, b = min(a, end), max(b, end)
+        if a > b:
+            continue
+        spans[row, 0] = max(int(np.floor(a - _MARGIN)), box[0])
+        spans[row, 1] = min(int(np.ceil(b + _MARGIN)), box[2])
+    return spans
+
+
+@_jit
+def _convex_hull(u, v):
+    """The convex hull of the points (u, v), its corners in order (Andrew's monotone chain)."""
+    by_v = np.argsort(v, kind="mergesort")
+    order = by_v[np.argsort(u[by_v], kind="mergesort")]  # by u, then by v
+    n = order.shape[0]
+    hull = np.empty(2 * n, dtype=np.int64)
+    size = 0
+    for rank in range(n):  # lower chain
+        k = order[rank]
+        while size >= 2 and _turn(u, v, hull[size - 2], hull[size - 1], k) <= 0.0:
+            size -= 1
+        hull[size] = k
+        size += 1
+    lower = size + 1
+    for rank in range(n - 2, -1, -1):  # upper chain
+        k = order[rank]
+        while size >= lower and _turn(u, v, hull[size - 2], hull[size - 1], k) <= 0.0:
+            size -= 1
+        hull[size] = k
+        size += 1
+    corners = hull[: max(size - 1, 1)]
+    return u[corners], v[corners]
+
+
+@_jit
+def _turn(u, v, a, b, c):
+    """The cross product (b - a) x (c - a): > 0 for a left turn."""
+    return (u[b] - u[a]) * (v[c] - v[a]) - (v[b] - v[a]) * (u[c] - u[a])
 
 
 __all__ = [
