@@ -385,6 +385,18 @@ def calibrate(
               f"agreeing {low[4]:.2f}-{high[4]:.2f}, outline {low[5]:.2f}-{high[5]:.2f}")  # fmt: skip
 
 
+def tracking_start(recognizer: Recognizer, cloth, model: ClothModel, rng) -> tuple:
+    """The tracking scene's start (the speed figures' and `--track-profile`'s): the cloth at
+    its seeded pose recognised once; returns the pose, the camera realism, the render RNG and
+    the per-frame motion step."""
+    pose = random_pose(rng("track", 0), model)
+    camera = CameraRealism.draw(rng("track", 1))
+    r = rng("track", 2)
+    left, right = render_stereo_pair(RIG, [(cloth, pose)], rng=r, camera=camera)
+    recognizer.recognize(left, right, seed=0)
+    return pose, camera, r, make_transform(rotation_about_z(0.01), [0.003, -0.002, -0.002])
+
+
 def half_turn_symmetric(model: ClothModel) -> bool:
     """The model (texture-aware, `make_model`) calls itself symmetric under a half turn."""
     return any(abs(abs(a) - np.pi) < 1e-6 for a in model.symmetry_angles)
@@ -562,12 +574,7 @@ def report_speed(scenes: Scenes, recognizers: list[Recognizer], models: list[Clo
           f"{np.median(cpu_medians) * 1e3:.1f} ms, slowest {max(cpu_medians) * 1e3:.1f} ms")  # fmt: skip
     index = 3
     recognizer = recognizers[index]
-    pose = random_pose(rng("track", 0), models[index])
-    camera = CameraRealism.draw(rng("track", 1))
-    r = rng("track", 2)
-    left, right = render_stereo_pair(RIG, [(scenes.cloths[index], pose)], rng=r, camera=camera)
-    recognizer.recognize(left, right, seed=0)
-    step = make_transform(rotation_about_z(0.01), [0.003, -0.002, -0.002])
+    pose, camera, r, step = tracking_start(recognizer, scenes.cloths[index], models[index], rng)
     times, cpu_times, worst_error, found = [], [], np.zeros(4), 0
     switches = resource.getrusage(resource.RUSAGE_SELF).ru_nivcsw
     for _ in range(args.timing * 2):
@@ -642,12 +649,7 @@ def profile_tracking(scenes: Scenes, recognizers: list[Recognizer], models: list
     recognizer = recognizers[index]
     left, right, _ = scenes.present("flat", index, rng("speed", index))
     recognizer.recognize(left, right, seed=0)  # compiled, as the speed figures' one-shot runs leave it
-    pose = random_pose(rng("track", 0), models[index])
-    camera = CameraRealism.draw(rng("track", 1))
-    r = rng("track", 2)
-    left, right = render_stereo_pair(RIG, [(scenes.cloths[index], pose)], rng=r, camera=camera)
-    recognizer.recognize(left, right, seed=0)
-    step = make_transform(rotation_about_z(0.01), [0.003, -0.002, -0.002])
+    pose, camera, r, step = tracking_start(recognizer, scenes.cloths[index], models[index], rng)
     cpu = []
     for _ in range(args.track_profile):
         x, y, z = (invert_transform(step) @ pose)[:3, 3]
