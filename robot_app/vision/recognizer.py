@@ -403,7 +403,6 @@ class Recognizer:
         return self._result(self._aligned(chosen), 0, before, start, (), measurement.offset)
 
     @_collector_paused
-    @_collector_paused
     def track(
         self,
         image_left_bgr: npt.NDArray[np.uint8],
