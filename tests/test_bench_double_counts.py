@@ -30,7 +30,7 @@ def _attempt(
         start_time=start,
         end_time=end,
         lift_check=check,
-        lift_rejected=check in ("double", "wrong"),
+        not_meant_alone=check in ("double", "wrong"),
         result=SimpleNamespace(outcome=outcome),
         **fields,
     )

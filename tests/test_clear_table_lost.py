@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from robot_app.control.clear_table_records import LostPlace, LostSettings
-from robot_app.control.table_lost import inner_pixel, match_lost, near_the_loss
+from robot_app.control.table_lost import inner_pixel, match_lost, near_the_loss, weighed_as
 from robot_app.geometry import make_transform, rotation_about_z
 from robot_app.vision import Recognition, Recognizer
 from robot_app.vision.identify import IdentifySettings, resolve
@@ -45,17 +45,27 @@ def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
     settings = LostSettings()
     centres = [np.array([0.6, 0.1])]  # the region's centre on the table (no place given: anywhere)
 
-    def match(lost: dict[str, Recognizer], places: dict[str, LostPlace] | None = None):
-        return match_lost(capture, ident.unknown, centres, lost, places or {}, settings)
+    def match(lost: dict[str, Recognizer], places: dict[str, LostPlace] | None = None, box_for=None):
+        return match_lost(capture, ident.unknown, centres, lost, places or {}, settings, box_for)
 
     # the violet cloth was lost: the region shows its colours
     matched = match({name: recognizers[name] for name in ("violet", "stripes")})
-    assert matched is not None and matched[0] == "violet" and matched[1] is region
-    assert matched[2] >= settings.min_share
+    assert matched is not None and matched.name == "violet" and matched.region is region
+    assert matched.share >= settings.min_share and matched.alike == ()
     # only the stripes were lost: the region is not theirs, it is left alone
     assert match({"stripes": recognizers["stripes"]}) is None
-    # two lost cloths of the same colours: which one it is cannot be told, neither is picked
-    assert match({"violet": recognizers["violet"], "twin": recognizer(9, "violet twin")}) is None
+    # two lost cloths of the same colours: which one it is cannot be told; neither is picked
+    # when they belong in different boxes (or no sort rule is given) ...
+    twins = {"violet": recognizers["violet"], "twin": recognizer(9, "violet twin")}
+    assert match(twins) is None
+    assert match(twins, box_for={"violet": "colours", "twin": "whites"}.__getitem__) is None
+    # ... and one is, with the other as its alike, when both go into the same box
+    same = match(twins, box_for=lambda name: "colours")
+    assert same is not None and {same.name, *same.alike} == {"violet", "twin"} and len(same.alike) == 1
+    # the twin was lost far from here: it cannot lie in this region, so it is no contender
+    away = LostPlace("dropped in transfer", np.array([0.5, -0.3]), np.array([0.3, -0.56]), ())
+    alone = match(twins, {"twin": away})
+    assert alone is not None and alone.name == "violet" and alone.alike == ()
     assert match({}) is None
     # where it was lost matters: far from the way it went, or where a region lay before, no
     here = LostPlace("dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ())
@@ -109,9 +119,10 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     job.ledger = TableLedger()
     job.table = SimpleNamespace(point=lambda capture, pixel: (0.5, 0.0))  # type: ignore[assignment]
     job._survey_capture = None  # type: ignore[assignment]
+    job.sort = SimpleNamespace(box_for=lambda name: "colours")  # type: ignore[assignment]
     asked: list[tuple[set[str], dict[str, LostPlace]]] = []
 
-    def fake_match(capture, regions, centres, lost, places, settings):
+    def fake_match(capture, regions, centres, lost, places, settings, box_for=None):
         asked.append((set(lost), dict(places)))
         return None
 
@@ -176,3 +187,18 @@ def test_a_white_cloths_shaded_folds_count_as_its_colours_a_dark_cloths_do_not_g
     # hues as before: within the threshold on the circle
     assert palette_share(np.array([5, 252, 128]), red, 10) == pytest.approx(2 / 3)
     assert palette_share(np.array([], dtype=int), white, 10) == 0.0
+
+
+def test_a_blind_lift_is_named_after_the_lost_cloths_whose_weights_it_reads() -> None:
+    from robot_app.control.clear_table_records import ClearTableSettings
+
+    settings = ClearTableSettings()  # 30 % + 3 g tolerance
+    weights = {"No.1": 0.020, "No.2": 0.026, "No.3": 0.030, "No.4": 0.012}
+    assert weighed_as(0.047, "No.1", ("No.2",), weights, settings) == ("No.1", "No.2")  # both came up
+    assert weighed_as(0.047, "No.1", (), weights, settings) == ()  # no alike: a heavier lift is laid back
+    # lighter than the meant cloth by more than the tolerance: its lighter alike alone
+    assert weighed_as(0.011, "No.3", ("No.4", "No.2"), weights, settings) == ("No.4",)
+    # three together are the most one lift is taken for
+    assert weighed_as(0.076, "No.1", ("No.2", "No.3"), weights, settings) == ("No.1", "No.2", "No.3")
+    assert weighed_as(0.150, "No.1", ("No.2", "No.3", "No.4"), weights, settings) == ()
+    assert weighed_as(0.047, "No.1", ("No.9",), weights, settings) == ()  # a weight not known: no

@@ -260,7 +260,7 @@ class PickAttempt:
     laid_back_too: tuple[str, ...] = ()
 
     @property
-    def lift_rejected(self) -> bool:
+    def not_meant_alone(self) -> bool:
         """The robot found that more than, or other than, the meant cloth left the table."""
         return self.lift_check in ("double", "wrong")
 

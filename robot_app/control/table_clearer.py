@@ -71,7 +71,7 @@ from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_furniture import furniture_mask, table_beyond_sheet, without_furniture
 from robot_app.control.table_ledger import TableLedger
-from robot_app.control.table_lost import match_lost, pick_lost
+from robot_app.control.table_lost import LostMatch, match_lost, pick_lost
 from robot_app.control.table_recovery import TableRecovery
 from robot_app.control.table_surface import aimed_at, surface_height
 from robot_app.control.table_survey import (
@@ -84,7 +84,7 @@ from robot_app.control.table_survey import (
 from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.geometry import transform_points
 from robot_app.vision import Recognizer
-from robot_app.vision.identify import Detection, Identification, IdentifySettings, UnknownRegion, identify
+from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
 
 
 class TableClearer:
@@ -225,7 +225,7 @@ class TableClearer:
                 lost = self._lost_to_pick(last) if target is None else None
                 if lost is not None and len(self.ledger.attempts) < self.settings.max_picks:
                     self._record_survey(last, None)
-                    pick_lost(self, *lost)
+                    pick_lost(self, lost)
                     continue
                 self._record_survey(last, target)
                 if target is None:
@@ -373,7 +373,7 @@ class TableClearer:
         elif record.phase == "release":
             self._after_release(attempt, loop)
 
-    def _lost_to_pick(self, ident: Identification) -> tuple[str, UnknownRegion, float] | None:
+    def _lost_to_pick(self, ident: Identification) -> LostMatch | None:
         """A cloth the job lost and no survey recognised since, with attempts left, whose
         colours an unknown region of `ident` shows (`table_lost.match_lost`)."""
         if not self.settings.lost.enabled:
@@ -392,7 +392,9 @@ class TableClearer:
                 if name not in self.ledger.records and name not in seen:
                     lost[name], places[name] = self.recognizers[name], self.ledger.unnamed[-1]
         centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in ident.unknown]
-        return match_lost(self._survey_capture, ident.unknown, centres, lost, places, self.settings.lost)
+        return match_lost(
+            self._survey_capture, ident.unknown, centres, lost, places, self.settings.lost, self.sort.box_for
+        )
 
     # ------------------------------------------------------------------ looking around
     def _back_to_observation(self) -> None:

@@ -8,10 +8,15 @@ unknown region is not a guess about an unknown table when:
 
 1. the region's colours are one lost cloth's: at least `min_share` of its pixels are in
    that cloth's main colours (`vision.regions.main_codes`), at least `margin` more than
-   in any other lost cloth's (two lost cloths of one hue family: neither is picked);
+   in any other lost cloth's that could lie there. Two lost cloths of one hue family
+   (within `margin` of each other): neither is picked if they belong in different boxes;
+   if they belong in the same box, which one it is does not change where it goes, so the
+   best is picked and the others are its *alike* (`LostMatch.alike`);
 2. once lifted (fingers closed at `grasp_height` over the region's innermost pixel), the
-   wrist's load cell reads that cloth's weight (`weight_verdict`, as every lift); a
-   lighter or heavier lift is laid back, as every rejected lift;
+   wrist's load cell reads that cloth's weight (`weight_verdict`, as every lift), or
+   that of the cloth and some of its alike together, or of one of its alike
+   (`weighed_as`: a heap of two lost cloths of one box comes up as one, and goes into
+   that box as one); any other lift is laid back, as every rejected lift;
 3. after the release, the box check sees the box change with its colours (as every pick);
 
 and the region lies where the cloth can be: within `reach` of the way it was lost (from
@@ -33,7 +38,9 @@ callbacks, so that a witness of the lifts (simulation) sees them as every other 
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from itertools import combinations
 from typing import TYPE_CHECKING
 
 import cv2
@@ -42,7 +49,7 @@ import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
 from robot_app.control.cell import StereoCapture
-from robot_app.control.clear_table_records import LostPlace, LostSettings
+from robot_app.control.clear_table_records import ClearTableSettings, LostPlace, LostSettings
 from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
 from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, weight_verdict
@@ -56,6 +63,8 @@ from robot_app.vision.regions import image_codes, main_codes, undistorted
 
 if TYPE_CHECKING:
     from robot_app.control.table_clearer import TableClearer
+
+MAX_HEAP = 3  # lost cloths one blind lift may hold together (a put-back heap of a double pick and more)
 
 
 def colour_shares(
@@ -103,6 +112,24 @@ def near_the_loss(centre_xy: FloatArray, place: LostPlace, settings: LostSetting
     return all(float(np.hypot(*(centre - np.asarray(xy)))) > settings.apart for xy in place.before)
 
 
+@dataclass(frozen=True)
+class LostMatch:
+    """An unknown region taken for a lost cloth (`match_lost`).
+
+    Attributes:
+        name: the lost cloth whose colours the region shows most.
+        region: the region of the survey's identification.
+        share: share of its pixels in that cloth's main colours [-].
+        alike: the other lost cloths that could lie there whose colours fit nearly as well
+            (within `margin`); all belong in `name`'s box.
+    """
+
+    name: str
+    region: UnknownRegion
+    share: float
+    alike: tuple[str, ...] = ()
+
+
 def match_lost(
     capture: StereoCapture,
     regions: tuple[UnknownRegion, ...],
@@ -110,23 +137,50 @@ def match_lost(
     lost: Mapping[str, Recognizer],
     places: Mapping[str, LostPlace],
     settings: LostSettings,
-) -> tuple[str, UnknownRegion, float] | None:
-    """The first region (largest first) whose colours are one lost cloth's (`min_share`,
-    ahead of every other lost cloth by `margin`) and which lies where that cloth may be
-    (`near_the_loss`; `centres`: each region's centre on the table [m], `places`: where
-    each cloth was lost, none: anywhere): (name, region, share), or None."""
+    box_for: Callable[[str], str] | None = None,
+) -> LostMatch | None:
+    """The first region (largest first) whose colours are a lost cloth's (`min_share`)
+    that lies where that cloth may be (`near_the_loss`; `centres`: each region's centre on
+    the table [m], `places`: where each cloth was lost, none: anywhere), ahead by `margin`
+    of every other lost cloth that may lie there, or only of those of another box
+    (`box_for`: cloth -> its box; None: of every one); None if no region is."""
     if not lost:
         return None
     for region, centre in zip(regions, centres, strict=True):
         shares = colour_shares(capture, region, lost)
-        ranked = sorted(shares.items(), key=lambda item: -item[1])
-        name, best = ranked[0]
-        runner_up = ranked[1][1] if len(ranked) > 1 else 0.0
-        if best < settings.min_share or best - runner_up < settings.margin:
+        ranked = [
+            (name, share)
+            for name, share in sorted(shares.items(), key=lambda item: -item[1])
+            if name not in places or near_the_loss(centre, places[name], settings)
+        ]
+        if not ranked or ranked[0][1] < settings.min_share:
             continue
-        if name not in places or near_the_loss(centre, places[name], settings):
-            return name, region, best
+        name, best = ranked[0]
+        alike = tuple(other for other, share in ranked[1:] if best - share < settings.margin)
+        if alike and (box_for is None or any(box_for(other) != box_for(name) for other in alike)):
+            continue  # which cloth it is would change where it goes
+        return LostMatch(name, region, best, alike)
     return None
+
+
+def weighed_as(
+    weighed: float,
+    name: str,
+    alike: tuple[str, ...],
+    weights: Mapping[str, float],
+    settings: ClearTableSettings,
+) -> tuple[str, ...]:
+    """Which lost cloths a blind lift of `weighed` [kg] holds: `name` alone if it weighs
+    that (`weight_verdict`), else the fewest of `name` and its `alike` (at most
+    `MAX_HEAP` together, `name` first where it fits) whose weights sum to it; () if none.
+    All of them belong in one box, so the lift goes there whichever they are."""
+    candidates = [n for n in (name, *alike) if n in weights]
+    for size in range(1, min(MAX_HEAP, len(candidates)) + 1):
+        for group in combinations(candidates, size):
+            verdict, _ = weight_verdict(weighed, sum(weights[n] for n in group), name, settings)
+            if verdict == "ok":
+                return group
+    return ()
 
 
 def inner_pixel(mask: np.ndarray) -> tuple[float, float]:
@@ -138,15 +192,18 @@ def inner_pixel(mask: np.ndarray) -> tuple[float, float]:
     return float(u), float(v)
 
 
-def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float) -> None:
-    """Picks the lost cloth `name` at `region` of the job's last survey and places it into
-    its box if the load cell reads its weight; books the attempt. Never raises for a
-    failed pick (an `InterruptError` from the job's step callback passes)."""
+def pick_lost(job: TableClearer, match: LostMatch) -> None:
+    """Picks the lost cloth `match.name` at `match.region` of the job's last survey and
+    places it into its box if the load cell reads its weight (or its and some of its
+    alike's: `weighed_as`); books the attempt. Never raises for a failed pick (an
+    `InterruptError` from the job's step callback passes)."""
+    name, region, share = match.name, match.region, match.share
     s, loop, table_z = job.settings.lost, job.loop_settings, job.table_z
     capture = job.survey_capture
     box = job.boxes[job.sort.box_for(name)]
     x, y = job.table.point(capture, inner_pixel(region.mask))
-    unnamed = name not in job.ledger.lost  # the other cloth of a double pick, never identified
+    known_lost = set(job.ledger.lost)
+    unnamed = name not in known_lost  # the other cloth of a double pick, never identified
     place = job.ledger.unnamed[-1] if unnamed else job.ledger.lost[name]
     how = f"{place.how}; identity from its colours and weight" if unnamed else place.how
     where = np.eye(4)
@@ -155,6 +212,7 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
     attempt.notes.append(
         f"lost ({how}), not recognised since: picked blind at ({x:.2f}, {y:.2f}), "
         f"an unknown region {share:.0%} in its colours"
+        + (f" (as much in {', '.join(match.alike)}'s, same box)" if match.alike else "")
     )
     wall = time.perf_counter()
     samples, collisions = job.cell.limit_report(job.limits).samples, job.motion.collisions
@@ -179,7 +237,7 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
             job.cell.set_gripper(loop.gripper_open)
             outcome, reason = Outcome.GRASP_FAILED, "grasp missed: cloth not lifted"
         else:
-            outcome, reason = _carry(job, attempt, name)
+            outcome, reason = _carry(job, attempt, name, match.alike)
     except IKError as err:
         job.cell.release()
         job.cell.set_gripper(loop.gripper_open)
@@ -187,28 +245,48 @@ def pick_lost(job: TableClearer, name: str, region: UnknownRegion, share: float)
     report = job.cell.limit_report(job.limits)
     counts = (report.samples - samples, job.motion.collisions - collisions)
     result = _result(job, outcome, reason, attempt.start_time, wall, grasps, counts)
-    job.ledger.record_attempt(attempt, result, job.cell.time, job.weights.get(name))
-    if outcome is Outcome.PLACED and unnamed:
-        job.ledger.unnamed.pop()  # that double pick's other cloth is placed
+    job.ledger.record_attempt(attempt, result, job.cell.time, job.weights.get(attempt.name))
+    if outcome is Outcome.PLACED:
+        # a double pick's other cloth, never identified, placed (named by colours and weight)
+        for _ in (n for n in (attempt.name, *attempt.came_along) if n not in known_lost):
+            if job.ledger.unnamed:
+                job.ledger.unnamed.pop()
 
 
-def _carry(job: TableClearer, attempt: AttemptState, name: str) -> tuple[Outcome, str]:
+def _carry(
+    job: TableClearer, attempt: AttemptState, name: str, alike: tuple[str, ...] = ()
+) -> tuple[Outcome, str]:
     """After a lift that holds something: weigh, then into the box and look (or lay back),
     with the job's own hand-over (`TableClearer.put_back`, `TableClearer.check_box`) and
     the loop's transfer and release (`pick_place.carry_over_box`, `release_into_box`),
-    made with the job's motions."""
+    made with the job's motions. A weight that is not `name`'s but that of some of it and
+    its `alike` (one box) names the lift after them (`weighed_as`)."""
     loop, table_z = job.loop_settings, job.table_z
     expected = job.weights.get(name)
+    held: tuple[str, ...] = ()
     if job.weigh is None or expected is None:
         verdict, what = "wrong", f"{name}'s weight unknown: its identity cannot be confirmed"
     else:
-        attempt.weighed = float(job.weigh())
-        verdict, what = weight_verdict(attempt.weighed, expected, name, job.settings)
-    attempt.lift_check = verdict
-    if verdict != "ok":
-        attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
-        job.put_back(attempt, None)
-        return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
+        weighed = attempt.weighed = float(job.weigh())
+        verdict, what = weight_verdict(weighed, expected, name, job.settings)
+        if verdict != "ok":
+            held = weighed_as(weighed, name, alike, job.weights, job.settings)
+    if held:
+        # more than, or other than, the cloth meant came up; all of it belongs in this box
+        attempt.lift_check = "double" if len(held) > 1 else "wrong"
+        attempt.lost_name, attempt.came_along = held[0], held[1:]
+        attempt.notes.append(
+            f"{weighed * 1000:.0f} g lifted: the weight of {' and '.join(held)} "
+            f"(colours alike, same box): placed as {'one lift' if len(held) > 1 else held[0]}"
+        )
+        name = held[0]
+    else:
+        attempt.lift_check = verdict
+        if verdict != "ok":
+            kind = "double pick" if verdict == "double" else "wrong lift"
+            attempt.notes.append(f"{kind} ({what}): put back")
+            job.put_back(attempt, None)
+            return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
     start = job.cell.time
     job.set_phase("transfer", name)
     carry_over_box(job.motion, attempt.box.centre, table_z, loop)
@@ -264,4 +342,13 @@ def _result(
     )
 
 
-__all__ = ["colour_shares", "inner_pixel", "match_lost", "near_the_loss", "palette_share", "pick_lost"]
+__all__ = [
+    "LostMatch",
+    "colour_shares",
+    "inner_pixel",
+    "match_lost",
+    "near_the_loss",
+    "palette_share",
+    "pick_lost",
+    "weighed_as",
+]
