@@ -65,7 +65,7 @@ def double_pick_counts(episode: ClearTableEpisode) -> dict[str, int]:
     attempts = episode.result.attempts
     for lift in episode.lifts:
         attempt = next((a for a in attempts if a.start_time <= lift.time <= a.end_time), None)
-        if len(lift.lifted) < 2 or attempt is None or not attempt.lift_rejected:
+        if len(lift.lifted) < 2 or attempt is None or not attempt.not_meant_alone:
             continue
         named = set(attempt.came_along) | set(attempt.laid_back_too)
         if named:
@@ -111,6 +111,12 @@ def run_one(job: tuple[int, int, tuple[str, ...], str]) -> dict[str, object]:
         "false_alarms": v.false_alarms,
         "drops": v.drops,
         "drops_detected": v.drops_detected,
+        # where the known cloths not in their box ended, and what the simulator flung
+        "left_on_table": sum(1 for c in v.cloths if c.known and not c.correct and c.final == "table"),
+        "on_floor": sum(1 for c in v.cloths if c.known and c.final == "floor"),
+        "partly_in": sum(1 for c in v.cloths if c.known and c.final.startswith("partly in")),
+        "flung": len(v.flung),
+        "flung_not_in_box": sum(1 for c in v.cloths if c.number in v.flung and not c.correct),
         **double_pick_counts(episode),
         "attempts": len(r.attempts),
         "surveys": len(r.surveys),
@@ -220,6 +226,13 @@ def _summary(
         "double_put_back": total("double_put_back"),
         "drops": total("drops"),
         "drops_detected": total("drops_detected"),
+        "left_on_table": total("left_on_table"),
+        "on_floor": total("on_floor"),
+        "partly_in": total("partly_in"),
+        "cloths_flung_by_the_simulator": total("flung"),
+        "flung_and_not_in_their_box": total("flung_not_in_box"),
+        "episodes_with_a_fling": sum(1 for r in finished if r.get("flung")),
+        "cleared_without_a_fling": sum(bool(r["cleared"]) for r in finished if not r.get("flung")),
         "limit_violations": total("limit_violations"),
         "commanded_samples": total("commanded_samples"),
         "collisions": total("collisions"),

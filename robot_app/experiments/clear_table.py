@@ -273,7 +273,7 @@ def _run_in_cell(
     )  # the job starts at the controller's observation pose
     try:
         result = clearer.run()
-        verdict = judge(world, pile, result, witness.lifts, config.sort, set(models))
+        verdict = judge(world, pile, result, witness.lifts, config.sort, set(models), witness.flung)
         views.finish(result, verdict, world.time)
     finally:
         views.close()

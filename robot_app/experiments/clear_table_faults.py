@@ -7,7 +7,10 @@ out of the gripper during the transfer (`drop_transfers`), or the nearest other 
 caught by the fingers too (`double_grasps`: its nodes near the fingers are anchored, as
 if pinched or entangled). `PickWitness` notes, from the simulator's ground truth, which
 cloths each lift really took and which transfer really lost its cloth: the judge compares
-that with what the robot noticed. Neither tells the robot anything.
+that with what the robot noticed. It also watches the simulator itself: a cloth node
+faster than `BLOW_UP_SPEED` was flung by pybullet's soft-body contact (a blow-up, see
+`scripts/pile_physics.py`), not moved by the robot (`PickWitness.flung`), so that a cloth
+that ends on the floor after one is reported as such. Neither tells the robot anything.
 """
 
 from __future__ import annotations
@@ -21,10 +24,12 @@ from robot_app.config import StrictModel
 from robot_app.control.episode import PhaseRecord
 from robot_app.sim import ClothBody, SimCell, World, build_cloth_mesh, cloth_spec
 from robot_app.sim.cell import HOLD_HEIGHT
+from robot_app.sim.checks import BLOW_UP_SPEED
 from robot_app.sim.cloth_body import NODE_MASS
 from robot_app.sim.pile import Pile
 
 CATCH_REACH = 0.12  # the other cloth must come this close to the fingers to be caught [m]
+WATCH_EVERY = 5  # control steps between two looks at every cloth's node speeds
 
 
 class ScaleSettings(StrictModel):
@@ -113,6 +118,20 @@ class LiftTruth:
     dropped: bool = False
 
 
+@dataclass(frozen=True)
+class Flung:
+    """A cloth the simulator flung: one of its nodes moved faster than `BLOW_UP_SPEED`.
+
+    Attributes:
+        time: cell time of the first look that saw it [s]; phase: the job's phase then.
+        speed: the node's speed, averaged since the look before [m/s].
+    """
+
+    time: float
+    phase: str
+    speed: float
+
+
 @dataclass
 class PickWitness:
     """Follows the job's phases in the simulated cell: makes the faults, notes the truth.
@@ -125,6 +144,9 @@ class PickWitness:
     pile: Pile
     faults: FaultSettings | None = None
     lifts: list[LiftTruth] = field(default_factory=list)
+    flung: dict[int, Flung] = field(default_factory=dict)  # catalogue number -> the first fling seen
+    _steps: int = 0
+    _last_look: tuple[float, list[np.ndarray]] | None = None
     _grasps: int = 0
     _transfers: int = 0
     _transfer_start: float | None = None
@@ -143,6 +165,9 @@ class PickWitness:
 
     def on_step(self, phase: str, _meant: str | None) -> None:
         """After each control step (the job's `on_step`)."""
+        self._steps += 1
+        if self._steps % WATCH_EVERY == 0:
+            self._watch_speeds(phase)
         if phase != "transfer":
             self._transfer_start = None
             return
@@ -161,6 +186,22 @@ class PickWitness:
                 self.lifts[-1].dropped = True
             for cloth in self.pile.cloths:
                 cloth.body.release()
+
+    def _watch_speeds(self, phase: str) -> None:
+        """Notes every cloth a node of which moved faster than BLOW_UP_SPEED since the last
+        look (a cloth free falling from the table to the floor reaches ~4 m/s, one carried
+        by the arm ~2 m/s)."""
+        now = self.world.time
+        nodes = [c.body.nodes() for c in self.pile.cloths]
+        if self._last_look is not None and now > self._last_look[0]:
+            dt = now - self._last_look[0]
+            for cloth, before, after in zip(self.pile.cloths, self._last_look[1], nodes, strict=True):
+                if cloth.number in self.flung or before.shape != after.shape:
+                    continue
+                speed = float(np.max(np.linalg.norm(after - before, axis=1))) / dt
+                if speed > BLOW_UP_SPEED:
+                    self.flung[cloth.number] = Flung(now, phase, speed)
+        self._last_look = (now, nodes)
 
     def _hanging(self) -> tuple[int, ...]:
         """Cloths that left the table with the gripper: held, or dragged along (a third of
@@ -193,4 +234,4 @@ class PickWitness:
         return True
 
 
-__all__ = ["FaultSettings", "LiftTruth", "PickWitness", "ScaleSettings", "WristScale"]
+__all__ = ["FaultSettings", "Flung", "LiftTruth", "PickWitness", "ScaleSettings", "WristScale"]

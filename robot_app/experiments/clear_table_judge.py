@@ -4,19 +4,20 @@ A known cloth is right when at least `SUCCESS_FRACTION` of its nodes lie in the 
 sort rule gives it; a cloth the robot has no model of is right where it was, on the
 table. The verdict also holds what the robot should have noticed and did or did not:
 lifts that took two cloths (or the wrong one) and transfers that lost their cloth
-(`PickWitness`), and, for an episode not cleared, its cause in words.
+(`PickWitness`), and, for an episode not cleared, its cause in words; a cloth not where it
+belongs that the simulator flung (`PickWitness.flung`, a soft-body blow-up) says so.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
 from robot_app.control.clear_table_records import ClothOutcome, ClothRecord, TableResult
 from robot_app.control.sort_rule import SortSettings, cloth_name
-from robot_app.experiments.clear_table_faults import LiftTruth
+from robot_app.experiments.clear_table_faults import Flung, LiftTruth
 from robot_app.experiments.pick_place_episode import SUCCESS_FRACTION
 from robot_app.sim import World
 from robot_app.sim.pile import Pile
@@ -62,6 +63,8 @@ class TableVerdict:
         unknown_cloths: cloths of the pile the robot has no model of; unknown_reported:
             unknown regions the last survey reported.
         cause: why the episode is not cleared (None when cleared).
+        flung: catalogue numbers of the cloths the simulator flung (a node faster than
+            `BLOW_UP_SPEED`), wherever they ended.
     """
 
     cloths: tuple[ClothVerdict, ...]
@@ -77,6 +80,7 @@ class TableVerdict:
     unknown_cloths: int
     unknown_reported: int
     cause: str | None
+    flung: tuple[int, ...] = ()
 
 
 def judge(
@@ -86,8 +90,10 @@ def judge(
     lifts: Iterable[LiftTruth],
     sort: SortSettings,
     known: set[str],
+    flung: Mapping[int, Flung] | None = None,
 ) -> TableVerdict:
     """The verdict on the job's end (see the module docstring)."""
+    flung = {} if flung is None else flung
     records = {r.name: r for r in result.cloths}
     verdicts = []
     for cloth in pile.cloths:
@@ -98,6 +104,9 @@ def judge(
         problem = (
             "" if final == expected else _problem(name, is_known, expected, final, records.get(name), result)
         )
+        if problem and cloth.number in flung:
+            f = flung[cloth.number]
+            problem += f" [flung by the simulator: a node at {f.speed:.0f} m/s at {f.time:.1f} s, {f.phase}]"
         verdicts.append(
             ClothVerdict(cloth.number, name, is_known, expected, final, final == expected, problem)
         )
@@ -105,7 +114,7 @@ def judge(
     for lift in lifts:
         attempt = next((a for a in result.attempts if a.start_time <= lift.time <= a.end_time), None)
         meant = int(lift.meant.removeprefix("No."))
-        noticed = attempt is not None and attempt.lift_rejected
+        noticed = attempt is not None and attempt.not_meant_alone
         if lift.lifted:
             if len(lift.lifted) > 1:
                 double += 1
@@ -139,6 +148,7 @@ def judge(
         unknown_cloths=sum(1 for v in verdicts if not v.known),
         unknown_reported=len(result.unknown),
         cause="; ".join(causes) if causes else None,
+        flung=tuple(c.number for c in pile.cloths if c.number in flung),
     )
 
 

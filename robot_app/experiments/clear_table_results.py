@@ -150,6 +150,7 @@ def summary(config: ClearTableConfig, episode: ClearTableEpisode) -> dict[str, A
         "false_alarms": v.false_alarms,
         "drops": v.drops,
         "drops_detected": v.drops_detected,
+        "cloths_flung": [f"No.{n}" for n in v.flung],
         "pick_attempts": len(r.attempts),
         "surveys": len(r.surveys),
         "survey_wall_s": sum(s.wall_s for s in r.surveys),
