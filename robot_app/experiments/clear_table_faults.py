@@ -8,7 +8,7 @@ caught by the fingers too (`double_grasps`: its nodes near the fingers are ancho
 if pinched or entangled). `PickWitness` notes, from the simulator's ground truth, which
 cloths each lift really took and which transfer really lost its cloth: the judge compares
 that with what the robot noticed. It also watches the simulator itself: a cloth node
-faster than `BLOW_UP_SPEED` was flung by pybullet's soft-body contact (a blow-up, see
+faster than `BLOW_UP_SPEED` above the table was flung by pybullet's soft-body contact (a blow-up, see
 `scripts/pile_physics.py`), not moved by the robot (`PickWitness.flung`), so that a cloth
 that ends on the floor after one is reported as such. Neither tells the robot anything.
 """
@@ -24,7 +24,7 @@ from robot_app.config import StrictModel
 from robot_app.control.episode import PhaseRecord
 from robot_app.sim import ClothBody, SimCell, World, build_cloth_mesh, cloth_spec
 from robot_app.sim.cell import HOLD_HEIGHT
-from robot_app.sim.checks import BLOW_UP_SPEED
+from robot_app.sim.checks import BLOW_UP_DEPTH, BLOW_UP_SPEED
 from robot_app.sim.cloth_body import NODE_MASS
 from robot_app.sim.pile import Pile
 
@@ -189,16 +189,21 @@ class PickWitness:
 
     def _watch_speeds(self, phase: str) -> None:
         """Notes every cloth a node of which moved faster than BLOW_UP_SPEED since the last
-        look (a cloth free falling from the table to the floor reaches ~4 m/s, one carried
-        by the arm ~2 m/s)."""
+        look while above the table top (at both looks): one carried by the arm moves at
+        ~2 m/s; a cloth sliding off the table whips its edge past 5 m/s as it falls to the
+        floor, below the top, which is a fall, not a blow-up."""
         now = self.world.time
         nodes = [c.body.nodes() for c in self.pile.cloths]
+        floor = self.world.config.table.top_z - BLOW_UP_DEPTH
         if self._last_look is not None and now > self._last_look[0]:
             dt = now - self._last_look[0]
             for cloth, before, after in zip(self.pile.cloths, self._last_look[1], nodes, strict=True):
                 if cloth.number in self.flung or before.shape != after.shape:
                     continue
-                speed = float(np.max(np.linalg.norm(after - before, axis=1))) / dt
+                above = (before[:, 2] > floor) & (after[:, 2] > floor)
+                if not np.any(above):
+                    continue
+                speed = float(np.max(np.linalg.norm(after[above] - before[above], axis=1))) / dt
                 if speed > BLOW_UP_SPEED:
                     self.flung[cloth.number] = Flung(now, phase, speed)
         self._last_look = (now, nodes)
