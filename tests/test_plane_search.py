@@ -77,3 +77,19 @@ def test_a_candidate_half_turned_on_the_truth_is_turned_back(turns: bool) -> Non
         assert d[0] < 0.0005 and abs(np.rad2deg(turn[0])) < 0.5
     else:
         assert abs(np.rad2deg(turn[0])) > 170.0
+
+
+@pytest.mark.parametrize("yaw_range", [90.0, 16.0])
+def test_the_turns_add_three_refined_poses_whatever_the_yaw_grid(yaw_range: float) -> None:
+    """Three more poses with `turns` (the best end half and quarter turned), on either yaw grid."""
+    base = np.eye(4)
+    base[:3, 3] = [0.0, 0.0, 0.58]
+
+    def hue(poses: np.ndarray) -> np.ndarray:
+        return -np.hypot(*(poses[:, :2, 3] - base[:2, 3]).T)
+
+    settings = PlaneSearchSettings(yaw_range=yaw_range)
+    plain = search_in_plane(base, hue, hue, hue, settings, hue)
+    turned = search_in_plane(base, hue, hue, hue, settings, hue, turns=True)
+    assert len(plain) == settings.candidates and len(turned) == settings.candidates + 3
+    np.testing.assert_allclose(turned[: len(plain)], plain)

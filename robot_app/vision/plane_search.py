@@ -149,8 +149,8 @@ def search_in_plane(
     if s.yaw_range >= 45.0:  # the quarter turns' ranges meet: every yaw, evenly
         yaws = np.deg2rad(np.arange(0.0, 360.0 - 1e-9, s.yaw_step))
     else:
-        turns = np.deg2rad(np.arange(-s.yaw_range, s.yaw_range + 1e-9, s.yaw_step))
-        yaws = np.concatenate([turns + quarter * np.pi / 2.0 for quarter in range(4)])
+        near = np.deg2rad(np.arange(-s.yaw_range, s.yaw_range + 1e-9, s.yaw_step))
+        yaws = np.concatenate([near + quarter * np.pi / 2.0 for quarter in range(4)])
     a, b, yaw = (g.ravel() for g in np.meshgrid(span, span, yaws, indexing="ij"))
     poses = poses_on_plane(pose, np.column_stack([a, b]), yaw)
     order = np.argsort(-coarse(poses), kind="stable")
