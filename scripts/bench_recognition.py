@@ -196,8 +196,8 @@ def seeds(args: argparse.Namespace, calibration: bool) -> Callable[[str, int], n
     return rng
 
 
-DUMP_COLUMNS = ("kind", "model", "cloth", "fitness", "search_fitness", "appearance", "visible", "interleaved",
-                "agreeing", "outline", "confidence", "found", "err_x_mm", "err_y_mm",
+DUMP_COLUMNS = ("kind", "scene", "model", "cloth", "fitness", "search_fitness", "appearance", "visible",
+                "interleaved", "agreeing", "outline", "confidence", "found", "err_x_mm", "err_y_mm",
                 "err_yaw_deg", "rival", "rivals_asked", "time_ms")  # fmt: skip
 
 
@@ -212,10 +212,11 @@ def arm(recognizers: list[Recognizer], index: int, args, size: int = N, leave_ou
     recognizers[index].set_rivals([recognizers[k] for k in range(size) if k not in skip])
 
 
-def dump_row(kind: str, model: ClothModel, cloth: int, result, truth) -> list:
-    """One row of `--dump`: the scene kind, model and cloth, the decision's evidence and error."""
+def dump_row(kind: str, scene: int, model: ClothModel, cloth: int, result, truth) -> list:
+    """One row of `--dump`: the scene kind and index (its seed's k), model and cloth, the
+    decision's evidence and error."""
     e = [np.nan] * 4 if truth is None else errors_of(model, result.transform_model_to_camera, truth)
-    return [kind, model.name, cloth, result.fitness, result.search_fitness, result.appearance,
+    return [kind, scene, model.name, cloth, result.fitness, result.search_fitness, result.appearance,
             result.visible_fraction, result.interleaved, result.agreeing, result.outline,
             result.confidence,
             int(result.found), e[0], e[1], e[3], result.rival, result.rivals_asked,
@@ -257,7 +258,7 @@ def collect(
             arm(recognizers, index, args)
             rows.append((index, recognizers[index].recognize(left, right, seed=k), truth))
             if dump is not None:
-                dump.append(dump_row(kind, scenes.models[index], index, rows[-1][1], truth))
+                dump.append(dump_row(kind, k, scenes.models[index], index, rows[-1][1], truth))
         out[kind] = rows
     for kind, family in (("absent_family", True), ("absent_other", False)):
         if kinds is not None and kind not in kinds:
@@ -270,7 +271,7 @@ def collect(
             arm(recognizers, index, args, leave_out=other)
             rows.append((index, recognizers[index].recognize(left, right, seed=k), None))
             if dump is not None:
-                dump.append(dump_row(kind, scenes.models[index], other, rows[-1][1], None))
+                dump.append(dump_row(kind, k, scenes.models[index], other, rows[-1][1], None))
         out[kind] = rows
     return out
 
@@ -506,9 +507,7 @@ def report_identification(
             arm(recognizers, i, args, size, leave_out=j)
             result = recognizers[i].recognize(left, right, seed=i * size + j)
             if dump is not None:
-                dump.append(
-                    dump_row(f"identification{size}", scenes.models[i], j, result, truth if i == j else None)
-                )
+                dump.append(dump_row(section, j, scenes.models[i], j, result, truth if i == j else None))
             if wrong is not None and i != j:
                 wrong.append((i, result, None))
             rejected_by_rival += bool(result.rival)
@@ -763,9 +762,8 @@ def main() -> None:
     parser.add_argument("--rivals", choices=("none", "catalogue", "leave-out"), default="none",
                         help="rivals of each single-model decision: none; the other catalogue models "
                         "(of the identification's size there); or those but the scene's cloth")  # fmt: skip
-    parser.add_argument(
-        "--dump", help="write every recognition's evidence of the accuracy scenes to this CSV"
-    )
+    parser.add_argument("--dump", help="write every recognition's evidence of the accuracy and the "
+                        "identification scenes to this CSV (rewritten after each part)")  # fmt: skip
     parser.add_argument("--kinds", help="only these scene kinds (comma-separated: flat, wrinkled, folded, "
                         "covered, absent_family, absent_other)")  # fmt: skip
     parser.add_argument("--cloths", help="the accuracy scenes of these catalogue cloths only (comma-separated"
@@ -815,8 +813,9 @@ def main() -> None:
         report_distractor(scenes, recognizers, args)
     if args.quick:
         return
-    report_identification(scenes, recognizers, args, 12)
-    report_identification(scenes, recognizers, args, 20)
+    report_identification(scenes, recognizers, args, 12, dump=dump)
+    report_identification(scenes, recognizers, args, 20, dump=dump)
+    write_dump(args.dump, dump or [])
     if args.identify:
         report_identification_among(scenes, recognizers, args, 12)
         report_identification_among(scenes, recognizers, args, 20)

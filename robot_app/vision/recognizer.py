@@ -672,6 +672,7 @@ class Recognizer:
             return chosen, measurement
         start = onto_plane(chosen.pose, plane.normal, plane.distance)
         p = self.proposer
+        textured = chosen.verification.textured_share >= self.settings.verify.align_textured_from
         poses = search_in_plane(
             start,
             p.fitness(s.research.stride),
@@ -679,6 +680,7 @@ class Recognizer:
             p.fitness(subpixel=True),
             s.research,
             self._logits,
+            turns=s.research.turns and textured,
         )
         found = [self._at_depth(pose, 0.0) for pose in poses]
         best = max(found, key=lambda item: item.score).pose  # the first (best by hue) on ties
