@@ -248,9 +248,8 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     job.ledger.record_attempt(attempt, result, job.cell.time, job.weights.get(attempt.name))
     if outcome is Outcome.PLACED:
         # a double pick's other cloth, never identified, placed (named by colours and weight)
-        for _ in (n for n in (attempt.name, *attempt.came_along) if n not in known_lost):
-            if job.ledger.unnamed:
-                job.ledger.unnamed.pop()
+        placed_unnamed = sum(1 for n in (attempt.name, *attempt.came_along) if n not in known_lost)
+        del job.ledger.unnamed[len(job.ledger.unnamed) - min(placed_unnamed, len(job.ledger.unnamed)) :]
 
 
 def _carry(
