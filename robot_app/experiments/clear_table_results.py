@@ -38,6 +38,7 @@ def cloth_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 "final_place": v.final,
                 "correct": v.correct,
                 "notes": " | ".join(r.notes) if r is not None else "",
+                "over_rim": round(v.over_rim, 3),
             }
         )
     for r in records.values():  # identified by the robot, yet not in the pile
@@ -54,6 +55,7 @@ def cloth_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 "final_place": "",
                 "correct": r.order is None,
                 "notes": " | ".join(r.notes),
+                "over_rim": 0.0,
             }
         )
     return rows
@@ -151,6 +153,7 @@ def summary(config: ClearTableConfig, episode: ClearTableEpisode) -> dict[str, A
         "drops": v.drops,
         "drops_detected": v.drops_detected,
         "cloths_flung": [f"No.{n}" for n in v.flung],
+        "cloths_over_the_rim": [c.name for c in v.cloths if c.over_rim > 0],
         "pick_attempts": len(r.attempts),
         "surveys": len(r.surveys),
         "survey_wall_s": sum(s.wall_s for s in r.surveys),

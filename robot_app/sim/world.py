@@ -63,6 +63,14 @@ class BoxGeometry:
         d = P - self.centre
         return (np.abs(d[:, 0]) <= half) & (np.abs(d[:, 1]) <= half) & (d[:, 2] <= self.wall_height)
 
+    def over_floor(self, points: npt.ArrayLike) -> npt.NDArray[np.bool_]:
+        """True for points inside the walls, at any height: for a cloth nobody holds, what
+        rests in the box, heaped over its rim or not (`contains` asks below the rim too)."""
+        P = np.asarray(points, dtype=float).reshape(-1, 3)
+        half = self.inner_size / 2
+        d = P - self.centre
+        return (np.abs(d[:, 0]) <= half) & (np.abs(d[:, 1]) <= half)
+
 
 class World:
     """The cell in one pybullet client; a context manager that disconnects on exit.
