@@ -69,7 +69,7 @@ def _lay_back(job: table_clearer.TableClearer, start: tuple[float, float], end: 
     a, b = np.array(start), np.array(end)
     job._laid.append((earlier, a, b))
     job.ledger.lost["No.12"] = LostPlace("put back after the lift", a, b, ())
-    job.ledger.unnamed.append(LostPlace("came up with No.12, never identified", a, b, ()))
+    job.ledger.unnamed.append(LostPlace("came up with No.12, not named", a, b, ()))
 
 
 def test_without_a_laid_back_cloth_near_the_grasp_both_go_into_the_box(

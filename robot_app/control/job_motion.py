@@ -158,6 +158,14 @@ class JobMotion:
             sample = trajectory.sample(k * self.cell.dt)
             self._send(sample.q, sample.v)
 
+    def reaches(self, position: npt.ArrayLike) -> bool:
+        """Does `solve_tcp(position)` have a solution (from the joints now)?"""
+        try:
+            self.solve_tcp(position)
+        except IKError:
+            return False
+        return True
+
     def move_tcp(self, position: npt.ArrayLike, speed: float = 1.0) -> None:
         """Moves the TCP to `position` [m] (cameras looking down)."""
         self.move_to_joints(self.solve_tcp(position), speed)

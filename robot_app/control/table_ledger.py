@@ -43,8 +43,8 @@ class TableLedger:
         lost: cloth name -> how and where the job lost it (dropped in a transfer, laid
             back after a lift), for the cloths no survey recognised since and not placed
             since.
-        unnamed: where double picks whose other cloth no survey identified were laid back
-            (that cloth is one of the known cloths no survey has seen).
+        unnamed: where double picks whose other cloth was not named were laid back (that
+            cloth is one of the known cloths not placed).
     """
 
     def __init__(self) -> None:
@@ -167,7 +167,7 @@ class TableLedger:
             for companion in attempt.laid_back_too if attempt.put_back else ():
                 self.lost.setdefault(companion, LostPlace(f"put back with {name}", start, end, before))
             if attempt.put_back and attempt.unnamed_along:
-                self.unnamed.append(LostPlace(f"came up with {name}, never identified", start, end, before))
+                self.unnamed.append(LostPlace(f"came up with {name}, not named", start, end, before))
         if result.outcome is Outcome.PLACED:
             confirmed = attempt.box_check is not None and attempt.box_check.confirmed
             self.placed(name, confirmed)

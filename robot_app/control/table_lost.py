@@ -64,6 +64,7 @@ from robot_app.vision.regions import image_codes, main_codes, undistorted
 if TYPE_CHECKING:
     from robot_app.control.table_clearer import TableClearer
 
+REACH_TRIES = 24  # deepest pixels of a lost cloth's region tried for a reachable blind grasp
 MAX_HEAP = 3  # lost cloths one blind lift may hold together (a put-back heap of a double pick and more)
 
 
@@ -186,10 +187,40 @@ def weighed_as(
 def inner_pixel(mask: np.ndarray) -> tuple[float, float]:
     """(u, v) of the mask's pixel farthest from its border (a crumpled heap's middle, also
     for a region that is not convex) [px]."""
+    return inner_pixels(mask, 1)[0]
+
+
+def inner_pixels(mask: np.ndarray, count: int, apart: float = 4.0) -> list[tuple[float, float]]:
+    """Up to `count` (u, v) of the mask's pixels, deepest inside first (distance from the
+    border), each at least `apart` [px] from those before it [px]."""
     inside = np.pad(np.asarray(mask, dtype=np.uint8), 1)
     distance = cv2.distanceTransform(inside, cv2.DIST_L2, 5)[1:-1, 1:-1]
-    v, u = np.unravel_index(int(np.argmax(distance)), distance.shape)
-    return float(u), float(v)
+    vs, us = np.nonzero(distance > 0)
+    order = np.argsort(-distance[vs, us], kind="stable")
+    chosen: list[tuple[float, float]] = []
+    for i in order:
+        u, v = float(us[i]), float(vs[i])
+        if all((u - a) ** 2 + (v - b) ** 2 >= apart**2 for a, b in chosen):
+            chosen.append((u, v))
+            if len(chosen) == count:
+                break
+    return chosen
+
+
+def reachable_point(
+    mask: np.ndarray,
+    table_point: Callable[[tuple[float, float]], tuple[float, float]],
+    reachable: Callable[[float, float], bool],
+    tries: int = REACH_TRIES,
+) -> tuple[float, float]:
+    """(x, y) [m] on the table of the region's innermost pixel the hand can grasp at
+    (`reachable`), trying the `tries` deepest pixels spread over the region; the innermost
+    one if none is (the grasp then fails with its IK error, as before). Bench episode 12: a
+    lost cloth laid back near the arm's base, its innermost pixel at (0.27, 0.19) had no IK
+    solution with the cameras looking down (15 mm short), the rest of the heap farther out."""
+    pixels = inner_pixels(mask, tries)
+    points = [table_point(px) for px in pixels]
+    return next((xy for xy in points if reachable(*xy)), points[0])
 
 
 def pick_lost(job: TableClearer, match: LostMatch) -> None:
@@ -201,9 +232,14 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     s, loop, table_z = job.settings.lost, job.loop_settings, job.table_z
     capture = job.survey_capture
     box = job.boxes[job.sort.box_for(name)]
-    x, y = job.table.point(capture, inner_pixel(region.mask))
+    heights = (loop.pregrasp_height, s.grasp_height, loop.lift_height)
+    x, y = reachable_point(
+        region.mask,
+        lambda px: job.table.point(capture, px),
+        lambda x, y: all(job.motion.reaches([x, y, table_z + h]) for h in heights),
+    )
     known_lost = set(job.ledger.lost)
-    unnamed = name not in known_lost  # the other cloth of a double pick, never identified
+    unnamed = name not in known_lost  # the other cloth of a double pick, not named
     place = job.ledger.unnamed[-1] if unnamed else job.ledger.lost[name]
     how = f"{place.how}; identity from its colours and weight" if unnamed else place.how
     where = np.eye(4)
@@ -247,7 +283,7 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     result = _result(job, outcome, reason, attempt.start_time, wall, grasps, counts)
     job.ledger.record_attempt(attempt, result, job.cell.time, job.weights.get(attempt.name))
     if outcome is Outcome.PLACED:
-        # a double pick's other cloth, never identified, placed (named by colours and weight)
+        # a double pick's other cloth, not named, placed (named by colours and weight)
         placed_unnamed = sum(1 for n in (attempt.name, *attempt.came_along) if n not in known_lost)
         del job.ledger.unnamed[len(job.ledger.unnamed) - min(placed_unnamed, len(job.ledger.unnamed)) :]
 
@@ -345,9 +381,11 @@ __all__ = [
     "LostMatch",
     "colour_shares",
     "inner_pixel",
+    "inner_pixels",
     "match_lost",
     "near_the_loss",
     "palette_share",
     "pick_lost",
+    "reachable_point",
     "weighed_as",
 ]
