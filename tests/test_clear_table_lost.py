@@ -224,6 +224,27 @@ def test_a_white_cloths_shaded_folds_count_as_its_colours_a_dark_cloths_do_not_g
     assert palette_share(np.array([], dtype=int), white, 10) == 0.0
 
 
+def test_a_white_heap_fits_a_white_cloth_better_than_a_print_with_white_in_it() -> None:
+    from robot_app.control.table_lost import palette_proportions, palette_share
+    from robot_app.vision.hue import DARK, LIGHT
+
+    turquoise = 128
+    heap = np.array([LIGHT] * 60 + [DARK] * 35 + [30] * 5)  # bench episode 1: two whites laid back
+    white_towel = np.array([LIGHT] * 95 + [DARK] * 5)  # the models' own codes (S_in)
+    stripes = np.array([LIGHT] * 50 + [turquoise] * 50)
+    # the palettes alone explain the heap equally: that tied the whites with the stripes
+    assert palette_share(heap, [LIGHT], 10) == palette_share(heap, [LIGHT, turquoise], 10)
+    # the mix tells them apart: all white as the towel, half the stripes' mix missing
+    assert palette_proportions(heap, white_towel, [LIGHT], 10) == pytest.approx(1.0)
+    assert palette_proportions(heap, stripes, [LIGHT, turquoise], 10) == pytest.approx(0.5)
+    # the stripes crumpled (both colours seen) fit their own mix, whatever the share of shade
+    crumpled = np.array([LIGHT] * 30 + [DARK] * 20 + [turquoise] * 45 + [30] * 5)
+    assert palette_proportions(crumpled, stripes, [LIGHT, turquoise], 10) > 0.9
+    assert palette_proportions(crumpled, white_towel, [LIGHT], 10) == pytest.approx(1.0)
+    assert palette_share(crumpled, [LIGHT], 10) == pytest.approx(0.5)  # but half its pixels only
+    assert palette_proportions(np.array([30] * 9), stripes, [LIGHT, turquoise], 10) == 0.0
+
+
 def test_a_blind_lift_is_named_after_the_lost_cloths_whose_weights_it_reads() -> None:
     from robot_app.control.clear_table_records import ClearTableSettings
 

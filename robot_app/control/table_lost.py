@@ -68,20 +68,62 @@ REACH_TRIES = 24  # deepest pixels of a lost cloth's region tried for a reachabl
 MAX_HEAP = 3  # lost cloths one blind lift may hold together (a put-back heap of a double pick and more)
 
 
+@dataclass(frozen=True)
+class ColourFit:
+    """How well an unknown region's colours fit a lost cloth's model.
+
+    Attributes:
+        share: share of the region's pixels in the model's main colours (`palette_share`).
+        proportions: how alike the shares of those colours are in the region and in the
+            model (`palette_proportions`; 1: the same mix).
+    """
+
+    share: float
+    proportions: float
+
+    @property
+    def score(self) -> float:
+        """share x proportions: what ranks the lost cloths for a region."""
+        return self.share * self.proportions
+
+
 def colour_shares(
     capture: StereoCapture, region: UnknownRegion, recognizers: Mapping[str, Recognizer]
-) -> dict[str, float]:
-    """Name -> share of `region`'s pixels (in the undistorted right image) in that
-    model's main colours (`palette_share`)."""
+) -> dict[str, ColourFit]:
+    """Name -> how `region`'s pixels (in the undistorted right image) fit that model's main
+    colours (`ColourFit`)."""
     first = next(iter(recognizers.values()))
     image = undistorted(capture.right_bgr, first.rig.right)
     fitness = first.settings.fitness
     codes = image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness)
     seen = codes[region.mask]
-    return {
-        name: palette_share(seen, main_codes(recognizer.model), fitness.hue_threshold_in)
-        for name, recognizer in recognizers.items()
-    }
+    fits = {}
+    for name, recognizer in recognizers.items():
+        palette, threshold = main_codes(recognizer.model), fitness.hue_threshold_in
+        fits[name] = ColourFit(
+            palette_share(seen, palette, threshold),
+            palette_proportions(seen, recognizer.model.hues_in, palette, threshold),
+        )
+    return fits
+
+
+def _palette_bins(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> FloatArray:
+    """Share of `codes` taken by each colour of `palette` (the first that matches, most
+    frequent first), a LIGHT tone taking DARK pixels as in `palette_share`."""
+    flat = np.asarray(codes).reshape(-1)
+    colours = np.asarray(palette)
+    bins = np.zeros(len(colours))
+    if not flat.size:
+        return bins
+    light = np.flatnonzero(colours == LIGHT)
+    if light.size and not np.any(colours == DARK):
+        colours = np.append(colours, DARK)
+    matching = colours_match(flat[:, None], colours[None, :], hue_threshold)
+    first = np.argmax(matching, axis=1)[np.any(matching, axis=1)]
+    counts = np.bincount(first, minlength=len(colours)).astype(float)
+    if len(colours) > len(bins):  # the DARK added for a white cloth's folds counts as its LIGHT
+        counts[light[0]] += counts[-1]
+    return counts[: len(bins)] / flat.size
 
 
 def palette_share(seen: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> float:
@@ -90,14 +132,24 @@ def palette_share(seen: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: in
     or light grey cloth, which has no hue) also takes DARK pixels, since a crumpled white
     cloth's folds lie in its own shade, darker but still without hue (a dark cloth's
     folds do not get lighter)."""
-    codes = np.asarray(seen).reshape(-1)
-    if not codes.size:
+    return float(np.sum(_palette_bins(seen, palette, hue_threshold)))
+
+
+def palette_proportions(
+    seen: npt.ArrayLike, model_codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int
+) -> float:
+    """How alike the mix of `palette`'s colours is among the codes `seen` and among the
+    model's own (`model_codes`, its S_in): the overlap of the two mixes, each over its
+    pixels in the palette (1: the same shares, 0: none in common). `palette_share` asks
+    only how much of a region a palette explains, so a white heap fitted every palette
+    with white in it as well as a white cloth's (bench episode 1: two whites laid back
+    together, never picked, since unseen cloths of the colours box with white stripes or
+    dots fitted it as well); their mix of white and their other colours does not."""
+    region = _palette_bins(seen, palette, hue_threshold)
+    model = _palette_bins(model_codes, palette, hue_threshold)
+    if region.sum() <= 0 or model.sum() <= 0:
         return 0.0
-    colours = np.asarray(palette)
-    if np.any(colours == LIGHT) and not np.any(colours == DARK):
-        colours = np.append(colours, DARK)
-    matching = colours_match(codes[:, None], colours[None, :], hue_threshold)
-    return float(np.mean(np.any(matching, axis=1)))
+    return float(np.minimum(region / region.sum(), model / model.sum()).sum())
 
 
 def near_the_loss(centre_xy: FloatArray, place: LostPlace, settings: LostSettings) -> bool:
@@ -148,19 +200,19 @@ def match_lost(
     if not lost:
         return None
     for region, centre in zip(regions, centres, strict=True):
-        shares = colour_shares(capture, region, lost)
+        fits = colour_shares(capture, region, lost)
         ranked = [
-            (name, share)
-            for name, share in sorted(shares.items(), key=lambda item: -item[1])
+            (name, fit)
+            for name, fit in sorted(fits.items(), key=lambda item: -item[1].score)
             if name not in places or near_the_loss(centre, places[name], settings)
         ]
-        if not ranked or ranked[0][1] < settings.min_share:
+        if not ranked or ranked[0][1].share < settings.min_share:
             continue
         name, best = ranked[0]
-        alike = tuple(other for other, share in ranked[1:] if best - share < settings.margin)
+        alike = tuple(other for other, fit in ranked[1:] if best.score - fit.score < settings.margin)
         if alike and (box_for is None or any(box_for(other) != box_for(name) for other in alike)):
             continue  # which cloth it is would change where it goes
-        return LostMatch(name, region, best, alike)
+        return LostMatch(name, region, best.share, alike)
     return None
 
 
@@ -378,12 +430,14 @@ def _result(
 
 
 __all__ = [
+    "ColourFit",
     "LostMatch",
     "colour_shares",
     "inner_pixel",
     "inner_pixels",
     "match_lost",
     "near_the_loss",
+    "palette_proportions",
     "palette_share",
     "pick_lost",
     "reachable_point",
