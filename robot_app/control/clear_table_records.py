@@ -15,6 +15,7 @@ from robot_app.control.episode import EpisodeResult
 from robot_app.control.grasp_point import PileGraspSettings
 from robot_app.control.job_motion import PutBackSettings
 from robot_app.control.limits import LimitReport
+from robot_app.control.table_moved import MovedSettings
 from robot_app.control.table_surface import SurfaceSettings
 
 
@@ -157,6 +158,8 @@ class ClearTableSettings(StrictModel):
         surface: the grasp aimed at the top surface the survey's pair shows at the grasp
             point (`table_surface`), not at the pose's plane (low on a pile).
         off_sheet: the bare table beyond the green sheet taken out of the unknown regions.
+        moved: an unknown region a placed pick moved (the sheet bared where it lay), booked
+            as a cloth that came along unnamed (`table_moved`).
     """
 
     max_picks: int = Field(15, ge=1)
@@ -182,6 +185,7 @@ class ClearTableSettings(StrictModel):
     hidden_cloth_radius: float = Field(0.0, ge=0.0, le=0.3)
     lost: LostSettings = Field(default_factory=LostSettings)
     off_sheet: OffSheetSettings = Field(default_factory=OffSheetSettings)
+    moved: MovedSettings = Field(default_factory=MovedSettings)
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 import numpy.typing as npt
@@ -45,6 +45,7 @@ from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
+    LostPlace,
     SheetArea,
     SurveyRecord,
     TableResult,
@@ -72,6 +73,7 @@ from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_furniture import furniture_mask, table_beyond_sheet, without_furniture
 from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_lost import LostMatch, match_lost, pick_lost
+from robot_app.control.table_moved import moved_regions
 from robot_app.control.table_recovery import TableRecovery
 from robot_app.control.table_surface import aimed_at, surface_height
 from robot_app.control.table_survey import (
@@ -84,7 +86,19 @@ from robot_app.control.table_survey import (
 from robot_app.errors import IKError, InterruptError, TrajectoryError
 from robot_app.geometry import transform_points
 from robot_app.vision import Recognizer
-from robot_app.vision.identify import Detection, Identification, IdentifySettings, identify
+from robot_app.vision.identify import Detection, Identification, IdentifySettings, UnknownRegion, identify
+from robot_app.vision.regions import footprint, sheet_mask, undistorted
+
+
+@dataclass(frozen=True)
+class _BeforePick:
+    """What the survey that chose a pick saw, for `TableClearer._notice_moved`."""
+
+    name: str
+    regions: tuple[UnknownRegion, ...]
+    footprint: npt.NDArray[np.bool_]
+    camera_pose: FloatArray
+    box_xy: FloatArray
 
 
 class TableClearer:
@@ -198,6 +212,7 @@ class TableClearer:
         self._collisions = 0
         self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
         self._laid: list[tuple[AttemptState, FloatArray, FloatArray]] = []  # put-backs: (start, let-go)
+        self._before_pick: _BeforePick | None = None
         self.recovery.forget()
         self._survey_camera_pose = self.observation_camera_pose.copy()
         interrupted, stop_reason = False, ""
@@ -213,6 +228,7 @@ class TableClearer:
                 self._back_to_observation()
                 last = self._survey(meanwhile=boxes_first)
                 boxes_first = None
+                self._notice_moved()
                 target = choose_target(last, self.ledger.records, self.settings.max_attempts)
                 for place in self._places_to_look(last) if target is None else ():
                     self._record_survey(last, None)
@@ -289,6 +305,39 @@ class TableClearer:
         self._phase = "survey"
         return ident
 
+    def _notice_moved(self) -> None:
+        """After a placed pick, from the same camera pose as the survey that chose it: the
+        unknown regions of that survey the pick moved (`table_moved`) are booked as cloths
+        that came along unnamed, to be named by their colours and weight later."""
+        before, self._before_pick = self._before_pick, None
+        s = self.settings.moved
+        if before is None or not s.enabled or not before.regions or not self.ledger.attempts:
+            return
+        attempt = self.ledger.attempts[-1]
+        if attempt.result.outcome is not Outcome.PLACED or attempt.put_back:
+            return
+        if not np.allclose(before.camera_pose, self._survey_camera_pose, atol=1e-6):
+            return  # another view: its pixels are not the same places
+        first = next(iter(self.recognizers.values()))
+        image = undistorted(self._survey_capture.right_bgr, self.rig.right)
+        i = self.identify_settings
+        sheet = sheet_mask(image, first.model.background_hue, i.sheet_tolerance, i.sheet_min_saturation)
+        moved = moved_regions(before.regions, before.footprint, sheet, s)
+        if not moved:
+            return
+        capture = self._survey_capture
+        centres = {id(r): np.array(self.table.point(capture, r.centroid)) for r in before.regions}
+        notes: list[str] = self.ledger.records[before.name]["notes"]  # type: ignore[assignment]
+        for m in moved:
+            centre = centres[id(m.region)]
+            others = tuple((float(c[0]), float(c[1])) for key, c in centres.items() if key != id(m.region))
+            how = f"moved by the pick of {before.name}"
+            self.ledger.unnamed.append(LostPlace(how, centre, before.box_xy, others))
+            notes.append(
+                f"the pick moved an unidentified cloth: the sheet shows at {m.bared:.0%} of the unknown "
+                f"region at ({centre[0]:.2f}, {centre[1]:.2f}) (came along, held by nothing)"
+            )
+
     def _record_survey(self, ident: Identification, chosen: Detection | None) -> None:
         record = self.ledger.record_survey(self._survey_capture, self._survey_wall, ident, chosen, self.table)
         if self.on_survey is not None:
@@ -331,6 +380,13 @@ class TableClearer:
             posture_seed=self.motion.q,
         )
         self.recovery.looked.clear()
+        self._before_pick = _BeforePick(
+            target.name,
+            ident.unknown,
+            footprint(self.recognizers[target.name].model, self.rig.right, target.transform_model_to_camera),
+            self._survey_camera_pose.copy(),
+            box.centre[:2].copy(),
+        )
         self._phase, self._meant = "observe", target.name
         result = loop.run()
         self._collisions += result.collisions
