@@ -245,6 +245,25 @@ def test_a_white_heap_fits_a_white_cloth_better_than_a_print_with_white_in_it() 
     assert palette_proportions(np.array([30] * 9), stripes, [LIGHT, turquoise], 10) == 0.0
 
 
+def test_a_cloth_may_look_darker_than_its_photo_not_lighter() -> None:
+    from robot_app.control.table_lost import LIGHTER_TOLERANCE, lit_value, not_lighter
+
+    rng = np.random.default_rng(3)
+    white = rng.integers(200, 256, (500, 3))  # a white cloth's photo, folds and lit parts
+    grey = rng.integers(100, 170, (500, 3))
+    heap = np.vstack([rng.integers(210, 256, (300, 3)), rng.integers(90, 140, (200, 3))])  # lit + shade
+    own_white, own_grey, seen = lit_value(white), lit_value(grey), lit_value(heap)
+    assert own_grey < 170 < 240 < own_white and seen > 240
+    assert not_lighter(seen, own_white) == 1.0  # the white heap may be the white cloth
+    assert not_lighter(seen, own_grey) == 0.0  # a grey cloth cannot look that light
+    shaded = heap * 0.7  # the same heap in shade: as light as the grey cloth at most
+    assert (
+        not_lighter(lit_value(shaded), own_grey) == 1.0 and not_lighter(lit_value(shaded), own_white) == 1.0
+    )
+    assert not_lighter(own_grey + LIGHTER_TOLERANCE * 1.5, own_grey) == pytest.approx(0.5)
+    assert lit_value(np.empty((0, 3))) == 0.0
+
+
 def test_a_blind_lift_is_named_after_the_lost_cloths_whose_weights_it_reads() -> None:
     from robot_app.control.clear_table_records import ClearTableSettings
 

@@ -64,6 +64,8 @@ from robot_app.vision.regions import image_codes, main_codes, undistorted
 if TYPE_CHECKING:
     from robot_app.control.table_clearer import TableClearer
 
+LIT_PERCENTILE = 95  # a region's or model's lit value: this percentile of its pixels' V
+LIGHTER_TOLERANCE = 40.0  # grey levels a region may look lighter than a cloth's lit value
 REACH_TRIES = 24  # deepest pixels of a lost cloth's region tried for a reachable blind grasp
 MAX_HEAP = 3  # lost cloths one blind lift may hold together (a put-back heap of a double pick and more)
 
@@ -76,15 +78,18 @@ class ColourFit:
         share: share of the region's pixels in the model's main colours (`palette_share`).
         proportions: how alike the shares of those colours are in the region and in the
             model (`palette_proportions`; 1: the same mix).
+        lightness: 1, or less where a cloth of tones only (white, grey, black) would look
+            lighter in the region than its own lit colour (`not_lighter`).
     """
 
     share: float
     proportions: float
+    lightness: float = 1.0
 
     @property
     def score(self) -> float:
-        """share x proportions: what ranks the lost cloths for a region."""
-        return self.share * self.proportions
+        """share x proportions x lightness: what ranks the lost cloths for a region."""
+        return self.share * self.proportions * self.lightness
 
 
 def colour_shares(
@@ -95,16 +100,42 @@ def colour_shares(
     first = next(iter(recognizers.values()))
     image = undistorted(capture.right_bgr, first.rig.right)
     fitness = first.settings.fitness
-    codes = image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness)
+    gains = sheet_gains(image, first.model, first.settings.exposure)
+    codes = image_codes(image, gains, fitness)
     seen = codes[region.mask]
+    seen_light = lit_value(np.clip(image[region.mask] * np.asarray(gains), 0, 255))
     fits = {}
     for name, recognizer in recognizers.items():
-        palette, threshold = main_codes(recognizer.model), fitness.hue_threshold_in
+        model = recognizer.model
+        palette, threshold = main_codes(model), fitness.hue_threshold_in
+        lightness = 1.0
+        if model.texture_bgr is not None and np.all(palette >= DARK):  # tones only, no hue
+            lightness = not_lighter(seen_light, lit_value(model.texture_bgr[model.texture_mask]))
         fits[name] = ColourFit(
             palette_share(seen, palette, threshold),
-            palette_proportions(seen, recognizer.model.hues_in, palette, threshold),
+            palette_proportions(seen, model.hues_in, palette, threshold),
+            lightness,
         )
     return fits
+
+
+def lit_value(bgr: npt.ArrayLike) -> float:
+    """The `LIT_PERCENTILE` of the pixels' value (HSV V, their largest channel) [0-255]:
+    the cloth's lit colour, above its folds' shade."""
+    pixels = np.asarray(bgr, dtype=float).reshape(-1, 3)
+    return float(np.percentile(pixels.max(axis=1), LIT_PERCENTILE)) if len(pixels) else 0.0
+
+
+def not_lighter(seen: float, own: float) -> float:
+    """1 unless a region's lit value `seen` exceeds a cloth's own lit value `own` (its
+    model photo, the same exposure after the sheet's gains) by more than
+    `LIGHTER_TOLERANCE`; then less, down to 0 at twice the tolerance. A cloth can look
+    darker than in its photo (shade, a fold) but not lighter: a grey knit (lit value about 160)
+    is no white heap (~245), a white cloth in shade may be a grey one (both kept). Bench
+    episode 22: the white No.18, dragged and crumpled, tied with the grey No.19 (colours
+    box) by tones alone (both LIGHT and DARK) and was never picked."""
+    excess = seen - own - LIGHTER_TOLERANCE
+    return float(np.clip(1.0 - excess / LIGHTER_TOLERANCE, 0.0, 1.0))
 
 
 def _palette_bins(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> FloatArray:
@@ -435,8 +466,10 @@ __all__ = [
     "colour_shares",
     "inner_pixel",
     "inner_pixels",
+    "lit_value",
     "match_lost",
     "near_the_loss",
+    "not_lighter",
     "palette_proportions",
     "palette_share",
     "pick_lost",
