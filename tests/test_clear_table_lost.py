@@ -70,6 +70,18 @@ def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
     # ... and one is, with the other as its alike, when both go into the same box
     same = match(twins, box_for=lambda name: "colours")
     assert same is not None and {same.name, *same.alike} == {"violet", "twin"} and len(same.alike) == 1
+    # a guess for an unnamed companion is not taken where a cloth lost by name may lie too
+    # (the two laid back together): the violet guessed, its twin lost by name
+    guess = match_lost(
+        capture, ident.unknown, centres, twins, {}, settings, lambda n: "colours", frozenset({"violet"})
+    )
+    assert guess is None
+    # ... unless the named one's colours are not the region's (the stripes: under min_share)
+    alone_guess = {"violet": recognizers["violet"], "stripes": recognizers["stripes"]}
+    taken = match_lost(
+        capture, ident.unknown, centres, alone_guess, {}, settings, None, frozenset({"violet"})
+    )
+    assert taken is not None and taken.name == "violet"
     # the twin was lost far from here: it cannot lie in this region, so it is no contender
     away = LostPlace("dropped in transfer", np.array([0.5, -0.3]), np.array([0.3, -0.56]), ())
     alone = match(twins, {"twin": away})
@@ -150,9 +162,12 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     job.sort = SimpleNamespace(box_for=lambda name: "colours")  # type: ignore[assignment]
     asked: list[tuple[set[str], dict[str, LostPlace]]] = []
 
-    def fake_match(capture, regions, centres, lost, places, settings, box_for=None):
+    def fake_match(capture, regions, centres, lost, places, settings, box_for=None, guessed=frozenset()):
         asked.append((set(lost), dict(places)))
+        guesses.append(set(guessed))
         return None
+
+    guesses: list[set[str]] = []
 
     monkeypatch.setattr(table_clearer, "match_lost", fake_match)
     ident = SimpleNamespace(detections=(SimpleNamespace(name="No.2"),), unknown=())
@@ -168,6 +183,7 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     lost, places = asked[-1]
     assert lost == {"No.1", "No.3", "No.4"}
     assert places["No.3"] is nameless and places["No.1"] is place
+    assert guesses[-1] == {"No.3", "No.4"} and guesses[0] == set()  # No.1 is known by name
     job.ledger.records["No.1"]["attempts"] = job.settings.max_attempts  # attempts used up
     job._lost_to_pick(ident)  # type: ignore[arg-type]
     assert asked[-1][0] == {"No.3", "No.4"}

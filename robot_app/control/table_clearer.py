@@ -441,6 +441,7 @@ class TableClearer:
             if name not in seen and self.ledger.untried(name, self.settings.max_attempts)
         }
         places = {name: self.ledger.lost[name] for name in lost}
+        named = frozenset(lost)  # the lost cloths the job knows by name; the rest are guesses
         if self.ledger.unnamed:
             # a cloth that came up with a double pick and was not named: one of the known
             # cloths not placed and not seen now, laid back where that pick let go. Not only
@@ -458,7 +459,14 @@ class TableClearer:
                     lost[name], places[name] = self.recognizers[name], self.ledger.unnamed[-1]
         centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in ident.unknown]
         return match_lost(
-            self._survey_capture, ident.unknown, centres, lost, places, self.settings.lost, self.sort.box_for
+            self._survey_capture,
+            ident.unknown,
+            centres,
+            lost,
+            places,
+            self.settings.lost,
+            self.sort.box_for,
+            frozenset(lost) - named,
         )
 
     # ------------------------------------------------------------------ looking around
