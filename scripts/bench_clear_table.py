@@ -107,6 +107,7 @@ def run_one(job: tuple[int, int, tuple[str, ...], str]) -> dict[str, object]:
         "wrong_box": v.wrong_box,
         "double_picks": v.double_picks,
         "double_picks_detected": v.double_picks_detected,
+        "double_picks_noticed_after": v.double_picks_noticed_after,
         "wrong_lifts": v.wrong_lifts,
         "wrong_lifts_detected": v.wrong_lifts_detected,
         "false_alarms": v.false_alarms,
@@ -219,6 +220,8 @@ def _summary(
         "wrong_box": total("wrong_box"),
         "double_picks": total("double_picks"),
         "double_picks_detected": total("double_picks_detected"),
+        # not at the lift, but by the next survey (an unidentified cloth moved by the pick)
+        "double_picks_noticed_after": total("double_picks_noticed_after"),
         "wrong_lifts": total("wrong_lifts"),
         "wrong_lifts_detected": total("wrong_lifts_detected"),
         "false_alarms": total("false_alarms"),

@@ -45,3 +45,30 @@ def test_the_other_box_the_table_the_floor_and_the_hand() -> None:
     assert _final_place(WORLD, _cloth(table - [0, 0, 0.7]))[0] == "floor"  # type: ignore[arg-type]
     held = _grid(BOX.centre, 0.05, TOP + 0.3)  # hanging from the fingers over the box
     assert _final_place(WORLD, _cloth(held, grasped=True)) == ("in the hand", 0.0)  # type: ignore[arg-type]
+
+
+def test_a_drag_noticed_by_the_next_survey_counts_apart_from_the_lift_checks(monkeypatch) -> None:
+    from robot_app.control.sort_rule import SortSettings
+    from robot_app.experiments import clear_table_judge
+    from robot_app.experiments.clear_table_faults import LiftTruth
+
+    cloths = [SimpleNamespace(number=8, body="b8"), SimpleNamespace(number=18, body="b18")]
+    monkeypatch.setattr(clear_table_judge, "_final_place", lambda w, body: ("colours", 0.0))
+    first = SimpleNamespace(start_time=0.0, end_time=10.0, not_meant_alone=False)
+    second = SimpleNamespace(start_time=11.0, end_time=20.0, not_meant_alone=False)
+    lifts = [
+        LiftTruth(1, 5.0, "No.8", (8, 18), (8,), False, False),  # No.18 dragged along, unnoticed
+        LiftTruth(2, 15.0, "No.18", (18,), (18,), False, False),
+    ]
+    sort, known = SortSettings(default="colours"), {"No.8", "No.18"}
+
+    def verdict(moved_by: tuple[int, ...]):
+        result = SimpleNamespace(
+            cloths=(), attempts=(first, second), unknown=(), interrupted=False, moved_by=moved_by
+        )
+        return clear_table_judge.judge(WORLD, SimpleNamespace(cloths=cloths), result, lifts, sort, known)  # type: ignore[arg-type]
+
+    seen = verdict((1,))  # the survey after attempt 1 saw an unidentified cloth moved
+    assert (seen.double_picks, seen.double_picks_detected, seen.double_picks_noticed_after) == (1, 0, 1)
+    assert verdict((2,)).double_picks_noticed_after == 0  # after another attempt: not this drag
+    assert verdict(()).double_picks_noticed_after == 0

@@ -327,6 +327,8 @@ class TableResult:
         collisions: arm contacts with the table or a box (checks of loop and job).
         sim_time: cell time of the job [s]; wall_s: its wall time [s].
         interrupted: the user stopped it.
+        moved_by: numbers (from 1) of the placed attempts after which the next survey saw
+            that the pick had moved a cloth nobody identified (`table_moved`).
     """
 
     cloths: tuple[ClothRecord, ...]
@@ -341,6 +343,7 @@ class TableResult:
     wall_s: float
     interrupted: bool = False
     notes: tuple[str, ...] = field(default=())
+    moved_by: tuple[int, ...] = ()
 
     @property
     def placed(self) -> tuple[str, ...]:

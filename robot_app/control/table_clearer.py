@@ -328,6 +328,7 @@ class TableClearer:
         capture = self._survey_capture
         centres = {id(r): np.array(self.table.point(capture, r.centroid)) for r in before.regions}
         notes: list[str] = self.ledger.records[before.name]["notes"]  # type: ignore[assignment]
+        self.ledger.moved_by.append(len(self.ledger.attempts))
         for m in moved:
             centre = centres[id(m.region)]
             others = tuple((float(c[0]), float(c[1])) for key, c in centres.items() if key != id(m.region))
@@ -776,6 +777,7 @@ class TableClearer:
             sim_time=self.cell.time - start,
             wall_s=time.perf_counter() - wall_start,
             interrupted=interrupted,
+            moved_by=tuple(self.ledger.moved_by),
         )
 
 

@@ -45,6 +45,8 @@ class TableLedger:
             since.
         unnamed: where double picks whose other cloth was not named were laid back (that
             cloth is one of the known cloths not placed).
+        moved_by: numbers (from 1) of the placed attempts that moved a cloth nobody
+            identified (`TableClearer._notice_moved`).
     """
 
     def __init__(self) -> None:
@@ -58,6 +60,7 @@ class TableLedger:
         self.last_survey: dict[str, int] = {}
         self.lost: dict[str, LostPlace] = {}
         self.unnamed: list[LostPlace] = []
+        self.moved_by: list[int] = []
 
     def untried(self, name: str, max_attempts: int) -> bool:
         """Has `name` attempts left?"""

@@ -61,7 +61,9 @@ class TableVerdict:
         cleared: every known cloth lies in its box.
         wrong_box: cloths in a box not theirs (an unknown cloth in any box counts).
         double_picks, double_picks_detected: lifts that took two or more cloths; of those,
-            the ones the robot noticed.
+            the ones the robot noticed (at the lift: weight, check).
+        double_picks_noticed_after: of the double picks not noticed at the lift, those
+            after which the next survey saw an unidentified cloth moved (`TableResult.moved_by`).
         wrong_lifts, wrong_lifts_detected: lifts without the meant cloth; noticed.
         false_alarms: lifts the robot took for double or wrong that were neither.
         drops, drops_detected: transfers that lost their cloth; noticed.
@@ -86,6 +88,7 @@ class TableVerdict:
     unknown_reported: int
     cause: str | None
     flung: tuple[int, ...] = ()
+    double_picks_noticed_after: int = 0
 
 
 def judge(
@@ -115,7 +118,7 @@ def judge(
         verdicts.append(
             ClothVerdict(cloth.number, name, is_known, expected, final, final == expected, problem, over_rim)
         )
-    double = detected_double = wrong = detected_wrong = alarms = drops = detected_drops = 0
+    double = detected_double = wrong = detected_wrong = alarms = drops = detected_drops = after = 0
     for lift in lifts:
         attempt = next((a for a in result.attempts if a.start_time <= lift.time <= a.end_time), None)
         meant = int(lift.meant.removeprefix("No."))
@@ -124,6 +127,8 @@ def judge(
             if len(lift.lifted) > 1:
                 double += 1
                 detected_double += int(noticed)
+                number = result.attempts.index(attempt) + 1 if attempt is not None else 0
+                after += int(not noticed and number in result.moved_by)
             if meant not in lift.lifted:
                 wrong += 1
                 detected_wrong += int(noticed)
@@ -154,6 +159,7 @@ def judge(
         unknown_reported=len(result.unknown),
         cause="; ".join(causes) if causes else None,
         flung=tuple(c.number for c in pile.cloths if c.number in flung),
+        double_picks_noticed_after=after,
     )
 
 

@@ -147,6 +147,7 @@ def summary(config: ClearTableConfig, episode: ClearTableEpisode) -> dict[str, A
         "unknown_regions_reported": [list(xy) for xy in r.unknown],
         "double_picks": v.double_picks,
         "double_picks_detected": v.double_picks_detected,
+        "double_picks_noticed_after": v.double_picks_noticed_after,
         "wrong_lifts": v.wrong_lifts,
         "wrong_lifts_detected": v.wrong_lifts_detected,
         "false_alarms": v.false_alarms,
