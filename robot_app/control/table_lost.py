@@ -131,9 +131,10 @@ def not_lighter(seen: float, own: float) -> float:
     model photo, the same exposure after the sheet's gains) by more than
     `LIGHTER_TOLERANCE`; then less, down to 0 at twice the tolerance. A cloth can look
     darker than in its photo (shade, a fold) but not lighter: a grey knit (lit value about 160)
-    is no white heap (~245), a white cloth in shade may be a grey one (both kept). Bench
-    episode 22: the white No.18, dragged and crumpled, tied with the grey No.19 (colours
-    box) by tones alone (both LIGHT and DARK) and was never picked."""
+    is no white heap (~245), a white cloth in shade may be a grey one (both kept). Written for
+    bench episode 22, where it changed nothing: the dragged white No.18 lay dark there (coded
+    DARK throughout, lit value under 155 after the gains) and tied with the black No.20,
+    which this rule rightly keeps."""
     excess = seen - own - LIGHTER_TOLERANCE
     return float(np.clip(1.0 - excess / LIGHTER_TOLERANCE, 0.0, 1.0))
 
