@@ -70,6 +70,7 @@ def test_substeps_are_a_power_of_two() -> None:
         load_config(ClearTableConfig, CONFIG, ["world.cloth.substeps=0"])
 
 
+@pytest.mark.slow  # 65 s of a 10-minute default suite; with the four seeds below under -m slow
 def test_a_lift_from_a_pile_and_a_put_back_stay_physical() -> None:
     # five cloths (scripts/pile_physics.py --seeds 13); at world.cloth.substeps=1 nodes went
     # 47 mm into the table at 9.9 m/s, at 2 two cloths stayed tangled (stretch 1.96)
