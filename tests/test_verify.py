@@ -371,3 +371,37 @@ def test_a_ranking_without_the_outline_ranks_poses_as_with_it() -> None:
 
     assert [rank(v) for v in lean] == pytest.approx([rank(v) for v in full], abs=1e-9)
     assert rank(lean[0]) > rank(lean[-1])  # the texture still tells the half turn
+
+
+ORANGE_L = 12
+BRIGHT = CameraRealism(gain=1.35, white_balance=(0.95, 1.0, 1.1), shading=0.1, noise_sigma=4.0,
+                       blur_sigma=0.6, jpeg_quality=85)  # fmt: skip
+
+
+def _verified(index: int, cloth_index: int, saturated: float) -> tuple:
+    """Model `index` verified at POSE on cloth `cloth_index` seen by the BRIGHT camera, with
+    `verify.saturated` set (the exposure gains from the sheet, as the recogniser takes them)."""
+    images = render_stereo_pair(
+        RIG, [(extended_cloth(cloth_index), POSE)], rng=np.random.default_rng(4), camera=BRIGHT
+    )
+    settings = RecognitionSettings.model_validate({"verify": {"saturated": saturated}})
+    gains = _gains(images, index)
+    evaluator = FitnessEvaluator(model(index), RIG, settings.fitness, settings.search)
+    evaluator.update(*images, gains)
+    verifier = Verifier(model(index), evaluator, settings.search, settings.verify)
+    verifier.update(*images, gains)
+    return images, verifier.verify(np.array([POSE, POSE @ HALF_TURN]))
+
+
+def test_a_channel_the_camera_clipped_is_a_lower_bound_not_a_disagreement() -> None:
+    # the orange L under a strong gain: its red channel clips at 255, which after the sheet's
+    # gains reads darker than the photo's red, so every plain cell disagreed at the truth
+    images, (truth, turned) = _verified(ORANGE_L, ORANGE_L, 250.0)
+    assert float((images[1][..., 2] >= 250).mean()) > 0.05  # the scene really clips
+    assert truth.agreeing > 0.95 and truth.appearance > 0.9
+    assert turned.agreeing < 0.5  # the half turn still disagrees
+    _, (unclipped, _) = _verified(ORANGE_L, ORANGE_L, 256.0)  # clipped read as it came
+    assert unclipped.agreeing < 0.5
+    for other in (RED_PLAIN, 1):  # bright red and yellow cloths: clipped too, and not orange
+        _, (wrong, _) = _verified(ORANGE_L, other, 250.0)
+        assert wrong.agreeing < 0.1

@@ -126,6 +126,17 @@ class VerificationSettings(StrictModel):
             inside and outside the outline [m] (a pose a few millimetres off still puts
             them on the right sides).
         outline_min_pairs: pairs (both images) an outline needs to be measured.
+        saturated: an image channel read at this or more (0-255, before the exposure gains)
+            was clipped by the camera: its true value is at least that, and a model value
+            above it counts as seen (plain texture cells and outline points; 256: off). A
+            bright cloth under a strong gain clips its main channel: the orange L's red read
+            253 and, after the sheet's gains, 181 against the photo's 219, so every plain cell
+            disagreed at the truth (appearance -0.77). Off (256) by default: at 250 the
+            bench's default seeds (`scripts/bench_recognition.py --skip-speed --skip-fullsearch
+            --set verify.saturated=250`) raised the confidence of five present scenes (a flat
+            yellow square 0.63 -> 1.00) and decided nothing else differently, but a folded
+            red-yellow stripes print (scene 82), whose clipped stripes then agreed with a pose
+            9 mm off, was taken there (folded within 98 -> 97 %).
     """
 
     spacing: float = Field(default=0.003, gt=0.0005, le=0.02)
@@ -151,6 +162,7 @@ class VerificationSettings(StrictModel):
     outline_inside: float = Field(default=0.003, gt=0.0, le=0.02)
     outline_outside: float = Field(default=0.004, gt=0.0, le=0.02)
     outline_min_pairs: int = Field(default=10, ge=1)
+    saturated: float = Field(default=256.0, gt=0.0, le=256.0)
 
 
 @dataclass(frozen=True)
@@ -210,6 +222,7 @@ class Verifier:
         self.settings = settings
         self._foreign = np.ascontiguousarray(foreign_codes(model.background_hue, search, model.hues_in))
         self._samples = _texture_samples(model, settings)
+        self._clip_levels = _clip_levels(self._samples, settings)
         self._outline = _outline_pairs(model, settings, self._samples)
         sheet_hue = round(model.background_hue) % HUE_RANGE
         sheet = colours_match(np.arange(COLOUR_CODES), sheet_hue, search.hue_threshold_in)
@@ -291,7 +304,7 @@ class Verifier:
             np.ascontiguousarray(rig.transform_right_to_left), px, py, values, cells, n_cells,
             self._images[0], self._images[1], codes_left, codes_right, self._foreign,
             self._gains[0], self._gains[1], factors_left, index_left, factors_right, index_right, block,
-            float(s.min_points), s.texture_min, s.flat_tolerance,
+            self._clip_levels, float(s.min_points), s.texture_min, s.flat_tolerance,
             s.chroma_tolerance, s.brightness_tolerance, s.partial_low, s.partial_high, s.agree_level,
         )  # fmt: skip
 
@@ -316,7 +329,7 @@ class Verifier:
             np.ascontiguousarray(rig.transform_right_to_left), inner, outer, model_bgr, inner_cells,
             agree_cells, self._images[0], self._images[1], codes_left, codes_right,
             self._gains[0], self._gains[1], factors_left, index_left, factors_right, index_right, block,
-            self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
+            s.saturated, self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
         )  # fmt: skip
         edge, same, astray, seam, coloured = (counts[:, k] for k in range(5))
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -467,6 +480,28 @@ def _nearest_cells(points: FloatArray, samples: tuple) -> npt.NDArray[np.int64]:
         d = ((points[start : start + 256, None, :] - sample_xy[None, :, :]) ** 2).sum(axis=2)
         out[start : start + 256] = cells[np.argmin(d, axis=1)]
     return out
+
+
+def _clip_levels(
+    samples: tuple[npt.NDArray[Any], npt.NDArray[Any], npt.NDArray[Any], npt.NDArray[Any], int] | None,
+    settings: VerificationSettings,
+) -> npt.NDArray[np.float32]:
+    """(N,) the image value from which a sample's channel reads as clipped (`saturated`): the
+    samples of plain cells (the model's RMS deviation over the cell under `texture_min`)
+    only. A textured cell is compared by correlation, and taking the model's values where
+    the image clipped would lend any pose over a clipped area the model's own texture. (The
+    folded red-yellow stripes of the bench's scene 82 still slid 9 mm with this: its wide
+    stripes fill whole cells, which are plain; see `VerificationSettings.saturated`.)"""
+    if samples is None:
+        return np.empty(0, dtype=np.float32)
+    _, _, values, cells, n_cells = samples
+    count = np.maximum(np.bincount(cells, minlength=n_cells), 1)
+    variance = np.zeros(n_cells)
+    for k in range(3):
+        mean = np.bincount(cells, values[:, k], n_cells) / count
+        variance += np.bincount(cells, values[:, k].astype(np.float64) ** 2, n_cells) / count - mean**2
+    plain = np.sqrt(np.maximum(variance, 0.0) / 3.0) < settings.texture_min
+    return np.ascontiguousarray(np.where(plain[cells], settings.saturated, 256.0), dtype=np.float32)
 
 
 def _texture_samples(

@@ -14,13 +14,16 @@ AGREES, DISAGREES = 1, 2  # a texture cell's verdict in `appearance`'s agree_cel
 
 @_jit
 def _accumulate(M, px, py, values, cells, image, codes, foreign, gains, shade_factors, shade_index, block,
-                width, height, sums):  # fmt: skip
+                saturated, width, height, sums):  # fmt: skip
     """Adds the visible samples of one image to `sums` (cells, 17): count, then per channel
     (b, g, r) the sums of model, image, model², image² and model·image values, then the
     count of samples in the image (visible or hidden). A sample is visible if it lands
     inside the image and its pixel's code (nearest pixel of the framed `codes`) is not
     `foreign`. Image values are multiplied by `gains` and by the shading factor of their
     block (`shade_factors[shade_index[v // block, u // block]]`, see `exposure.Shading`).
+    A channel read at `saturated[i]` or more is clipped by the camera: its true value is at
+    least what was read, so where the model's value is higher the sample takes the model's
+    (consistent with it; a lower model value still disagrees).
     Returns the number of visible samples."""
     stride = width + 3
     rows, cols = shade_index.shape[0], shade_index.shape[1]
@@ -47,8 +50,11 @@ def _accumulate(M, px, py, values, cells, image, codes, foreign, gains, shade_fa
         for k in range(3):
             a = image[iv, iu, k] + fu * (image[iv, iu + 1, k] - np.float32(image[iv, iu, k]))
             b = image[iv + 1, iu, k] + fu * (image[iv + 1, iu + 1, k] - np.float32(image[iv + 1, iu, k]))
-            seen = (a + fv * (b - a)) * gains[k] * shade
+            raw = a + fv * (b - a)
+            seen = raw * gains[k] * shade
             m = values[i, k]
+            if raw >= saturated[i] and m > seen:
+                seen = m
             sums[c, 1 + 5 * k] += m
             sums[c, 2 + 5 * k] += seen
             sums[c, 3 + 5 * k] += m * m
@@ -118,8 +124,8 @@ def _cell_scores(sums, min_points, texture_min, flat_tolerance, chroma_tolerance
 @_jit
 def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cells, n_cells, image_left,
                image_right, codes_left, codes_right, foreign, gains_left, gains_right, shade_factors_left,
-               shade_index_left, shade_factors_right, shade_index_right, block, min_points, texture_min,
-               flat_tolerance, chroma_tolerance, brightness_tolerance, partial_low, partial_high,
+               shade_index_left, shade_factors_right, shade_index_right, block, saturated, min_points,
+               texture_min, flat_tolerance, chroma_tolerance, brightness_tolerance, partial_low, partial_high,
                agree_level):  # fmt: skip
     """For each pose: the cell-weighted agreement of the texture samples with both images
     (NaN if no cell is scored), the share of samples visible (mean of both images), the
@@ -142,6 +148,8 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
         gains_left, gains_right: (3,) channel gains of each image (exposure reference).
         shade_factors_left, shade_index_left, shade_factors_right, shade_index_right, block:
             each image's shading (`exposure.Shading`; one level of factor 1: even light).
+        saturated: (N,) float32 per sample: an image channel read at this or more is clipped
+            (`_accumulate`; 256: never, as for the samples of textured cells).
         min_points, texture_min, flat_tolerance, chroma_tolerance, brightness_tolerance:
             see `_cell_scores`.
     """
@@ -168,12 +176,12 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
             if side == 0:
                 _projection(P_left, transforms[p], M)
                 seen += _accumulate(M, px, py, values, cells, image_left, codes_left, foreign, gains_left,
-                                    shade_factors_left, shade_index_left, block, width, height,
+                                    shade_factors_left, shade_index_left, block, saturated, width, height,
                                     sums)  # fmt: skip
             else:
                 _projection(P_right, transforms[p], M)
                 seen += _accumulate(M, px, py, values, cells, image_right, codes_right, foreign, gains_right,
-                                    shade_factors_right, shade_index_right, block, width, height,
+                                    shade_factors_right, shade_index_right, block, saturated, width, height,
                                     sums)  # fmt: skip
             _cell_scores(sums, min_points, texture_min, flat_tolerance, chroma_tolerance,
                          brightness_tolerance, cell_scores, cell_weights)  # fmt: skip
@@ -210,16 +218,25 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
 
 
 @_jit
-def _same_colour(image, u, v, gains, shade_factors, shade_index, block, model, chroma_tolerance, bright):
+def _at_least(raw, factor, saturated, model):
+    """A channel read `raw`, corrected by `factor`; where the camera clipped it (`raw` at least
+    `saturated`) it is at least that, so a higher `model` value is taken as seen."""
+    seen = raw * factor
+    return model if raw >= saturated and model > seen else seen
+
+
+@_jit
+def _same_colour(image, u, v, gains, shade_factors, shade_index, block, saturated, model, chroma_tolerance,
+                 bright):  # fmt: skip
     """Does the image's (gain- and shading-corrected, nearest) pixel at (u, v) show the colour
     `model` (b, g, r): chromaticity within `chroma_tolerance` and brightness within the
-    factor `bright` either way? (Shading as in `_accumulate`.)"""
+    factor `bright` either way? (Shading and clipped channels as in `_accumulate`.)"""
     iu, iv = np.int64(u + 0.5), np.int64(v + 0.5)
     rows, cols = shade_index.shape[0], shade_index.shape[1]
     shade = shade_factors[shade_index[min(iv // block, rows - 1), min(iu // block, cols - 1)]]
-    b = image[iv, iu, 0] * gains[0] * shade
-    g = image[iv, iu, 1] * gains[1] * shade
-    r = image[iv, iu, 2] * gains[2] * shade
+    b = _at_least(image[iv, iu, 0], gains[0] * shade, saturated, model[0])
+    g = _at_least(image[iv, iu, 1], gains[1] * shade, saturated, model[1])
+    r = _at_least(image[iv, iu, 2], gains[2] * shade, saturated, model[2])
     sum_m = max(model[0] + model[1] + model[2], 1.0)
     sum_i = max(b + g + r, 1.0)
     if sum_i > sum_m * bright or sum_m > sum_i * bright:
@@ -231,8 +248,8 @@ def _same_colour(image, u, v, gains, shade_factors, shade_index, block, model, c
 
 @_jit
 def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, gains,
-                  shade_factors, shade_index, block, foreign, sheet, chroma_tolerance, bright, width, height,
-                  counts):  # fmt: skip
+                  shade_factors, shade_index, block, saturated, foreign, sheet, chroma_tolerance, bright,
+                  width, height, counts):  # fmt: skip
     """Adds one image's outline pairs to `counts` (edge, same, astray, seam, coloured). A pair counts
     where both points land in the image. Its inner point on a foreign colour (an occluder,
     or another cloth's colours) makes it a seam if the outer point shows the sheet (the
@@ -268,7 +285,7 @@ def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, 
             continue
         cell = inner_cells[i]
         checked = cell >= 0 and agree[cell] == AGREES
-        if not _same_colour(image, u, v, gains, shade_factors, shade_index, block, model_bgr[i],
+        if not _same_colour(image, u, v, gains, shade_factors, shade_index, block, saturated, model_bgr[i],
                             chroma_tolerance, bright):  # fmt: skip
             if checked:
                 counts[2] += 1.0
@@ -276,7 +293,7 @@ def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, 
         counts[4] += 1.0
         if not checked:
             continue
-        if _same_colour(image, uo, vo, gains, shade_factors, shade_index, block, model_bgr[i],
+        if _same_colour(image, uo, vo, gains, shade_factors, shade_index, block, saturated, model_bgr[i],
                           chroma_tolerance, bright):  # fmt: skip
             counts[1] += 1.0
         else:
@@ -287,7 +304,7 @@ def _outline_side(M, inner, outer, model_bgr, inner_cells, agree, image, codes, 
 def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer, model_bgr, inner_cells,
                      agree_cells, image_left, image_right, codes_left, codes_right, gains_left, gains_right,
                      shade_factors_left, shade_index_left, shade_factors_right, shade_index_right, block,
-                     foreign, sheet, chroma_tolerance, brightness_tolerance):  # fmt: skip
+                     saturated, foreign, sheet, chroma_tolerance, brightness_tolerance):  # fmt: skip
     """For each pose, over both images: the outline pairs that are edges, same, astray and
     seams, and those whose inner point shows the model's colour before the cell gate
     (`_outline_side`).
@@ -304,6 +321,7 @@ def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer,
         gains_left, gains_right: (3,) channel gains of each image (exposure reference).
         shade_factors_left, shade_index_left, shade_factors_right, shade_index_right, block:
             each image's shading, as in `appearance`.
+        saturated: an image channel read at this or more is clipped (`_at_least`; 256: none).
         foreign: (259,) bool per pixel code: foreign to the model (hidden), and OFF_IMAGE.
         sheet: (259,) bool per pixel code: the sheet's hue.
         chroma_tolerance, brightness_tolerance: see `_same_colour` (the factor minus one).
@@ -323,12 +341,12 @@ def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer,
         counts[:] = 0.0
         _projection(P_left, transforms[p], M)
         _outline_side(M, inner, outer, model_bgr, inner_cells, agree_cells[p, 0], image_left,
-                      codes_left, gains_left, shade_factors_left, shade_index_left, block, foreign, sheet,
-                      chroma_tolerance, bright, width, height, counts)  # fmt: skip
+                      codes_left, gains_left, shade_factors_left, shade_index_left, block, saturated, foreign,
+                      sheet, chroma_tolerance, bright, width, height, counts)  # fmt: skip
         _projection(P_right, transforms[p], M)
         _outline_side(M, inner, outer, model_bgr, inner_cells, agree_cells[p, 1], image_right,
-                      codes_right, gains_right, shade_factors_right, shade_index_right, block, foreign, sheet,
-                      chroma_tolerance, bright, width, height, counts)  # fmt: skip
+                      codes_right, gains_right, shade_factors_right, shade_index_right, block, saturated,
+                      foreign, sheet, chroma_tolerance, bright, width, height, counts)  # fmt: skip
         out[p, :] = counts
     return out
 
