@@ -23,6 +23,10 @@ The recogniser composes the stages and holds no search logic of its own:
    that scores better with its own disagreeing corner hidden and there scores as a flat
    cloth does (`refine.corner_hypothesis_explained`); the propose stage asks the verify stage
    whether a run ended on a look-alike (`verify.look_alike_below`) and searches elsewhere;
+   where the hue fitness barely holds the kept pose's yaw (a print of nearly one hue on a
+   round outline) and the texture is compared by correlation, the pose is moved in the cloth
+   plane to where the texture agrees best (`texture_polish.py`, `refine.texture_*`; one-shot
+   only);
 5. stereo depth (`stereo_depth.StereoDepth`): the plane the pair shows around the pose,
    without the model's size; a small depth offset is taken, and a pose whose plane is
    not the pair's is searched again on the stereo plane (`plane_search.search_in_plane`,
@@ -85,6 +89,7 @@ from robot_app.vision.refinement import (
     disagreeing_corner,
 )
 from robot_app.vision.stereo_depth import DepthCheckSettings, DepthMeasurement, StereoDepth
+from robot_app.vision.texture_polish import texture_polish, yaw_weakly_held
 from robot_app.vision.verify import Verification, VerificationSettings, Verifier
 
 _Method = TypeVar("_Method", bound=Callable[..., "Recognition"])
@@ -342,7 +347,9 @@ class Recognizer:
             rng, peaks=report_peaks, restarts=restarts, look_alike=self._look_alike
         )
         chosen, measurement = self._depth_checked(
-            self._turned_after_fold(self._most_confident(proposal.best, proposal.candidates, rng), rng)
+            self._texture_polished(
+                self._turned_after_fold(self._most_confident(proposal.best, proposal.candidates, rng), rng)
+            )
         )
         chosen = self._aligned(self._with_corner_hidden(chosen, rng))
         kept = self.proposer.kept_poses
@@ -559,6 +566,37 @@ class Recognizer:
         if unfolded is chosen:
             return chosen
         return self._most_confident(Candidate(unfolded.pose, unfolded.search_fitness), (), rng)
+
+    def _texture_polished(self, chosen: _Verified) -> _Verified:
+        """`chosen` moved in the cloth plane to where the texture agrees best
+        (`texture_polish.texture_polish`) if the hue fitness barely holds its yaw
+        (`texture_polish.yaw_weakly_held`) and the texture is compared mostly by correlation;
+        kept if its search fitness stays within `refine.texture_fitness_margin` (one-shot only)."""
+        s = self.settings.refine
+        textured = chosen.verification.textured_share >= self.settings.verify.align_textured_from
+        if not (s.enabled and s.texture_yaw_flat_below is not None and textured):
+            return chosen
+        fine = self.proposer.fitness(subpixel=True)
+        turn = np.deg2rad(s.texture_probe_deg)
+        if not yaw_weakly_held(chosen.pose, fine, turn, s.texture_probe_shift, s.texture_yaw_flat_below):
+            return chosen
+
+        def appearance(poses: FloatArray) -> FloatArray:
+            return np.array([v.appearance for v in self.verifier.verify(poses, outline=False)])
+
+        end = texture_polish(
+            chosen.pose,
+            appearance,
+            s.texture_step_position,
+            np.deg2rad(s.texture_step_deg),
+            s.texture_min_step_position,
+            s.texture_iterations,
+        )
+        fitness = float(self.proposer.fitness()(end.transform_model_to_camera)[0])
+        if not fitness >= chosen.search_fitness - s.texture_fitness_margin:
+            return chosen
+        pose = end.transform_model_to_camera
+        return self._verified(pose, fitness, self.verifier.verify(pose)[0])
 
     def _with_corner_hidden(self, chosen: _Verified, rng: np.random.Generator) -> _Verified:
         """`chosen` or, if its search fitness is below `refine.corner_hypotheses_below`, the best of

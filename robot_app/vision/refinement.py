@@ -165,6 +165,21 @@ class RefinementSettings(StrictModel):
             design). A look-alike fitted to part of another cloth with the rest hidden does
             not: the hidden share counts as unseen, not as agreement. 0: no such floor (the
             margin alone decides, as before, among ends where a corner disagrees).
+        texture_yaw_flat_below: the one-shot pose is polished on the texture
+            (`texture_polish.py`) where the hue fitness falls less for a turn of
+            `texture_probe_deg` than this times its fall for a shift of
+            `texture_probe_shift` (`texture_polish.yaw_weakly_held`) and the texture is
+            compared mostly by correlation (`verify.align_textured_from`); None: never.
+            On the recognition bench's calibration scenes the ratio was 0.2-0.4 for the
+            ellipse prints and at least 1.0 for every other cloth at the found pose.
+        texture_probe_deg: the turn of that test [deg].
+        texture_probe_shift: the shift of that test [m].
+        texture_step_position: the texture polish's first step in x and y [m].
+        texture_step_deg: its first turn step [deg].
+        texture_min_step_position: it stops when the x-y step falls below this [m].
+        texture_iterations: cap on its rounds (six poses verified each).
+        texture_fitness_margin: its end is kept only if its search fitness is at least
+            the pose's minus this.
     """
 
     enabled: bool = True
@@ -191,6 +206,14 @@ class RefinementSettings(StrictModel):
     corner_hypotheses_below: float = Field(default=0.97, ge=0.0, le=1.0)
     corner_hypothesis_margin: float = Field(default=0.005, ge=0.0, le=1.0)
     corner_hypothesis_explained: float = Field(default=0.97, ge=0.0, le=1.0)
+    texture_yaw_flat_below: float | None = Field(default=0.6, gt=0.0)
+    texture_probe_deg: float = Field(default=1.0, gt=0.0, le=10.0)
+    texture_probe_shift: float = Field(default=0.001, gt=0.0, le=0.01)
+    texture_step_position: float = Field(default=0.001, gt=0.0, le=0.01)
+    texture_step_deg: float = Field(default=0.5, gt=0.0, le=10.0)
+    texture_min_step_position: float = Field(default=0.0005, gt=0.0)
+    texture_iterations: int = Field(default=20, ge=1)
+    texture_fitness_margin: float = Field(default=0.03, ge=0.0, le=1.0)
 
     def corner_hypotheses_floor(self) -> float:
         """The least search fitness at which corners are tried: a fold the step is for (up to

@@ -83,6 +83,7 @@ from robot_app.vision.fitness_scores import FitnessSettings, foreign_codes
 from robot_app.vision.hue import COLOUR_CODES, HUE_RANGE, colours_match
 from robot_app.vision.outline import model_outline
 from robot_app.vision.poses import as_poses
+from robot_app.vision.texture_polish import in_plane
 from robot_app.vision.verify_kernels import appearance, outline_contrast
 
 
@@ -383,22 +384,13 @@ class Verifier:
             moves = at + np.array(offsets)
             keep = (np.abs(moves[:, :2]) <= s.align_shift + 1e-9).all(axis=1)
             moves = moves[keep]
-            poses = np.array([pose @ _in_plane(*m) for m in moves])
+            poses = np.array([pose @ in_plane(*m) for m in moves])
             found = self.verify(poses)
             scores = score(found)
             k = int(np.argmax(scores))
             if scores[k] > best_score:
                 best, best_score, at = found[k], float(scores[k]), moves[k]
         return best
-
-
-def _in_plane(x: float, y: float, angle: float) -> FloatArray:
-    """(4, 4) a move in the cloth plane: by (x, y) [m] and turned by `angle` about its normal."""
-    c, s = np.cos(angle), np.sin(angle)
-    move = np.eye(4)
-    move[:2, :2] = [[c, -s], [s, c]]
-    move[:2, 3] = x, y
-    return move
 
 
 _EVEN = (np.ones(1), np.zeros((1, 1), dtype=np.uint8))
