@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pybullet as pb
 import pytest
 
 from robot_app.errors import GraspError
@@ -224,3 +225,48 @@ def test_the_table_is_solid_to_sunk_cloth_nodes(solid: bool) -> None:
         world.step()
         assert world.table_corrections == 0
         assert float(cloth.nodes()[:, 2].max()) < top - 0.04  # falling to the floor, not lifted
+
+
+def _slide(bound: float | None, start: str) -> tuple[float, float, int]:
+    """A cloth on the table with nothing held and the hand still at the observation pose, for
+    0.5 s: given 0.5 m/s along x as it is laid (`start="push"`), given that and 0.98 m/s
+    downwards 0.1 s after it was let fall from 0.3 m (`"fall"`), or lying still when gravity
+    is tilted to pull it along x at 8 m/s^2 (`"pulled"`, more than the table's friction holds:
+    a steady push standing in for pybullet's crossed soft-soft contact). Returns how far its
+    centre moved along the table [m], its fastest speed along it [m/s] (centre over one step),
+    and `World.slides_held`. `bound`: `world.cloth.free_slide_speed`."""
+    config = SMALL.model_copy(update={"cloth": ClothPhysicsSettings(free_slide_speed=bound)})
+    with World(config) as world:
+        drop = 0.3 if start == "fall" else 0.0
+        cloth = world.add_cloth(cloth_spec(4), 0.5, 0.05, 0.4, drop_height=drop, settle=start == "pulled")
+        if start == "fall":
+            world.step(24)
+        if start == "pulled":
+            pb.setGravity(8.0, 0.0, -world.config.gravity, physicsClientId=world.client)
+        else:
+            down = -0.98 if start == "fall" else 0.0
+            pb.resetBaseVelocity(cloth.body_id, linearVelocity=[0.5, 0.0, down], physicsClientId=world.client)
+        centres = [cloth.nodes().mean(axis=0)]
+        for _ in range(120):
+            world.step()
+            centres.append(cloth.nodes().mean(axis=0))
+        track = np.array(centres)
+        speeds = np.hypot(*np.diff(track[:, :2], axis=0).T) / world.dt
+        return float(np.hypot(*(track[-1] - track[0])[:2])), float(speeds.max()), world.slides_held
+
+
+def test_a_lying_cloth_does_not_speed_up_along_the_table_by_itself() -> None:
+    """`world.cloth.free_slide_speed`: a lying cloth pulled along the table with nothing held
+    and the hand away stays near the bound (its speed set back each step; one step's growth,
+    8/240 m/s, over it at most), while off it speeds up to metres per second. A pushed cloth
+    still slides and slows down by friction, and a falling one falls, as without it."""
+    moved, fastest, held = _slide(None, "pulled")
+    assert fastest > 1.0 and moved > 0.2 and held == 0
+    moved, fastest, held = _slide(0.05, "pulled")
+    assert fastest < 0.05 + 8.0 / 240 + 0.01 and moved < 0.05 and held > 50
+    for start in ("push", "fall"):
+        free, guarded = _slide(None, start), _slide(0.05, start)
+        assert free[0] > 0.02 and free[1] > 0.4  # it did slide
+        assert guarded[0] == pytest.approx(free[0], abs=1e-3)
+        assert guarded[1] == pytest.approx(free[1], abs=0.01)
+        assert guarded[2] == 0

@@ -288,6 +288,15 @@ class ClothBody:
             self._write_nodes(nodes)
         return count
 
+    def set_mean_velocity(self, velocity: npt.ArrayLike) -> None:
+        """Sets the mean of the nodes' velocities to `velocity` ((3,) in Σ_W [m/s]), each node
+        keeping its velocity relative to that mean: pybullet's `resetBaseVelocity` of a soft
+        body given a linear velocity alone (bullet's `btSoftBody::setLinearVelocity` adds the
+        difference to the mass-weighted mean to every node; the nodes weigh the same). Positions
+        stay. No angular velocity is passed: that would give every node the same velocity."""
+        v = np.asarray(velocity, dtype=float).reshape(3)
+        pb.resetBaseVelocity(self.body_id, linearVelocity=v.tolist(), physicsClientId=self._client)
+
     def lift_free_nodes(
         self, below: float, to: float, where: Callable[[FloatArray], npt.NDArray[np.bool_]]
     ) -> int:

@@ -166,6 +166,14 @@ class ClothPhysicsSettings(StrictModel):
         "is set back onto it (World.step); without it, a node trapped in the table under another cloth "
         "made put-back heaps slide off the table by themselves (scripts/pile_physics.py --alone)",
     )
+    free_slide_speed: float | None = Field(
+        None,
+        gt=0.0,
+        description="a free cloth lying on the table (outside the boxes, not falling) may not speed "
+        "up along it beyond this [m/s] while no cloth is held and the hand is still or well above "
+        "the table: it gets back the speed it had (World.step); pybullet's crossed soft-soft "
+        "contact speeds put-back heaps up by themselves. null: off",
+    )
     sdf_voxel_size: float = Field(
         0.25,
         gt=0.005,

@@ -34,6 +34,8 @@ from robot_app.sim.lighting import draw_lighting
 from robot_app.sim.robot import SimRobot
 from robot_app.sim.stereo import StereoCamera
 
+HAND_STILL = 0.05  # [m/s] the hand slower than this pushes no cloth along (`World.step`)
+HAND_CLEAR = 0.1  # [m] the TCP this far above the table top touches no lying cloth (`World.step`)
 SUNK = 0.003  # [m] a cloth node deeper than this in the table top is set back onto it (`World.step`)
 FLIP_FACE_UP = np.diag([1.0, -1.0, -1.0])  # Σ_M of a face-up cloth: z into the table
 OCCLUDER_RGBA = (0.12, 0.25, 0.85, 1.0)  # the blue paper of Fig. 11 (b)
@@ -103,6 +105,8 @@ class World:
             pb.setPhysicsEngineParameter(numSubSteps=c.cloth.substeps, physicsClientId=client)
         self.time = 0.0
         self.table_corrections = 0  # cloth nodes set back onto the solid table (`step`)
+        self.slides_held = 0  # steps a lying cloth was kept from speeding up by itself (`step`)
+        self._motion: dict[int, tuple[FloatArray, FloatArray | None]] = {}  # centre, velocity
         self._cache = cache_dir()
         top = c.table.top_z
         tx, ty = c.table.centre_xy
@@ -176,12 +180,14 @@ class World:
             for _ in range(n):
                 pb.stepSimulation(physicsClientId=self._client)
                 self._keep_cloths_on_table()
+                self._hold_back_slides()
             self.time += n * self.dt
             return
         for _ in range(n):
             self.conveyor.carry(self.cloths, self.time, self.dt)
             pb.stepSimulation(physicsClientId=self._client)
             self._keep_cloths_on_table()
+            self._motion = {}  # a running belt carries its cloths: no slide to hold back
             self.time += self.dt
 
     def _keep_cloths_on_table(self) -> None:
@@ -204,6 +210,50 @@ class World:
             self.table_corrections += cloth.lift_free_nodes(
                 top - SUNK, top + c.cloth.collision_margin, over_table
             )
+
+    def _hold_back_slides(self) -> None:
+        """No cloth speeds up by itself (`world.cloth.free_slide_speed`): while no cloth is held
+        and the hand is still or well above the table, a free cloth lying on the table outside
+        the boxes (not falling: its mean vertical speed under the bound) whose mean speed along
+        the table grew in this step beyond the bound gets back the speed it had (or the bound,
+        if it had less), in the direction it now has; its nodes keep their velocities relative
+        to each other (`ClothBody.set_mean_velocity`). Friction still slows a sliding cloth and
+        a landing one; nothing is stopped. A free cloth on a flat table that nothing pushes
+        cannot speed up, and two cloths' forces on each other cancel; pybullet's soft-soft
+        contact in a heap whose layers crossed speeds the pair up along the table by itself
+        (about 3.5 m/s^2, docs/history.md, session 15) until it falls over the edge. Velocities
+        are the nodes' mean displacement over one step (pybullet does not report a soft body's
+        velocity)."""
+        bound = self.config.cloth.free_slide_speed
+        if bound is None or not self.cloths:
+            self._motion = {}
+            return
+        c = self.config
+        (tx, ty), (sx, sy) = c.table.centre_xy, c.table.size_xy
+        hand_away = not any(cloth.is_grasped for cloth in self.cloths) and (
+            float(self.robot.frame_pose("tcp")[2, 3]) > c.table.top_z + HAND_CLEAR
+            or float(np.linalg.norm(self.robot.frame_velocity("tcp")[0])) < HAND_STILL
+        )
+        previous, self._motion = self._motion, {}
+        for cloth in self.cloths:
+            nodes = cloth.nodes()
+            centre = nodes.mean(axis=0)
+            last_centre, last_velocity = previous.get(cloth.body_id, (None, None))
+            velocity = None if last_centre is None else (centre - last_centre) / self.dt
+            self._motion[cloth.body_id] = (centre, velocity)
+            if not hand_away or velocity is None or last_velocity is None:
+                continue
+            speed, speed_before = float(np.hypot(*velocity[:2])), float(np.hypot(*last_velocity[:2]))
+            if speed <= bound or speed <= speed_before or abs(float(velocity[2])) > bound:
+                continue
+            on_table = bool(np.all((np.abs(nodes[:, 0] - tx) < sx / 2) & (np.abs(nodes[:, 1] - ty) < sy / 2)))
+            if not on_table or any(np.any(box.contains(nodes)) for box in self.boxes):
+                continue
+            held_back = velocity.copy()
+            held_back[:2] *= max(speed_before, bound) / speed
+            cloth.set_mean_velocity(held_back)
+            self._motion[cloth.body_id] = (centre, held_back)
+            self.slides_held += 1
 
     def add_cloth(
         self,
