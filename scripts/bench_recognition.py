@@ -93,6 +93,28 @@ N = EXTENDED_CATALOGUE_SIZE
 CALIBRATION_SEED_BASE = 10_000  # calibration scenes draw from seeds >= this, test scenes below
 
 
+def machine_reference() -> str:
+    """The machine's speed on a fixed workload, printed beside the timing figures so that runs on
+    different machines, or on one machine at different times, can be compared (session 17: the
+    tree that measured one-shot median 20.4 ms in session 12 measured 43.6 ms on this machine)."""
+    loop, product = [], []
+    a = np.random.default_rng(0).random((256, 256))
+    for _ in range(5):
+        start = time.thread_time()
+        total = 0
+        for i in range(1_000_000):
+            total += i
+        loop.append(time.thread_time() - start)
+        start = time.thread_time()
+        for _ in range(20):
+            a @ a
+        product.append((time.thread_time() - start) / 20)
+    return (
+        f"machine reference: Python loop {min(loop) * 1e3:.0f} ms, "
+        f"256x256 matmul {min(product) * 1e3:.2f} ms (best of 5, CPU)"
+    )
+
+
 def verdict(ok: bool | np.bool_) -> str:
     return "PASS" if ok else "MISS"
 
@@ -782,6 +804,8 @@ def main() -> None:
     args = parser.parse_args()
     settings = load_config(RecognitionSettings, None, args.overrides)
     print(f"load average (1, 5, 15 min): {os.getloadavg()}; cpus allowed: {sorted(os.sched_getaffinity(0))}")
+    if not args.skip_speed or args.speed_only:
+        print(machine_reference())
     cloths, models = make_models()
     recognizers = [Recognizer(m, RIG, settings) for m in models]
     scenes = Scenes(cloths, models)
