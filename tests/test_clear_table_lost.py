@@ -204,7 +204,7 @@ def test_after_a_drop_the_job_looks_along_the_way_to_the_box() -> None:
 
     recovery = TableRecovery.__new__(TableRecovery)
     recovery.settings = ClearTableSettings(look_around=2, look_apart=0.08)
-    recovery.looked, recovery.put_back_spots = [], []
+    recovery.forget()
     camera_over = np.eye(4)
     camera_over[:2, 3] = (0.55, 0.0)
     capture = SimpleNamespace(transform_right_camera_to_world=camera_over)
@@ -218,6 +218,34 @@ def test_after_a_drop_the_job_looks_along_the_way_to_the_box() -> None:
     recovery.looked = [way[0].copy()]
     places = recovery.places_to_look(capture, ident, seen_before, lambda name: True, way)  # type: ignore[arg-type]
     np.testing.assert_allclose(places, [way[1]])  # one look left, the way's first place looked at
+
+
+def test_any_pick_attempt_gives_the_look_around_its_looks_again() -> None:
+    """Bench episode 24 (session 17): after a blind pick of a lost cloth the job had no
+    look left, since only the loop's picks started the count afresh; the ledger's count of
+    attempts does it now, whatever the pick path."""
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.table_recovery import TableRecovery
+
+    recovery = TableRecovery.__new__(TableRecovery)
+    recovery.settings = ClearTableSettings(look_around=2, look_apart=0.08)
+    recovery.forget()
+    camera_over = np.eye(4)
+    camera_over[:2, 3] = (0.55, 0.0)
+    capture = SimpleNamespace(transform_right_camera_to_world=camera_over)
+    ident = SimpleNamespace(unknown=())
+    seen = {"No.3": np.array([0.6, 0.2]), "No.5": np.array([0.4, 0.2])}
+
+    def look(attempts: int) -> list:
+        return recovery.places_to_look(capture, ident, seen, lambda name: True, (), attempts)  # type: ignore[arg-type]
+
+    first = look(attempts=3)
+    assert len(first) == 2
+    recovery.looked.extend(first)  # both looked at, nothing found
+    assert look(attempts=3) == []  # no look left until a pick
+    again = look(attempts=4)  # a pick attempt (any kind) was booked since
+    assert len(again) == 2
+    np.testing.assert_allclose(again, first)
 
 
 def test_a_white_cloths_shaded_folds_count_as_its_colours_a_dark_cloths_do_not_grow_light() -> None:

@@ -380,7 +380,6 @@ class TableClearer:
             ground_truth=truth,
             posture_seed=self.motion.q,
         )
-        self.recovery.looked.clear()
         self._before_pick = _BeforePick(
             target.name,
             ident.unknown,
@@ -491,6 +490,7 @@ class TableClearer:
             self.ledger.last_seen,
             lambda name: name not in placed and self.ledger.untried(name, self.settings.max_attempts),
             dropped_on,
+            len(self.ledger.attempts),
         )
 
     def _look_from(self, place: FloatArray) -> bool:

@@ -3,7 +3,8 @@
 (`places_to_look`, `look_from`).
 
 `TableRecovery` remembers, over one job run, where it put cloths back and where it has
-looked since the last pick attempt.
+looked since the last pick attempt (any pick: one of the loop's or a blind one of a lost
+cloth; the ledger's count of attempts tells, so no pick path has to reset it).
 """
 
 from __future__ import annotations
@@ -54,11 +55,13 @@ class TableRecovery:
         self.loop_settings = loop_settings
         self.looked: list[FloatArray] = []  # places looked at since the last pick attempt
         self.put_back_spots: list[FloatArray] = []
+        self._attempts = 0  # pick attempts booked when `looked` was last started afresh
 
     def forget(self) -> None:
         """A new job run: no put-back spots, nothing looked at."""
         self.looked = []
         self.put_back_spots = []
+        self._attempts = 0
 
     # ------------------------------------------------------------------ looking around
     def places_to_look(
@@ -68,11 +71,16 @@ class TableRecovery:
         last_seen: Mapping[str, FloatArray],
         look_for: Callable[[str], bool],
         dropped_on: tuple[FloatArray, ...] = (),
+        attempts: int = 0,
     ) -> list[FloatArray]:
         """Where to look again when a survey left nothing to pick (`look_around`): put-back
         spots, then places on the way of a drop (`dropped_on`, (x, y) [m]), then cloths
         seen before (`last_seen`, (x, y) [m]) that `look_for` names, then unknown regions;
-        none within `look_apart` of one another or of a place already looked at."""
+        none within `look_apart` of one another or of a place already looked at since the
+        last pick attempt (`attempts`: the job's pick attempts booked so far; a new one
+        gives `look_around` looks again)."""
+        if attempts != self._attempts:
+            self.looked, self._attempts = [], attempts
         candidates = [
             *reversed(self.put_back_spots),
             *dropped_on,
