@@ -132,6 +132,8 @@ def run_one(job: tuple[int, int, tuple[str, ...], str]) -> dict[str, object]:
         "limit_violations": r.limit_report.violations,
         "commanded_samples": r.limit_report.samples,
         "collisions": r.collisions,
+        # steps the free-slide guard (world.cloth.free_slide_speed) held a lying cloth back
+        "slides_held": episode.slides_held,
         "phase_times": json.dumps({k: round(t, 2) for k, t in sorted(episode.phase_times.items())}),
     }
 
@@ -240,6 +242,8 @@ def _summary(
         "flung_and_not_in_their_box": total("flung_not_in_box"),
         "episodes_with_a_fling": sum(1 for r in finished if r.get("flung")),
         "cleared_without_a_fling": sum(bool(r["cleared"]) for r in finished if not r.get("flung")),
+        "slides_held": total("slides_held"),
+        "episodes_with_slides_held": sum(1 for r in finished if r.get("slides_held")),
         "limit_violations": total("limit_violations"),
         "commanded_samples": total("commanded_samples"),
         "collisions": total("collisions"),

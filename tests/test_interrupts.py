@@ -129,6 +129,7 @@ def test_ctrl_c_during_clear_table_writes_the_job_so_far(tmp_path) -> None:
     summary = json.loads((folder / "summary.json").read_text())
     assert summary["status"] == "interrupted" and summary["cleared"] is False
     assert summary["surveys"] >= 1  # the survey before the stop is kept
+    assert isinstance(summary["slides_held"], int) and summary["slides_held"] >= 0
     assert sorted(p.name for p in folder.iterdir()) == [
         "cloths.csv",
         "config.yaml",

@@ -147,6 +147,9 @@ class ClearTableEpisode:
         phase_times: simulated time spent in each of the job's phases ("survey", "look
             around", "put back", the loop's phases, ...) [s]: where the job's time goes.
         lifts: the simulator's truth about every grasp (which cloths left the table with it).
+        slides_held: simulation steps in which a lying cloth was kept from speeding up along
+            the table by itself (`world.cloth.free_slide_speed`; 0 when that is off): how
+            much the episode leaned on that guard against pybullet's soft-soft artefact.
     """
 
     result: TableResult
@@ -156,6 +159,7 @@ class ClearTableEpisode:
     same_family: bool
     phase_times: dict[str, float] = field(default_factory=dict)
     lifts: tuple[LiftTruth, ...] = ()
+    slides_held: int = 0
 
 
 def run_clear_table(
@@ -287,6 +291,7 @@ def _run_in_cell(
         pile.same_family,
         phase_times,
         tuple(witness.lifts),
+        world.slides_held,
     )
 
 

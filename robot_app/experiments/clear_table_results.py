@@ -166,6 +166,7 @@ def summary(config: ClearTableConfig, episode: ClearTableEpisode) -> dict[str, A
         "commanded_samples": r.limit_report.samples,
         "limits": {k: float(x) if isinstance(x, float) else x for k, x in r.limit_report._asdict().items()},
         "collisions": r.collisions,
+        "slides_held": episode.slides_held,
     }
 
 
