@@ -198,7 +198,9 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     assert job._lost_to_pick(ident) is None and len(asked) == 4  # type: ignore[arg-type]
 
 
-def test_after_a_drop_the_job_looks_along_the_way_to_the_box() -> None:
+def _look_around_over_the_sheet():
+    """A `TableRecovery` (look_around 2, look_apart 0.08 m) with nothing looked at, a survey
+    from over the sheet's middle and no unknown region: (recovery, capture, identification)."""
     from robot_app.control.clear_table_records import ClearTableSettings
     from robot_app.control.table_recovery import TableRecovery
 
@@ -209,6 +211,11 @@ def test_after_a_drop_the_job_looks_along_the_way_to_the_box() -> None:
     camera_over[:2, 3] = (0.55, 0.0)
     capture = SimpleNamespace(transform_right_camera_to_world=camera_over)
     ident = SimpleNamespace(unknown=())
+    return recovery, capture, ident
+
+
+def test_after_a_drop_the_job_looks_along_the_way_to_the_box() -> None:
+    recovery, capture, ident = _look_around_over_the_sheet()
     way = (np.array([0.45, -0.25]), np.array([0.40, -0.40]))
     seen_before = {"No.3": np.array([0.6, 0.2])}
     places = recovery.places_to_look(capture, ident, seen_before, lambda name: True, way)  # type: ignore[arg-type]
@@ -224,16 +231,7 @@ def test_any_pick_attempt_gives_the_look_around_its_looks_again() -> None:
     """Bench episode 24 (session 17): after a blind pick of a lost cloth the job had no
     look left, since only the loop's picks started the count afresh; the ledger's count of
     attempts does it now, whatever the pick path."""
-    from robot_app.control.clear_table_records import ClearTableSettings
-    from robot_app.control.table_recovery import TableRecovery
-
-    recovery = TableRecovery.__new__(TableRecovery)
-    recovery.settings = ClearTableSettings(look_around=2, look_apart=0.08)
-    recovery.forget()
-    camera_over = np.eye(4)
-    camera_over[:2, 3] = (0.55, 0.0)
-    capture = SimpleNamespace(transform_right_camera_to_world=camera_over)
-    ident = SimpleNamespace(unknown=())
+    recovery, capture, ident = _look_around_over_the_sheet()
     seen = {"No.3": np.array([0.6, 0.2]), "No.5": np.array([0.4, 0.2])}
 
     def look(attempts: int) -> list:
