@@ -150,10 +150,12 @@ class OccluderRead:
     Attributes:
         hidden: (2, C) bool per image (left, right) and texture cell: behind a plain occluder.
         colours: per image the b, g, r of each occluder region found (gain-corrected).
+        agreeing: (2, C) bool per image and cell: compared and agreeing (the print in view).
     """
 
     hidden: npt.NDArray[np.bool_]
     colours: tuple[tuple[FloatArray, ...], tuple[FloatArray, ...]]
+    agreeing: npt.NDArray[np.bool_]
 
     @property
     def any(self) -> bool:
@@ -229,7 +231,8 @@ def read_occluders(
             if shows.sum() >= min_pairs and shows.mean() >= continued:
                 hidden[side, members] = True
                 colours[side].append(colour)
-    return OccluderRead(hidden, (tuple(colours[0]), tuple(colours[1])))
+    agreeing = (statistics.weights > 0) & (statistics.scores >= agree_level)
+    return OccluderRead(hidden, (tuple(colours[0]), tuple(colours[1])), agreeing)
 
 
 __all__ = [

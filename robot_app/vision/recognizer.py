@@ -753,7 +753,7 @@ class Recognizer:
         verification, masks = self.verifier.read_occluders(pose, chosen.verification)
         if masks is None:
             return self._aligned(chosen)
-        with self.evaluator.pixels_hidden(masks):
+        with self.verifier.pixels_hidden(masks):
             read = self._verified(pose, float(self.proposer.fitness()(pose)[0]), verification)
         research = self.settings.depth.research
         share = research.occluder_min_share
@@ -762,7 +762,7 @@ class Recognizer:
             if again is not None and again[0].score > read.score:
                 read, masks = again
         occluded = read.verification.occluded
-        with self.evaluator.pixels_hidden(masks):
+        with self.verifier.pixels_hidden(masks):
             aligned = self._aligned(read)
         return replace(aligned, verification=replace(aligned.verification, occluded=occluded))
 
@@ -781,7 +781,7 @@ class Recognizer:
                 start = onto_plane(read.pose, plane.normal, plane.distance)
         p = self.proposer
         textured = read.verification.textured_share >= self.settings.verify.align_textured_from
-        with self.evaluator.pixels_hidden(masks):
+        with self.verifier.pixels_hidden(masks):
             poses = search_in_plane(
                 start,
                 p.fitness(s.research.stride),
@@ -799,7 +799,7 @@ class Recognizer:
         verification, own = self.verifier.read_occluders(best)
         if own is None:
             return None
-        with self.evaluator.pixels_hidden(own):
+        with self.verifier.pixels_hidden(own):
             return self._verified(best, float(self.proposer.fitness()(best)[0]), verification), own
 
     def _aligned(self, chosen: _Verified) -> _Verified:
