@@ -15,6 +15,11 @@ the green sheet), in at least `occluder_min_pairs` pairs and `occluder_continued
 region's pairs in view. Its cells are then hidden: they leave the appearance, the agreeing
 share and the visible fraction (`evidence`), as a sheet of a foreign colour's would.
 
+The recogniser takes the read's evidence only where the decision's log-odds are higher with
+it than with the plain evidence (a sheet read as hidden lowers the visible fraction), and
+searches a pose with much of it read so again with the sheet's pixels hidden
+(`Recognizer._read_and_aligned`, `depth.research.occluder_min_share`).
+
 A real print's own plain areas end on the outline (the outer point shows the sheet, or, on
 another cloth, that cloth's other colours), so a wrong cloth's missing print is not excused;
 a plain model on a larger plain cloth of its colour is already told by the outline

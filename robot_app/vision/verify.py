@@ -59,6 +59,14 @@ outnumbered the few edges left. A plain model's flat cells need no
 fine alignment, and its seams all count (counting them at the rate too accepted a plain red
 model on the stripes and on the patchwork again).
 
+Occluders of a hue the model has (`read_occluders`, `occluder_read.py`): a sample on a
+foreign colour is hidden, but a sheet of a hue the model has (brown over red, blue over
+violet) is not foreign, and its cells count as seen and disagreeing. At a final pose, plain
+disagreeing cells of one colour whose region goes on past the outline (its outline pairs show
+its colour outside too, not the green sheet) are read as such an occluder, and the pose is
+verified again with the pixels of its colour connected to them hidden (`pixels_hidden`; none
+where the texture agrees; the outline keeps the unmasked image).
+
 A model without texture (a version 1-2 file) cannot be verified: `Verification.appearance`
 is NaN and the decision uses its stand-in (`DecisionSettings.appearance_without_texture`).
 """
@@ -148,8 +156,9 @@ class VerificationSettings(StrictModel):
             red-yellow stripes print (scene 82), whose clipped stripes then agreed with a pose
             9 mm off, was taken there (folded within 98 -> 97 %).
         occluder_read: read a plain occluder of a hue the model has as hidden in the final
-            evidence of a one-shot recognition and a check (`occluder_read.py`; the
-            recogniser's `_occluder_read`); false: the evidence as before.
+            evidence of a one-shot recognition and a check where that raises the decision's
+            log-odds (`occluder_read.py`; the recogniser's `_read_and_aligned`); false: the
+            evidence and poses as before.
         occluder_plain: a disagreeing cell is plain (a candidate occluder) up to this RMS
             deviation of the image over it [grey levels].
         occluder_min_pairs: an occluder region needs this many outline pairs (both points
