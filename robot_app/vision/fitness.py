@@ -26,6 +26,8 @@ visible part.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import NamedTuple, cast
 
 import numpy as np
@@ -36,7 +38,14 @@ from robot_app.vision.camera import StereoRig
 from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.exposure import Shading
 from robot_app.vision.fitness_kernels import normalised, score_poses
-from robot_app.vision.fitness_scores import COLUMNS, OUTSIDE_ROW, FitnessSettings, score_table, seen_table
+from robot_app.vision.fitness_scores import (
+    COLUMNS,
+    OFF_IMAGE,
+    OUTSIDE_ROW,
+    FitnessSettings,
+    score_table,
+    seen_table,
+)
 from robot_app.vision.pixel_codes import box_spans, checked_image, pixel_codes
 from robot_app.vision.poses import AvoidedPoses, as_poses
 
@@ -133,6 +142,32 @@ class FitnessEvaluator:
         if self._codes is None:
             raise RuntimeError("no stereo pair yet: call update(left, right) first")
         return self._codes
+
+    @contextmanager
+    def pixels_hidden(self, masks: tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]]) -> Iterator[None]:
+        """Within the block, the pixels of (H, W) bool `masks` (left, right) read as off the
+        image (`OFF_IMAGE`: hidden to every point, to the search and to the verify stage's
+        texture samples); the codes of before come back after it (an occluder read as such,
+        `occluder_read.py`).
+
+        Raises:
+            RuntimeError: no pair yet.
+            ValueError: masks not of the images' size.
+        """
+        saved = self.codes
+        width, height = self.rig.image_size
+        hidden = []
+        for codes, mask in zip(saved, masks, strict=True):
+            if np.shape(mask) != (height, width):
+                raise ValueError(f"a pixel mask must be ({height}, {width}), got {np.shape(mask)}")
+            framed = codes.reshape(height + 3, width + 3).copy()
+            framed[1 : height + 1, 1 : width + 1][np.asarray(mask, dtype=bool)] = OFF_IMAGE
+            hidden.append(framed.ravel())
+        self._codes = (hidden[0], hidden[1])
+        try:
+            yield
+        finally:
+            self._codes = saved
 
     def _point_set(self, stride: int) -> _PointSet:
         """Every `stride`-th S_in and S_out point (all of them for 1), cached."""

@@ -46,6 +46,11 @@ class PlaneSearchSettings(StrictModel):
             `verify.align_textured_from`), the best end is also turned by half and quarter
             turns about its origin and each turn refined on the finer grids; the recogniser
             ranks them with the rest.
+        occluder_min_share: a one-shot recognition whose final pose has more than this share
+            of its texture read as behind a plain occluder of a hue the model has
+            (`verify.occluder_read`, `occluder_read.py`) is searched again on its plane with
+            the occluder's pixels hidden (the occluder's hue peak no longer pulls it), and the
+            better ranked of the two poses kept (`Recognizer._read_and_aligned`); None: never.
 
     Every yaw and 128 poses ranked (before: within 16° of the turns, 16 ranked) since session
     12: a cloth 45 % under a sheet of a near hue (blue over a violet print, brown over a red
@@ -85,6 +90,7 @@ class PlaneSearchSettings(StrictModel):
     candidates: int = Field(default=3, ge=1)
     fine_steps: tuple[tuple[float, float], ...] = ((0.001, 1.0), (0.00025, 0.25))
     turns: bool = True
+    occluder_min_share: float | None = Field(default=0.2, ge=0.0, le=1.0)
 
 
 Fitness = Callable[[FloatArray], FloatArray]

@@ -60,6 +60,9 @@ class Recognition:
             (`verify.Verification.agreeing`).
         outline: the verification's share of the outline lying on an edge of the model's
             colour (`verify.Verification.outline`; NaN: not measured).
+        occluded: the verification's share of the texture read as behind a plain occluder
+            of a hue the model has (`verify.Verification.occluded`; left out of the visible
+            fraction and the agreement).
         rival: the catalogue model that explains the recognised region better (`decide.judge`;
             then `found` is False), "" if none did or none was asked.
         rivals_asked: rivals recognised in the pair for this decision (0: not asked).
@@ -80,6 +83,7 @@ class Recognition:
     interleaved: float = 0.0
     agreeing: float = float("nan")
     outline: float = float("nan")
+    occluded: float = 0.0
     rival: str = ""
     rivals_asked: int = 0
 

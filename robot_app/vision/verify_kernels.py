@@ -218,6 +218,28 @@ def appearance(transforms, K_left, K_right, left_from_right, px, py, values, cel
 
 
 @_jit
+def cell_sums(transform, K_left, K_right, left_from_right, px, py, values, cells, n_cells, image_left,
+              image_right, codes_left, codes_right, foreign, gains_left, gains_right, shade_factors_left,
+              shade_index_left, shade_factors_right, shade_index_right, block, saturated):  # fmt: skip
+    """(2, n_cells, 17) the sums `appearance` compares cell by cell, of one pose (4, 4) in
+    each image (left, right): `_accumulate`'s columns (the occluder read, `verify.py`, looks
+    at each cell's own numbers). Arguments as in `appearance`."""
+    height, width = image_left.shape[0], image_left.shape[1]
+    P_right = np.zeros((3, 4))
+    P_right[:, :3] = K_right
+    P_left = K_left @ np.ascontiguousarray(left_from_right[:3, :])
+    M = np.empty((3, 4), np.float32)
+    sums = np.zeros((2, n_cells, 17))
+    _projection(P_left, transform, M)
+    _accumulate(M, px, py, values, cells, image_left, codes_left, foreign, gains_left, shade_factors_left,
+                shade_index_left, block, saturated, width, height, sums[0])  # fmt: skip
+    _projection(P_right, transform, M)
+    _accumulate(M, px, py, values, cells, image_right, codes_right, foreign, gains_right, shade_factors_right,
+                shade_index_right, block, saturated, width, height, sums[1])  # fmt: skip
+    return sums
+
+
+@_jit
 def _at_least(raw, factor, saturated, model):
     """A channel read `raw`, corrected by `factor`; where the camera clipped it (`raw` at least
     `saturated`) it is at least that, so a higher `model` value is taken as seen."""
@@ -351,4 +373,4 @@ def outline_contrast(transforms, K_left, K_right, left_from_right, inner, outer,
     return out
 
 
-__all__ = ["appearance", "outline_contrast"]
+__all__ = ["appearance", "cell_sums", "outline_contrast"]
