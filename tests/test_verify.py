@@ -405,3 +405,47 @@ def test_a_channel_the_camera_clipped_is_a_lower_bound_not_a_disagreement() -> N
     for other in (RED_PLAIN, 1):  # bright red and yellow cloths: clipped too, and not orange
         _, (wrong, _) = _verified(ORANGE_L, other, 250.0)
         assert wrong.agreeing < 0.1
+
+
+def test_the_final_evidence_reads_clipped_channels_as_lower_bounds_and_keeps_the_pose() -> None:
+    """`verify.evidence_saturated`: the orange L twice over-exposed (gain 2, where
+    `scripts/bench_camera_axes.py` found 40 % of flat cloths) is found, where the clipped red
+    read as it came disagrees with the photo; the pose is the one chosen without the bound
+    (the bound is evidence, not a pose search)."""
+    images = render_stereo_pair(
+        RIG,
+        [(extended_cloth(ORANGE_L), POSE)],
+        rng=np.random.default_rng(4),
+        camera=replace(BRIGHT, gain=2.0),
+    )
+    results = {}
+    for level in (250.0, 256.0):
+        settings = RecognitionSettings.model_validate({"verify": {"evidence_saturated": level}})
+        results[level] = Recognizer(model(ORANGE_L), RIG, settings).recognize(*images, seed=3)
+    bounded, raw = results[250.0], results[256.0]
+    np.testing.assert_allclose(bounded.transform_model_to_camera, raw.transform_model_to_camera)
+    error = pose_error(bounded.transform_model_to_camera, POSE, tuple(model(ORANGE_L).symmetry_angles))
+    assert max(abs(error.x_mm), abs(error.y_mm)) < 2.0 and abs(error.yaw_deg) < 2.0
+    assert bounded.found and not raw.found
+    assert bounded.agreeing > 0.8 > 0.5 > raw.agreeing
+
+
+def test_the_clip_bound_changes_nothing_where_no_pixel_reaches_it() -> None:
+    images = render_stereo_pair(
+        RIG, [(extended_cloth(ORANGE_L), POSE)], rng=np.random.default_rng(4), camera=DARK_TINTED
+    )
+    verifier = verifier_on(ORANGE_L, *images)
+    assert max(int(i.max()) for i in images) < 250
+    with verifier.clipped_from(250.0) as clipped:
+        assert not clipped
+    bright = render_stereo_pair(
+        RIG, [(extended_cloth(ORANGE_L), POSE)], rng=np.random.default_rng(4), camera=BRIGHT
+    )
+    verifier = verifier_on(ORANGE_L, *bright, _gains(bright, ORANGE_L))
+    before = verifier.verify(POSE)[0]
+    with verifier.clipped_from(250.0) as clipped:
+        assert clipped
+        inside = verifier.verify(POSE)[0]
+    after = verifier.verify(POSE)[0]
+    assert inside.agreeing > before.agreeing + 0.3
+    assert after == before  # the block restores the settings' own reading

@@ -357,7 +357,7 @@ class Recognizer:
                 self._turned_after_fold(self._most_confident(proposal.best, proposal.candidates, rng), rng)
             )
         )
-        chosen = self._read_and_aligned(self._with_corner_hidden(chosen, rng), rng)
+        chosen = self._final_evidence(self._with_corner_hidden(chosen, rng), rng)
         kept = self.proposer.kept_poses
         if kept is not None and chosen.pose is not proposal.best.transform_model_to_camera:
             self.proposer.keep(chosen.pose, kept)  # tracking goes on from the verified pose (a half turn?)
@@ -413,7 +413,7 @@ class Recognizer:
             ).transform_model_to_camera
         chosen = self._verified(pose, float(fitness(pose)[0]), self.verifier.verify(pose)[0])
         chosen, measurement = self._depth_checked(chosen)
-        return self._result(self._read_and_aligned(chosen, None), 0, before, start, (), measurement.offset)
+        return self._result(self._final_evidence(chosen, None), 0, before, start, (), measurement.offset)
 
     @_collector_paused
     def track(
@@ -747,6 +747,19 @@ class Recognizer:
         moved_pose = moved(pose, [0.0, 0.0, offset, 0.0, 0.0, 0.0]) if offset else np.array(pose, dtype=float)
         search_fitness = float(self.proposer.fitness()(moved_pose)[0])
         return self._verified(moved_pose, search_fitness, self.verifier.verify(moved_pose)[0])
+
+    def _final_evidence(self, chosen: _Verified, rng: np.random.Generator | None) -> _Verified:
+        """`chosen`'s final evidence (`_read_and_aligned`), with an image channel read at
+        `verify.evidence_saturated` or more taken as clipped (`Verifier.clipped_from`): a bright
+        cloth whose main channel the camera clipped then agrees with its photo (gain 2.0 in
+        `scripts/bench_camera_axes.py`: flat found 40 % without). The pose was chosen without
+        the bound, which moved a folded stripes print 9 mm when it ranked the poses
+        (`verify.saturated`); only the re-search past a near-hue occluder ranks with it."""
+        with self.verifier.clipped_from(self.settings.verify.evidence_saturated) as clipped:
+            if clipped:
+                verification = self.verifier.verify(chosen.pose)[0]
+                chosen = self._verified(chosen.pose, chosen.search_fitness, verification)
+            return self._read_and_aligned(chosen, rng)
 
     def _read_and_aligned(self, chosen: _Verified, rng: np.random.Generator | None) -> _Verified:
         """`chosen`'s final evidence: its plain occluders of a hue the model has read as hidden

@@ -155,6 +155,11 @@ class VerificationSettings(StrictModel):
             yellow square 0.63 -> 1.00) and decided nothing else differently, but a folded
             red-yellow stripes print (scene 82), whose clipped stripes then agreed with a pose
             9 mm off, was taken there (folded within 98 -> 97 %).
+        evidence_saturated: `saturated` for the final evidence of a one-shot recognition and
+            a check only, the pose kept (`Verifier.clipped_from`, the recogniser's
+            `_final_evidence`): a clipped channel read as a lower bound where it cannot move a
+            pose. Over-exposure is what breaks first when one camera axis is moved at a time
+            (`scripts/bench_camera_axes.py --axes gain`: flat found 90 / 40 % at gain 1.7 / 2.0).
         occluder_read: read a plain occluder of a hue the model has as hidden in the final
             evidence of a one-shot recognition and a check where that raises the decision's
             log-odds (`occluder_read.py`; the recogniser's `_read_and_aligned`); false: the
@@ -190,6 +195,7 @@ class VerificationSettings(StrictModel):
     outline_outside: float = Field(default=0.004, gt=0.0, le=0.02)
     outline_min_pairs: int = Field(default=10, ge=1)
     saturated: float = Field(default=256.0, gt=0.0, le=256.0)
+    evidence_saturated: float = Field(default=250.0, gt=0.0, le=256.0)
     occluder_read: bool = True
     occluder_plain: float = Field(default=8.0, gt=0.0)
     occluder_min_pairs: int = Field(default=4, ge=1)
@@ -257,7 +263,8 @@ class Verifier:
         self.settings = settings
         self._foreign = np.ascontiguousarray(foreign_codes(model.background_hue, search, model.hues_in))
         self._samples = _texture_samples(model, settings)
-        self._clip_levels = _clip_levels(self._samples, settings)
+        self._clip_levels = _clip_levels(self._samples, settings.texture_min, settings.saturated)
+        self._outline_saturated = settings.saturated
         self._outline = _outline_pairs(model, settings, self._samples)
         self._neighbours = [] if self._samples is None else _cell_grid(self._samples, settings).neighbours()
         sheet_hue = round(model.background_hue) % HUE_RANGE
@@ -366,7 +373,7 @@ class Verifier:
             np.ascontiguousarray(rig.transform_right_to_left), inner, outer, model_bgr, inner_cells,
             agree_cells, self._images[0], self._images[1], codes_left, codes_right,
             self._gains[0], self._gains[1], factors_left, index_left, factors_right, index_right, block,
-            s.saturated, self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
+            self._outline_saturated, self._foreign, self._sheet, s.chroma_tolerance, s.brightness_tolerance,
         )  # fmt: skip
         edge, same, astray, seam, coloured = (counts[:, k] for k in range(5))
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -381,6 +388,23 @@ class Verifier:
             outline = np.where(measured >= s.outline_min_pairs, edge / measured, np.nan)
             share = np.where(measured + astray > 0, astray / (measured + astray), np.nan)
         return outline, share
+
+    @contextmanager
+    def clipped_from(self, level: float) -> Iterator[bool]:
+        """Within the block, an image channel read at `level` or more counts as clipped (as
+        `VerificationSettings.saturated` does everywhere); yields whether that changes
+        anything: False when `level` is the settings' own or no pixel of the images reaches it."""
+        images = self._images
+        if level >= self.settings.saturated or images is None or max(int(i.max()) for i in images) < level:
+            yield False
+            return
+        saved = self._clip_levels, self._outline_saturated
+        self._clip_levels = _clip_levels(self._samples, self.settings.texture_min, level)
+        self._outline_saturated = level
+        try:
+            yield True
+        finally:
+            self._clip_levels, self._outline_saturated = saved
 
     @contextmanager
     def pixels_hidden(self, masks: tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]]) -> Iterator[None]:
@@ -707,7 +731,8 @@ def _nearest_cells(points: FloatArray, samples: tuple) -> npt.NDArray[np.int64]:
 
 def _clip_levels(
     samples: tuple[npt.NDArray[Any], npt.NDArray[Any], npt.NDArray[Any], npt.NDArray[Any], int] | None,
-    settings: VerificationSettings,
+    texture_min: float,
+    saturated: float,
 ) -> npt.NDArray[np.float32]:
     """(N,) the image value from which a sample's channel reads as clipped (`saturated`): the
     samples of plain cells (the model's RMS deviation over the cell under `texture_min`)
@@ -723,8 +748,8 @@ def _clip_levels(
     for k in range(3):
         mean = np.bincount(cells, values[:, k], n_cells) / count
         variance += np.bincount(cells, values[:, k].astype(np.float64) ** 2, n_cells) / count - mean**2
-    plain = np.sqrt(np.maximum(variance, 0.0) / 3.0) < settings.texture_min
-    return np.ascontiguousarray(np.where(plain[cells], settings.saturated, 256.0), dtype=np.float32)
+    plain = np.sqrt(np.maximum(variance, 0.0) / 3.0) < texture_min
+    return np.ascontiguousarray(np.where(plain[cells], saturated, 256.0), dtype=np.float32)
 
 
 def _cell_grid(samples: tuple, settings: VerificationSettings) -> CellGrid:
