@@ -491,13 +491,13 @@ class Verifier:
             shading = self._shading[side]
             if shading is not None:
                 corrected *= shading.factor_map((height, width))[:, :, None]
-            protected = np.zeros((height, width), dtype=np.uint8)
+            agreeing_pixels = np.zeros((height, width), dtype=np.uint8)
             agree = self._sample_pixels(pose, side, found.agreeing[side])
-            protected[agree[:, 1], agree[:, 0]] = 1
+            agreeing_pixels[agree[:, 1], agree[:, 0]] = 1
             K = self.evaluator.rig.right.camera_matrix if side else self.evaluator.rig.left.camera_matrix
             reach = int(np.ceil(0.5 * s.spacing * float(K[0, 0]) / max(float(pose[2, 3]), 1e-3))) + 1
             disc = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * reach + 1, 2 * reach + 1))
-            protected = cv2.dilate(protected, disc) > 0
+            protected = cv2.dilate(agreeing_pixels, disc) > 0
             seeds = self._sample_pixels(pose, side, found.hidden[side])
             mask = np.zeros((height, width), dtype=bool)
             for colour in colours:
