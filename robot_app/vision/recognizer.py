@@ -716,17 +716,7 @@ class Recognizer:
         if plane is None or not plane.trusted or plane.correlation - plane.correlation_at_pose < s.min_gain:
             return chosen, measurement
         start = onto_plane(chosen.pose, plane.normal, plane.distance)
-        p = self.proposer
-        textured = chosen.verification.textured_share >= self.settings.verify.align_textured_from
-        poses = search_in_plane(
-            start,
-            p.fitness(s.research.stride),
-            p.fitness(),
-            p.fitness(subpixel=True),
-            s.research,
-            self._logits,
-            turns=s.research.turns and textured,
-        )
+        poses = self._searched_in_plane(start, chosen.verification)
         found = [self._at_depth(pose, 0.0) for pose in poses]
         best = max(found, key=lambda item: item.score).pose  # the first (best by hue) on ties
         again = self.depth.measure(best)
@@ -798,6 +788,22 @@ class Recognizer:
             return plain
         return aligned
 
+    def _searched_in_plane(self, start: FloatArray, verification: Verification) -> FloatArray:
+        """(N, 4, 4) the poses `plane_search.search_in_plane` finds from `start` on its plane
+        (`depth.research`; turned too where the texture at the pose it comes from,
+        `verification`, is compared mostly by correlation), ranked by the decision."""
+        s, p = self.settings.depth.research, self.proposer
+        textured = verification.textured_share >= self.settings.verify.align_textured_from
+        return search_in_plane(
+            start,
+            p.fitness(s.stride),
+            p.fitness(),
+            p.fitness(subpixel=True),
+            s,
+            self._logits,
+            turns=s.turns and textured,
+        )
+
     def _searched_past_occluder(
         self, read: _Verified, masks: tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]]
     ) -> tuple[_Verified, tuple[npt.NDArray[np.bool_], npt.NDArray[np.bool_]]] | None:
@@ -811,18 +817,8 @@ class Recognizer:
             plane = self.depth.fit_plane(read.pose)
             if plane is not None and plane.trusted:
                 start = onto_plane(read.pose, plane.normal, plane.distance)
-        p = self.proposer
-        textured = read.verification.textured_share >= self.settings.verify.align_textured_from
         with self.verifier.pixels_hidden(masks):
-            poses = search_in_plane(
-                start,
-                p.fitness(s.research.stride),
-                p.fitness(),
-                p.fitness(subpixel=True),
-                s.research,
-                self._logits,
-                turns=s.research.turns and textured,
-            )
+            poses = self._searched_in_plane(start, read.verification)
             best = max((self._at_depth(T, 0.0) for T in poses), key=lambda item: item.score).pose
         if s.enabled:
             again = self.depth.measure(best)
