@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
-from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
+from robot_app.vision.camera import ModelCamera
 from robot_app.vision.photo_model import make_model
 from robot_app.vision.recognizer import Recognizer
 from robot_app.vision.synthetic import (
@@ -16,9 +16,7 @@ from robot_app.vision.synthetic import (
     render_stereo_pair,
 )
 from robot_app.vision.synthetic_camera import CameraRealism
-
-CAMERA = PinholeCamera.from_fov((640, 480), np.deg2rad(48))
-RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
+from tests.bench_rig import CAMERA, RIG
 
 
 def even_stripes(width: float = 0.0075) -> SyntheticCloth:

@@ -8,8 +8,6 @@ import pytest
 from robot_app.config import validate
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform, pose_error, rotation_about_z, rotation_from_rpy
-from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
-from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.fitness_scores import OFF_IMAGE
 from robot_app.vision.occluder_read import (
@@ -18,32 +16,20 @@ from robot_app.vision.occluder_read import (
     read_occluders,
     same_colour,
 )
-from robot_app.vision.photo_model import make_model
 from robot_app.vision.recognizer import RecognitionSettings, Recognizer
 from robot_app.vision.synthetic import (
     OCCLUDER_COLOURS,
     SyntheticCloth,
     occluder_covering,
-    render_model_photo,
     render_stereo_pair,
 )
 from robot_app.vision.synthetic_camera import CameraRealism
 from robot_app.vision.synthetic_prints import extended_cloth
+from tests.bench_rig import RIG, catalogue_model
 
-CAMERA = PinholeCamera.from_fov((640, 480), np.deg2rad(48))
-RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
-MODEL_CAMERA = ModelCamera(CAMERA, 0.40)
 BROWN = OCCLUDER_COLOURS["brown"]
 RED_YELLOW_STRIPES, VIOLET_RED_TRAPEZOID, RED_CYAN_TSHIRT = 2, 7, 8
-_MODELS: dict[int, ClothModel] = {}
-
-
-def model(index: int) -> ClothModel:
-    if index not in _MODELS:
-        cloth = extended_cloth(index)
-        photo, background = render_model_photo(cloth, MODEL_CAMERA)
-        _MODELS[index] = make_model(photo, MODEL_CAMERA, background, name=cloth.name)
-    return _MODELS[index]
+model = catalogue_model
 
 
 def truth_of(rng: np.random.Generator) -> np.ndarray:

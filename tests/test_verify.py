@@ -10,40 +10,30 @@ import pytest
 from robot_app.config import validate
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
-from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.decide import DecisionSettings, Evidence, confidence, decide, ranking
 from robot_app.vision.exposure import ExposureSettings, scene_exposure, sheet_gains
 from robot_app.vision.fitness import FitnessEvaluator
-from robot_app.vision.photo_model import make_model
 from robot_app.vision.propose import HALF_TURN
 from robot_app.vision.recognizer import RecognitionSettings, Recognizer
 from robot_app.vision.synthetic import (
     OCCLUDER_COLOURS,
     occluder_covering,
-    render_model_photo,
     render_stereo_pair,
 )
 from robot_app.vision.synthetic_camera import CameraRealism
 from robot_app.vision.synthetic_prints import extended_cloth, folded_corner
 from robot_app.vision.verify import VerificationSettings, Verifier
+from tests.bench_rig import RIG, catalogue_model
 
-CAMERA = PinholeCamera.from_fov((640, 480), np.deg2rad(48))
-RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
-MODEL_CAMERA = ModelCamera(CAMERA, 0.40)
 POSE = make_transform(rotation_from_rpy(0.04, -0.03, 2.2), [-0.03, 0.02, 0.575])
 DARK_TINTED = CameraRealism(gain=0.68, white_balance=(1.1, 0.9, 1.05), shading=0.2, noise_sigma=5.0,
                             blur_sigma=1.0, jpeg_quality=75)  # fmt: skip
-_MODELS: dict[int, ClothModel] = {}
 
 AMBER_CAT, AMBER_COFFEE, AMBER_ASTRONAUT, RED_PLAIN = 15, 14, 13, 0
 
 
-def model(index: int) -> ClothModel:
-    if index not in _MODELS:
-        photo, background = render_model_photo(extended_cloth(index), MODEL_CAMERA)
-        _MODELS[index] = make_model(photo, MODEL_CAMERA, background, name=extended_cloth(index).name)
-    return _MODELS[index]
+model = catalogue_model
 
 
 def verifier_on(index: int, left: np.ndarray, right: np.ndarray, gains=None) -> Verifier:
