@@ -10,18 +10,32 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from robot_app.control.clear_table_records import LostPlace, LostSettings
+from robot_app.control.clear_table_records import (
+    BoxPlace,
+    ClearTableSettings,
+    LostPlace,
+    LostSettings,
+    TableArea,
+)
+from robot_app.control.episode import Outcome
+from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.table_furniture import graspable
+from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_lost import (
+    UNGRASPABLE,
+    LostMatch,
     inner_pixel,
     inner_pixels,
     match_lost,
     near_the_loss,
+    pick_lost,
     reachable_point,
     weighed_as,
 )
+from robot_app.control.table_survey import TablePlane
 from robot_app.geometry import make_transform, rotation_about_z
-from robot_app.vision import Recognition, Recognizer
-from robot_app.vision.identify import IdentifySettings, resolve
+from robot_app.vision import PinholeCamera, Recognition, Recognizer
+from robot_app.vision.identify import IdentifySettings, UnknownRegion, resolve
 from robot_app.vision.synthetic import render_stereo_pair
 from robot_app.vision.synthetic_catalogue import synthetic_cloth
 from tests.table_scene import CAMERA, RIG, recognizer
@@ -319,3 +333,77 @@ def test_a_blind_lift_is_named_after_the_lost_cloths_whose_weights_it_reads() ->
     assert weighed_as(0.076, "No.1", ("No.2", "No.3"), weights, settings) == ("No.1", "No.2", "No.3")
     assert weighed_as(0.150, "No.1", ("No.2", "No.3", "No.4"), weights, settings) == ()
     assert weighed_as(0.047, "No.1", ("No.9",), weights, settings) == ()  # a weight not known: no
+
+
+# --------------------------------------------------------------- where a blind hand may aim
+# Bench episode 24 (session 18): a lost cloth hanging over the table's edge next to the whites
+# box; blind grasps aimed at its region's innermost pixel, whose ray met the table plane at
+# y = 0.75 m where the table ends at 0.70, and one beside the box lifted a cloth hanging out
+# of it. The cell's own geometry, as experiments/clear_table.py hands it in:
+TABLE_TOP = TableArea((0.35 - 0.65, 0.35 + 0.65), (-0.70, 0.70))
+WHITES = BoxPlace("whites", np.array([0.30, 0.56, 0.0]), 0.22, 0.10, 0.01)
+DOWN_CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(60))
+
+
+def _camera_over(x: float, y: float, height: float = 0.5) -> np.ndarray:
+    return make_transform(np.diag([1.0, -1.0, -1.0]), [x, y, height])  # looking straight down
+
+
+def _ray_cast_xy(transform: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where each pixel's ray meets z = 0, cast pixel by pixel (not `TablePlane`)."""
+    w, h = DOWN_CAMERA.image_size
+    u, v = np.meshgrid(np.arange(w) + 0.0, np.arange(h) + 0.0)
+    K = DOWN_CAMERA.camera_matrix
+    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
+    rays = rays @ transform[:3, :3].T
+    t = -transform[2, 3] / rays[..., 2]
+    return transform[0, 3] + t * rays[..., 0], transform[1, 3] + t * rays[..., 1]
+
+
+def test_a_blind_grasp_aims_only_on_the_table_top_and_clear_of_the_box_walls() -> None:
+    transform = _camera_over(0.45, 0.62)  # sees the table's +y edge and the whites box's corner
+    capture = SimpleNamespace(transform_right_camera_to_world=transform)
+    settings = LostSettings()
+    whole, plane = np.ones((240, 320), bool), TablePlane(DOWN_CAMERA.camera_matrix, 0.0)
+    aims = graspable(whole, capture, plane, TABLE_TOP, [WHITES], settings.edge_inset, settings.wall_clearance)
+    x, y = _ray_cast_xy(transform)
+    on_top = (y <= 0.70 - settings.edge_inset) & (x >= -0.30 + settings.edge_inset)
+    reach = 0.11 + 0.01 + settings.wall_clearance  # inner half side, wall, clearance
+    clear = np.maximum(np.abs(x - 0.30), np.abs(y - 0.56)) > reach
+    truth = on_top & clear
+    assert np.any(~on_top) and np.any(on_top & ~clear) and np.any(truth)  # all three in view
+    assert np.count_nonzero(aims != truth) <= 0.002 * truth.size  # the rounding at the borders
+    # a region wholly past the edge leaves no aim; the table top unknown, any point of it
+    past = whole & (y > 0.71)
+    assert not np.any(graspable(past, capture, plane, TABLE_TOP, [], 0.02, 0.05))
+    assert np.array_equal(graspable(past, capture, plane, None, [], 0.02, 0.05), past)
+
+
+def test_a_lost_cloth_with_no_graspable_part_is_not_grasped_blind_and_the_cause_is_booked() -> None:
+    transform = _camera_over(0.45, 0.62)
+    x, y = _ray_cast_xy(transform)
+    past = (y > 0.72) & (np.abs(x - 0.45) < 0.05)  # a cloth hanging past the table's edge
+    vs, us = np.nonzero(past)
+    region = UnknownRegion((float(us.mean()), float(vs.mean())), int(past.sum()), past)
+    ledger = TableLedger()
+    ledger.lost["No.6"] = LostPlace(
+        "put back after the lift", np.array([0.4, 0.5]), np.array([0.45, 0.65]), ()
+    )
+
+    class NoMotion:  # the hand must not move
+        def __getattr__(self, name: str):
+            raise AssertionError(f"the arm was asked to {name}")
+
+    job = SimpleNamespace(
+        settings=ClearTableSettings(), loop_settings=LoopSettings(), table_z=0.0,
+        survey_capture=SimpleNamespace(transform_right_camera_to_world=transform),
+        boxes={"whites": WHITES}, sort=SimpleNamespace(box_for=lambda name: "whites"),
+        table=TablePlane(DOWN_CAMERA.camera_matrix, 0.0), table_top=TABLE_TOP,
+        motion=NoMotion(), ledger=ledger, cell=SimpleNamespace(time=42.0), weights={},
+    )  # fmt: skip
+    pick_lost(job, LostMatch("No.6", region, 0.9))  # type: ignore[arg-type]
+    (attempt,) = ledger.attempts
+    assert attempt.result.outcome is Outcome.UNREACHABLE and attempt.result.reason.startswith(UNGRASPABLE)
+    assert attempt.result.grasp_attempts == 0 and attempt.result.sim_time == 0.0
+    assert ledger.records["No.6"]["attempts"] == 1
+    assert any(UNGRASPABLE in note for note in ledger.records["No.6"]["notes"])  # the cause, in its row

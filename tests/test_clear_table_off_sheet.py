@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 import pytest
 
-from robot_app.control.clear_table_records import OffSheetSettings, SheetArea
+from robot_app.control.clear_table_records import OffSheetSettings, TableArea
 from robot_app.control.table_furniture import off_sheet, table_beyond_sheet, without_furniture
 from robot_app.control.table_lost import palette_share
 from robot_app.control.table_survey import TablePlane
@@ -28,7 +28,7 @@ from robot_app.vision.identify import UnknownRegion
 
 CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(60))
 TABLE = TablePlane(CAMERA.camera_matrix, 0.0)
-SHEET = SheetArea((0.235, 0.865), (-0.375, 0.375))
+SHEET = TableArea((0.235, 0.865), (-0.375, 0.375))
 SMALLEST = 0.01 * 320 * 240  # IdentifySettings.min_unknown_area of the image
 # BGR as the realistic cell renders them (medians read off an episode's survey image)
 GREEN, BEIGE, SHADE = (43, 161, 25), (167, 180, 198), (64, 67, 71)

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 
 import numpy as np
+import numpy.typing as npt
 from pydantic import Field
 
 from robot_app.arrays import FloatArray
@@ -34,6 +35,15 @@ class LostSettings(StrictModel):
             for a put-back) [m].
         apart: ... and farther than this from every unknown region the survey before the
             loss saw (what was there then is not the lost cloth) [m].
+        edge_inset: the blind grasp aims only at the region's part that lies at least this
+            far inside the table top's edge: past it a cloth hangs down, and fingers closing
+            at `grasp_height` there close on air (bench episode 24, session 18: two blind
+            grasps at y = 0.75 m, the table ending at 0.70) [m].
+        wall_clearance: ... and at least this far from every box's outer walls: the open
+            hand's half span (fingers 0.04 m off the axis, 0.01 m thick; the palm 0.1 m
+            wide), so no finger lands on a wall and the hand lifts no cloth out of the box
+            (the same episode: a grasp beside the whites box lifted a cloth hanging out of
+            it) [m].
     """
 
     enabled: bool = True
@@ -42,6 +52,8 @@ class LostSettings(StrictModel):
     grasp_height: float = Field(0.025, ge=0.02, le=0.08)
     reach: float = Field(0.3, gt=0.0)
     apart: float = Field(0.05, ge=0.0)
+    edge_inset: float = Field(0.02, ge=0.0)
+    wall_clearance: float = Field(0.05, ge=0.0)
 
 
 class OffSheetSettings(StrictModel):
@@ -50,7 +62,7 @@ class OffSheetSettings(StrictModel):
     `identify`'s foreground is whatever is not the sheet, so the bare table around it
     would count as an unknown cloth, and a cloth lying across the sheet's edge as one
     region with the table (its colour share then too low to be picked again). Where a
-    pixel's ray meets the table beyond the sheet (`SheetArea`, known from the cell), it is
+    pixel's ray meets the table beyond the sheet (`TableArea`, known from the cell), it is
     table, not cloth, when its hue is the table's: the most frequent hue of those pixels
     in that image (the table is the one large coloured surface there), at least
     `min_saturation` saturated (a white or grey cloth has no hue; the table's shade keeps
@@ -70,11 +82,19 @@ class OffSheetSettings(StrictModel):
 
 
 @dataclass(frozen=True)
-class SheetArea:
-    """The green sheet on the table: an axis-aligned rectangle in Σ_W [m]."""
+class TableArea:
+    """An axis-aligned rectangle on the table in Σ_W [m]: the green sheet, or the table top."""
 
     x_range: tuple[float, float]
     y_range: tuple[float, float]
+
+    def contains(self, xy: npt.ArrayLike, inset: float = 0.0) -> npt.NDArray[np.bool_]:
+        """(N,) which of the (N, 2) points `xy` [m] lie in the rectangle shrunk by `inset` [m]
+        on every side."""
+        p = np.asarray(xy, dtype=float).reshape(-1, 2)
+        (x0, x1), (y0, y1) = self.x_range, self.y_range
+        inside_x = (p[:, 0] >= x0 + inset) & (p[:, 0] <= x1 - inset)
+        return np.asarray(inside_x & (p[:, 1] >= y0 + inset) & (p[:, 1] <= y1 - inset), dtype=bool)
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,9 @@ class Outcome(StrEnum):
     TRAJECTORY_ERROR = "trajectory_error"
     TIMEOUT = "timeout"
     INTERRUPTED = "interrupted"  # the user stopped it (SIGINT/SIGTERM) between two control steps
-    UNREACHABLE = "unreachable"  # refused before the start: the belt takes the cloth away too soon
+    # refused before the start: the belt takes the cloth away too soon, or no hand can close
+    # on a lost cloth where it lies (clear-table's blind grasp, `table_furniture.graspable`)
+    UNREACHABLE = "unreachable"
 
 
 class Strategy(StrEnum):

@@ -46,8 +46,8 @@ from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
     LostPlace,
-    SheetArea,
     SurveyRecord,
+    TableArea,
     TableResult,
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
@@ -128,6 +128,8 @@ class TableClearer:
         posture_seed: joints [rad] the observation IK starts from (e.g. the arm's home).
         sheet: the green sheet's extent on the table (None: unknown, the table beyond it
             is not told from cloths; `ClearTableSettings.off_sheet`).
+        table_top: the table top's extent (None: unknown; a blind grasp of a lost cloth
+            then may aim past its edge, `LostSettings.edge_inset`).
 
     Raises:
         IKError: the observation pose has no IK solution within the joint limits.
@@ -157,7 +159,8 @@ class TableClearer:
         weigh: Callable[[], float] | None = None,
         weights: Mapping[str, float] | None = None,
         posture_seed: npt.ArrayLike | None = None,
-        sheet: SheetArea | None = None,
+        sheet: TableArea | None = None,
+        table_top: TableArea | None = None,
     ) -> None:
         if not recognizers:
             raise ValueError("the job needs at least one known cloth")
@@ -186,6 +189,7 @@ class TableClearer:
         self.weigh = weigh
         self.weights = dict(weights or {})
         self.sheet = sheet
+        self.table_top = table_top
         self.rig = next(iter(self.recognizers.values())).rig
         self.table = TablePlane(self.rig.right.camera_matrix, self.table_z)
         self._phase: str = "survey"

@@ -1,7 +1,9 @@
 """The cell's furniture in a clear-table survey image: the collection boxes and the bare
 table beyond the green sheet. `vision.identify` reports every foreground pixel no cloth
 model explains as unknown; these are known, not cloths, and are taken out of the unknown
-regions before the job looks for a lost cloth there (`TableClearer._survey`).
+regions before the job looks for a lost cloth there (`TableClearer._survey`). `graspable`
+keeps of a lost cloth's region the part a blind grasp may aim at: on the table top, clear
+of the boxes' walls (`table_lost.pick_lost`).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.control.cell import StereoCapture
-from robot_app.control.clear_table_records import BoxPlace, OffSheetSettings, SheetArea
+from robot_app.control.clear_table_records import BoxPlace, OffSheetSettings, TableArea
 from robot_app.control.table_survey import TablePlane
 from robot_app.geometry import invert_transform
 from robot_app.vision.camera import PinholeCamera
@@ -87,21 +89,45 @@ SMOOTHING = 5  # the hues are read off the image averaged over this many pixels 
 
 
 def off_sheet(
-    capture: StereoCapture, table: TablePlane, sheet: SheetArea, shape: tuple[int, int]
+    capture: StereoCapture, table: TablePlane, sheet: TableArea, shape: tuple[int, int]
 ) -> npt.NDArray[np.bool_]:
     """(H, W) the right-image pixels whose ray meets the table plane outside the green
     `sheet` (or never meets it): there, not-sheet is not yet cloth."""
     h, w = shape
     v, u = np.mgrid[0:h, 0:w]
-    xy = table.pixels(capture, u, v)
-    on = (
-        (xy[:, 0] >= sheet.x_range[0])
-        & (xy[:, 0] <= sheet.x_range[1])
-        & (xy[:, 1] >= sheet.y_range[0])
-        & (xy[:, 1] <= sheet.y_range[1])
-        & table.ahead(capture, u, v)
-    )
+    on = sheet.contains(table.pixels(capture, u, v)) & table.ahead(capture, u, v)
     return np.asarray(~on.reshape(h, w), dtype=bool)
+
+
+def graspable(
+    mask: npt.NDArray[np.bool_],
+    capture: StereoCapture,
+    table: TablePlane,
+    top: TableArea | None,
+    boxes: Iterable[BoxPlace],
+    edge_inset: float,
+    wall_clearance: float,
+) -> npt.NDArray[np.bool_]:
+    """(H, W) the pixels of `mask` (right image, as `vision.identify` sees it) a hand can
+    grasp at from above: their ray meets the table plane at least `edge_inset` [m] inside
+    the table `top` (None: the top's extent unknown, any point of the plane) and at least
+    `wall_clearance` [m] outside every box's outer walls (`BoxPlace`). A cloth hanging past
+    the table's edge or against a wall shows pixels whose ray meets the plane where no hand
+    can close on it."""
+    keep = np.zeros(mask.shape, bool)
+    v, u = np.nonzero(mask)
+    if not len(u):
+        return keep
+    xy = table.pixels(capture, u, v)
+    ok = table.ahead(capture, u, v)
+    if top is not None:
+        ok &= top.contains(xy, edge_inset)
+    for box in boxes:
+        c = np.asarray(box.centre, dtype=float)
+        reach = box.inner_size / 2 + box.wall_thickness + wall_clearance
+        ok &= np.max(np.abs(xy - c[:2]), axis=1) > reach
+    keep[v[ok], u[ok]] = True
+    return keep
 
 
 def table_coloured(
@@ -134,7 +160,7 @@ def table_beyond_sheet(
     capture: StereoCapture,
     camera: PinholeCamera,
     table: TablePlane,
-    sheet: SheetArea,
+    sheet: TableArea,
     settings: OffSheetSettings,
 ) -> npt.NDArray[np.bool_]:
     """(H, W) the pixels of the undistorted right image that show the bare table beyond
@@ -145,6 +171,7 @@ def table_beyond_sheet(
 
 __all__ = [
     "furniture_mask",
+    "graspable",
     "off_sheet",
     "table_beyond_sheet",
     "table_coloured",

@@ -12,7 +12,10 @@ unknown region is not a guess about an unknown table when:
    (within `margin` of each other): neither is picked if they belong in different boxes;
    if they belong in the same box, which one it is does not change where it goes, so the
    best is picked and the others are its *alike* (`LostMatch.alike`);
-2. once lifted (fingers closed at `grasp_height` over the region's innermost pixel), the
+2. once lifted (fingers closed at `grasp_height` over the innermost pixel of the region's
+   part a hand can close on: on the table top, clear of the boxes' walls,
+   `table_furniture.graspable`; a region with no such part is not grasped, its attempt
+   booked `unreachable` with the cause), the
    wrist's load cell reads that cloth's weight (`weight_verdict`, as every lift), or
    that of the cloth and some of its alike together, or of one of its alike
    (`weighed_as`: a heap of two lost cloths of one box comes up as one, and goes into
@@ -54,6 +57,7 @@ from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
 from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, weight_verdict
 from robot_app.control.pick_place import LIFTED, carry_over_box, release_into_box
+from robot_app.control.table_furniture import graspable
 from robot_app.errors import IKError
 from robot_app.vision import Recognizer
 from robot_app.vision.exposure import sheet_gains
@@ -68,6 +72,7 @@ LIT_PERCENTILE = 95  # a region's or model's lit value: this percentile of its p
 LIGHTER_TOLERANCE = 40.0  # grey levels a region may look lighter than a cloth's lit value
 REACH_TRIES = 24  # deepest pixels of a lost cloth's region tried for a reachable blind grasp
 MAX_HEAP = 3  # lost cloths one blind lift may hold together (a put-back heap of a double pick and more)
+UNGRASPABLE = "no blind grasp"  # a lost cloth's region no hand can close on (`table_furniture.graspable`)
 
 
 @dataclass(frozen=True)
@@ -329,11 +334,16 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     capture = job.survey_capture
     box = job.boxes[job.sort.box_for(name)]
     heights = (loop.pregrasp_height, s.grasp_height, loop.lift_height)
-    x, y = reachable_point(
-        region.mask,
-        lambda px: job.table.point(capture, px),
-        lambda x, y: all(job.motion.reaches([x, y, table_z + h]) for h in heights),
+    aims = graspable(
+        region.mask, capture, job.table, job.table_top, job.boxes.values(), s.edge_inset, s.wall_clearance
     )
+    x, y = job.table.point(capture, region.centroid)
+    if np.any(aims):
+        x, y = reachable_point(
+            aims,
+            lambda px: job.table.point(capture, px),
+            lambda x, y: all(job.motion.reaches([x, y, table_z + h]) for h in heights),
+        )
     known_lost = set(job.ledger.lost)
     unnamed = name not in known_lost  # the other cloth of a double pick, not named
     place = job.ledger.unnamed[-1] if unnamed else job.ledger.lost[name]
@@ -341,11 +351,20 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     where = np.eye(4)
     where[:3, 3] = (x, y, table_z)
     attempt = AttemptState(None, box, where, job.cell.time, lost_name=name)
-    attempt.notes.append(
-        f"lost ({how}), not recognised since: picked blind at ({x:.2f}, {y:.2f}), "
-        f"an unknown region {share:.0%} in its colours"
-        + (f" (as much in {', '.join(match.alike)}'s, same box)" if match.alike else "")
+    seen = f"an unknown region {share:.0%} in its colours" + (
+        f" (as much in {', '.join(match.alike)}'s, same box)" if match.alike else ""
     )
+    if not np.any(aims):
+        # no hand closes on it there: not tried, the attempt booked with the cause
+        reason = (
+            f"{UNGRASPABLE}: its region around ({x:.2f}, {y:.2f}) lies past the table's edge "
+            f"or within {s.wall_clearance * 100:.0f} cm of a box's walls"
+        )
+        attempt.notes.append(f"lost ({how}), not recognised since: {seen}; {reason}")
+        result = EpisodeResult.not_started(Outcome.UNREACHABLE, reason, "blind")
+        job.ledger.record_attempt(attempt, result, job.cell.time, job.weights.get(attempt.name))
+        return
+    attempt.notes.append(f"lost ({how}), not recognised since: picked blind at ({x:.2f}, {y:.2f}), {seen}")
     wall = time.perf_counter()
     samples, collisions = job.cell.limit_report(job.limits).samples, job.motion.collisions
     outcome, reason, grasps = Outcome.PLACED, "", 0

@@ -23,8 +23,8 @@ from robot_app.control.box_check import BoxCheckSettings
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
-    SheetArea,
     SurveyRecord,
+    TableArea,
     TableResult,
 )
 from robot_app.control.episode import PhaseRecord
@@ -195,10 +195,16 @@ def run_clear_table(
             )
 
 
-def _sheet(w: WorldConfig) -> SheetArea:
+def _sheet(w: WorldConfig) -> TableArea:
     """The green sheet on the table: the recognition range and its margin all round."""
     (cx, cy), (sx, sy), m = w.range.centre_xy, w.range.size_xy, w.range.sheet_margin
-    return SheetArea((cx - sx / 2 - m, cx + sx / 2 + m), (cy - sy / 2 - m, cy + sy / 2 + m))
+    return TableArea((cx - sx / 2 - m, cx + sx / 2 + m), (cy - sy / 2 - m, cy + sy / 2 + m))
+
+
+def _table_top(w: WorldConfig) -> TableArea:
+    """The table top's extent (the cell's config)."""
+    (cx, cy), (sx, sy) = w.table.centre_xy, w.table.size_xy
+    return TableArea((cx - sx / 2, cx + sx / 2), (cy - sy / 2, cy + sy / 2))
 
 
 def _run_in_cell(
@@ -271,6 +277,7 @@ def _run_in_cell(
         },
         posture_seed=w.robot.home_joints,
         sheet=_sheet(w),
+        table_top=_table_top(w),
     )
     world.robot.reset_joints(
         clearer.observation_joints
