@@ -8,6 +8,7 @@ import pytest
 
 from robot_app.config import load_config
 from robot_app.control.box_check import BoxCheckSettings, BoxView, check_box
+from robot_app.control.clear_table_records import TableArea
 from robot_app.control.grasp_point import PileGraspSettings, choose_pile_grasp, points_in_mask
 from robot_app.control.job_motion import PutBackSettings, cloth_half_width, lay_out_paths
 from robot_app.control.limits import JointLimits, TrajectorySettings
@@ -442,3 +443,32 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     again = table_clearer.AttemptState(attempt.target, attempt.box, np.eye(4), 0.0, others=(four,))  # type: ignore[arg-type]
     job._after_lift(again, loop)  # type: ignore[arg-type]
     assert again.came_along == ("No.4",) and put_back == ["No.10"] and len(resumed) == 1
+
+
+def test_put_back_lays_out_on_the_table_top_clear_of_the_boxes() -> None:
+    # Bench episode 24 (session 18): a double lift at (0.51, 0.49), by the whites box
+    # (centre (0.30, 0.56), inner 0.22 m, walls 0.01 m) and 0.21 m from the table's edge at
+    # y = 0.70, was put back from a look-around view that reached past both; the heap then
+    # hung over the edge, where no blind grasp could close on it.
+    table = TableArea((-0.30, 1.00), (-0.70, 0.70))
+    view = np.array([[0.30, 0.30], [0.80, 0.30], [0.80, 0.90], [0.30, 0.90]])
+    walls = [(np.array([0.30, 0.56]), 0.12)]
+    settings = PutBackSettings(directions=12, max_length=0.25, view_margin=0.04, waypoints=3)
+    start, reach, half_width = np.array([0.51, 0.49]), 0.2, 0.06
+    unbounded = lay_out_paths(start, reach, 0.0, 0.05, np.empty((0, 2)), view, settings, half_width)
+    # the view alone lets the laid cloth reach past the edge
+    assert any(p.fits and p.waypoints[-1, 1] + half_width > 0.70 for p in unbounded)
+    paths = lay_out_paths(
+        start, reach, 0.0, 0.05, np.empty((0, 2)), view, settings, half_width, table.corners(), walls
+    )
+    fitting = [p for p in paths if p.fits]
+    assert fitting and paths[0].fits
+    for path in fitting:  # the laid cloth on the table top and off the box, by the margin
+        laid = start + np.linspace(0.0, 1.0, 11)[1:, None] * (path.waypoints[-1, :2] - start)
+        assert np.all(laid[:, 1] + half_width <= 0.70 - settings.view_margin + 1e-9)
+        outside = np.max(np.abs(laid - walls[0][0]), axis=1) - walls[0][1]
+        assert np.all(outside >= half_width + settings.view_margin - 1e-9)
+    for path in paths:  # no strip at all enters the box or leaves the table
+        end = path.waypoints[-1, :2]
+        assert end[1] <= 0.70 - settings.view_margin + 1e-9
+        assert np.max(np.abs(end - walls[0][0])) - walls[0][1] >= settings.view_margin - 1e-9

@@ -96,6 +96,11 @@ class TableArea:
         inside_x = (p[:, 0] >= x0 + inset) & (p[:, 0] <= x1 - inset)
         return np.asarray(inside_x & (p[:, 1] >= y0 + inset) & (p[:, 1] <= y1 - inset), dtype=bool)
 
+    def corners(self) -> FloatArray:
+        """(4, 2) its corners in order around it [m]."""
+        (x0, x1), (y0, y1) = self.x_range, self.y_range
+        return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+
 
 @dataclass(frozen=True)
 class LostPlace:

@@ -30,7 +30,7 @@ cloth stays inside.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -238,9 +238,12 @@ def lay_out_paths(
     view_xy: npt.ArrayLike,
     settings: PutBackSettings | None = None,
     half_width: float = 0.0,
+    table_xy: npt.ArrayLike | None = None,
+    keep_out: Sequence[tuple[npt.ArrayLike, float]] = (),
 ) -> tuple[LayOutPath, ...]:
     """The lay-out paths inside the view, those whose laid cloth fits first, then most free
-    first (module docstring).
+    first (module docstring). "Inside the view" is inside the view and the table top
+    (`table_xy`) and outside every `keep_out` square.
 
     Args:
         start_xy: (2,) where the hand is now, (x, y) in Σ_W [m].
@@ -251,6 +254,10 @@ def lay_out_paths(
         view_xy: (4, 2) the view's corners on the table, in order around it [m].
         settings: see `PutBackSettings`.
         half_width: how far the laid cloth reaches to either side of the strip [m].
+        table_xy: (4, 2) the table top's corners, in order around it [m] (None: the view
+            lies on the table).
+        keep_out: ((2,) centre, half side) of squares on the table no strip and no laid
+            cloth may enter (the collection boxes' outer walls) [m].
 
     Raises:
         ValueError: a negative reach, half width or release height, or not 4 view corners.
@@ -262,8 +269,15 @@ def lay_out_paths(
             f"got {reach}, {half_width}, {release_height}"
         )
     corners = np.asarray(view_xy, dtype=float)
-    if corners.shape != (4, 2):
-        raise ValueError(f"view_xy must be (4, 2) corners, got {corners.shape}")
+    table = None if table_xy is None else np.asarray(table_xy, dtype=float)
+    for name, quad in (("view_xy", corners), ("table_xy", table)):
+        if quad is not None and quad.shape != (4, 2):
+            raise ValueError(f"{name} must be (4, 2) corners, got {quad.shape}")
+    squares = [(np.asarray(c, dtype=float).reshape(2), float(half)) for c, half in keep_out]
+
+    def depth(points: FloatArray) -> FloatArray:
+        return _room_depth(points, corners, table, squares)
+
     start = np.asarray(start_xy, dtype=float).reshape(2)
     length = min(reach, s.max_length)
     rest = reach - length  # not laid: falls around the strip's end
@@ -274,13 +288,13 @@ def lay_out_paths(
     for angle in np.arange(s.directions) * 2 * np.pi / s.directions:
         direction = np.array([np.cos(angle), np.sin(angle)])
         strip = start + np.linspace(0.0, 1.0, 11)[:, None] * length * direction
-        if not np.all(_inside(strip, corners, s.view_margin)):
+        if not np.all(depth(strip) >= s.view_margin):
             continue
         # the laid cloth: beside the strip (past the start, where it lay before) and round its end
         slack = (
             min(
-                float(_depth(strip[1:], corners).min()) - half_width,
-                float(_depth(strip[-1:], corners)[0]) - max(half_width, rest),
+                float(depth(strip[1:]).min()) - half_width,
+                float(depth(strip[-1:])[0]) - max(half_width, rest),
             )
             - s.view_margin
         )
@@ -306,9 +320,18 @@ def cloth_half_width(points_model: npt.ArrayLike) -> float:
     return float(extents.min()) / 2
 
 
-def _inside(points: FloatArray, corners: FloatArray, margin: float) -> npt.NDArray[np.bool_]:
-    """Which points lie inside the convex quadrilateral by at least `margin` [m]."""
-    return _depth(points, corners) >= margin
+def _room_depth(
+    points: FloatArray, view: FloatArray, table: FloatArray | None, squares: list[tuple[FloatArray, float]]
+) -> FloatArray:
+    """How far each point lies inside the view and the table top and outside every square
+    ((2,) centre, half side) [m] (negative: outside, or in a square); a square's outside
+    measured along x or y, whichever is farther (no nearer than it is)."""
+    depth = _depth(points, view)
+    if table is not None:
+        depth = np.minimum(depth, _depth(points, table))
+    for centre, half in squares:
+        depth = np.minimum(depth, np.max(np.abs(points - centre), axis=1) - half)
+    return depth
 
 
 def _depth(points: FloatArray, corners: FloatArray) -> FloatArray:

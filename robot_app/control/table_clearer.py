@@ -203,7 +203,14 @@ class TableClearer:
             ik_time_budget=5 * self.loop_settings.ik_time_budget,
         )
         self.recovery = TableRecovery(
-            self.motion, self.cell, self.table, self.rig.right, self.settings, self.loop_settings
+            self.motion,
+            self.cell,
+            self.table,
+            self.rig.right,
+            self.settings,
+            self.loop_settings,
+            table_top=table_top,
+            boxes=boxes,
         )
 
     # ------------------------------------------------------------------ job

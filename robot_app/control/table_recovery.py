@@ -9,15 +9,15 @@ cloth; the ledger's count of attempts tells, so no pick path has to reset it).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
 from robot_app.arrays import FloatArray
 from robot_app.control.cell import Cell, StereoCapture
-from robot_app.control.clear_table_records import ClearTableSettings
+from robot_app.control.clear_table_records import BoxPlace, ClearTableSettings, TableArea
 from robot_app.control.intercept import hanging_reach
-from robot_app.control.job_motion import JobMotion, cloth_half_width, lay_out_paths
+from robot_app.control.job_motion import JobMotion, LayOutPath, cloth_half_width, lay_out_paths
 from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.table_survey import TablePlane
 from robot_app.errors import IKError
@@ -36,6 +36,9 @@ class TableRecovery:
         settings: the job's settings (`put_back`, `put_down_*`, `look_around`, `look_apart`).
         loop_settings: the gripper's openings and waits (`release_wait`, `close_time`,
             `gripper_open`, `settle_time`).
+        table_top: the table top's extent (None: unknown; a put-back then lays out
+            within the survey's view only, wherever that lies).
+        boxes: the collection boxes, whose walls no laid cloth may lie on.
     """
 
     def __init__(
@@ -46,8 +49,12 @@ class TableRecovery:
         camera: PinholeCamera,
         settings: ClearTableSettings,
         loop_settings: LoopSettings,
+        table_top: TableArea | None = None,
+        boxes: Sequence[BoxPlace] = (),
     ) -> None:
         self.motion = motion
+        self.table_top = table_top
+        self.boxes = tuple(boxes)
         self.cell = cell
         self.table = table
         self.camera = camera
@@ -118,8 +125,10 @@ class TableRecovery:
         notes: list[str],
     ) -> tuple[FloatArray, FloatArray]:
         """Lays what the gripper holds back onto the table, spread out over free table in
-        the survey's view (`job_motion.lay_out_paths`); if no such path is reachable, lowers
-        it while moving away from the view's middle. Lets go and rises clear of the laid
+        the survey's view and on the table top, clear of the boxes (`job_motion.lay_out_paths`;
+        where no laid cloth fits in the view, over the table beyond it); if no such path is
+        reachable, lowers it while moving away from the view's middle (towards it where the
+        table ends that way). Lets go and rises clear of the laid
         cloth; the caller goes on from there (no way back to the lift pose: the next move
         is home). Returns the laid strip: from above where it was lifted to where it was let
         go ((2,) x, y [m] each)."""
@@ -136,6 +145,14 @@ class TableRecovery:
         else:
             outward = above[:2] - survey.transform_right_camera_to_world[:2, 3]
             outward = outward / max(float(np.linalg.norm(outward)), 1e-9)
+            slid = above[:2] + s.put_down_slide * outward
+            if self.table_top is not None and not self.table_top.contains(slid, s.put_back.view_margin)[0]:
+                outward = -outward  # the table ends that way: towards the view's middle
+            notes.append(
+                f"put back lowered by the lift, {s.put_down_slide * 1000:.0f} mm towards "
+                f"({outward[0]:+.2f}, {outward[1]:+.2f})"
+                + (": no lay-out path reachable" if s.put_back.lay_out else "")
+            )
             down = above.copy()
             down[:2] += s.put_down_slide * outward
             down[2] = table_z + s.put_down_height
@@ -167,17 +184,29 @@ class TableRecovery:
         width, height = self.camera.image_size
         view = self.table.pixels(survey, [0, width - 1, width - 1, 0], [0, 0, height - 1, height - 1])
         obstacles = obstacles_xy if obstacles_xy is not None else np.empty((0, 2))
-        paths = lay_out_paths(
-            above[:2],
-            reach,
-            self.table.table_z,
-            self.settings.put_down_height,
-            obstacles,
-            view,
-            self.settings.put_back,
-            half_width=cloth_half_width(model.points_in),
-        )
-        for path in paths:
+        table = None if self.table_top is None else self.table_top.corners()
+        walls = [(b.centre[:2], b.inner_size / 2 + b.wall_thickness) for b in self.boxes]
+
+        def paths_within(room: FloatArray) -> tuple[LayOutPath, ...]:
+            return lay_out_paths(
+                above[:2],
+                reach,
+                self.table.table_z,
+                self.settings.put_down_height,
+                obstacles,
+                room,
+                self.settings.put_back,
+                half_width=cloth_half_width(model.points_in),
+                table_xy=table,
+                keep_out=walls,
+            )
+
+        in_view = paths_within(view)
+        # where no laid cloth fits in the view (the lift was at its edge), the table beyond
+        # it before a laid cloth half outside the view or a heap lowered on the spot
+        beyond = () if table is None or any(p.fits for p in in_view) else paths_within(table)
+        ordered = [p for p in (*in_view, *beyond) if p.fits] + [p for p in (*in_view, *beyond) if not p.fits]
+        for path in ordered:
             joints: list[FloatArray] = []
             try:
                 for point in path.waypoints:
