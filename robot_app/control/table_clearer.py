@@ -72,7 +72,7 @@ from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_furniture import furniture_mask, table_beyond_sheet, without_furniture
 from robot_app.control.table_ledger import TableLedger
-from robot_app.control.table_lost import LostMatch, match_lost, pick_lost
+from robot_app.control.table_lost import LostMatch, colour_patches, match_lost, pick_lost
 from robot_app.control.table_moved import moved_regions
 from robot_app.control.table_recovery import TableRecovery
 from robot_app.control.table_surface import aimed_at, surface_height
@@ -468,10 +468,16 @@ class TableClearer:
                     and self.ledger.untried(name, self.settings.max_attempts)
                 ):
                     lost[name], places[name] = self.recognizers[name], self.ledger.unnamed[-1]
-        centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in ident.unknown]
+        regions = ident.unknown
+        if regions:
+            # after the whole regions, their pieces in one lost cloth's colours: a heap of
+            # several laid back together shows each one's colours only where it lies on top
+            smallest = self.identify_settings.min_unknown_area * regions[0].mask.size
+            regions += colour_patches(self._survey_capture, regions, lost, smallest)
+        centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in regions]
         return match_lost(
             self._survey_capture,
-            ident.unknown,
+            regions,
             centres,
             lost,
             places,

@@ -41,7 +41,7 @@ callbacks, so that a witness of the lifts (simulation) sees them as every other 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from itertools import combinations
 from typing import TYPE_CHECKING
@@ -57,7 +57,7 @@ from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
 from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, weight_verdict
 from robot_app.control.pick_place import LIFTED, carry_over_box, release_into_box
-from robot_app.control.table_furniture import graspable
+from robot_app.control.table_furniture import OPENING, graspable
 from robot_app.errors import IKError
 from robot_app.vision import Recognizer
 from robot_app.vision.exposure import sheet_gains
@@ -72,6 +72,7 @@ LIT_PERCENTILE = 95  # a region's or model's lit value: this percentile of its p
 LIGHTER_TOLERANCE = 40.0  # grey levels a region may look lighter than a cloth's lit value
 REACH_TRIES = 24  # deepest pixels of a lost cloth's region tried for a reachable blind grasp
 MAX_HEAP = 3  # lost cloths one blind lift may hold together (a put-back heap of a double pick and more)
+WHOLE = 0.9  # a colour patch this much of its region is the region (tested whole)
 UNGRASPABLE = "no blind grasp"  # a lost cloth's region no hand can close on (`table_furniture.graspable`)
 
 
@@ -144,17 +145,31 @@ def not_lighter(seen: float, own: float) -> float:
     return float(np.clip(1.0 - excess / LIGHTER_TOLERANCE, 0.0, 1.0))
 
 
+def _with_folds(palette: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """`palette` with DARK appended when it has a LIGHT tone and no DARK one: a white
+    cloth's folds lie in its own shade (`palette_share`)."""
+    colours = np.asarray(palette, dtype=np.int64).reshape(-1)
+    if np.any(colours == LIGHT) and not np.any(colours == DARK):
+        colours = np.append(colours, DARK)
+    return colours
+
+
+def in_palette(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> npt.NDArray[np.bool_]:
+    """Which `codes` are in `palette` (a model's main codes), as `palette_share` counts them."""
+    flat = np.asarray(codes)
+    colours = _with_folds(palette).reshape((1,) * flat.ndim + (-1,))
+    return np.asarray(np.any(colours_match(flat[..., None], colours, hue_threshold), axis=-1), dtype=bool)
+
+
 def _palette_bins(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> FloatArray:
     """Share of `codes` taken by each colour of `palette` (the first that matches, most
     frequent first), a LIGHT tone taking DARK pixels as in `palette_share`."""
     flat = np.asarray(codes).reshape(-1)
-    colours = np.asarray(palette)
-    bins = np.zeros(len(colours))
+    bins = np.zeros(len(np.asarray(palette).reshape(-1)))
     if not flat.size:
         return bins
-    light = np.flatnonzero(colours == LIGHT)
-    if light.size and not np.any(colours == DARK):
-        colours = np.append(colours, DARK)
+    light = np.flatnonzero(np.asarray(palette).reshape(-1) == LIGHT)
+    colours = _with_folds(palette)
     matching = colours_match(flat[:, None], colours[None, :], hue_threshold)
     first = np.argmax(matching, axis=1)[np.any(matching, axis=1)]
     counts = np.bincount(first, minlength=len(colours)).astype(float)
@@ -187,6 +202,43 @@ def palette_proportions(
     if region.sum() <= 0 or model.sum() <= 0:
         return 0.0
     return float(np.minimum(region / region.sum(), model / model.sum()).sum())
+
+
+def colour_patches(
+    capture: StereoCapture,
+    regions: Sequence[UnknownRegion],
+    lost: Mapping[str, Recognizer],
+    smallest: float,
+) -> tuple[UnknownRegion, ...]:
+    """The pieces of the unknown `regions` in one lost cloth's main colours: where a heap
+    of several cloths (a put-back of a lift that took three or four) shows one of them on
+    top. Each region's pixels in a cloth's palette (`in_palette`), opened by `OPENING` px
+    square as `identify` opens its foreground, each connected piece of at least `smallest`
+    pixels and less than `WHOLE` of its region (the whole region is tested as it is),
+    largest first, none twice (cloths of one palette give the same piece)."""
+    if not lost or not regions:
+        return ()
+    first = next(iter(lost.values()))
+    image = undistorted(capture.right_bgr, first.rig.right)
+    fitness = first.settings.fitness
+    codes = image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness)
+    square = np.ones((OPENING, OPENING), np.uint8)
+    pieces: dict[bytes, UnknownRegion] = {}
+    for recognizer in lost.values():
+        ours = in_palette(codes, main_codes(recognizer.model), fitness.hue_threshold_in)
+        for region in regions:
+            ours_there = (np.asarray(region.mask, dtype=bool) & ours).astype(np.uint8)
+            mask = cv2.morphologyEx(ours_there, cv2.MORPH_OPEN, square)
+            count, labels, stats, centroids = cv2.connectedComponentsWithStats(mask, connectivity=8)
+            for k in range(1, count):
+                area = int(stats[k, cv2.CC_STAT_AREA])
+                if area >= smallest and area < WHOLE * region.area:
+                    piece = labels == k
+                    key = np.packbits(piece).tobytes()
+                    pieces.setdefault(
+                        key, UnknownRegion((float(centroids[k][0]), float(centroids[k][1])), area, piece)
+                    )
+    return tuple(sorted(pieces.values(), key=lambda region: -region.area))
 
 
 def near_the_loss(centre_xy: FloatArray, place: LostPlace, settings: LostSettings) -> bool:
@@ -495,7 +547,9 @@ def _result(
 __all__ = [
     "ColourFit",
     "LostMatch",
+    "colour_patches",
     "colour_shares",
+    "in_palette",
     "inner_pixel",
     "inner_pixels",
     "lit_value",
