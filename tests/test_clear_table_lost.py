@@ -336,6 +336,9 @@ def test_a_blind_lift_is_named_after_the_lost_cloths_whose_weights_it_reads() ->
     assert weighed_as(0.076, "No.1", ("No.2", "No.3"), weights, settings) == ("No.1", "No.2", "No.3")
     assert weighed_as(0.150, "No.1", ("No.2", "No.3", "No.4"), weights, settings) == ()
     assert weighed_as(0.047, "No.1", ("No.9",), weights, settings) == ()  # a weight not known: no
+    # a lift from a piece of a heap is one cloth or nothing: the others below are not its alike
+    assert weighed_as(0.047, "No.1", ("No.2",), weights, settings, most=1) == ()
+    assert weighed_as(0.011, "No.3", ("No.4", "No.2"), weights, settings, most=1) == ("No.4",)
 
 
 # --------------------------------------------------------------- where a blind hand may aim

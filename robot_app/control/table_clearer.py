@@ -468,23 +468,21 @@ class TableClearer:
                     and self.ledger.untried(name, self.settings.max_attempts)
                 ):
                     lost[name], places[name] = self.recognizers[name], self.ledger.unnamed[-1]
-        regions = ident.unknown
-        if regions:
-            # after the whole regions, their pieces in one lost cloth's colours: a heap of
-            # several laid back together shows each one's colours only where it lies on top
-            smallest = self.identify_settings.min_unknown_area * regions[0].mask.size
-            regions += colour_patches(self._survey_capture, regions, lost, smallest)
-        centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in regions]
-        return match_lost(
-            self._survey_capture,
-            regions,
-            centres,
-            lost,
-            places,
-            self.settings.lost,
-            self.sort.box_for,
-            frozenset(lost) - named,
-        )
+        capture = self._survey_capture
+
+        def match(regions: tuple[UnknownRegion, ...]) -> LostMatch | None:
+            centres = [np.array(self.table.point(capture, r.centroid)) for r in regions]
+            s, guessed = self.settings.lost, frozenset(lost) - named
+            return match_lost(capture, regions, centres, lost, places, s, self.sort.box_for, guessed)
+
+        whole = match(ident.unknown)
+        if whole is not None or not ident.unknown:
+            return whole
+        # else their pieces in one lost cloth's colours: a heap of several laid back together
+        # shows each one's colours only where it lies on top
+        smallest = self.identify_settings.min_unknown_area * ident.unknown[0].mask.size
+        piece = match(colour_patches(capture, ident.unknown, lost, smallest))
+        return None if piece is None else replace(piece, piece=True)
 
     # ------------------------------------------------------------------ looking around
     def _back_to_observation(self) -> None:

@@ -264,12 +264,19 @@ class LostMatch:
         share: share of its pixels in that cloth's main colours [-].
         alike: the other lost cloths that could lie there whose colours fit nearly as well
             (within `margin`); all belong in `name`'s box.
+        piece: the region is a piece of a larger one in `name`'s colours (`colour_patches`):
+            a heap whose other cloths' colours the piece does not show, so a lift is
+            taken for one cloth alone (`weighed_as` with `most=1`), never for a sum of
+            cloths that might be any of those below (bench episode 29: a four-cloth heap
+            of No.16 and three whites weighed as No.16, No.1 and No.8, all of the colours
+            box, and the three whites went into it).
     """
 
     name: str
     region: UnknownRegion
     share: float
     alike: tuple[str, ...] = ()
+    piece: bool = False
 
 
 def match_lost(
@@ -323,13 +330,14 @@ def weighed_as(
     alike: tuple[str, ...],
     weights: Mapping[str, float],
     settings: ClearTableSettings,
+    most: int = MAX_HEAP,
 ) -> tuple[str, ...]:
     """Which lost cloths a blind lift of `weighed` [kg] holds: `name` alone if it weighs
-    that (`weight_verdict`), else the fewest of `name` and its `alike` (at most
-    `MAX_HEAP` together, `name` first where it fits) whose weights sum to it; () if none.
-    All of them belong in one box, so the lift goes there whichever they are."""
+    that (`weight_verdict`), else the fewest of `name` and its `alike` (at most `most`
+    together, `name` first where it fits) whose weights sum to it; () if none. All of
+    them belong in one box, so the lift goes there whichever they are."""
     candidates = [n for n in (name, *alike) if n in weights]
-    for size in range(1, min(MAX_HEAP, len(candidates)) + 1):
+    for size in range(1, min(most, len(candidates)) + 1):
         for group in combinations(candidates, size):
             verdict, _ = weight_verdict(weighed, sum(weights[n] for n in group), name, settings)
             if verdict == "ok":
@@ -440,7 +448,7 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
             job.cell.set_gripper(loop.gripper_open)
             outcome, reason = Outcome.GRASP_FAILED, "grasp missed: cloth not lifted"
         else:
-            outcome, reason = _carry(job, attempt, name, match.alike)
+            outcome, reason = _carry(job, attempt, name, match.alike, 1 if match.piece else MAX_HEAP)
     except IKError as err:
         job.cell.release()
         job.cell.set_gripper(loop.gripper_open)
@@ -456,7 +464,7 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
 
 
 def _carry(
-    job: TableClearer, attempt: AttemptState, name: str, alike: tuple[str, ...] = ()
+    job: TableClearer, attempt: AttemptState, name: str, alike: tuple[str, ...] = (), most: int = MAX_HEAP
 ) -> tuple[Outcome, str]:
     """After a lift that holds something: weigh, then into the box and look (or lay back),
     with the job's own hand-over (`TableClearer.put_back`, `TableClearer.check_box`) and
@@ -472,7 +480,7 @@ def _carry(
         weighed = attempt.weighed = float(job.weigh())
         verdict, what = weight_verdict(weighed, expected, name, job.settings)
         if verdict != "ok":
-            held = weighed_as(weighed, name, alike, job.weights, job.settings)
+            held = weighed_as(weighed, name, alike, job.weights, job.settings, most)
     if held:
         # more than, or other than, the cloth meant came up; all of it belongs in this box
         attempt.lift_check = "double" if len(held) > 1 else "wrong"
