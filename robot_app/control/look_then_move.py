@@ -1,7 +1,11 @@
 """The baseline strategy (`loop.strategy: look_then_move`): the wave-1 loop, kept to compare.
 
 APPROACH servos the TCP at the observation height over the grasp point of the latest
-filtered estimate (at its exposure time, not predicted) and waits there at rest; DESCEND
+filtered estimate (at its exposure time, not predicted) and waits there at rest (lower,
+in `HOVER_STEP`s, where the arm cannot reach that far out so high, while the cameras stay
+`min_working_distance` + `HOVER_MARGIN` above the cloth: bench_clear_table episode 32,
+session 19, a cloth laid back at x = 0.78 m was out of reach 10 mm at the observation
+height and left on the table); DESCEND
 is two blind moves, to `pregrasp_height` and to the grasp height, on the estimate at the
 end of APPROACH; the fingers close with the hand still and LIFT goes straight up. It
 sees the same camera latency as the servo (the same `VisionPipeline`); on a still cloth
@@ -15,8 +19,13 @@ import numpy as np
 from robot_app.arrays import FloatArray
 from robot_app.control.arm_motion import ArmMotion
 from robot_app.control.cloth_tracker import ClothTracker
+from robot_app.control.episode import EpisodeAbortError, Outcome
 from robot_app.control.intercept import GraspPath
 from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.servo import CAMERA_FRAME
+
+HOVER_STEP = 0.03  # [m] the hover is lowered by this while the arm cannot reach it
+HOVER_MARGIN = 0.1  # [m] the cameras stay this much above `min_working_distance` over the cloth
 
 
 class LookThenMoveStrategy:
@@ -34,7 +43,9 @@ class LookThenMoveStrategy:
         self.tracker = tracker
         self.settings = settings
         self.table_z = float(table_z)
-        self.hover_z = float(arm.tcp_position(arm.preferred_posture)[2])
+        q = arm.preferred_posture
+        self.hover_z = float(arm.tcp_position(q)[2])
+        self.camera_above_tcp = float(arm.frame_position(CAMERA_FRAME, q)[2] - self.hover_z)
         self.note = ""
 
     def approach(self) -> bool:
@@ -52,9 +63,8 @@ class LookThenMoveStrategy:
                 return False
             if any(u.accepted for u in updates):
                 fused += sum(u.accepted for u in updates)
-                target = self._grasp_position()
-                target[2] = self.hover_z
-                online.set_target(self.arm.solve_tcp(target))
+                target, joints = self._hover(self._grasp_position())
+                online.set_target(joints)
             self.arm.step_online(online)
             settled = fused >= s.min_accepted_updates and online.finished
             if (
@@ -69,6 +79,24 @@ class LookThenMoveStrategy:
                 self.note = f"no stable target within {s.approach_timeout:.1f} s"
                 self.arm.end_online(online, to_rest=True)
                 return False
+
+    def _hover(self, grasp: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The TCP position over `grasp` at the observation height, or lower by `HOVER_STEP`s
+        where the arm cannot reach it, and its joints.
+
+        Raises:
+            EpisodeAbortError: IK_UNREACHABLE, not even with the cameras
+                `min_working_distance` + `HOVER_MARGIN` over the cloth.
+        """
+        lowest = grasp[2] + self.settings.min_working_distance + HOVER_MARGIN - self.camera_above_tcp
+        target = np.array([grasp[0], grasp[1], self.hover_z])
+        while True:
+            try:
+                return target, self.arm.solve_tcp(target)
+            except EpisodeAbortError as err:
+                if err.outcome is not Outcome.IK_UNREACHABLE or target[2] - HOVER_STEP < lowest:
+                    raise
+                target[2] -= HOVER_STEP
 
     def descend(self) -> bool:
         """Two blind moves down onto the estimate's grasp point."""
