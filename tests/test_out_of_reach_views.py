@@ -1,7 +1,8 @@
-"""The look-then-move APPROACH hovers lower where the arm cannot reach the observation
-height that far out, never so low that the cameras stop seeing the cloth (bench_clear_table
-episode 32, session 19: a cloth laid back at x = 0.78 m was 10 mm out of reach at the
-observation height, and left on the table)."""
+"""Views of a cloth lying far out (bench_clear_table episode 32, session 19: a cloth laid
+back at x = 0.78 m; centring the cameras over it put the TCP 10 mm out of reach at the
+observation height, and the attempt ended ik_unreachable): the search's centring look goes
+as far towards the candidate as the arm reaches, and the look-then-move APPROACH hovers lower
+where it must, never so low that the cameras stop seeing the cloth."""
 
 from __future__ import annotations
 
@@ -13,10 +14,12 @@ import pytest
 from robot_app.control.episode import EpisodeAbortError, Outcome
 from robot_app.control.look_then_move import HOVER_MARGIN, HOVER_STEP, LookThenMoveStrategy
 from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.pick_place import CENTRING_SHARES, PickPlaceLoop
 
 SHOULDER = np.array([0.0, 0.0, 0.10])  # a reach sphere about the shoulder stands in for the arm's IK
 REACH = 0.9  # [m]
 HOVER_TCP_Z, CAMERA_ABOVE_TCP = 0.48, 0.15
+CAMERA_AHEAD = 0.07  # [m] the right camera lies this far along +x of the TCP
 
 
 class SphereArm:
@@ -32,14 +35,21 @@ class SphereArm:
         return np.array([0.55, 0.0, HOVER_TCP_Z])
 
     def frame_position(self, frame: str, q=None) -> np.ndarray:
-        return np.array([0.55, 0.0, HOVER_TCP_Z + CAMERA_ABOVE_TCP])
+        return np.array([0.55 + CAMERA_AHEAD, 0.0, HOVER_TCP_Z + CAMERA_ABOVE_TCP])
 
     def solve_tcp(self, position) -> np.ndarray:
         p = np.asarray(position, dtype=float)
         self.asked.append(float(p[2]))
         if np.linalg.norm(p - SHOULDER) > REACH:
             raise EpisodeAbortError(Outcome.IK_UNREACHABLE, f"no IK solution for {p}")
-        return np.full(7, p[2])
+        return np.array([*p, 0.0, 0.0, 0.0, 0.0])  # the joints stand for the TCP position here
+
+
+class OutOfReachArm(SphereArm):
+    """An arm that reaches nothing."""
+
+    def solve_tcp(self, position) -> np.ndarray:
+        raise EpisodeAbortError(Outcome.IK_UNREACHABLE, f"no IK solution for {position}")
 
 
 def test_the_hover_comes_down_only_as_far_as_the_arm_needs_and_the_cameras_allow() -> None:
@@ -54,7 +64,7 @@ def test_the_hover_comes_down_only_as_far_as_the_arm_needs_and_the_cameras_allow
     np.testing.assert_allclose(target[:2], far[:2])
     one_step_higher = target + np.array([0.0, 0.0, HOVER_STEP])
     assert np.linalg.norm(target - SHOULDER) <= REACH < np.linalg.norm(one_step_higher - SHOULDER)
-    assert joints[0] == pytest.approx(target[2])
+    np.testing.assert_allclose(joints[:3], target)
     camera_over_cloth = target[2] + CAMERA_ABOVE_TCP - far[2]
     assert camera_over_cloth >= settings.min_working_distance + HOVER_MARGIN
     # farther still: no height where the cameras still see the cloth is in reach
@@ -64,3 +74,26 @@ def test_the_hover_comes_down_only_as_far_as_the_arm_needs_and_the_cameras_allow
     assert raised.value.outcome is Outcome.IK_UNREACHABLE
     lowest = 0.01 + settings.min_working_distance + HOVER_MARGIN - CAMERA_ABOVE_TCP
     assert min(arm.asked) >= lowest - 1e-9 and len(arm.asked) > 1
+
+
+def test_the_centring_look_goes_as_far_towards_a_far_candidate_as_the_arm_reaches() -> None:
+    arm = SphereArm()
+    loop = SimpleNamespace(arm=arm, observation_joints=np.zeros(7))
+    tcp = arm.tcp_position()
+
+    def centred(point) -> np.ndarray:
+        return PickPlaceLoop._centring_joints(loop, np.asarray(point, dtype=float))[:3]  # type: ignore[arg-type]
+
+    near = centred([0.60, 0.05, 0.0])  # in reach: the camera right over it
+    np.testing.assert_allclose(near, [0.60 - CAMERA_AHEAD, 0.05, HOVER_TCP_Z])
+    far = np.array([0.98, 0.15, 0.0])  # the TCP over it at this height is out of reach
+    goal = np.array([far[0] - CAMERA_AHEAD, far[1], HOVER_TCP_Z])
+    assert np.linalg.norm(goal - SHOULDER) > REACH
+    reached = centred(far)
+    assert np.linalg.norm(reached - SHOULDER) <= REACH and reached[2] == pytest.approx(HOVER_TCP_Z)
+    shares = [s for s in CENTRING_SHARES if np.linalg.norm(tcp + s * (goal - tcp) - SHOULDER) <= REACH]
+    np.testing.assert_allclose(reached, tcp + shares[0] * (goal - tcp))  # the farthest share in reach
+    assert np.linalg.norm(reached[:2] - far[:2]) < np.linalg.norm(tcp[:2] - far[:2])  # nearer than before
+    # nothing on the way in reach: the observation joints, to look again from there
+    loop.arm = OutOfReachArm()
+    np.testing.assert_array_equal(centred(far), np.zeros(3))
