@@ -172,7 +172,7 @@ def test_the_reported_confidence_is_the_decision_on_the_reported_evidence() -> N
         result = Recognizer(model(index), RIG).recognize(left, right, seed=1)
         evidence = Evidence(
             result.search_fitness, result.appearance, result.visible_fraction, result.interleaved, True,
-            result.agreeing, result.outline,
+            result.agreeing, result.outline, result.textured_share,
         )  # fmt: skip
         assert result.confidence == pytest.approx(confidence(DecisionSettings(), evidence))
         assert result.found == (index == AMBER_COFFEE)
@@ -308,7 +308,7 @@ def test_the_outline_decides_only_with_its_weight_and_has_stand_ins() -> None:
     base = Evidence(0.9, 0.8, 0.9, 0.05, True, 0.9, 1.0)
     assert d.weight_outline > 0.0  # the calibrated decision uses the outline
     assert confidence(d, replace(base, outline=0.3)) < confidence(d, base)
-    blind = DecisionSettings(weight_outline=0.0)
+    blind = DecisionSettings(weight_outline=0.0, weight_outline_plain=0.0)
     assert confidence(blind, replace(base, outline=0.3)) == confidence(blind, base)
     unmeasured = replace(base, outline=d.outline_unmeasured)
     assert confidence(d, replace(base, outline=np.nan)) == confidence(d, unmeasured)

@@ -5,7 +5,8 @@ The confidence combines what the other stages measured at the final pose (`Evide
     confidence = 1 / (1 + exp(-(bias + w_f · fitness + w_a · appearance + w_v · visible
                                 + w_i · interleaved + w_g · agreeing
                                 + w_av · appearance · visible + w_gv · agreeing · visible
-                                + w_o · outline)))
+                                + w_o · outline + w_op · outline · (1 - textured)
+                                + w_gt · agreeing · textured)))
 
 with `fitness` the search fitness (eqs. 9-11 with occluders taken as hidden, 1.0 = a
 perfect match), `outline` the verification's share of the model's outline lying on an
@@ -149,6 +150,12 @@ class DecisionSettings(StrictModel):
             file) is taken to have; such a model is decided by hue alone.
         appearance_nothing_seen: the appearance when no cell of the texture is in view.
         weight_outline: the logistic weight of the outline evidence (`Evidence.outline`).
+        weight_outline_plain: ... and of the outline times the plain share of the compared
+            texture (1 - `Evidence.textured_share`): for a plain model the outline is the one
+            thing that tells its cloth from a patch of its colour on another.
+        weight_agreeing_textured: the logistic weight of the agreeing share times
+            `Evidence.textured_share`: for a print the texture's agreement is what tells its
+            cloth from another of its hues.
         outline_without_texture: the outline evidence a model without texture is taken to
             have (none against it: decided as before).
         outline_unmeasured: ... and a model with texture whose outline was not measured
@@ -165,6 +172,8 @@ class DecisionSettings(StrictModel):
     weight_appearance_visible: float = 6.162
     weight_agreeing_visible: float = 11.261
     weight_outline: float = 10.752
+    weight_outline_plain: float = 0.0
+    weight_agreeing_textured: float = 0.0
     outline_without_texture: float = Field(default=1.0, ge=0.0, le=1.0)
     outline_unmeasured: float = Field(default=0.5, ge=0.0, le=1.0)
     appearance_without_texture: float = Field(default=0.6, ge=-1.0, le=1.0)
@@ -184,6 +193,8 @@ class Evidence:
         agreeing: share of the compared cells that agree (NaN: not measured).
         outline: share of the outline pairs on an edge of the model's colour
             (`verify.Verification.outline`; NaN: not measured).
+        textured_share: share of the compared texture on cells compared by correlation
+            (`verify.Verification.textured_share`; 0: a plain model, or no texture).
     """
 
     fitness: float
@@ -193,6 +204,7 @@ class Evidence:
     has_texture: bool
     agreeing: float = float("nan")
     outline: float = float("nan")
+    textured_share: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -212,13 +224,7 @@ def logit(settings: DecisionSettings, evidence: Evidence) -> float:
     """The confidence's log-odds (see the module docstring); a NaN appearance is replaced
     by `appearance_without_texture` (no texture) or `appearance_nothing_seen`, a NaN
     `agreeing` by the same mapped from [-1, 1] onto [0, 1]."""
-    appearance, agreeing = evidence.appearance, evidence.agreeing
-    if math.isnan(appearance):
-        appearance = (
-            settings.appearance_nothing_seen if evidence.has_texture else settings.appearance_without_texture
-        )
-    if math.isnan(agreeing):
-        agreeing = (appearance + 1.0) / 2.0
+    appearance, agreeing = _texture(settings, evidence)
     return (
         settings.bias
         + settings.weight_fitness * evidence.fitness
@@ -230,6 +236,18 @@ def logit(settings: DecisionSettings, evidence: Evidence) -> float:
         + settings.weight_agreeing_visible * agreeing * evidence.visible_fraction
         + _whether_terms(settings, evidence)
     )
+
+
+def _texture(settings: DecisionSettings, evidence: Evidence) -> tuple[float, float]:
+    """(appearance, agreeing) with their NaN replaced by the stand-ins (see `logit`)."""
+    appearance, agreeing = evidence.appearance, evidence.agreeing
+    if math.isnan(appearance):
+        appearance = (
+            settings.appearance_nothing_seen if evidence.has_texture else settings.appearance_without_texture
+        )
+    if math.isnan(agreeing):
+        agreeing = (appearance + 1.0) / 2.0
+    return appearance, agreeing
 
 
 def ranking(settings: DecisionSettings, evidence: Evidence) -> float:
@@ -246,8 +264,16 @@ def ranking(settings: DecisionSettings, evidence: Evidence) -> float:
 
 def _whether_terms(settings: DecisionSettings, evidence: Evidence) -> float:
     """The log-odds terms that say whether the object is the model's cloth, not which of its
-    poses fits best: the outline. `ranking` leaves them out."""
-    return settings.weight_outline * _outline(settings, evidence)
+    poses fits best: the outline, weighed more where the texture is plain, and the agreeing
+    share where it is compared by correlation. `ranking` leaves them out."""
+    outline = _outline(settings, evidence)
+    textured = min(max(evidence.textured_share, 0.0), 1.0)
+    _, agreeing = _texture(settings, evidence)
+    return (
+        settings.weight_outline * outline
+        + settings.weight_outline_plain * outline * (1.0 - textured)
+        + settings.weight_agreeing_textured * agreeing * textured
+    )
 
 
 def _outline(settings: DecisionSettings, evidence: Evidence) -> float:
