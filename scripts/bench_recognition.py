@@ -15,8 +15,8 @@ weights and threshold on them and prints them) and reported on the test seeds (t
     taskset -c 0 python scripts/bench_recognition.py                   # the full run
     taskset -c 0 python scripts/bench_recognition.py --scenes 24 --quick
     taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 100 --identification-size 20
-        # the decision's fit (decide.py's weights came from this command, since session 19 with
-        # --identification-rounds 2 --hold-weights: the bias and the whether-terms); with
+        # the decision's fit (decide.py's weights came from this command; session 19's print terms,
+        # not adopted, from it with --identification-rounds 2 --hold-weights); with
         # --kinds flat,wrinkled,folded,covered,crumpled,absent_family,absent_other crumpled
         # cloths join the present ones (tried, not adopted: decide.py)
     taskset -c 0 python scripts/bench_recognition.py --track-profile 150
