@@ -15,7 +15,8 @@ weights and threshold on them and prints them) and reported on the test seeds (t
     taskset -c 0 python scripts/bench_recognition.py                   # the full run
     taskset -c 0 python scripts/bench_recognition.py --scenes 24 --quick
     taskset -c 0 python scripts/bench_recognition.py --calibrate --scenes 100 --identification-size 20
-        # the decision's fit (decide.py's weights came from this command); with
+        # the decision's fit (decide.py's weights came from this command; session 19's print terms,
+        # not adopted, from it with --identification-rounds 2 --hold-weights); with
         # --kinds flat,wrinkled,folded,covered,crumpled,absent_family,absent_other crumpled
         # cloths join the present ones (tried, not adopted: decide.py)
     taskset -c 0 python scripts/bench_recognition.py --track-profile 150
@@ -220,7 +221,7 @@ def seeds(args: argparse.Namespace, calibration: bool) -> Callable[[str, int], n
 
 DUMP_COLUMNS = ("kind", "scene", "model", "cloth", "fitness", "search_fitness", "appearance", "visible",
                 "interleaved", "agreeing", "outline", "confidence", "found", "err_x_mm", "err_y_mm",
-                "err_yaw_deg", "rival", "rivals_asked", "time_ms")  # fmt: skip
+                "err_yaw_deg", "rival", "rivals_asked", "time_ms", "textured")  # fmt: skip
 
 
 def arm(recognizers: list[Recognizer], index: int, args, size: int = N, leave_out: int | None = None) -> None:
@@ -242,7 +243,7 @@ def dump_row(kind: str, scene: int, model: ClothModel, cloth: int, result, truth
             result.visible_fraction, result.interleaved, result.agreeing, result.outline,
             result.confidence,
             int(result.found), e[0], e[1], e[3], result.rival, result.rivals_asked,
-            result.time_s * 1e3]  # fmt: skip
+            result.time_s * 1e3, result.textured_share]  # fmt: skip
 
 
 def write_dump(path: str | None, rows: list[list]) -> None:
@@ -298,17 +299,18 @@ def collect(
     return out
 
 
-FEATURES = ("fitness", "appearance", "visible", "interleaved", "agreeing", "outline")
+FEATURES = ("fitness", "appearance", "visible", "interleaved", "agreeing", "outline", "textured")
 
 
 def features(rows: list) -> np.ndarray:
-    """(N, 6) the decision's evidence of each row's recognition (`decide.Evidence`)."""
+    """(N, 7) the decision's evidence of each row's recognition (`decide.Evidence`)."""
     return np.array(
         [
-            [r.search_fitness, r.appearance, r.visible_fraction, r.interleaved, r.agreeing, r.outline]
+            [r.search_fitness, r.appearance, r.visible_fraction, r.interleaved, r.agreeing, r.outline,
+             r.textured_share]
             for _, r, _ in rows
         ]
-    )  # fmt: skip
+    ).reshape(-1, len(FEATURES))  # fmt: skip
 
 
 def correct(models: list[ClothModel], row: tuple) -> bool:
@@ -348,13 +350,14 @@ def calibrate(
 ) -> None:
     """Logistic regression of present at the right pose (1) against absent (0, and the
     wrong pairs of the identification scenes with `--identification-size`) on (fitness,
-    appearance, visible, interleaved, agreeing, appearance·visible, agreeing·visible, outline)
-    by Newton's method with a weak ridge
+    appearance, visible, interleaved, agreeing, appearance·visible, agreeing·visible, outline,
+    outline·(1 - textured), agreeing·textured) by Newton's method with a weak ridge
     (present scenes recognised at a wrong pose are left out: neither a right answer to
     accept nor an absent cloth); prints the weights and the threshold that best separates
     the calibration scenes. With `hold`, the weights that rank a pose's alternatives are
     held at the settings' (an offset) and only the bias and the weights of the terms that
-    say whether it is the cloth at all (`decide._whether_terms`: the outline) are fitted: a
+    say whether it is the cloth at all (`decide._whether_terms`: the outline, the outline of a
+    plain model, the agreement of a print) are fitted: a
     free refit with the outline changed that ranking (on the bench's 60 scenes a folded
     stripes print came out half-turned, a folded square 7 -> 14 mm off)."""
     kinds = ("flat", "wrinkled", "folded", "covered", "crumpled")
@@ -371,14 +374,16 @@ def calibrate(
     X[:, 1] = np.where(np.isnan(X[:, 1]), d.appearance_nothing_seen, X[:, 1])
     X[:, 4] = np.where(np.isnan(X[:, 4]), (X[:, 1] + 1.0) / 2.0, X[:, 4])
     X[:, 5] = np.where(np.isnan(X[:, 5]), d.outline_unmeasured, X[:, 5])
+    textured = np.clip(X[:, 6], 0.0, 1.0)
     products = [X[:, 1] * X[:, 2], X[:, 4] * X[:, 2]]
-    X = np.column_stack([X[:, :5], *products, X[:, 5]])
+    whether = [X[:, 5], X[:, 5] * (1.0 - textured), X[:, 4] * textured]
+    X = np.column_stack([X[:, :5], *products, *whether])
     y = np.concatenate([np.ones(len(present)), np.zeros(len(absent))])
     A = np.column_stack([np.ones(len(X)), X])
     held = np.array([d.weight_fitness, d.weight_appearance, d.weight_visible, d.weight_interleaved,
                      d.weight_agreeing, d.weight_appearance_visible, d.weight_agreeing_visible])  # fmt: skip
     offset = A[:, 1:8] @ held if hold else np.zeros(len(A))
-    free = A[:, [0, 8]] if hold else A
+    free = A[:, [0, 8, 9, 10]] if hold else A
     w = _logistic(free, offset, y)
     z = free @ w + offset
     if hold:
@@ -394,7 +399,8 @@ def calibrate(
     print(f"  decide.bias={w[0]:.3f} decide.weight_fitness={w[1]:.3f} decide.weight_appearance={w[2]:.3f} "
           f"decide.weight_visible={w[3]:.3f} decide.weight_interleaved={w[4]:.3f} "
           f"decide.weight_agreeing={w[5]:.3f} decide.weight_appearance_visible={w[6]:.3f} "
-          f"decide.weight_agreeing_visible={w[7]:.3f} decide.weight_outline={w[8]:.3f}")  # fmt: skip
+          f"decide.weight_agreeing_visible={w[7]:.3f} decide.weight_outline={w[8]:.3f} "
+          f"decide.weight_outline_plain={w[9]:.3f} decide.weight_agreeing_textured={w[10]:.3f}")  # fmt: skip
     print(f"  logit of present: min {z[y == 1].min():+.2f}; of absent: max {z[y == 0].max():+.2f}; "
           f"threshold logit {threshold_z:+.2f} = confidence "
           f"{1 / (1 + np.exp(-threshold_z)):.3f}; in sample present found "

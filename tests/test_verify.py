@@ -11,7 +11,7 @@ from robot_app.config import validate
 from robot_app.errors import ConfigError
 from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
 from robot_app.vision.cloth_model import ClothModel
-from robot_app.vision.decide import DecisionSettings, Evidence, confidence, decide, ranking
+from robot_app.vision.decide import DecisionSettings, Evidence, confidence, decide, logit, ranking
 from robot_app.vision.exposure import ExposureSettings, scene_exposure, sheet_gains
 from robot_app.vision.fitness import FitnessEvaluator
 from robot_app.vision.propose import HALF_TURN
@@ -172,7 +172,7 @@ def test_the_reported_confidence_is_the_decision_on_the_reported_evidence() -> N
         result = Recognizer(model(index), RIG).recognize(left, right, seed=1)
         evidence = Evidence(
             result.search_fitness, result.appearance, result.visible_fraction, result.interleaved, True,
-            result.agreeing, result.outline,
+            result.agreeing, result.outline, result.textured_share,
         )  # fmt: skip
         assert result.confidence == pytest.approx(confidence(DecisionSettings(), evidence))
         assert result.found == (index == AMBER_COFFEE)
@@ -308,7 +308,7 @@ def test_the_outline_decides_only_with_its_weight_and_has_stand_ins() -> None:
     base = Evidence(0.9, 0.8, 0.9, 0.05, True, 0.9, 1.0)
     assert d.weight_outline > 0.0  # the calibrated decision uses the outline
     assert confidence(d, replace(base, outline=0.3)) < confidence(d, base)
-    blind = DecisionSettings(weight_outline=0.0)
+    blind = DecisionSettings(weight_outline=0.0, weight_outline_plain=0.0)
     assert confidence(blind, replace(base, outline=0.3)) == confidence(blind, base)
     unmeasured = replace(base, outline=d.outline_unmeasured)
     assert confidence(d, replace(base, outline=np.nan)) == confidence(d, unmeasured)
@@ -317,6 +317,36 @@ def test_the_outline_decides_only_with_its_weight_and_has_stand_ins() -> None:
     assert ranking(d, base) < ranking(d, replace(base, appearance=0.9, agreeing=0.95))
     untextured = replace(base, has_texture=False, outline=np.nan)
     assert confidence(d, untextured) == confidence(d, replace(untextured, outline=d.outline_without_texture))
+
+
+SESSION_19_FIT = {  # the decision with the print terms, fitted and not adopted (decide.py)
+    "bias": -27.302,
+    "weight_outline": 8.345,
+    "weight_outline_plain": 5.681,
+    "weight_agreeing_textured": 13.238,
+    "threshold": 0.640,
+}
+
+
+def test_a_plain_model_is_judged_more_by_its_outline_and_a_print_more_by_its_agreement() -> None:
+    # a plain model's cells agree on any patch of its colour: its outline says which object it is;
+    # a print's cells agree only on its print (session 19's fit, decide.py; not the default)
+    d = DecisionSettings(**SESSION_19_FIT)
+    plain = Evidence(0.95, 0.95, 0.6, 0.05, True, 0.98, 1.0, textured_share=0.0)
+    printed = replace(plain, textured_share=1.0)
+    for evidence in (plain, printed):
+        assert confidence(d, replace(evidence, outline=0.6)) < confidence(d, evidence)
+        assert confidence(d, replace(evidence, agreeing=0.3)) < confidence(d, evidence)
+    assert logit(d, plain) - logit(d, replace(plain, outline=0.6)) > logit(d, printed) - logit(
+        d, replace(printed, outline=0.6)
+    )
+    assert logit(d, printed) - logit(d, replace(printed, agreeing=0.3)) > logit(d, plain) - logit(
+        d, replace(plain, agreeing=0.3)
+    )
+    # neither ranks a pose's alternatives
+    assert ranking(d, plain) == ranking(d, printed)
+    default = DecisionSettings()
+    assert logit(default, plain) == logit(default, printed)  # the earlier decision: the share unused
 
 
 def test_a_fine_print_seen_four_millimetres_off_keeps_its_outline_on_the_cloth_edge() -> None:

@@ -63,6 +63,8 @@ class Recognition:
         occluded: the verification's share of the texture read as behind a plain occluder
             of a hue the model has (`verify.Verification.occluded`; left out of the visible
             fraction and the agreement).
+        textured_share: the verification's share of the compared texture on cells compared by
+            correlation (`verify.Verification.textured_share`; 0: a plain cloth or no texture).
         rival: the catalogue model that explains the recognised region better (`decide.judge`;
             then `found` is False), "" if none did or none was asked.
         rivals_asked: rivals recognised in the pair for this decision (0: not asked).
@@ -84,6 +86,7 @@ class Recognition:
     agreeing: float = float("nan")
     outline: float = float("nan")
     occluded: float = 0.0
+    textured_share: float = 0.0
     rival: str = ""
     rivals_asked: int = 0
 

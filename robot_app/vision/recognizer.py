@@ -489,6 +489,7 @@ class Recognizer:
             agreeing=v.agreeing,
             outline=v.outline,
             occluded=v.occluded,
+            textured_share=v.textured_share,
         )
 
     def _most_confident(
@@ -857,6 +858,7 @@ class Recognizer:
             self.model.has_texture,
             v.agreeing,
             v.outline,
+            v.textured_share,
         )
 
 
