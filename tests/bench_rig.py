@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_app.geometry import make_transform
+from robot_app.geometry import make_transform, rotation_from_rpy
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.photo_model import make_model
@@ -26,3 +26,14 @@ def catalogue_model(index: int) -> ClothModel:
         photo, background = render_model_photo(cloth, MODEL_CAMERA)
         _MODELS[index] = make_model(photo, MODEL_CAMERA, background, name=cloth.name)
     return _MODELS[index]
+
+
+def bench_flat_pose(rng: np.random.Generator, model: ClothModel) -> np.ndarray:
+    """(4, 4) ^CR T_M drawn as the bench's `random_pose` draws a flat scene's: the whole cloth
+    inside the view, tilted up to 10°, any yaw, 0.58 ± 0.03 m from the cameras."""
+    radius = 0.5 * float(np.hypot(*model.extent))
+    half = (max(0.255 - radius, 0.0), max(0.195 - radius, 0.0))
+    tilt, direction = np.deg2rad(10.0) * np.sqrt(rng.uniform()), rng.uniform(0, 2 * np.pi)
+    R = rotation_from_rpy(tilt * np.cos(direction), tilt * np.sin(direction), rng.uniform(-np.pi, np.pi))
+    t = [rng.uniform(-half[0], half[0]), rng.uniform(-half[1], half[1]), 0.58 + rng.uniform(-0.03, 0.03)]
+    return make_transform(R, t)

@@ -19,3 +19,15 @@ def recognizer(index: int, name: str) -> Recognizer:
     """A recogniser of synthetic catalogue cloth `index`, its model made at STATION."""
     photo, background = render_model_photo(synthetic_cloth(index), STATION, rng=np.random.default_rng(index))
     return Recognizer(make_model(photo, STATION, background, name=name), RIG)
+
+
+def ray_cast_table_xy(camera: PinholeCamera, transform: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(x, y) [m] where each pixel's ray of `camera` (its pose in Σ_W: `transform`) meets the
+    table plane z = 0, cast pixel by pixel (independent of `TablePlane`, which tests use it on)."""
+    w, h = camera.image_size
+    u, v = np.meshgrid(np.arange(w) + 0.0, np.arange(h) + 0.0)
+    K = camera.camera_matrix
+    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
+    rays = rays @ transform[:3, :3].T
+    t = -transform[2, 3] / rays[..., 2]
+    return transform[0, 3] + t * rays[..., 0], transform[1, 3] + t * rays[..., 1]

@@ -41,7 +41,7 @@ from robot_app.vision.identify import IdentifySettings, UnknownRegion, resolve
 from robot_app.vision.regions import sheet_mask, undistorted
 from robot_app.vision.synthetic import render_stereo_pair
 from robot_app.vision.synthetic_catalogue import synthetic_cloth
-from tests.table_scene import CAMERA, RIG, recognizer
+from tests.table_scene import CAMERA, RIG, ray_cast_table_xy, recognizer
 
 YELLOW = make_transform(rotation_about_z(0.3), [-0.06, -0.02, 0.585])
 VIOLET = make_transform(rotation_about_z(0.1), [0.12, 0.06, 0.585])  # recognised by no model
@@ -355,24 +355,13 @@ def _camera_over(x: float, y: float, height: float = 0.5) -> np.ndarray:
     return make_transform(np.diag([1.0, -1.0, -1.0]), [x, y, height])  # looking straight down
 
 
-def _ray_cast_xy(transform: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Where each pixel's ray meets z = 0, cast pixel by pixel (not `TablePlane`)."""
-    w, h = DOWN_CAMERA.image_size
-    u, v = np.meshgrid(np.arange(w) + 0.0, np.arange(h) + 0.0)
-    K = DOWN_CAMERA.camera_matrix
-    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
-    rays = rays @ transform[:3, :3].T
-    t = -transform[2, 3] / rays[..., 2]
-    return transform[0, 3] + t * rays[..., 0], transform[1, 3] + t * rays[..., 1]
-
-
 def test_a_blind_grasp_aims_only_on_the_table_top_and_clear_of_the_box_walls() -> None:
     transform = _camera_over(0.45, 0.62)  # sees the table's +y edge and the whites box's corner
     capture = SimpleNamespace(transform_right_camera_to_world=transform)
     settings = LostSettings()
     whole, plane = np.ones((240, 320), bool), TablePlane(DOWN_CAMERA.camera_matrix, 0.0)
     aims = graspable(whole, capture, plane, TABLE_TOP, [WHITES], settings.edge_inset, settings.wall_clearance)
-    x, y = _ray_cast_xy(transform)
+    x, y = ray_cast_table_xy(DOWN_CAMERA, transform)
     on_top = (y <= 0.70 - settings.edge_inset) & (x >= -0.30 + settings.edge_inset)
     reach = 0.11 + 0.01 + settings.wall_clearance  # inner half side, wall, clearance
     clear = np.maximum(np.abs(x - 0.30), np.abs(y - 0.56)) > reach
@@ -387,7 +376,7 @@ def test_a_blind_grasp_aims_only_on_the_table_top_and_clear_of_the_box_walls() -
 
 def test_a_lost_cloth_with_no_graspable_part_is_not_grasped_blind_and_the_cause_is_booked() -> None:
     transform = _camera_over(0.45, 0.62)
-    x, y = _ray_cast_xy(transform)
+    x, y = ray_cast_table_xy(DOWN_CAMERA, transform)
     past = (y > 0.72) & (np.abs(x - 0.45) < 0.05)  # a cloth hanging past the table's edge
     vs, us = np.nonzero(past)
     region = UnknownRegion((float(us.mean()), float(vs.mean())), int(past.sum()), past)

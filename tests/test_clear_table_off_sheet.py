@@ -25,6 +25,7 @@ from robot_app.geometry import make_transform
 from robot_app.vision import PinholeCamera
 from robot_app.vision.hue import DARK, LIGHT, colour_codes
 from robot_app.vision.identify import UnknownRegion
+from tests.table_scene import ray_cast_table_xy
 
 CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(60))
 TABLE = TablePlane(CAMERA.camera_matrix, 0.0)
@@ -46,21 +47,11 @@ def _camera_to_world(tilt: float) -> np.ndarray:
     return make_transform(about_x @ down, [0.45, 0.38, 0.50])
 
 
-def _table_xy(transform: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    w, h = CAMERA.image_size
-    u, v = np.meshgrid(np.arange(w) + 0.0, np.arange(h) + 0.0)
-    K = CAMERA.camera_matrix
-    rays = np.stack([(u - K[0, 2]) / K[0, 0], (v - K[1, 2]) / K[1, 1], np.ones_like(u)], axis=-1)
-    rays = rays @ transform[:3, :3].T
-    t = -transform[2, 3] / rays[..., 2]
-    return transform[0, 3] + t * rays[..., 0], transform[1, 3] + t * rays[..., 1]
-
-
 def _scene(
     transform: np.ndarray, cloth_colour: tuple[int, int, int] | None = WHITE, seed: int = 0
 ) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """(image, truth masks 'sheet', 'cloth', 'shadow', 'table')."""
-    x, y = _table_xy(transform)
+    x, y = ray_cast_table_xy(CAMERA, transform)
     on_sheet = (
         (x >= SHEET.x_range[0]) & (x <= SHEET.x_range[1]) & (y >= SHEET.y_range[0]) & (y <= SHEET.y_range[1])
     )

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robot_app.arrays import FloatArray
 from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
 from robot_app.vision.camera import ModelCamera, PinholeCamera, StereoRig
 from robot_app.vision.cloth_model import ClothModel
@@ -15,6 +14,7 @@ from robot_app.vision.recognizer import RecognitionSettings
 from robot_app.vision.refinement import CORNER_MARGIN, disagreeing_corner
 from robot_app.vision.synthetic import SyntheticCloth, render_model_photo, render_stereo_pair
 from robot_app.vision.synthetic_prints import extended_cloth, folded_corner
+from tests.bench_rig import bench_flat_pose
 
 CAMERA = PinholeCamera.from_fov((640, 480), np.deg2rad(48))
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
@@ -127,7 +127,7 @@ def test_a_fold_that_pulls_the_hue_peak_off_the_cloth_is_recognised_with_a_tried
     cloth = extended_cloth(9)
     ellipse = _model_of(cloth)
     rng = np.random.default_rng([0, sum(map(ord, "folded")), 29])
-    truth = _bench_pose(rng, ellipse)
+    truth = bench_flat_pose(rng, ellipse)
     folded = folded_corner(cloth, float(rng.uniform(0.1, 0.2)), float(rng.uniform(0, 2 * np.pi)))
     left, right = render_stereo_pair(RIG, [(folded, truth)], rng=rng, camera=CameraRealism.draw(rng))
     earlier = {"research": {"yaw_range": 16.0, "shortlist": 16}}
@@ -151,16 +151,6 @@ def _model_of(cloth: SyntheticCloth) -> ClothModel:
     return make_model(photo, MODEL_CAMERA, background, name=cloth.name)
 
 
-def _bench_pose(rng: np.random.Generator, model: ClothModel) -> FloatArray:
-    """`bench_recognition.py`'s `random_pose`: any yaw, up to 10° tilt, inside the area."""
-    radius = 0.5 * float(np.hypot(*model.extent))
-    half = (max(0.255 - radius, 0.0), max(0.195 - radius, 0.0))
-    tilt, direction = np.deg2rad(10.0) * np.sqrt(rng.uniform()), rng.uniform(0, 2 * np.pi)
-    R = rotation_from_rpy(tilt * np.cos(direction), tilt * np.sin(direction), rng.uniform(-np.pi, np.pi))
-    t = [rng.uniform(-half[0], half[0]), rng.uniform(-half[1], half[1]), 0.58 + rng.uniform(-0.03, 0.03)]
-    return make_transform(R, t)
-
-
 def test_a_look_alike_fitted_in_part_with_a_corner_hidden_is_not_accepted() -> None:
     """The bench's 20x20 identification scene of cloth 6 (cyan_rounded, test seeds) searched
     with the patchwork model (11): the patchwork is not there. With a third of it hidden,
@@ -173,7 +163,7 @@ def test_a_look_alike_fitted_in_part_with_a_corner_hidden_is_not_accepted() -> N
     patchwork = _model_of(extended_cloth(11))
     cyan = extended_cloth(6)
     rng = np.random.default_rng([0, sum(map(ord, "identification20")), 6])
-    pose = _bench_pose(rng, _model_of(cyan))
+    pose = bench_flat_pose(rng, _model_of(cyan))
     left, right = render_stereo_pair(RIG, [(cyan, pose)], rng=rng, camera=CameraRealism.draw(rng))
     found = {}
     for explained in (0.0, None):
@@ -203,7 +193,7 @@ def test_a_covered_cloth_is_not_taken_for_a_folded_one_where_no_fold_explains_be
     cloth = extended_cloth(1)
     square = _model_of(cloth)
     rng = np.random.default_rng([0, sum(map(ord, "covered")), 21])
-    truth = _bench_pose(rng, square)
+    truth = bench_flat_pose(rng, square)
     colour = list(OCCLUDER_COLOURS.values())[int(rng.integers(len(OCCLUDER_COLOURS)))]
     sheet = occluder_covering(cloth, truth, 0.45, float(rng.uniform(0, 2 * np.pi)), colour_bgr=colour)
     left, right = render_stereo_pair(

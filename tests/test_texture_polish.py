@@ -17,6 +17,7 @@ from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
 from robot_app.vision.synthetic_camera import CameraRealism
 from robot_app.vision.synthetic_prints import extended_cloth
 from robot_app.vision.texture_polish import in_plane, texture_polish, yaw_weakly_held
+from tests.bench_rig import bench_flat_pose
 
 CAMERA = PinholeCamera.from_fov((640, 480), np.deg2rad(48))
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
@@ -32,12 +33,7 @@ def bench_flat_scene(model: ClothModel, seed: int, k: int) -> tuple[np.ndarray, 
     """(left, right, truth) of the bench's flat scene `k` of `--seed seed` (its `random_pose`,
     then its camera drawn from the realistic ranges and the pair rendered, from the same RNG)."""
     rng = np.random.default_rng([seed, sum(map(ord, "flat")), k])
-    radius = 0.5 * float(np.hypot(*model.extent))
-    half = (max(0.255 - radius, 0.0), max(0.195 - radius, 0.0))
-    tilt, direction = np.deg2rad(10.0) * np.sqrt(rng.uniform()), rng.uniform(0, 2 * np.pi)
-    R = rotation_from_rpy(tilt * np.cos(direction), tilt * np.sin(direction), rng.uniform(-np.pi, np.pi))
-    t = [rng.uniform(-half[0], half[0]), rng.uniform(-half[1], half[1]), 0.58 + rng.uniform(-0.03, 0.03)]
-    truth = make_transform(R, t)
+    truth = bench_flat_pose(rng, model)
     cloth = extended_cloth(AMBER_CAT_ELLIPSE)
     left, right = render_stereo_pair(RIG, [(cloth, truth)], rng=rng, camera=CameraRealism.draw(rng))
     return left, right, truth

@@ -16,13 +16,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robot_app.geometry import make_transform, pose_error, rotation_from_rpy
+from robot_app.geometry import pose_error
 from robot_app.vision.decide import DecisionSettings
 from robot_app.vision.recognizer import RecognitionSettings, Recognizer
 from robot_app.vision.synthetic import render_stereo_pair
 from robot_app.vision.synthetic_camera import CameraRealism
 from robot_app.vision.synthetic_prints import extended_cloth
-from tests.bench_rig import RIG, catalogue_model
+from tests.bench_rig import RIG, bench_flat_pose, catalogue_model
 from tests.test_verify import SESSION_19_FIT
 
 RED_PLAIN, DOTS, CYAN_ROUNDED, TSHIRT, PATCHWORK = 0, 5, 6, 8, 11
@@ -35,12 +35,7 @@ def scene(cloth: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     through a camera drawn from the realistic ranges: (left, right, truth)."""
     rng = np.random.default_rng([19, cloth, seed])
     model = catalogue_model(cloth)
-    radius = 0.5 * float(np.hypot(*model.extent))
-    half = (max(0.255 - radius, 0.0), max(0.195 - radius, 0.0))
-    tilt, direction = np.deg2rad(10.0) * np.sqrt(rng.uniform()), rng.uniform(0, 2 * np.pi)
-    R = rotation_from_rpy(tilt * np.cos(direction), tilt * np.sin(direction), rng.uniform(-np.pi, np.pi))
-    t = [rng.uniform(-half[0], half[0]), rng.uniform(-half[1], half[1]), 0.58 + rng.uniform(-0.03, 0.03)]
-    truth = make_transform(R, t)
+    truth = bench_flat_pose(rng, model)
     left, right = render_stereo_pair(
         RIG, [(extended_cloth(cloth), truth)], rng=rng, camera=CameraRealism.draw(rng)
     )
