@@ -340,6 +340,16 @@ def test_a_blind_lift_is_named_after_the_lost_cloths_whose_weights_it_reads() ->
     assert weighed_as(0.047, "No.1", ("No.2",), weights, settings, most=1) == ()
     assert weighed_as(0.011, "No.3", ("No.4", "No.2"), weights, settings, most=1) == ("No.4",)
 
+    # a guessed companion of a double pick (any known cloth not placed or seen) is taken alone,
+    # never in a sum (bench episode 48, session 19: No.17 + the guessed No.6 held No.3 and No.18)
+    def alone(weighed: float, name: str, alike: tuple[str, ...], guessed: str) -> tuple[str, ...]:
+        return weighed_as(weighed, name, alike, weights, settings, alone_only=frozenset({guessed}))
+
+    assert alone(0.047, "No.1", ("No.2",), guessed="No.2") == ()  # No.1 + No.2: a sum with a guess
+    assert alone(0.026, "No.1", ("No.2",), guessed="No.2") == ("No.1",)
+    assert alone(0.033, "No.1", ("No.2",), guessed="No.1") == ("No.2",)  # the guess alone is no sum
+    assert alone(0.076, "No.1", ("No.2", "No.3"), guessed="No.9") == ("No.1", "No.2", "No.3")
+
 
 # --------------------------------------------------------------- where a blind hand may aim
 # Bench episode 24 (session 18): a lost cloth hanging over the table's edge next to the whites
