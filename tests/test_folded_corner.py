@@ -165,19 +165,12 @@ def test_a_look_alike_fitted_in_part_with_a_corner_hidden_is_not_accepted() -> N
     rng = np.random.default_rng([0, sum(map(ord, "identification20")), 6])
     pose = bench_flat_pose(rng, _model_of(cyan))
     left, right = render_stereo_pair(RIG, [(cyan, pose)], rng=rng, camera=CameraRealism.draw(rng))
-    found = {}
-    for explained in (0.0, None):
-        refine: dict[str, float] = {"corner_hypotheses": 8}
-        if explained is not None:
-            refine["corner_hypothesis_explained"] = explained
-        settings = RecognitionSettings.model_validate({"refine": refine})
-        found[explained] = Recognizer(patchwork, RIG, settings).recognize(left, right, seed=11 * 20 + 6).found
-    if not found[0.0]:
-        # the scene shows the difference only where the earlier rule accepts it; the search is
-        # chaotic in the last bits of its arithmetic, and on some CPUs (session 14's AVX-512
-        # machine) the earlier rule rejects it too, so the test could not fail there
-        pytest.skip("the earlier rule rejects this scene on this machine: nothing to tell apart")
-    assert not found[None]
+    settings = RecognitionSettings.model_validate({"refine": {"corner_hypotheses": 8}})
+    # the patchwork is not there: the rule in force rejects it. Whether the earlier rule
+    # (`corner_hypothesis_explained: 0`) accepted it depends on the last bits of the search's
+    # arithmetic (it did where this was written, not on session 14's AVX-512 machine), so that
+    # contrast is not tested; before session 19 the test skipped where it did not show
+    assert not Recognizer(patchwork, RIG, settings).recognize(left, right, seed=11 * 20 + 6).found
 
 
 def test_a_covered_cloth_is_not_taken_for_a_folded_one_where_no_fold_explains_best() -> None:
