@@ -231,6 +231,11 @@ class BoxPlace:
     wall_height: float = 0.0
     wall_thickness: float = 0.0
 
+    @property
+    def outer_half(self) -> float:
+        """Half its outer side: from its centre to the walls' outer faces [m]."""
+        return self.inner_size / 2 + self.wall_thickness
+
 
 class ClothOutcome(StrEnum):
     """What became of one cloth the robot identified."""

@@ -470,9 +470,10 @@ class TableClearer:
                     lost[name], places[name] = self.recognizers[name], self.ledger.unnamed[-1]
         capture = self._survey_capture
 
+        s, guessed = self.settings.lost, frozenset(lost) - named
+
         def match(regions: tuple[UnknownRegion, ...]) -> LostMatch | None:
             centres = [np.array(self.table.point(capture, r.centroid)) for r in regions]
-            s, guessed = self.settings.lost, frozenset(lost) - named
             return match_lost(capture, regions, centres, lost, places, s, self.sort.box_for, guessed)
 
         whole = match(ident.unknown)

@@ -39,7 +39,7 @@ def furniture_mask(
     to_camera = invert_transform(capture.transform_right_camera_to_world)
     for box in boxes:
         c = np.asarray(box.centre, dtype=float)
-        half = box.inner_size / 2 + box.wall_thickness
+        half = box.outer_half
         corners = np.array(
             [[c[0] + sx * half, c[1] + sy * half, c[2] + z]
              for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, box.wall_height)]
@@ -124,7 +124,7 @@ def graspable(
         ok &= top.contains(xy, edge_inset)
     for box in boxes:
         c = np.asarray(box.centre, dtype=float)
-        reach = box.inner_size / 2 + box.wall_thickness + wall_clearance
+        reach = box.outer_half + wall_clearance
         ok &= np.max(np.abs(xy - c[:2]), axis=1) > reach
     keep[v[ok], u[ok]] = True
     return keep

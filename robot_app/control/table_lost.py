@@ -98,16 +98,24 @@ class ColourFit:
         return self.share * self.proportions * self.lightness
 
 
+def _survey_colours(
+    capture: StereoCapture, recognizers: Mapping[str, Recognizer]
+) -> tuple[npt.NDArray[np.uint8], FloatArray, npt.NDArray[np.uint16]]:
+    """The undistorted right image, the sheet's exposure gains on it and its colour codes
+    after them, as the recognisers (all of one rig and settings) see it."""
+    first = next(iter(recognizers.values()))
+    image = undistorted(capture.right_bgr, first.rig.right)
+    gains = sheet_gains(image, first.model, first.settings.exposure)
+    return image, gains, image_codes(image, gains, first.settings.fitness)
+
+
 def colour_shares(
     capture: StereoCapture, region: UnknownRegion, recognizers: Mapping[str, Recognizer]
 ) -> dict[str, ColourFit]:
     """Name -> how `region`'s pixels (in the undistorted right image) fit that model's main
     colours (`ColourFit`)."""
-    first = next(iter(recognizers.values()))
-    image = undistorted(capture.right_bgr, first.rig.right)
-    fitness = first.settings.fitness
-    gains = sheet_gains(image, first.model, first.settings.exposure)
-    codes = image_codes(image, gains, fitness)
+    fitness = next(iter(recognizers.values())).settings.fitness
+    image, gains, codes = _survey_colours(capture, recognizers)
     seen = codes[region.mask]
     seen_light = lit_value(np.clip(image[region.mask] * np.asarray(gains), 0, 255))
     fits = {}
@@ -164,12 +172,12 @@ def in_palette(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int)
 def _palette_bins(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> FloatArray:
     """Share of `codes` taken by each colour of `palette` (the first that matches, most
     frequent first), a LIGHT tone taking DARK pixels as in `palette_share`."""
-    flat = np.asarray(codes).reshape(-1)
-    bins = np.zeros(len(np.asarray(palette).reshape(-1)))
+    flat, own = np.asarray(codes).reshape(-1), np.asarray(palette).reshape(-1)
+    bins = np.zeros(len(own))
     if not flat.size:
         return bins
-    light = np.flatnonzero(np.asarray(palette).reshape(-1) == LIGHT)
-    colours = _with_folds(palette)
+    light = np.flatnonzero(own == LIGHT)
+    colours = _with_folds(own)
     matching = colours_match(flat[:, None], colours[None, :], hue_threshold)
     first = np.argmax(matching, axis=1)[np.any(matching, axis=1)]
     counts = np.bincount(first, minlength=len(colours)).astype(float)
@@ -218,10 +226,8 @@ def colour_patches(
     largest first, none twice (cloths of one palette give the same piece)."""
     if not lost or not regions:
         return ()
-    first = next(iter(lost.values()))
-    image = undistorted(capture.right_bgr, first.rig.right)
-    fitness = first.settings.fitness
-    codes = image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness)
+    fitness = next(iter(lost.values())).settings.fitness
+    codes = _survey_colours(capture, lost)[2]
     square = np.ones((OPENING, OPENING), np.uint8)
     pieces: dict[bytes, UnknownRegion] = {}
     for recognizer in lost.values():

@@ -185,7 +185,7 @@ class TableRecovery:
         view = self.table.pixels(survey, [0, width - 1, width - 1, 0], [0, 0, height - 1, height - 1])
         obstacles = obstacles_xy if obstacles_xy is not None else np.empty((0, 2))
         table = None if self.table_top is None else self.table_top.corners()
-        walls = [(b.centre[:2], b.inner_size / 2 + b.wall_thickness) for b in self.boxes]
+        walls = [(b.centre[:2], b.outer_half) for b in self.boxes]
 
         def paths_within(room: FloatArray) -> tuple[LayOutPath, ...]:
             return lay_out_paths(
