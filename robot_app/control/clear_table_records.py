@@ -16,6 +16,7 @@ from robot_app.control.episode import EpisodeResult
 from robot_app.control.grasp_point import PileGraspSettings
 from robot_app.control.job_motion import PutBackSettings
 from robot_app.control.limits import LimitReport
+from robot_app.control.table_layers import LayerSettings
 from robot_app.control.table_moved import MovedSettings
 from robot_app.control.table_surface import SurfaceSettings
 
@@ -182,6 +183,8 @@ class ClearTableSettings(StrictModel):
             since, by an unknown region in its colours and its weight (`table_lost`).
         surface: the grasp aimed at the top surface the survey's pair shows at the grasp
             point (`table_surface`), not at the pose's plane (low on a pile).
+        layers: the grasp kept off where the pair shows the target lying over another
+            cloth (`table_layers`).
         off_sheet: the bare table beyond the green sheet taken out of the unknown regions.
         moved: an unknown region a placed pick moved (the sheet bared where it lay), booked
             as a cloth that came along unnamed (`table_moved`).
@@ -204,6 +207,7 @@ class ClearTableSettings(StrictModel):
     box_view_height: float = Field(0.42, gt=0.1)
     pile_grasp: PileGraspSettings = Field(default_factory=PileGraspSettings)
     surface: SurfaceSettings = Field(default_factory=SurfaceSettings)
+    layers: LayerSettings = Field(default_factory=LayerSettings)
     put_back: PutBackSettings = Field(default_factory=PutBackSettings)
     look_around: int = Field(2, ge=0, le=10)
     look_apart: float = Field(0.08, gt=0.0)

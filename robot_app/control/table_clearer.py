@@ -51,6 +51,7 @@ from robot_app.control.clear_table_records import (
     TableResult,
 )
 from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
+from robot_app.control.grasp_point import points_in_mask
 from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
@@ -71,6 +72,7 @@ from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_post
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_furniture import furniture_mask, table_beyond_sheet, without_furniture
+from robot_app.control.table_layers import layer_map
 from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_lost import LostMatch, colour_patches, match_lost, pick_lost
 from robot_app.control.table_moved import moved_regions
@@ -372,6 +374,8 @@ class TableClearer:
                 obstacles = np.concatenate([obstacles, disk_points(spot, self.settings.hidden_cloth_radius)])
                 where = f"({spot[0]:.2f}, {spot[1]:.2f})"
                 attempt.notes.append(f"grasp kept away from the cloth laid under {where}")
+            if self.settings.layers.enabled:
+                obstacles = np.concatenate([obstacles, self._raised(target, pose, attempt)])
             attempt.grasp = pile_grasp(target, pose, model, K, obstacles, self.settings.pile_grasp)
         recognizer = pick_recognizer(self.recognizers[target.name], target, self.settings.pick_depth_window)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
@@ -516,6 +520,27 @@ class TableClearer:
         return self.recovery.look_from(place, offset, self.observation_camera_pose[2, 3])
 
     # ------------------------------------------------------------------ grasp point
+    def _raised(self, target: Detection, pose: FloatArray, attempt: AttemptState) -> FloatArray:
+        """(M, 2) [m] the points of `target`'s seen part whose surface the survey's pair shows
+        over another cloth (`table_layers.layer_map`); the arm holds for the time measured."""
+        cpu = time.process_time()
+        recognizer = self.recognizers[target.name]
+        model, K = recognizer.model, self.rig.right.camera_matrix
+        seen = points_in_mask(model.points_in, target.transform_model_to_camera, K, target.explained)
+        layers = layer_map(
+            self._survey_capture, self.rig, model, recognizer.settings.depth, target.explained,
+            transform_points(pose, model.points_in[seen]), self.table_z, self.settings.layers,
+            self.settings.surface,
+        )  # fmt: skip
+        self.motion.hold(time.process_time() - cpu)
+        raised = layers.raised
+        if len(raised):
+            attempt.notes.append(
+                f"grasp kept off {len(raised)} of {layers.trusted} measured points lying over something "
+                f"(surface above {(layers.limit - self.table_z) * 1000:.0f} mm)"
+            )
+        return raised
+
     def _use_pile_grasp(
         self, loop: PickPlaceLoop, transform_model_to_world: FloatArray, attempt: AttemptState
     ) -> None:

@@ -93,24 +93,51 @@ def surface_height(
 ) -> SurfaceHeight:
     """The top surface's height at `point_world` ((3,) or (2,) [m], Σ_W), measured on the
     pair of `capture` inside `visible` ((H, W) the target's pixels in the right image)."""
+    point = np.asarray(point_world, dtype=float).ravel()
+    return surface_heights(capture, rig, model, depth_settings, visible, point[None], table_z, settings)[0]
+
+
+def surface_heights(
+    capture: StereoCapture,
+    rig: StereoRig,
+    model: ClothModel,
+    depth_settings: DepthCheckSettings,
+    visible: npt.NDArray[np.bool_],
+    points_world: npt.ArrayLike,
+    table_z: float,
+    settings: SurfaceSettings,
+) -> list[SurfaceHeight]:
+    """`surface_height` at each of `points_world` ((N, 3) or (N, 2) [m], Σ_W), the pair
+    prepared once."""
     depth = StereoDepth(model, rig, depth_settings)
     depth.update(capture.left_bgr, capture.right_bgr)
     T = np.asarray(capture.transform_right_camera_to_world, dtype=float)
-    point = np.asarray(point_world, dtype=float).ravel()
-    point = np.array([point[0], point[1], point[2] if len(point) > 2 else table_z])
+    inside = _eroded(_closed(visible, settings.close), settings.erode)
+    points = np.atleast_2d(np.asarray(points_world, dtype=float))
+    return [_measured(depth, T, rig.right.camera_matrix, inside, p, table_z, settings) for p in points]
+
+
+def _measured(
+    depth: StereoDepth,
+    T: FloatArray,
+    K: FloatArray,
+    inside: npt.NDArray[np.bool_],
+    point_world: FloatArray,
+    table_z: float,
+    settings: SurfaceSettings,
+) -> SurfaceHeight:
+    point = np.array([point_world[0], point_world[1], point_world[2] if len(point_world) > 2 else table_z])
     in_camera = T[:3, :3].T @ (point - T[:3, 3])
     if in_camera[2] <= 1e-6:
         return SurfaceHeight(float("nan"), float("nan"), 0, False)
-    K = rig.right.camera_matrix
     u, v = K[0, 0] * in_camera[0] / in_camera[2] + K[0, 2], K[1, 1] * in_camera[1] / in_camera[2] + K[1, 2]
-    inside = _eroded(_closed(visible, settings.close), settings.erode)
     # planes z_W = h in Σ_CR: n = -(R's third row) points away from the camera, d = t_z - h
     normal = -T[2, :3]
     heights = np.arange(table_z - settings.below, table_z + settings.above + 1e-12, settings.coarse_step)
     samples, scores = 0, np.full(len(heights), -2.0)
     for scale in (1.0, 2.0):
         radius_px = scale * settings.radius * K[0, 0] / in_camera[2]
-        patch = inside & _disk(visible.shape, u, v, radius_px)
+        patch = inside & _disk(inside.shape, u, v, radius_px)
         scores, samples = depth.sweep_mask(patch, _planes(normal, T[2, 3], heights), 1, settings.min_gradient)
         if samples >= settings.min_samples:
             break
@@ -163,4 +190,4 @@ def _disk(shape: tuple[int, ...], u: float, v: float, radius: float) -> npt.NDAr
     return np.asarray((cols - u) ** 2 + (rows - v) ** 2 <= radius**2, dtype=bool)
 
 
-__all__ = ["SurfaceHeight", "SurfaceSettings", "aimed_at", "surface_height"]
+__all__ = ["SurfaceHeight", "SurfaceSettings", "aimed_at", "surface_height", "surface_heights"]
