@@ -43,6 +43,7 @@ def _job(monkeypatch: pytest.MonkeyPatch, put_back: list[str]) -> table_clearer.
     job.recovery = SimpleNamespace(  # type: ignore[assignment]
         put_back=lambda *args: (put_back.append("No.19"), (np.zeros(2), np.zeros(2)))[1],
         put_back_spots=[np.zeros(2)],
+        lay_down=lambda *args: False,  # no lay-out path: no shedding (tests below give one)
     )
     monkeypatch.setattr(table_clearer, "companion", lambda *args: None)  # no surveyed cloth by the grasp
     monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: "No.10")  # memory names No.10
@@ -106,3 +107,57 @@ def test_a_laid_back_cloth_seen_again_since_no_longer_counts(monkeypatch: pytest
     attempt = _attempt()
     job._after_lift(attempt, SimpleNamespace(arm=SimpleNamespace(resume_at=lambda q: None)))  # type: ignore[arg-type]
     assert attempt.came_along == ("No.10",)
+
+
+def _shedding_job(monkeypatch: pytest.MonkeyPatch, put_back: list[str], readings: list[float]):
+    """No.19's lift weighs the extra and no cloth is named; the hand can lay it down along a
+    path (it then stands at (0.60, 0.10)) and lift it again, weighing `readings` in turn."""
+    job = _job(monkeypatch, put_back)
+    monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: None)
+    where = {"tcp": np.array([0.50, 0.00, 0.40])}
+    moves: list[np.ndarray] = []
+
+    def lay_down(*args) -> bool:
+        where["tcp"] = np.array([0.60, 0.10, 0.05])
+        return True
+
+    def move_tcp(position, speed=1.0) -> None:
+        moves.append(np.array(position, dtype=float))
+        where["tcp"] = np.array(position, dtype=float)
+
+    job.recovery.lay_down = lay_down  # type: ignore[attr-defined]
+    job.motion = SimpleNamespace(  # type: ignore[assignment]
+        hold=lambda seconds: None, tcp_position=lambda: where["tcp"].copy(), q=np.zeros(7), move_tcp=move_tcp
+    )
+    weights = iter(readings)
+    job.weigh = lambda: next(weights)
+    return job, moves
+
+
+def test_a_double_pick_that_weighs_alone_after_being_laid_down_goes_on_to_the_box(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    put_back: list[str] = []
+    job, moves = _shedding_job(monkeypatch, put_back, [0.056, 0.022])  # then No.19 alone (21 g)
+    attempt = _attempt()
+    job._after_lift(attempt, SimpleNamespace(arm=SimpleNamespace(resume_at=lambda q: None)))  # type: ignore[arg-type]
+    assert put_back == [] and attempt.lift_check == "double"  # noticed, not put back
+    assert moves and moves[-1][2] == pytest.approx(0.40)  # lifted again to the lift's height
+    assert moves[-1][:2] == pytest.approx([0.60, 0.10])  # straight up from where it was laid
+    assert attempt.shed_at is not None and attempt.shed_at[1] == pytest.approx([0.60, 0.10])
+    assert attempt.unnamed_along and any("left on the table" in n for n in attempt.notes)
+    # the unnamed cloth is booked as lying along the laid strip, for a blind pick later
+    job.ledger.record_attempt(
+        attempt, SimpleNamespace(outcome=table_clearer.Outcome.PLACED, reason=""), 9.0, 0.021
+    )
+    assert job.ledger.unnamed[-1].end == pytest.approx([0.60, 0.10])
+
+
+def test_a_double_pick_still_heavy_after_being_laid_down_is_put_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    put_back: list[str] = []
+    job, _ = _shedding_job(monkeypatch, put_back, [0.056, 0.050])  # both hang from the fingers
+    attempt = _attempt()
+    with pytest.raises(EpisodeAbortError):
+        job._after_lift(attempt, SimpleNamespace(arm=SimpleNamespace(resume_at=lambda q: None)))  # type: ignore[arg-type]
+    assert put_back == ["No.19"] and attempt.shed_at is None
+    assert any("still 50 g lifted" in n for n in attempt.notes)

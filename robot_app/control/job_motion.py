@@ -197,9 +197,14 @@ class PutBackSettings(StrictModel):
         view_margin: the strip stays this far inside the survey's view of the table.
         waypoints: the lay-out path's rest-to-rest moves.
         free_distance: a strip point this far from every other cloth counts as free.
+        shed: before a double pick is put back, lay it down along such a path without
+            letting go and lift it again (`TableClearer._shed`): a cloth that came along
+            held by nothing (dragged, lying on the lifted one) may stay on the table, and
+            the meant cloth, weighed alone then, goes on to its box.
     """
 
     lay_out: bool = True
+    shed: bool = True
     directions: int = Field(12, ge=1, le=72)
     max_length: float = Field(0.25, gt=0.0, le=0.5)
     view_margin: float = Field(0.04, ge=0.0, le=0.2)

@@ -43,6 +43,7 @@ class AttemptState:
     remembered: tuple[str, ...] = ()  # of `came_along`, those known from an earlier survey only
     laid_back_too: tuple[str, ...] = ()  # known cloths that came along and were put back with it
     put_back_at: FloatArray | None = None  # (2,) where a put-back let go [m]
+    shed_at: tuple[FloatArray, FloatArray] | None = None  # a shed double pick's laid strip [m]
     unnamed_along: bool = False  # a double pick whose other cloth no survey identified
     named_by: str = ""  # how a double pick's other cloth was named: "grasp" or "memory"
     lift_check: str = ""

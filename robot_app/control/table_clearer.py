@@ -643,6 +643,9 @@ class TableClearer:
                 attempt.laid_back_too = (other,)
             else:
                 attempt.unnamed_along = True
+            if self.settings.put_back.shed and self._shed(attempt, expected, what):
+                loop.arm.resume_at(self.motion.q)
+                return
         attempt.notes.append(f"{'double pick' if verdict == 'double' else 'wrong lift'} ({what}): put back")
         self.put_back(attempt, attempt.grasp_point_model)
         loop.arm.resume_at(self.motion.q)
@@ -651,6 +654,36 @@ class TableClearer:
             # where no survey may see it (the meant cloth covers it again)
             self._hidden_spots[name] = self.recovery.put_back_spots[-1].copy()
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
+
+    def _shed(self, attempt: AttemptState, expected: float, what: str) -> bool:
+        """A double pick laid down along a lay-out path without letting go, then lifted
+        straight up to where it was and weighed again (`PutBackSettings.shed`): True when
+        the meant cloth then weighs alone (the other one stayed on the table, booked as laid
+        there); else the caller puts back from where the hand is."""
+        self._phase = "shed"
+        model = self.recognizers[attempt.name].model
+        above = self.motion.tcp_position()
+        laid = self.recovery.lay_down(
+            self._survey_capture, model, attempt.grasp_point_model, attempt.obstacles_xy, attempt.notes
+        )
+        if not laid or self.weigh is None:
+            return False
+        end = self.motion.tcp_position()
+        up = end.copy()
+        up[2] = above[2]
+        self.motion.move_tcp(up)
+        weighed = float(self.weigh())
+        verdict, again = weight_verdict(weighed, expected, attempt.name, self.settings)
+        if verdict != "ok":
+            attempt.notes.append(f"double pick ({what}): laid down and lifted again, still {again}")
+            return False
+        attempt.shed_at = (above[:2].copy(), end[:2].copy())
+        self._laid.append((attempt, *attempt.shed_at))
+        attempt.notes.append(
+            f"double pick ({what}): laid down and lifted again, {weighed * 1000:.0f} g: "
+            f"{attempt.name} alone, the other cloth left on the table"
+        )
+        return True
 
     def _laid_near(self, grasp_xy: FloatArray) -> tuple[str, float] | None:
         """A cloth the job laid back and has not seen since (`TableLedger.lost`, `unnamed`)

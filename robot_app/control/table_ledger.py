@@ -171,6 +171,17 @@ class TableLedger:
                 self.lost.setdefault(companion, LostPlace(f"put back with {name}", start, end, before))
             if attempt.put_back and attempt.unnamed_along:
                 self.unnamed.append(LostPlace(f"came up with {name}, not named", start, end, before))
+        if attempt.shed_at is not None:  # the other cloth was left lying along the strip
+            start, end = attempt.shed_at
+            before = self.surveys[-1].unknown if self.surveys else ()
+            for companion in attempt.laid_back_too:
+                self.lost.setdefault(
+                    companion, LostPlace(f"left on the table by {name}'s lift", start, end, before)
+                )
+            if attempt.unnamed_along:
+                self.unnamed.append(
+                    LostPlace(f"came up with {name}, not named, left on the table", start, end, before)
+                )
         if result.outcome is Outcome.PLACED:
             confirmed = attempt.box_check is not None and attempt.box_check.confirmed
             self.placed(name, confirmed)

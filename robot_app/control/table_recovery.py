@@ -134,15 +134,7 @@ class TableRecovery:
         go ((2,) x, y [m] each)."""
         s, table_z = self.settings, self.table.table_z
         above = self.motion.tcp_position()
-        path = (
-            self._lay_out_joints(survey, model, grasp_point_model, obstacles_xy, above, notes)
-            if s.put_back.lay_out
-            else None
-        )
-        if path is not None:
-            for q in path:
-                self.motion.move_to_joints(q, speed=s.put_down_speed)
-        else:
+        if not (s.put_back.lay_out and self.lay_down(survey, model, grasp_point_model, obstacles_xy, notes)):
             outward = above[:2] - survey.transform_right_camera_to_world[:2, 3]
             outward = outward / max(float(np.linalg.norm(outward)), 1e-9)
             slid = above[:2] + s.put_down_slide * outward
@@ -168,6 +160,25 @@ class TableRecovery:
         up[2] = table_z + s.put_down_height + s.put_back.max_length
         self.motion.move_tcp(up)
         return strip
+
+    def lay_down(
+        self,
+        survey: StereoCapture,
+        model: ClothModel,
+        grasp_point_model: FloatArray | None,
+        obstacles_xy: FloatArray | None,
+        notes: list[str],
+    ) -> bool:
+        """Lays what the gripper holds down along the first reachable lay-out path from
+        where the hand is (`put_back`'s), still holding it; False (nothing moved) when no
+        path is reachable."""
+        above = self.motion.tcp_position()
+        path = self._lay_out_joints(survey, model, grasp_point_model, obstacles_xy, above, notes)
+        if path is None:
+            return False
+        for q in path:
+            self.motion.move_to_joints(q, speed=self.settings.put_down_speed)
+        return True
 
     def _lay_out_joints(
         self,
