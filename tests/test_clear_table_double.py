@@ -113,6 +113,7 @@ def _shedding_job(monkeypatch: pytest.MonkeyPatch, put_back: list[str], readings
     """No.19's lift weighs the extra and no cloth is named; the hand can lay it down along a
     path (it then stands at (0.60, 0.10)) and lift it again, weighing `readings` in turn."""
     job = _job(monkeypatch, put_back)
+    job.settings = ClearTableSettings(survey_latency=0.0, put_back={"shed": True})
     monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: None)
     where = {"tcp": np.array([0.50, 0.00, 0.40])}
     moves: list[np.ndarray] = []
