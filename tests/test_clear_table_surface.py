@@ -8,6 +8,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from robot_app.control.clear_table_records import ClearTableSettings
+from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.table_lost import LostMatch, _blind_grasp_height
 from robot_app.control.table_surface import SurfaceSettings, aimed_at, surface_height
 from robot_app.geometry import make_transform, rotation_about_z
 from robot_app.vision import Recognition
@@ -104,3 +107,31 @@ def test_aimed_at_moves_the_grasp_point_along_the_cloths_normal_only() -> None:
     before = pose[:3, :3] @ np.array([0.03, -0.02, 0.0]) + pose[:3, 3]
     assert world[2] == pytest.approx(0.055)
     assert world[:2] == pytest.approx(before[:2])
+
+
+# ------------------------------------------------------------------ a blind grasp into a heap
+def _blind_job(pile, misses: int = 0):
+    recognizers, _, capture = pile
+    ledger = SimpleNamespace(misses=lambda name: misses)
+    return SimpleNamespace(
+        settings=ClearTableSettings(), loop_settings=LoopSettings(), table_z=0.0, rig=RIG,
+        recognizers=recognizers, survey_capture=capture, ledger=ledger,
+        motion=SimpleNamespace(hold=lambda seconds: None),
+    )  # fmt: skip
+
+
+def test_a_blind_grasp_is_aimed_at_the_top_of_the_heap_where_the_pair_measures_it(pile) -> None:
+    _, detections, _ = pile
+    region = SimpleNamespace(mask=detections["upper"].explained)  # the top cloth's part of the heap
+    point = _world(UPPER, (0.0, 0.0))
+    notes: list[str] = []
+    z = _blind_grasp_height(_blind_job(pile), LostMatch("upper", region, 0.9), (point[0], point[1]), notes)
+    assert z == pytest.approx(0.052 + LoopSettings().grasp_height, abs=0.003)  # 52 mm up, not 25 mm
+    assert notes and "surface there at 52 mm" in notes[0]
+    # after an empty blind grasp at this cloth, and where nothing is measured: the table's height
+    fixed = ClearTableSettings().lost.grasp_height
+    missed = _blind_job(pile, misses=1)
+    assert _blind_grasp_height(missed, LostMatch("upper", region, 0.9), point[:2], []) == fixed
+    plain = SimpleNamespace(mask=detections["plain"].explained)
+    centre = _world(PLAIN, (0.0, 0.0))
+    assert _blind_grasp_height(_blind_job(pile), LostMatch("plain", plain, 0.9), centre[:2], []) == fixed
