@@ -180,6 +180,37 @@ def test_pile_grasp_keeps_away_from_the_cloth_underneath() -> None:
         choose_pile_grasp(model, pose, seen[:-1], under)
 
 
+def test_pile_grasp_moves_to_where_the_arm_reaches() -> None:
+    # bench episode 30: a cloth by the arm's base; here the hand reaches only x >= 0.56 (Σ_W)
+    model = _square()
+    pose = np.eye(4)
+    pose[:3, 3] = (0.5, 0.1, 0.72)
+    seen = np.ones(len(model.points_in), bool)
+    asked: list[np.ndarray] = []
+
+    def reaches(point: np.ndarray) -> bool:
+        asked.append(np.array(point))
+        return bool(point[0] >= 0.56)
+
+    settings = PileGraspSettings(reach_tries=8)
+    best = choose_pile_grasp(model, pose, seen, np.empty((0, 2)), settings)
+    chosen = choose_pile_grasp(model, pose, seen, np.empty((0, 2)), settings, reaches)
+    assert best is not None and chosen is not None
+    assert best.point_world[0] < 0.56  # the middle, out of reach
+    assert chosen.point_world[0] >= 0.56 and chosen.edge_gap >= settings.min_edge_gap
+    assert 2 <= len(asked) <= settings.reach_tries + 1
+    # as deep inside the edge as the deepest reachable point the spread asked
+    asked_ok = [q for q in asked if q[0] >= 0.56]
+    deepest_asked = max(0.11 - max(abs(q[0] - 0.5), abs(q[1] - 0.1)) for q in asked_ok)
+    assert chosen.edge_gap >= deepest_asked - 1e-9
+    # reachable at once: nothing else asked; nowhere reachable: the best point stands
+    asked.clear()
+    at_once = choose_pile_grasp(model, pose, seen, np.empty((0, 2)), settings, lambda p: True)
+    assert at_once is not None and np.allclose(at_once.point_world, best.point_world)
+    nowhere = choose_pile_grasp(model, pose, seen, np.empty((0, 2)), settings, lambda p: False)
+    assert nowhere is not None and np.allclose(nowhere.point_world, best.point_world)
+
+
 def test_a_cloth_laid_back_under_the_target_is_kept_away_from() -> None:
     # a double pick was put back: the other cloth lies under the spot let go at, unseen
     spot = np.array([0.55, 0.15])

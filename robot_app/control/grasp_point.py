@@ -25,6 +25,7 @@ one farthest from every obstacle, counted up to `clearance`; among points that a
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -89,6 +90,8 @@ class PileGraspSettings(StrictModel):
         max_reach: the cloth hangs at most this far below the fingers from the chosen
             point (its farthest S_in point), when any visible point allows it: a cloth
             held near a corner hangs low enough to drag over a box wall [m].
+        reach_tries: where the arm cannot grasp at the chosen point, this many points
+            spread over the candidates are asked (`reachable`).
     """
 
     enabled: bool = True
@@ -96,6 +99,7 @@ class PileGraspSettings(StrictModel):
     min_edge_gap: float = Field(0.02, ge=0.0, le=0.2)
     obstacle_step_px: int = Field(3, ge=1, le=20)
     max_reach: float = Field(0.24, gt=0.0, le=1.0)
+    reach_tries: int = Field(8, ge=1, le=50)
 
 
 @dataclass(frozen=True)
@@ -152,6 +156,7 @@ def choose_pile_grasp(
     visible: npt.NDArray[np.bool_],
     obstacles_xy: npt.ArrayLike,
     settings: PileGraspSettings | None = None,
+    reachable: Callable[[FloatArray], bool] | None = None,
 ) -> PileGrasp | None:
     """The grasp point on the target away from the obstacles (module docstring).
 
@@ -161,6 +166,11 @@ def choose_pile_grasp(
         visible: (N_in,) which S_in points are seen.
         obstacles_xy: (M, 2) points of other cloths in Σ_W (x, y) [m].
         settings: see `PileGraspSettings`.
+        reachable: can the hand grasp at this (3,) point of the cloth [m]? When the best
+            point is not, `reach_tries` points spread over the candidates are asked, and
+            the best candidate in the part found reachable is taken (none: the best one,
+            whose grasp then fails with its IK error). Bench episode 30: a cloth by the
+            arm's base, every grasp at its middle out of reach, its far side within reach.
 
     Returns:
         The point, or None when fewer than 10 % of the S_in points are seen (the loop's
@@ -188,7 +198,10 @@ def choose_pile_grasp(
     pool = short if len(short) else pool
     # farthest from the obstacles (up to `clearance`), then deepest inside its own edge
     score = np.minimum(clear[pool], s.clearance) * 1e3 + np.minimum(edge[pool], 1.0) * 1e-3
-    best = int(pool[int(np.argmax(score))])
+    ranked = pool[np.argsort(-score, kind="stable")]
+    best = int(ranked[0])
+    if reachable is not None and not reachable(world[best]):
+        best = _first_reachable(ranked, world, reachable, s.reach_tries, best)
     point_model = np.array([candidates[best, 0], candidates[best, 1], 0.0])
     return PileGrasp(
         point_model,
@@ -197,6 +210,37 @@ def choose_pile_grasp(
         float(edge[best]),
         share,
     )
+
+
+def _first_reachable(
+    ranked: npt.NDArray[np.intp],
+    world: FloatArray,
+    reachable: Callable[[FloatArray], bool],
+    tries: int,
+    best: int,
+) -> int:
+    """Where the hand reaches, the best of `ranked` (indices into `world`, best first; the
+    first, `best`, refused): `tries` points spread over them (each the farthest from those
+    asked before) are asked; of the points nearer a reachable one than a refused one the
+    best is taken if the hand reaches it too, else the best reachable point asked; `best`
+    when none is."""
+    xy = world[ranked, :2]
+    asked, answers = [0], [False]
+    gap = np.hypot(*(xy - xy[0]).T)
+    while len(asked) < tries and float(gap.max()) > 0.0:
+        k = int(np.argmax(gap))
+        asked.append(k)
+        answers.append(bool(reachable(world[ranked[k]])))
+        gap = np.minimum(gap, np.hypot(*(xy - xy[k]).T))
+    ok = np.array(answers)
+    if not ok.any():
+        return best
+    nearest = np.argmin(np.hypot(*(xy[:, None, :] - xy[asked][None, :, :]).transpose(2, 0, 1)), axis=1)
+    likely = np.flatnonzero(ok[nearest])  # positions in `ranked`, best first
+    k = int(likely[0])
+    if k in asked or reachable(world[ranked[k]]):
+        return int(ranked[k])
+    return int(ranked[min(a for a, yes in zip(asked, answers, strict=True) if yes)])
 
 
 def _farthest(points: FloatArray, others: FloatArray) -> FloatArray:

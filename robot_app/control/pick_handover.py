@@ -6,6 +6,8 @@ loop's search found the target where the survey saw it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from robot_app.arrays import FloatArray
@@ -33,11 +35,13 @@ def pile_grasp(
     camera_matrix: FloatArray,
     obstacles_xy: FloatArray,
     settings: PileGraspSettings,
+    reachable: Callable[[FloatArray], bool] | None = None,
 ) -> PileGrasp | None:
     """Where on `target` (at `pose_world`) to grasp: seen by the survey and away from every
-    other cloth it saw (`obstacles_xy`, (M, 2) [m]; `grasp_point.choose_pile_grasp`)."""
+    other cloth it saw (`obstacles_xy`, (M, 2) [m]; `grasp_point.choose_pile_grasp`), where
+    the hand reaches (`reachable`, if given)."""
     seen = points_in_mask(model.points_in, target.transform_model_to_camera, camera_matrix, target.explained)
-    return choose_pile_grasp(model, pose_world, seen, obstacles_xy, settings)
+    return choose_pile_grasp(model, pose_world, seen, obstacles_xy, settings, reachable)
 
 
 def grasp_in_model(

@@ -376,7 +376,11 @@ class TableClearer:
                 attempt.notes.append(f"grasp kept away from the cloth laid under {where}")
             if self.settings.layers.enabled:
                 obstacles = np.concatenate([obstacles, self._raised(target, pose, attempt)])
-            attempt.grasp = pile_grasp(target, pose, model, K, obstacles, self.settings.pile_grasp)
+            cpu = time.process_time()
+            attempt.grasp = pile_grasp(
+                target, pose, model, K, obstacles, self.settings.pile_grasp, self._grasps_at
+            )
+            self.motion.hold(time.process_time() - cpu)  # the IK checks' time
         recognizer = pick_recognizer(self.recognizers[target.name], target, self.settings.pick_depth_window)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
         loop = PickPlaceLoop(
@@ -520,6 +524,14 @@ class TableClearer:
         return self.recovery.look_from(place, offset, self.observation_camera_pose[2, 3])
 
     # ------------------------------------------------------------------ grasp point
+    def _grasps_at(self, point: FloatArray) -> bool:
+        """Can the loop grasp at `point` (Σ_W [m], on the cloth)? Its TCP over the point
+        before the grasp, at the grasp and at the lift's height all have IK solutions (cameras
+        looking down, as the loop keeps them)."""
+        s, z = self.loop_settings, float(point[2])
+        heights = (z + s.pregrasp_height, z + s.grasp_height, self.table_z + s.lift_height)
+        return all(self.motion.reaches([point[0], point[1], z]) for z in heights)
+
     def _raised(self, target: Detection, pose: FloatArray, attempt: AttemptState) -> FloatArray:
         """(M, 2) [m] the points of `target`'s seen part whose surface the survey's pair shows
         over another cloth (`table_layers.layer_map`); the arm holds for the time measured."""
