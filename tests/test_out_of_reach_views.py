@@ -97,3 +97,73 @@ def test_the_centring_look_goes_as_far_towards_a_far_candidate_as_the_arm_reache
     # nothing on the way in reach: the observation joints, to look again from there
     loop.arm = OutOfReachArm()
     np.testing.assert_array_equal(centred(far), np.zeros(3))
+
+
+# ------------------------------------------------------------------ put-backs the arm can pick again
+class RingArm:
+    """The job's motion for an arm that reaches out to 0.9 m from its base, but down to a
+    grasp's height (under 0.04 m) only from `inner` out, as the PA10 near its base; it records
+    the joints it was sent to (joints = the TCP position)."""
+
+    def __init__(self, tcp: np.ndarray, inner: float = 0.33) -> None:
+        self.tcp, self.sent, self.inner = np.array(tcp, dtype=float), [], inner
+
+    def tcp_position(self, q=None) -> np.ndarray:
+        return self.tcp.copy()
+
+    def solve_tcp(self, position) -> np.ndarray:
+        from robot_app.errors import IKError
+
+        p = np.asarray(position, dtype=float)
+        if not self.reaches(p):
+            raise IKError(f"no IK solution for {p}")
+        return p
+
+    def reaches(self, position) -> bool:
+        p = np.asarray(position, dtype=float)
+        r = float(np.hypot(p[0], p[1]))
+        return r <= 0.9 and (r >= self.inner or p[2] >= 0.04)  # near the base: not down to a grasp
+
+    def move_to_joints(self, q, speed: float = 1.0) -> None:
+        self.sent.append(np.array(q, dtype=float))
+        self.tcp = np.array(q, dtype=float)
+
+
+def test_a_put_back_is_laid_where_a_blind_grasp_can_reach_it_again() -> None:
+    # Bench episode 30 (session 20): a double lift at x = 0.42 m laid back towards the arm's
+    # base, to x = 0.22 m, where every later blind grasp was out of reach.
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.table_recovery import TableRecovery
+    from robot_app.control.table_survey import TablePlane
+    from robot_app.geometry import make_transform
+    from robot_app.vision import ClothModel, PinholeCamera
+
+    camera = PinholeCamera.from_fov((320, 240), np.deg2rad(60))
+    survey = SimpleNamespace(
+        transform_right_camera_to_world=make_transform(np.diag([1.0, -1.0, -1.0]), [0.40, 0.0, 0.6])
+    )
+    grid = np.arange(-0.08, 0.0801, 0.01)
+    u, v = np.meshgrid(grid, grid)
+    points = np.column_stack([u.ravel(), v.ravel(), np.zeros(u.size)])
+    model = ClothModel(
+        "sq", points, np.full(len(points), 10, np.uint16), points[:4], 85.0, np.zeros(3), (0.16, 0.16)
+    )
+    # every way but towards the base is taken by other cloths
+    angles = np.linspace(-2.4, 2.4, 9)
+    others = np.concatenate(
+        [np.column_stack([0.42 + r * np.cos(a), r * np.sin(a)]) for a in angles for r in (0.1, 0.15, 0.2)]
+    )
+    notes: list[str] = []
+
+    def laid_end(arm: RingArm) -> np.ndarray:
+        recovery = TableRecovery(
+            arm, SimpleNamespace(), TablePlane(camera.camera_matrix, 0.0), camera,  # type: ignore[arg-type]
+            ClearTableSettings(), LoopSettings(),
+        )  # fmt: skip
+        assert recovery.lay_down(survey, model, None, others, notes)  # type: ignore[arg-type]
+        return arm.sent[-1]
+
+    anywhere = laid_end(RingArm(np.array([0.42, 0.0, 0.4]), inner=0.0))
+    assert float(np.hypot(anywhere[0], anywhere[1])) < 0.33  # the free way leads to the base
+    ring = laid_end(RingArm(np.array([0.42, 0.0, 0.4])))
+    assert float(np.hypot(ring[0], ring[1])) >= 0.33  # not laid out of reach

@@ -224,6 +224,8 @@ class TableRecovery:
                     joints.append(self.motion.solve_tcp(point))
             except IKError:
                 continue
+            if not self._graspable_along(path):
+                continue
             notes.append(
                 f"put back laid out over {min(reach, self.settings.put_back.max_length) * 1000:.0f} mm "
                 f"towards ({path.direction[0]:+.2f}, {path.direction[1]:+.2f})"
@@ -231,6 +233,16 @@ class TableRecovery:
             )
             return joints
         return None
+
+    def _graspable_along(self, path: LayOutPath) -> bool:
+        """Can a blind grasp later reach the laid cloth: over the strip's middle and its end
+        (where the hand lets go), the pregrasp, grasp (`lost.grasp_height`) and lift heights?
+        A cloth laid towards the arm's base lay out of every grasp's reach (bench episode 30,
+        session 20: No.7 laid back to x = 0.22 m, then four blind attempts `out of reach`)."""
+        table_z, loop = self.table.table_z, self.loop_settings
+        heights = (loop.pregrasp_height, self.settings.lost.grasp_height, loop.lift_height)
+        ends = (path.waypoints[len(path.waypoints) // 2], path.waypoints[-1])
+        return all(self.motion.reaches([p[0], p[1], table_z + h]) for p in ends for h in heights)
 
 
 __all__ = ["TableRecovery"]
