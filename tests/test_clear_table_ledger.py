@@ -78,3 +78,28 @@ def test_a_cloth_the_job_laid_back_is_not_remembered_where_it_was_seen() -> None
     assert set(ledger.remembered_poses({"No.11"})) == {"No.2"}
     ledger.placed("No.2", confirmed=False)
     assert ledger.remembered_poses({"No.11"}) == {}
+
+
+def test_blind_grasps_that_closed_on_nothing_keep_the_job_off_that_spot() -> None:
+    # bench episode 40 (session 20): eight blind attempts under two guessed names at a white
+    # region by the arm's base, every one closing on nothing
+    from robot_app.control import table_clearer
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.pick_place import EMPTY_GRASP
+
+    ledger = TableLedger()
+    box = BoxPlace("whites", np.array([0.3, 0.56, 0.0]), 0.22, 0.1, 0.01)
+    empty = EpisodeResult.not_started(Outcome.GRASP_FAILED, EMPTY_GRASP, "blind")
+    for name, xy in (("No.17", (0.18, 0.31)), ("No.18", (0.20, 0.29))):
+        where = np.eye(4)
+        where[:2, 3] = xy
+        ledger.record_attempt(AttemptState(None, box, where, 0.0, lost_name=name), empty, 1.0, 0.02)
+    seen = AttemptState(SimpleNamespace(name="No.3"), box, np.eye(4), 0.0)  # type: ignore[arg-type]
+    ledger.record_attempt(seen, empty, 2.0, 0.02)  # the loop's own empty grasp: not booked here
+    assert len(ledger.empty_grasps) == 2
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job.settings, job.ledger = ClearTableSettings(), ledger
+    assert job._grasped_empty(np.array([0.19, 0.30]))  # both within 6 cm
+    assert not job._grasped_empty(np.array([0.17, 0.33]) + 0.05)  # beyond them
+    job.settings = ClearTableSettings(lost={"empty_grasps": 3})
+    assert not job._grasped_empty(np.array([0.19, 0.30]))  # two are not three

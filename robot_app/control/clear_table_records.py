@@ -45,6 +45,11 @@ class LostSettings(StrictModel):
             wide), so no finger lands on a wall and the hand lifts no cloth out of the box
             (the same episode: a grasp beside the whites box lifted a cloth hanging out of
             it) [m].
+        empty_grasps: a region whose centre lies within `empty_reach` of this many blind
+            grasps that closed on nothing is not grasped blind again, under any name: it is
+            no cloth the fingers can take (bench episode 40, session 20: eight blind attempts,
+            under two guessed names, at a white region by the arm's base at table height).
+        empty_reach: see `empty_grasps` [m].
     """
 
     enabled: bool = True
@@ -55,6 +60,8 @@ class LostSettings(StrictModel):
     apart: float = Field(0.05, ge=0.0)
     edge_inset: float = Field(0.02, ge=0.0)
     wall_clearance: float = Field(0.05, ge=0.0)
+    empty_grasps: int = Field(2, ge=1)
+    empty_reach: float = Field(0.06, gt=0.0)
 
 
 class OffSheetSettings(StrictModel):

@@ -56,6 +56,7 @@ PhaseCallback = Callable[[PhaseRecord], None]
 StepCallback = Callable[[Cell, StereoCapture | None], None]
 RecognitionCallback = Callable[[VisionCycle], None]
 LIFTED = "cloth lifted"  # a LIFT phase note that starts so: the gripper holds the cloth off the table
+EMPTY_GRASP = "grasp missed: cloth not lifted"  # the LIFT note when the fingers hold nothing
 CENTRING_SHARES = (1.0, 0.75, 0.5, 0.25)  # of the way to centre the cameras over a candidate, in turn
 
 
@@ -420,7 +421,7 @@ class PickPlaceLoop:
     def _lift(self) -> bool:
         self.strategy.lift()
         holding = self.cell.holding()
-        lifted = LIFTED if holding else "grasp missed: cloth not lifted"
+        lifted = LIFTED if holding else EMPTY_GRASP
         self._note = f"{lifted}; {self.strategy.note}" if self.strategy.note else lifted
         return holding
 

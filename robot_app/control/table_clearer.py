@@ -482,6 +482,8 @@ class TableClearer:
 
         def match(regions: tuple[UnknownRegion, ...]) -> LostMatch | None:
             centres = [np.array(self.table.point(capture, r.centroid)) for r in regions]
+            kept = [i for i, c in enumerate(centres) if not self._grasped_empty(c)]
+            regions, centres = tuple(regions[i] for i in kept), [centres[i] for i in kept]
             return match_lost(capture, regions, centres, lost, places, s, self.sort.box_for, guessed)
 
         whole = match(ident.unknown)
@@ -492,6 +494,13 @@ class TableClearer:
         smallest = self.identify_settings.min_unknown_area * ident.unknown[0].mask.size
         piece = match(colour_patches(capture, ident.unknown, lost, smallest))
         return None if piece is None else replace(piece, piece=True)
+
+    def _grasped_empty(self, centre: FloatArray) -> bool:
+        """Did `lost.empty_grasps` blind grasps within `lost.empty_reach` of `centre` ((2,)
+        [m]) close on nothing? Then what lies there is no cloth the fingers take."""
+        s = self.settings.lost
+        near = [xy for xy in self.ledger.empty_grasps if float(np.hypot(*(xy - centre))) <= s.empty_reach]
+        return len(near) >= s.empty_grasps
 
     # ------------------------------------------------------------------ looking around
     def _back_to_observation(self) -> None:

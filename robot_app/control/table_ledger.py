@@ -18,6 +18,7 @@ from robot_app.control.clear_table_records import (
 )
 from robot_app.control.episode import EpisodeResult, Outcome
 from robot_app.control.pick_checks import AttemptState
+from robot_app.control.pick_place import EMPTY_GRASP
 from robot_app.control.table_survey import TablePlane, to_world
 from robot_app.vision.identify import Detection, Identification
 
@@ -60,6 +61,7 @@ class TableLedger:
         self.last_survey: dict[str, int] = {}
         self.lost: dict[str, LostPlace] = {}
         self.unnamed: list[LostPlace] = []
+        self.empty_grasps: list[FloatArray] = []  # (2,) where blind grasps closed on nothing [m]
         self.moved_by: list[int] = []
 
     def untried(self, name: str, max_attempts: int) -> bool:
@@ -136,6 +138,8 @@ class TableLedger:
             entry["unconfirmed"] = True
         if result.outcome is Outcome.GRASP_FAILED and not attempt.put_back:
             entry["misses"] = int(entry.get("misses", 0)) + 1  # type: ignore[call-overload]
+            if attempt.target is None and result.reason.startswith(EMPTY_GRASP):
+                self.empty_grasps.append(attempt.transform_target_to_world[:2, 3].copy())
         self.attempts.append(
             PickAttempt(
                 name,

@@ -56,7 +56,7 @@ from robot_app.control.clear_table_records import ClearTableSettings, LostPlace,
 from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
 from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, weight_verdict
-from robot_app.control.pick_place import LIFTED, carry_over_box, release_into_box
+from robot_app.control.pick_place import EMPTY_GRASP, LIFTED, carry_over_box, release_into_box
 from robot_app.control.table_furniture import OPENING, graspable
 from robot_app.control.table_surface import surface_height
 from robot_app.errors import IKError
@@ -459,11 +459,11 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
         job.set_phase("lift", name)
         job.motion.move_tcp([x, y, table_z + loop.lift_height])
         lifted = job.cell.holding()
-        _phase(job, name, "lift", start, LIFTED if lifted else "grasp missed: cloth not lifted")
+        _phase(job, name, "lift", start, LIFTED if lifted else EMPTY_GRASP)
         if not lifted:
             job.cell.release()
             job.cell.set_gripper(loop.gripper_open)
-            outcome, reason = Outcome.GRASP_FAILED, "grasp missed: cloth not lifted"
+            outcome, reason = Outcome.GRASP_FAILED, EMPTY_GRASP
         else:
             outcome, reason = _carry(job, attempt, match)
     except IKError as err:
