@@ -198,6 +198,7 @@ def test_pile_grasp_moves_to_where_the_arm_reaches() -> None:
     assert best is not None and chosen is not None
     assert best.point_world[0] < 0.56  # the middle, out of reach
     assert chosen.point_world[0] >= 0.56 and chosen.edge_gap >= settings.min_edge_gap
+    assert chosen.moved_for_reach and not best.moved_for_reach
     assert 2 <= len(asked) <= settings.reach_tries + 1
     # as deep inside the edge as the deepest reachable point the spread asked
     asked_ok = [q for q in asked if q[0] >= 0.56]
@@ -207,6 +208,7 @@ def test_pile_grasp_moves_to_where_the_arm_reaches() -> None:
     asked.clear()
     at_once = choose_pile_grasp(model, pose, seen, np.empty((0, 2)), settings, lambda p: True)
     assert at_once is not None and np.allclose(at_once.point_world, best.point_world)
+    assert not at_once.moved_for_reach
     nowhere = choose_pile_grasp(model, pose, seen, np.empty((0, 2)), settings, lambda p: False)
     assert nowhere is not None and np.allclose(nowhere.point_world, best.point_world)
 

@@ -112,6 +112,7 @@ class PileGrasp:
         clearance: distance (x, y) to the nearest obstacle point [m] (inf: no obstacle).
         edge_gap: distance to the target's own edge or hidden part [m].
         visible: the share of the target's S_in points seen [0-1].
+        moved_for_reach: the best point was out of the hand's reach; this one is not.
     """
 
     point_model: FloatArray
@@ -119,6 +120,7 @@ class PileGrasp:
     clearance: float
     edge_gap: float
     visible: float
+    moved_for_reach: bool = False
 
 
 def points_in_mask(
@@ -209,6 +211,7 @@ def choose_pile_grasp(
         float(clear[best]),
         float(edge[best]),
         share,
+        best != int(ranked[0]),
     )
 
 

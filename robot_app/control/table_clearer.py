@@ -381,6 +381,11 @@ class TableClearer:
                 target, pose, model, K, obstacles, self.settings.pile_grasp, self._grasps_at
             )
             self.motion.hold(time.process_time() - cpu)  # the IK checks' time
+            if attempt.grasp is not None and attempt.grasp.moved_for_reach:
+                xy = attempt.grasp.point_world
+                attempt.notes.append(
+                    f"grasp moved to ({xy[0]:.2f}, {xy[1]:.2f}): the best point was out of reach"
+                )
         recognizer = pick_recognizer(self.recognizers[target.name], target, self.settings.pick_depth_window)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
         loop = PickPlaceLoop(
