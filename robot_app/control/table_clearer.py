@@ -542,9 +542,9 @@ class TableClearer:
         """Can the loop grasp at `point` (Σ_W [m], on the cloth)? Its TCP over the point
         before the grasp, at the grasp and at the lift's height all have IK solutions (cameras
         looking down, as the loop keeps them)."""
-        s, z = self.loop_settings, float(point[2])
-        heights = (z + s.pregrasp_height, z + s.grasp_height, self.table_z + s.lift_height)
-        return all(self.motion.reaches([point[0], point[1], z]) for z in heights)
+        s, cloth_z = self.loop_settings, float(point[2])
+        heights = (cloth_z + s.pregrasp_height, cloth_z + s.grasp_height, self.table_z + s.lift_height)
+        return all(self.motion.reaches([point[0], point[1], h]) for h in heights)
 
     def _raised(self, target: Detection, pose: FloatArray, attempt: AttemptState) -> FloatArray:
         """(M, 2) [m] the points of `target`'s seen part whose surface the survey's pair shows
