@@ -71,7 +71,7 @@ def test_a_cloth_the_job_laid_back_is_not_remembered_where_it_was_seen() -> None
     _survey(ledger, "No.11")  # No.2 hidden: it may still lie where it was seen
     assert set(ledger.remembered_poses({"No.11"})) == {"No.2"}
     _put_back(ledger, "No.2", (0.1, 0.2))
-    assert "No.2" in ledger.lost
+    assert "No.2" in ledger.lost and ledger.lost["No.2"].laid  # let go where the job chose
     assert ledger.remembered_poses({"No.11"}) == {}
     _survey(ledger, "No.2", "No.11")  # recognised again: its pose is news again
     _survey(ledger, "No.11")

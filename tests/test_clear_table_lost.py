@@ -161,6 +161,14 @@ def test_a_lost_cloth_is_looked_for_along_the_way_it_was_lost() -> None:
     spot = LostPlace("put back", np.array([0.5, 0.0]), np.array([0.5, 0.0]), ())  # let go where lifted
     assert near_the_loss(np.array([0.7, 0.1]), spot, settings)
     assert not near_the_loss(np.array([0.9, 0.0]), spot, settings)
+    # laid back by the job over a region seen before: that region is no alibi; one off the
+    # laid strip still is
+    before = ((0.52, 0.04), (0.7, -0.2))
+    laid = LostPlace("put back", np.array([0.5, 0.0]), np.array([0.5, -0.15]), before, laid=True)
+    assert near_the_loss(np.array([0.52, 0.03]), laid, settings)
+    assert not near_the_loss(np.array([0.7, -0.19]), laid, settings)
+    dropped = LostPlace("dropped in transfer", np.array([0.5, 0.0]), np.array([0.5, -0.15]), before)
+    assert not near_the_loss(np.array([0.52, 0.03]), dropped, settings)
 
 
 def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_double_the_unplaced_unseen(
@@ -211,8 +219,21 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     job.ledger.placed_order.append("No.4")
     job._lost_to_pick(ident)  # type: ignore[arg-type]
     assert asked[-1][0] == {"No.3"} and asked[-1][1]["No.3"] is nameless
+    # a suspect (seen by a survey, not seen now, not placed) is asked alone first, then with
+    # every other guess (bench episode 60, session 20)
+    job.ledger.records["No.4"]["attempts"] = 0
+    job.ledger.placed_order.remove("No.4")
+    job.ledger.last_seen["No.4"] = np.array([0.5, 0.1])
+    job._lost_to_pick(ident)  # type: ignore[arg-type]
+    assert [guess for guess in guesses[-2:]] == [{"No.4"}, {"No.3", "No.4"}]
+    assert asked[-2][0] == {"No.4"} and asked[-2][1]["No.4"] is nameless
+    job.ledger.last_seen["No.2"] = np.array([0.6, 0.0])  # seen now: no suspect, nor a guess
+    job.ledger.last_seen["No.3"] = np.array([0.4, 0.0])  # every guess a suspect: one round
+    calls = len(asked)
+    job._lost_to_pick(ident)  # type: ignore[arg-type]
+    assert len(asked) == calls + 1 and guesses[-1] == {"No.3", "No.4"}
     job.settings = ClearTableSettings(lost={"enabled": False})
-    assert job._lost_to_pick(ident) is None and len(asked) == 4  # type: ignore[arg-type]
+    assert job._lost_to_pick(ident) is None and len(asked) == calls + 1  # type: ignore[arg-type]
 
 
 def _look_around_over_the_sheet():

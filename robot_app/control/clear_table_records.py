@@ -119,12 +119,15 @@ class LostPlace:
         start, end: (2,) the way it went [m]: lifted at `start`, lost on the way to `end`
             (the box for a drop, the spot let go at for a put-back).
         before: (x, y) [m] of the unknown regions of the survey before the loss.
+        laid: the job let it go itself along the way (a put-back, a shed): an unknown
+            region seen before on that strip is no alibi, the cloth was laid over it.
     """
 
     how: str
     start: FloatArray
     end: FloatArray
     before: tuple[tuple[float, float], ...]
+    laid: bool = False
 
 
 class ClearTableSettings(StrictModel):

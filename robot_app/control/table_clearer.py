@@ -455,7 +455,16 @@ class TableClearer:
 
     def _lost_to_pick(self, ident: Identification) -> LostMatch | None:
         """A cloth the job lost and no survey recognised since, with attempts left, whose
-        colours an unknown region of `ident` shows (`table_lost.match_lost`)."""
+        colours an unknown region of `ident` shows (`table_lost.match_lost`).
+
+        After a double pick whose other cloth was not named, the guesses for that cloth are
+        asked in two rounds: first the *suspects* alone, the cloths a survey saw on the table
+        that no survey sees now (not placed); then, if no region matches, every known cloth
+        not placed and not seen now. With the whole catalogue as guesses a dark heap fits the
+        white cloths' palettes as well as the lost black one's (a white cloth's folds lie in
+        shade), and no region is ever taken (bench episode 60, session 20: No.20 laid back
+        with No.15, seen before and gone since; the heap, in No.20's colours, stayed on the
+        table as the whites No.17 and No.18, never seen, tied with it)."""
         if not self.settings.lost.enabled:
             return None
         seen = {d.name for d in ident.detections}
@@ -465,7 +474,7 @@ class TableClearer:
             if name not in seen and self.ledger.untried(name, self.settings.max_attempts)
         }
         places = {name: self.ledger.lost[name] for name in lost}
-        named = frozenset(lost)  # the lost cloths the job knows by name; the rest are guesses
+        rounds: list[tuple[str, ...]] = [()]
         if self.ledger.unnamed:
             # a cloth that came up with a double pick and was not named: one of the known
             # cloths not placed and not seen now, laid back where that pick let go. Not only
@@ -473,17 +482,35 @@ class TableClearer:
             # came up with No.8, was laid back with it and was never picked (its heap stayed
             # an unknown region by the put-back spot)
             placed = set(self.ledger.placed_order)
-            for name in self.recognizers:
-                if (
-                    name not in lost
-                    and name not in placed
-                    and name not in seen
-                    and self.ledger.untried(name, self.settings.max_attempts)
-                ):
-                    lost[name], places[name] = self.recognizers[name], self.ledger.unnamed[-1]
-        capture = self._survey_capture
+            guesses = tuple(
+                name
+                for name in self.recognizers
+                if name not in lost
+                and name not in placed
+                and name not in seen
+                and self.ledger.untried(name, self.settings.max_attempts)
+            )
+            suspects = tuple(name for name in guesses if name in self.ledger.last_seen)
+            rounds = [suspects, guesses] if suspects and len(suspects) < len(guesses) else [guesses]
+        for guessed in rounds:
+            candidates = {**lost, **{name: self.recognizers[name] for name in guessed}}
+            where = {**places, **{name: self.ledger.unnamed[-1] for name in guessed}}
+            found = self._lost_among(ident, candidates, where, frozenset(guessed))
+            if found is not None:
+                return found
+        return None
 
-        s, guessed = self.settings.lost, frozenset(lost) - named
+    def _lost_among(
+        self,
+        ident: Identification,
+        lost: Mapping[str, Recognizer],
+        places: Mapping[str, LostPlace],
+        guessed: frozenset[str],
+    ) -> LostMatch | None:
+        """`match_lost` over `ident`'s unknown regions for the candidates `lost` (lost at
+        `places`; `guessed`: those of them only guessed), then over their pieces in one
+        candidate's colours (`colour_patches`)."""
+        capture, s = self._survey_capture, self.settings.lost
 
         def match(regions: tuple[UnknownRegion, ...]) -> LostMatch | None:
             centres = [np.array(self.table.point(capture, r.centroid)) for r in regions]

@@ -251,14 +251,25 @@ def colour_patches(
 def near_the_loss(centre_xy: FloatArray, place: LostPlace, settings: LostSettings) -> bool:
     """Could a region centred at `centre_xy` [m] be the cloth lost at `place`: within
     `reach` of the way it was lost, and not where an unknown region lay before the loss
-    (`apart`)?"""
+    (`apart`), unless the job laid the cloth there itself (`LostPlace.laid`: a region seen
+    before within `apart` of the laid strip had the cloth laid over it; bench episode 62,
+    session 20: No.11, laid back twice along the heap it was lifted from, was never looked
+    for there again)."""
     centre = np.asarray(centre_xy, dtype=float).reshape(2)
+    if _off_segment(centre, place) > settings.reach:
+        return False
+    before = [np.asarray(xy, dtype=float) for xy in place.before]
+    if place.laid:
+        before = [xy for xy in before if _off_segment(xy, place) > settings.apart]
+    return all(float(np.hypot(*(centre - xy))) > settings.apart for xy in before)
+
+
+def _off_segment(point: FloatArray, place: LostPlace) -> float:
+    """Distance [m] of `point` ((2,) [m]) from the way `place`'s cloth went (start to end)."""
     a, b = np.asarray(place.start, dtype=float), np.asarray(place.end, dtype=float)
     span = b - a
-    t = float(np.clip((centre - a) @ span / max(float(span @ span), 1e-12), 0.0, 1.0))
-    if float(np.hypot(*(centre - (a + t * span)))) > settings.reach:
-        return False
-    return all(float(np.hypot(*(centre - np.asarray(xy)))) > settings.apart for xy in place.before)
+    t = float(np.clip((point - a) @ span / max(float(span @ span), 1e-12), 0.0, 1.0))
+    return float(np.hypot(*(point - (a + t * span))))
 
 
 @dataclass(frozen=True)
