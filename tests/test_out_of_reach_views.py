@@ -167,3 +167,34 @@ def test_a_put_back_is_laid_where_a_blind_grasp_can_reach_it_again() -> None:
     assert float(np.hypot(anywhere[0], anywhere[1])) < 0.33  # the free way leads to the base
     ring = laid_end(RingArm(np.array([0.42, 0.0, 0.4])))
     assert float(np.hypot(ring[0], ring[1])) >= 0.33  # not laid out of reach
+
+
+def test_a_look_at_a_place_out_of_reach_goes_as_far_towards_it_as_the_arm_reaches() -> None:
+    # Bench episode 64 (session 20): a put-back heap at x = 0.79-0.86 m, y = 0.23-0.32 m; both
+    # looks over it were out of reach, the survey saw nothing and the job stopped.
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.table_recovery import TableRecovery
+
+    def recovery(arm: RingArm) -> TableRecovery:
+        arm.hold = lambda duration: None  # type: ignore[attr-defined]
+        arm.move_tcp = lambda p, speed=1.0: arm.move_to_joints(arm.solve_tcp(p))  # type: ignore[attr-defined]
+        return TableRecovery(
+            arm, SimpleNamespace(), SimpleNamespace(), SimpleNamespace(),  # type: ignore[arg-type]
+            ClearTableSettings(), LoopSettings(),
+        )  # fmt: skip
+
+    offset, camera_z, observation = np.array([0.07, 0.0, 0.15]), 0.6, np.array([0.55, 0.0])
+    far = np.array([0.85, 0.30])  # the camera over it: TCP at 0.78, 0.30, 0.45 (0.84 m out)
+    arm = RingArm(np.array([0.48, 0.0, 0.45]))
+    arm.reaches = lambda p: float(np.linalg.norm(np.asarray(p, dtype=float))) <= 0.85  # type: ignore[method-assign]
+    assert recovery(arm).look_from(far, offset, camera_z, observation)
+    camera = arm.sent[-1][:2] + offset[:2]
+    assert np.linalg.norm(camera - far) < np.linalg.norm(observation - far) - 0.1  # well on the way
+    assert float(np.linalg.norm(arm.sent[-1])) <= 0.85
+    assert not recovery(arm).look_from(far, offset, camera_z)  # only over the place: out of reach
+    near = np.array([0.6, 0.1])
+    assert recovery(arm).look_from(near, offset, camera_z, observation)
+    assert np.allclose(arm.sent[-1][:2] + offset[:2], near)  # in reach: right over it
+    nowhere = RingArm(np.array([0.48, 0.0, 0.45]))
+    nowhere.reaches = lambda p: False  # type: ignore[method-assign]
+    assert not recovery(nowhere).look_from(far, offset, camera_z, observation)

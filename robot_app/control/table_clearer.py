@@ -562,7 +562,8 @@ class TableClearer:
         self.recovery.looked.append(place)
         offset = self.camera_offset()
         self._phase, self._meant = "look around", None
-        return self.recovery.look_from(place, offset, self.observation_camera_pose[2, 3])
+        observation = self.observation_camera_pose[:2, 3]
+        return self.recovery.look_from(place, offset, self.observation_camera_pose[2, 3], observation)
 
     # ------------------------------------------------------------------ grasp point
     def _grasps_at(self, point: FloatArray) -> bool:
