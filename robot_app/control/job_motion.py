@@ -18,7 +18,11 @@ before the fingers let go. The direction: among `directions` evenly spread ones,
 whose laid strip stays inside the survey's view of the table (by `view_margin`), those
 whose laid cloth does too first, then by how free the strip is (the mean distance of its
 points to the other cloths the survey saw, each counted up to `free_distance`; the start
-is common to all), then the others, the least outside first. The job tries them in that
+is common to all; strips within `FREEDOM_STEP` of one another are equally free, and the one
+whose laid cloth lies deepest inside the view comes first: with the first angle winning
+ties, every free strip ran along +x, towards the view's far edge, where put-back heaps
+ended unseen or seen in part in bench episodes 8, 9 and 64), then the others, the least
+outside first. The job tries them in that
 order until one is reachable. The laid
 cloth is wider than the strip: it reaches `half_width` to either side of it (half the
 cloth's width; a double lift is wider still), and the part of a cloth longer than
@@ -53,6 +57,8 @@ from robot_app.errors import IKError
 from robot_app.geometry import make_transform
 
 StepCallback = Callable[[], None]
+
+FREEDOM_STEP = 0.01  # [m] lay-out strips this close in freedom are equally free
 
 
 class JobMotion:
@@ -311,8 +317,15 @@ def lay_out_paths(
         xy = start + t * length * direction
         z = touch + t[:, 0] * (table_z + release_height - touch)
         paths.append(LayOutPath(direction, np.column_stack([xy, z]), freedom, slack >= 0, slack))
-    # those that fit, most free first; then the others, the least outside first
-    return tuple(sorted(paths, key=lambda p: (not p.fits, -p.freedom if p.fits else -p.slack)))
+    # those that fit, most free first (a centimetre apart counts as equally free: then the one
+    # whose laid cloth lies deepest inside, not the first angle, +x, to the view's far edge);
+    # then the others, the least outside first
+    return tuple(
+        sorted(
+            paths,
+            key=lambda p: (not p.fits, -np.floor(p.freedom / FREEDOM_STEP) if p.fits else 0.0, -p.slack),
+        )
+    )
 
 
 def cloth_half_width(points_model: npt.ArrayLike) -> float:
