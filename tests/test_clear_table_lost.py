@@ -304,6 +304,30 @@ def test_a_white_cloths_shaded_folds_count_as_its_colours_a_dark_cloths_do_not_g
     assert palette_share(np.array([], dtype=int), white, 10) == 0.0
 
 
+def test_a_dark_region_is_no_white_cloth(monkeypatch: pytest.MonkeyPatch) -> None:
+    # bench episode 60 (session 21): No.20's black heap was 95 % "in the colours" of the
+    # guessed whites No.17 and No.18 (their folds' shade counts as theirs); once No.20 was
+    # booked placed, the heap was taken for No.17 and went into the whites box
+    from robot_app.control import table_lost
+    from robot_app.control.table_lost import MIN_LIGHT_SHARE, ColourFit, shows_light
+    from robot_app.vision.hue import DARK, LIGHT
+
+    assert shows_light(np.array([LIGHT] * 50 + [DARK] * 40 + [30] * 10)) == 1.0  # a crumpled white
+    assert shows_light(np.array([DARK] * 100)) == 0.0  # a black heap
+    soot = np.array([DARK] * 95 + [LIGHT] * 5)
+    assert shows_light(soot) == pytest.approx(0.05 / MIN_LIGHT_SHARE)
+    assert shows_light(np.array([], dtype=int)) == 0.0
+    region = UnknownRegion((10.0, 10.0), 100, np.ones((20, 20), bool))
+    fits = {"No.17": ColourFit(0.95, 1.0, shows_light(np.array([DARK] * 100)))}
+    monkeypatch.setattr(table_lost, "colour_shares", lambda capture, region, lost: fits)
+    lost = {"No.17": None}
+    settings = LostSettings()
+    assert match_lost(None, (region,), [np.zeros(2)], lost, {}, settings) is None  # type: ignore[arg-type]
+    fits["No.17"] = ColourFit(0.95, 1.0, 1.0)  # the same share with its white showing: taken
+    taken = match_lost(None, (region,), [np.zeros(2)], lost, {}, settings)  # type: ignore[arg-type]
+    assert taken is not None and taken.name == "No.17"
+
+
 def test_a_white_heap_fits_a_white_cloth_better_than_a_print_with_white_in_it() -> None:
     from robot_app.control.table_lost import palette_proportions, palette_share
     from robot_app.vision.hue import DARK, LIGHT
@@ -485,3 +509,24 @@ def test_a_heap_of_lost_cloths_is_picked_where_one_of_them_shows_on_top() -> Non
         u, v = inner_pixel(found.region.mask)
         assert visible[name][int(v), int(u)]  # and the blind grasp aims at it
     assert colour_patches(capture, (region,), {}, smallest) == ()
+
+
+def test_a_heap_is_not_lifted_blind_where_a_hidden_suspect_of_another_box_weighs_the_same() -> None:
+    # bench episode 60 (session 21): the heap in No.20's colours, lifted blind as No.20, held
+    # the suspect No.15 (seen before the double pick, gone since), hidden under it; both go into
+    # colours. Had No.15 been a white cloth, neither colours nor weight would have told.
+    from robot_app.control import table_clearer
+    from robot_app.control.clear_table_records import ClearTableSettings
+
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job.settings = ClearTableSettings()
+    whites = {"No.17", "No.12"}
+    job.sort = SimpleNamespace(box_for=lambda name: "whites" if name in whites else "colours")  # type: ignore[assignment]
+    job.weights = {"No.20": 0.025, "No.15": 0.0265, "No.17": 0.024, "No.12": 0.012}
+    region = UnknownRegion((10.0, 10.0), 100, np.ones((20, 20), bool))
+    found = LostMatch("No.20", region, 0.96)
+    assert not job._suspect_under(found, ())
+    assert not job._suspect_under(found, ("No.15",))  # same box: wherever it goes, it is right
+    assert job._suspect_under(found, ("No.15", "No.17"))  # a white of the same weight
+    assert not job._suspect_under(found, ("No.12",))  # a white the load cell tells apart
+    assert not job._suspect_under(LostMatch("No.20", region, 0.96, alike=("No.17",)), ("No.17",))

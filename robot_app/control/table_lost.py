@@ -7,7 +7,9 @@ cloth left. But the job knows which cloths it lost (and did not see again since)
 unknown region is not a guess about an unknown table when:
 
 1. the region's colours are one lost cloth's: at least `min_share` of its pixels are in
-   that cloth's main colours (`vision.regions.main_codes`), at least `margin` more than
+   that cloth's main colours (`vision.regions.main_codes`; a cloth of tones only counted at
+   its `ColourFit.lightness`: no lighter than its photo, a white one with some white
+   showing), at least `margin` more than
    in any other lost cloth's that could lie there. Two lost cloths of one hue family
    (within `margin` of each other): neither is picked if they belong in different boxes;
    if they belong in the same box, which one it is does not change where it goes, so the
@@ -71,6 +73,7 @@ if TYPE_CHECKING:
 
 LIT_PERCENTILE = 95  # a region's or model's lit value: this percentile of its pixels' V
 LIGHTER_TOLERANCE = 40.0  # grey levels a region may look lighter than a cloth's lit value
+MIN_LIGHT_SHARE = 0.2  # share of LIGHT pixels from which a region fits a white cloth fully
 REACH_TRIES = 24  # deepest pixels of a lost cloth's region tried for a reachable blind grasp
 MAX_HEAP = 3  # lost cloths one blind lift may hold together (a put-back heap of a double pick and more)
 WHOLE = 0.9  # a colour patch this much of its region is the region (tested whole)
@@ -126,6 +129,8 @@ def colour_shares(
         lightness = 1.0
         if model.texture_bgr is not None and np.all(palette >= DARK):  # tones only, no hue
             lightness = not_lighter(seen_light, lit_value(model.texture_bgr[model.texture_mask]))
+        if np.all(palette == LIGHT):  # a white cloth shows its white somewhere, folds or not
+            lightness *= shows_light(seen)
         fits[name] = ColourFit(
             palette_share(seen, palette, threshold),
             palette_proportions(seen, model.hues_in, palette, threshold),
@@ -152,6 +157,19 @@ def not_lighter(seen: float, own: float) -> float:
     which this rule rightly keeps."""
     excess = seen - own - LIGHTER_TOLERANCE
     return float(np.clip(1.0 - excess / LIGHTER_TOLERANCE, 0.0, 1.0))
+
+
+def shows_light(codes: npt.ArrayLike) -> float:
+    """1 when at least `MIN_LIGHT_SHARE` of a region's colour `codes` are LIGHT, less below
+    it, 0 with none: how well the region can be a white cloth. Its folds lie in shade (DARK,
+    which `palette_share` counts as its colour), but a crumpled white cloth is not dark all
+    over. Bench episode 60 (session 21): No.20's black heap (no LIGHT pixel in the black tee's
+    photo) was 95 % "in the colours" of the guessed whites No.17 and No.18, once No.20 was
+    booked placed it was taken for No.17, and went into the whites box."""
+    flat = np.asarray(codes).reshape(-1)
+    if not flat.size:
+        return 0.0
+    return float(np.clip(np.mean(flat == LIGHT) / MIN_LIGHT_SHARE, 0.0, 1.0))
 
 
 def _with_folds(palette: npt.ArrayLike) -> npt.NDArray[np.int64]:
@@ -334,8 +352,8 @@ def match_lost(
             for name, fit in sorted(fits.items(), key=lambda item: -item[1].score)
             if name not in places or near_the_loss(centre, places[name], settings)
         ]
-        if not ranked or ranked[0][1].share < settings.min_share:
-            continue
+        if not ranked or ranked[0][1].share * ranked[0][1].lightness < settings.min_share:
+            continue  # not its colours, or a white cloth's palette on a dark or grey region
         name, best = ranked[0]
         if name in guessed and any(
             other not in guessed and fit.share >= settings.min_share for other, fit in ranked[1:]
