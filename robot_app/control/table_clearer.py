@@ -74,7 +74,7 @@ from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_furniture import furniture_mask, table_beyond_sheet, without_furniture
 from robot_app.control.table_layers import layer_map
 from robot_app.control.table_ledger import TableLedger
-from robot_app.control.table_lost import LostMatch, colour_patches, match_lost, pick_lost
+from robot_app.control.table_lost import LostMatch, colour_patches, match_lost, off_way, pick_lost
 from robot_app.control.table_moved import moved_regions
 from robot_app.control.table_recovery import TableRecovery
 from robot_app.control.table_surface import aimed_at, surface_height
@@ -769,9 +769,7 @@ class TableClearer:
                 names.append(f"the unnamed cloth that came up with {attempt.name}")
             if not names:
                 continue
-            span = end - start
-            t = float(np.clip((grasp_xy - start) @ span / max(float(span @ span), 1e-12), 0.0, 1.0))
-            distance = float(np.hypot(*(grasp_xy - (start + t * span))))
+            distance = off_way(grasp_xy, start, end)
             if distance <= self.settings.put_back.free_distance:
                 return " and ".join(names), distance
         return None

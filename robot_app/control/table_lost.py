@@ -284,10 +284,15 @@ def near_the_loss(centre_xy: FloatArray, place: LostPlace, settings: LostSetting
 
 def _off_segment(point: FloatArray, place: LostPlace) -> float:
     """Distance [m] of `point` ((2,) [m]) from the way `place`'s cloth went (start to end)."""
-    a, b = np.asarray(place.start, dtype=float), np.asarray(place.end, dtype=float)
+    return off_way(point, place.start, place.end)
+
+
+def off_way(point: npt.ArrayLike, start: npt.ArrayLike, end: npt.ArrayLike) -> float:
+    """Distance [m] of `point` from the segment `start`-`end` (each (2,) [m])."""
+    p, a, b = (np.asarray(v, dtype=float).reshape(2) for v in (point, start, end))
     span = b - a
-    t = float(np.clip((point - a) @ span / max(float(span @ span), 1e-12), 0.0, 1.0))
-    return float(np.hypot(*(point - (a + t * span))))
+    t = float(np.clip((p - a) @ span / max(float(span @ span), 1e-12), 0.0, 1.0))
+    return float(np.hypot(*(p - (a + t * span))))
 
 
 @dataclass(frozen=True)
