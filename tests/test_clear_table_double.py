@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from robot_app.control import table_clearer
-from robot_app.control.clear_table_records import ClearTableSettings, LostPlace
+from robot_app.control.clear_table_records import ClearTableSettings, LossKind, LostPlace
 from robot_app.control.episode import EpisodeAbortError
 from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_ledger import TableLedger
@@ -69,8 +69,8 @@ def _lay_back(job: table_clearer.TableClearer, start: tuple[float, float], end: 
     earlier.unnamed_along, earlier.put_back = True, True
     a, b = np.array(start), np.array(end)
     job._laid.append((earlier, a, b))
-    job.ledger.lost["No.12"] = LostPlace("put back after the lift", a, b, ())
-    job.ledger.unnamed.append(LostPlace("came up with No.12, not named", a, b, ()))
+    job.ledger.lost["No.12"] = LostPlace(LossKind.PUT_BACK, "put back after the lift", a, b, ())
+    job.ledger.unnamed.append(LostPlace(LossKind.PUT_BACK, "came up with No.12, not named", a, b, ()))
 
 
 def test_without_a_laid_back_cloth_near_the_grasp_both_go_into_the_box(

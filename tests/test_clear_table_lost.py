@@ -14,6 +14,7 @@ import pytest
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
+    LossKind,
     LostPlace,
     LostSettings,
     TableArea,
@@ -100,16 +101,24 @@ def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
     )
     assert taken is not None and taken.name == "violet"
     # the twin was lost far from here: it cannot lie in this region, so it is no contender
-    away = LostPlace("dropped in transfer", np.array([0.5, -0.3]), np.array([0.3, -0.56]), ())
+    away = LostPlace(
+        LossKind.DROPPED, "dropped in transfer", np.array([0.5, -0.3]), np.array([0.3, -0.56]), ()
+    )
     alone = match(twins, {"twin": away})
     assert alone is not None and alone.name == "violet" and alone.alike == ()
     assert match({}) is None
     # where it was lost matters: far from the way it went, or where a region lay before, no
-    here = LostPlace("dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ())
+    here = LostPlace(
+        LossKind.DROPPED, "dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ()
+    )
     assert match({"violet": recognizers["violet"]}, {"violet": here}) is not None
-    far = LostPlace("dropped in transfer", np.array([0.5, -0.2]), np.array([0.3, -0.56]), ())
+    far = LostPlace(
+        LossKind.DROPPED, "dropped in transfer", np.array([0.5, -0.2]), np.array([0.3, -0.56]), ()
+    )
     assert match({"violet": recognizers["violet"]}, {"violet": far}) is None
-    there_before = LostPlace("put back", np.array([0.5, 0.0]), np.array([0.6, 0.0]), ((0.61, 0.12),))
+    there_before = LostPlace(
+        LossKind.PUT_BACK, "put back", np.array([0.5, 0.0]), np.array([0.6, 0.0]), ((0.61, 0.12),)
+    )
     assert match({"violet": recognizers["violet"]}, {"violet": there_before}) is None
     # the grasp pixel lies inside the region, where the violet cloth is
     u, v = inner_pixel(region.mask)
@@ -153,21 +162,29 @@ def test_the_blind_grasp_takes_the_deepest_point_of_the_region_the_hand_can_reac
 
 def test_a_lost_cloth_is_looked_for_along_the_way_it_was_lost() -> None:
     settings = LostSettings(reach=0.3, apart=0.05)
-    drop = LostPlace("dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ((0.45, 0.2),))
+    drop = LostPlace(
+        LossKind.DROPPED, "dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ((0.45, 0.2),)
+    )
     assert near_the_loss(np.array([0.5, 0.0]), drop, settings)  # where it was lifted
     assert near_the_loss(np.array([0.55, -0.4]), drop, settings)  # beside the way to the box
     assert not near_the_loss(np.array([0.5, 0.45]), drop, settings)  # the other side of the table
     assert not near_the_loss(np.array([0.46, 0.21]), drop, settings)  # an unknown region was there before
-    spot = LostPlace("put back", np.array([0.5, 0.0]), np.array([0.5, 0.0]), ())  # let go where lifted
+    spot = LostPlace(
+        LossKind.PUT_BACK, "put back", np.array([0.5, 0.0]), np.array([0.5, 0.0]), ()
+    )  # let go where lifted
     assert near_the_loss(np.array([0.7, 0.1]), spot, settings)
     assert not near_the_loss(np.array([0.9, 0.0]), spot, settings)
     # laid back by the job over a region seen before: that region is no alibi; one off the
     # laid strip still is
     before = ((0.52, 0.04), (0.7, -0.2))
-    laid = LostPlace("put back", np.array([0.5, 0.0]), np.array([0.5, -0.15]), before, laid=True)
+    laid = LostPlace(
+        LossKind.PUT_BACK, "put back", np.array([0.5, 0.0]), np.array([0.5, -0.15]), before, laid=True
+    )
     assert near_the_loss(np.array([0.52, 0.03]), laid, settings)
     assert not near_the_loss(np.array([0.7, -0.19]), laid, settings)
-    dropped = LostPlace("dropped in transfer", np.array([0.5, 0.0]), np.array([0.5, -0.15]), before)
+    dropped = LostPlace(
+        LossKind.DROPPED, "dropped in transfer", np.array([0.5, 0.0]), np.array([0.5, -0.15]), before
+    )
     assert not near_the_loss(np.array([0.52, 0.03]), dropped, settings)
 
 
@@ -196,13 +213,13 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
 
     monkeypatch.setattr(table_clearer, "match_lost", fake_match)
     ident = SimpleNamespace(detections=(SimpleNamespace(name="No.2"),), unknown=())
-    place = LostPlace("dropped in transfer", np.zeros(2), np.ones(2), ())
+    place = LostPlace(LossKind.DROPPED, "dropped in transfer", np.zeros(2), np.ones(2), ())
     for name in ("No.1", "No.2"):  # both seen by surveys; No.1 was dropped, No.2 is seen now
         job.ledger.records[name] = {"attempts": 1, "sim_time": 0.0, "notes": []}
         job.ledger.lost[name] = place
     job._lost_to_pick(ident)  # type: ignore[arg-type]
     assert asked[-1][0] == {"No.1"}  # No.3 and No.4 were never seen and nothing came up unnamed
-    nameless = LostPlace("came up with No.1, not named", np.zeros(2), np.ones(2), ())
+    nameless = LostPlace(LossKind.PUT_BACK, "came up with No.1, not named", np.zeros(2), np.ones(2), ())
     job.ledger.unnamed.append(nameless)
     job._lost_to_pick(ident)  # type: ignore[arg-type]
     lost, places = asked[-1]
@@ -437,7 +454,7 @@ def test_a_lost_cloth_with_no_graspable_part_is_not_grasped_blind_and_the_cause_
     region = UnknownRegion((float(us.mean()), float(vs.mean())), int(past.sum()), past)
     ledger = TableLedger()
     ledger.lost["No.6"] = LostPlace(
-        "put back after the lift", np.array([0.4, 0.5]), np.array([0.45, 0.65]), ()
+        LossKind.PUT_BACK, "put back after the lift", np.array([0.4, 0.5]), np.array([0.45, 0.65]), ()
     )
 
     class NoMotion:  # the hand must not move
@@ -551,8 +568,10 @@ def test_a_cloth_a_pick_moved_is_looked_for_along_the_way_to_the_box() -> None:
     job._places_to_look(SimpleNamespace(unknown=()))  # type: ignore[arg-type]
     assert asked[-1] == ()
     way = (np.array([0.6, -0.1]), np.array([0.3, -0.56]))
-    job.ledger.unnamed.append(LostPlace(f"{table_clearer.MOVED_BY} No.16", *way, ()))
-    job.ledger.unnamed.append(LostPlace("came up with No.2, not named", *way, ()))  # laid back: not
+    job.ledger.unnamed.append(LostPlace(LossKind.MOVED, "moved by the pick of No.16", *way, ()))
+    job.ledger.unnamed.append(
+        LostPlace(LossKind.PUT_BACK, "came up with No.2, not named", *way, ())
+    )  # laid back: not
     job._places_to_look(SimpleNamespace(unknown=()))  # type: ignore[arg-type]
     np.testing.assert_allclose(
         asked[-1], [way[0] + 0.5 * (way[1] - way[0]), way[0] + 0.75 * (way[1] - way[0])]

@@ -110,12 +110,23 @@ class TableArea:
         return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
 
 
+class LossKind(StrEnum):
+    """How the job lost a cloth (`LostPlace.kind`): what the look-around and the lost-cloth
+    rules ask of a loss, where the text of `LostPlace.how` is for people."""
+
+    DROPPED = "dropped"  # fell from the fingers on the way to its box
+    PUT_BACK = "put back"  # laid back on the table after a rejected lift (double or wrong)
+    LEFT_BY_LIFT = "left by a lift"  # shed: left lying along the strip a double pick was laid on
+    MOVED = "moved"  # dragged by a placed pick, held by nothing (`table_moved`)
+
+
 @dataclass(frozen=True)
 class LostPlace:
     """How and where the job lost a cloth.
 
     Attributes:
-        how: "dropped in transfer", "put back after the lift", ...
+        kind: how it was lost (`LossKind`).
+        how: the same for people: "dropped in transfer", "put back with No.3", ...
         start, end: (2,) the way it went [m]: lifted at `start`, lost on the way to `end`
             (the box for a drop, the spot let go at for a put-back).
         before: (x, y) [m] of the unknown regions of the survey before the loss.
@@ -123,6 +134,7 @@ class LostPlace:
             region seen before on that strip is no alibi, the cloth was laid over it.
     """
 
+    kind: LossKind
     how: str
     start: FloatArray
     end: FloatArray

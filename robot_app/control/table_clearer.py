@@ -45,6 +45,7 @@ from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
+    LossKind,
     LostPlace,
     SurveyRecord,
     TableArea,
@@ -90,8 +91,6 @@ from robot_app.geometry import transform_points
 from robot_app.vision import Recognizer
 from robot_app.vision.identify import Detection, Identification, IdentifySettings, UnknownRegion, identify
 from robot_app.vision.regions import footprint, sheet_mask, undistorted
-
-MOVED_BY = "moved by the pick of"  # how an unnamed cloth a placed pick moved was lost (`_notice_moved`)
 
 
 @dataclass(frozen=True)
@@ -347,8 +346,8 @@ class TableClearer:
         for m in moved:
             centre = centres[id(m.region)]
             others = tuple((float(c[0]), float(c[1])) for key, c in centres.items() if key != id(m.region))
-            how = f"{MOVED_BY} {before.name}"
-            self.ledger.unnamed.append(LostPlace(how, centre, before.box_xy, others))
+            how = f"moved by the pick of {before.name}"
+            self.ledger.unnamed.append(LostPlace(LossKind.MOVED, how, centre, before.box_xy, others))
             notes.append(
                 f"the pick moved an unidentified cloth: the sheet shows at {m.bared:.0%} of the unknown "
                 f"region at ({centre[0]:.2f}, {centre[1]:.2f}) (came along, held by nothing)"
@@ -564,8 +563,8 @@ class TableClearer:
         # a cloth dropped on the way to its box: the middle of that way, then nearer the box;
         # so does one a placed pick moved (dragged along, held by nothing: bench episode 12,
         # session 21, three cloths gone from the view after the pick of No.16, never looked for)
-        ways = [place for place in self.ledger.lost.values() if place.how.startswith("dropped")]
-        ways += [place for place in self.ledger.unnamed if place.how.startswith(MOVED_BY)]
+        ways = [place for place in self.ledger.lost.values() if place.kind is LossKind.DROPPED]
+        ways += [place for place in self.ledger.unnamed if place.kind is LossKind.MOVED]
         dropped_on = tuple(place.start + f * (place.end - place.start) for place in ways for f in (0.5, 0.75))
         return self.recovery.places_to_look(
             self._survey_capture,

@@ -12,6 +12,7 @@ from robot_app.control.cell import StereoCapture
 from robot_app.control.clear_table_records import (
     ClothOutcome,
     ClothRecord,
+    LossKind,
     LostPlace,
     PickAttempt,
     SurveyRecord,
@@ -169,23 +170,39 @@ class TableLedger:
                 else attempt.put_back_at
             )
             before = self.surveys[-1].unknown if self.surveys else ()
+            kind = LossKind.DROPPED if attempt.dropped else LossKind.PUT_BACK
             how = "dropped in transfer" if attempt.dropped else "put back after the lift"
             laid = attempt.put_back and attempt.put_back_at is not None  # let go where the job chose
-            self.lost[name] = LostPlace(how, start, end, before, laid)
+            self.lost[name] = LostPlace(kind, how, start, end, before, laid)
+            put_back = LossKind.PUT_BACK
             for companion in attempt.laid_back_too if attempt.put_back else ():
-                self.lost.setdefault(companion, LostPlace(f"put back with {name}", start, end, before, laid))
+                self.lost.setdefault(
+                    companion, LostPlace(put_back, f"put back with {name}", start, end, before, laid)
+                )
             if attempt.put_back and attempt.unnamed_along:
-                self.unnamed.append(LostPlace(f"came up with {name}, not named", start, end, before, laid))
+                self.unnamed.append(
+                    LostPlace(put_back, f"came up with {name}, not named", start, end, before, laid)
+                )
         if attempt.shed_at is not None:  # the other cloth was left lying along the strip
             start, end = attempt.shed_at
             before = self.surveys[-1].unknown if self.surveys else ()
             for companion in attempt.laid_back_too:
                 self.lost.setdefault(
-                    companion, LostPlace(f"left on the table by {name}'s lift", start, end, before, True)
+                    companion,
+                    LostPlace(
+                        LossKind.LEFT_BY_LIFT, f"left on the table by {name}'s lift", start, end, before, True
+                    ),
                 )
             if attempt.unnamed_along:
                 self.unnamed.append(
-                    LostPlace(f"came up with {name}, not named, left on the table", start, end, before, True)
+                    LostPlace(
+                        LossKind.LEFT_BY_LIFT,
+                        f"came up with {name}, not named, left on the table",
+                        start,
+                        end,
+                        before,
+                        True,
+                    )
                 )
         if result.outcome is Outcome.PLACED:
             confirmed = attempt.box_check is not None and attempt.box_check.confirmed
