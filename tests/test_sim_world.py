@@ -227,16 +227,25 @@ def test_the_table_is_solid_to_sunk_cloth_nodes(solid: bool) -> None:
         assert float(cloth.nodes()[:, 2].max()) < top - 0.04  # falling to the floor, not lifted
 
 
-def _slide(bound: float | None, start: str) -> tuple[float, float, int]:
+def _slide(
+    bound: float | None, start: str, hand: tuple[float, float, float] | None = None
+) -> tuple[float, float, int]:
     """A cloth on the table with nothing held and the hand still at the observation pose, for
     0.5 s: given 0.5 m/s along x as it is laid (`start="push"`), given that and 0.98 m/s
     downwards 0.1 s after it was let fall from 0.3 m (`"fall"`), or lying still when gravity
     is tilted to pull it along x at 8 m/s^2 (`"pulled"`, more than the table's friction holds:
     a steady push standing in for pybullet's crossed soft-soft contact). Returns how far its
     centre moved along the table [m], its fastest speed along it [m/s] (centre over one step),
-    and `World.slides_held`. `bound`: `world.cloth.free_slide_speed`."""
+    and `World.slides_held`. `bound`: `world.cloth.free_slide_speed`. `hand`: the hand's
+    velocity (x, y, z) [m/s] as the world reads it, its TCP 0.05 m over the table (the
+    robot's own readings replaced: the rule is what is tested, the physics is pybullet's)."""
     config = SMALL.model_copy(update={"cloth": ClothPhysicsSettings(free_slide_speed=bound)})
     with World(config) as world:
+        if hand is not None:
+            low = np.eye(4)
+            low[2, 3] = world.config.table.top_z + 0.05
+            world.robot.frame_pose = lambda name: low  # type: ignore[method-assign]
+            world.robot.frame_velocity = lambda name: (np.array(hand), np.zeros(3))  # type: ignore[method-assign]
         drop = 0.3 if start == "fall" else 0.0
         cloth = world.add_cloth(cloth_spec(4), 0.5, 0.05, 0.4, drop_height=drop, settle=start == "pulled")
         if start == "fall":
@@ -270,3 +279,16 @@ def test_a_lying_cloth_does_not_speed_up_along_the_table_by_itself() -> None:
         assert guarded[0] == pytest.approx(free[0], abs=1e-3)
         assert guarded[1] == pytest.approx(free[1], abs=0.01)
         assert guarded[2] == 0
+
+
+def test_an_open_hand_rising_from_the_table_throws_no_cloth_sideways() -> None:
+    """An open hand rising straight up just over the table (bench episode 44, session 22:
+    a put-back heap thrown 0.45 m sideways at 1.2 m/s as the hand rose from it) is no push
+    along the table: the pulled cloth is held back as with the hand still. A hand moving
+    along the table as low may push, so there the cloth keeps its speed."""
+    moved, fastest, held = _slide(0.05, "pulled", hand=(0.0, 0.01, 0.5))
+    assert fastest < 0.05 + 8.0 / 240 + 0.01 and moved < 0.05 and held > 50
+    moved, fastest, held = _slide(0.05, "pulled", hand=(0.3, 0.0, 0.5))
+    assert fastest > 1.0 and moved > 0.2 and held == 0
+    moved, fastest, held = _slide(0.05, "pulled", hand=(0.0, 0.0, -0.5))  # coming down onto it
+    assert fastest > 1.0 and held == 0

@@ -170,9 +170,9 @@ class ClothPhysicsSettings(StrictModel):
         None,
         gt=0.0,
         description="a free cloth lying on the table (outside the boxes, not falling) may not speed "
-        "up along it beyond this [m/s] while no cloth is held and the hand is still or well above "
-        "the table: it gets back the speed it had (World.step); pybullet's crossed soft-soft "
-        "contact speeds put-back heaps up by themselves. null: off",
+        "up along it beyond this [m/s] while no cloth is held and the hand is still, well above "
+        "the table or rising straight up: it gets back the speed it had (World.step); pybullet's "
+        "crossed soft-soft contact speeds put-back heaps up by themselves. null: off",
     )
     sdf_voxel_size: float = Field(
         0.25,
