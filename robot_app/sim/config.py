@@ -169,10 +169,10 @@ class ClothPhysicsSettings(StrictModel):
     free_slide_speed: float | None = Field(
         None,
         gt=0.0,
-        description="a free cloth lying on the table (outside the boxes, not falling) may not speed "
-        "up along it beyond this [m/s] while no cloth is held and the hand is still, well above "
-        "the table or rising straight up: it gets back the speed it had (World.step); pybullet's "
-        "crossed soft-soft contact speeds put-back heaps up by themselves. null: off",
+        description="a free cloth lying on the table (outside the boxes, not falling) that the hand "
+        "cannot be moving (not held, not near a hand that pushes, not touching a cloth that is) may "
+        "not speed up along it beyond this [m/s]: it gets back the speed it had (World.step); "
+        "pybullet's crossed soft-soft contact speeds put-back heaps up by themselves. null: off",
     )
     sdf_voxel_size: float = Field(
         0.25,

@@ -15,6 +15,7 @@ from types import TracebackType
 import numpy as np
 import numpy.typing as npt
 import pybullet as pb
+from scipy.spatial import cKDTree
 
 from robot_app.arrays import FloatArray
 from robot_app.errors import SimulationError
@@ -36,6 +37,8 @@ from robot_app.sim.stereo import StereoCamera
 
 HAND_STILL = 0.05  # [m/s] the hand slower than this pushes no cloth along (`World.step`)
 HAND_CLEAR = 0.1  # [m] the TCP this far above the table top touches no lying cloth (`World.step`)
+HAND_REACH = 0.1  # [m] cloth nodes this close to the TCP may touch the hand (`World.step`)
+TOUCH = 0.04  # [m] cloths whose nodes come this close may touch (a pile's layers lie ~16 mm apart)
 SUNK = 0.003  # [m] a cloth node deeper than this in the table top is set back onto it (`World.step`)
 FLIP_FACE_UP = np.diag([1.0, -1.0, -1.0])  # Σ_M of a face-up cloth: z into the table
 OCCLUDER_RGBA = (0.12, 0.25, 0.85, 1.0)  # the blue paper of Fig. 11 (b)
@@ -212,10 +215,12 @@ class World:
             )
 
     def _hold_back_slides(self) -> None:
-        """No cloth speeds up by itself (`world.cloth.free_slide_speed`): while no cloth is held
-        and the hand is still, well above the table or rising straight up (an open hand
-        leaving what it let go: it lifts nothing sideways), a free cloth lying on the table outside
-        the boxes (not falling: its mean vertical speed under the bound) whose mean speed along
+        """No cloth speeds up by itself (`world.cloth.free_slide_speed`): a cloth the hand
+        cannot be moving (`_moved_by_hand`: not held, not near a hand that pushes, not touching
+        a cloth that is; a hand still, well above the table or rising straight up pushes
+        nothing: an open hand leaving what it let go lifts nothing sideways), lying free on
+        the table outside
+        the boxes (not falling: its mean vertical speed under the bound), whose mean speed along
         the table grew in this step beyond the bound gets back the speed it had (or the bound,
         if it had less), in the direction it now has; its nodes keep their velocities relative
         to each other (`ClothBody.set_mean_velocity`). Friction still slows a sliding cloth and
@@ -225,7 +230,10 @@ class World:
         (about 3.5 m/s^2, docs/history.md, session 15) until it falls over the edge, and
         threw a put-back heap of four 0.45 m sideways at 1.2 m/s while the open hand rose
         from it straight up (bench episode 44, session 22: the heap landed beyond the
-        survey's view, by the whites box, and no cloth of it was seen again). Velocities
+        survey's view, by the whites box, and no cloth of it was seen again). Until session
+        22 the guard held only while no cloth was held at all: in bench episode 78 two cloths
+        lying 0.25 m from the pair being laid back, touching nothing that moved, sped up to
+        1.5 m/s along the table and fell off its end. Velocities
         are the nodes' mean displacement over one step (pybullet does not report a soft body's
         velocity)."""
         bound = self.config.cloth.free_slide_speed
@@ -235,19 +243,21 @@ class World:
         c = self.config
         (tx, ty), (sx, sy) = c.table.centre_xy, c.table.size_xy
         hand = self.robot.frame_velocity("tcp")[0]
-        hand_away = not any(cloth.is_grasped for cloth in self.cloths) and (
-            float(self.robot.frame_pose("tcp")[2, 3]) > c.table.top_z + HAND_CLEAR
+        tcp = self.robot.frame_pose("tcp")[:3, 3]
+        hand_pushes = not (
+            float(tcp[2]) > c.table.top_z + HAND_CLEAR
             or float(np.linalg.norm(hand)) < HAND_STILL
             or (float(hand[2]) > 0.0 and float(np.hypot(hand[0], hand[1])) < HAND_STILL)
         )
         previous, self._motion = self._motion, {}
+        speeding: list[tuple[ClothBody, FloatArray, float, float]] = []
         for cloth in self.cloths:
             nodes = cloth.nodes()
             centre = nodes.mean(axis=0)
             last_centre, last_velocity = previous.get(cloth.body_id, (None, None))
             velocity = None if last_centre is None else (centre - last_centre) / self.dt
             self._motion[cloth.body_id] = (centre, velocity)
-            if not hand_away or velocity is None or last_velocity is None:
+            if velocity is None or last_velocity is None:
                 continue
             speed, speed_before = float(np.hypot(*velocity[:2])), float(np.hypot(*last_velocity[:2]))
             if speed <= bound or speed <= speed_before or abs(float(velocity[2])) > bound:
@@ -255,11 +265,42 @@ class World:
             on_table = bool(np.all((np.abs(nodes[:, 0] - tx) < sx / 2) & (np.abs(nodes[:, 1] - ty) < sy / 2)))
             if not on_table or any(np.any(box.contains(nodes)) for box in self.boxes):
                 continue
+            speeding.append((cloth, velocity, speed, speed_before))
+        if not speeding:
+            return
+        moved = self._moved_by_hand(tcp, hand_pushes)
+        for cloth, velocity, speed, speed_before in speeding:
+            if cloth.body_id in moved:
+                continue
             held_back = velocity.copy()
             held_back[:2] *= max(speed_before, bound) / speed
             cloth.set_mean_velocity(held_back)
-            self._motion[cloth.body_id] = (centre, held_back)
+            self._motion[cloth.body_id] = (self._motion[cloth.body_id][0], held_back)
             self.slides_held += 1
+
+    def _moved_by_hand(self, tcp: FloatArray, hand_pushes: bool) -> set[int]:
+        """Body ids of the cloths the hand may move this step: those it holds, when it
+        `hand_pushes` (low over the table and moving, other than straight up) those with a
+        node within `HAND_REACH` of the TCP, and every cloth touching one of these (a node
+        within `TOUCH`), and so on: a cloth held, pushed or dragged, or lying on one that is."""
+        nodes = {cloth.body_id: cloth.nodes() for cloth in self.cloths}
+        moved = {cloth.body_id for cloth in self.cloths if cloth.is_grasped}
+        if hand_pushes:
+            moved |= {
+                k for k, n in nodes.items() if float(np.min(np.linalg.norm(n - tcp, axis=1))) < HAND_REACH
+            }
+        trees: dict[int, cKDTree] = {}
+        frontier = list(moved)
+        while frontier:
+            touching = nodes[frontier.pop()]
+            for k, n in nodes.items():
+                if k in moved:
+                    continue
+                tree = trees.setdefault(k, cKDTree(n))
+                if np.any(np.isfinite(tree.query(touching, distance_upper_bound=TOUCH)[0])):
+                    moved.add(k)
+                    frontier.append(k)
+        return moved
 
     def add_cloth(
         self,
