@@ -29,6 +29,7 @@ from robot_app.control.table_lost import (
     colour_patches,
     inner_pixel,
     inner_pixels,
+    match_heap,
     match_lost,
     near_the_loss,
     pick_lost,
@@ -576,3 +577,37 @@ def test_a_cloth_a_pick_moved_is_looked_for_along_the_way_to_the_box() -> None:
     np.testing.assert_allclose(
         asked[-1], [way[0] + 0.5 * (way[1] - way[0]), way[0] + 0.75 * (way[1] - way[0])]
     )
+
+
+def test_a_heap_of_lost_cloths_of_one_box_is_taken_as_one() -> None:
+    """Two lost cloths laid back over each other: one unknown region, neither's colours
+    fill `min_share` of it alone, both together do (`match_heap`): taken for the named one
+    with the other as its alike when both go into one box; never when one belongs in the
+    other box, when none of them was lost by name, or when the colours are not theirs."""
+    over = make_transform(rotation_about_z(0.5), [0.0, 0.0, 0.585])
+    left, right = render_stereo_pair(
+        RIG, [(synthetic_cloth(1), YELLOW), (synthetic_cloth(9), over)], rng=np.random.default_rng(7)
+    )
+    yellow, violet, stripes = recognizer(1, "yellow"), recognizer(9, "violet"), recognizer(2, "stripes")
+    missed = Recognition(False, 0.1, YELLOW, 0, 0, 0.0, confidence=0.05, visible_fraction=0.0)
+    ident = resolve({"yellow": yellow}, {"yellow": missed}, right, IdentifySettings())
+    assert not ident.detections and len(ident.unknown) == 1
+    capture = SimpleNamespace(left_bgr=left, right_bgr=right)
+    settings, centres = LostSettings(), [np.array([0.6, 0.1])]
+    colours = lambda name: "colours"  # noqa: E731
+    both = {"yellow": yellow, "violet": violet}
+    assert match_lost(capture, ident.unknown, centres, both, {}, settings, colours) is None  # neither alone
+
+    def heap(named, suspects, box_for=colours):
+        return match_heap(capture, ident.unknown, centres, named, suspects, {}, settings, box_for)
+
+    taken = heap({"yellow": yellow}, {"violet": violet})
+    assert taken is not None and taken.name == "yellow" and taken.alike == ("violet",)
+    assert taken.share >= settings.min_share and taken.guessed == frozenset() and not taken.piece
+    assert (
+        heap({"yellow": yellow}, {"violet": violet}, {"yellow": "colours", "violet": "whites"}.__getitem__)
+        is None
+    )
+    assert heap({}, both) is None  # no cloth lost by name
+    assert heap({"yellow": yellow}, {}) is None  # one cloth is no heap
+    assert heap({"yellow": yellow}, {"stripes": stripes}) is None  # not their colours

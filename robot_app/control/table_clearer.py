@@ -75,7 +75,14 @@ from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_furniture import furniture_mask, table_beyond_sheet, without_furniture
 from robot_app.control.table_layers import layer_map
 from robot_app.control.table_ledger import TableLedger
-from robot_app.control.table_lost import LostMatch, colour_patches, match_lost, off_way, pick_lost
+from robot_app.control.table_lost import (
+    LostMatch,
+    colour_patches,
+    match_heap,
+    match_lost,
+    off_way,
+    pick_lost,
+)
 from robot_app.control.table_moved import moved_regions
 from robot_app.control.table_recovery import TableRecovery
 from robot_app.control.table_surface import aimed_at, surface_height
@@ -500,7 +507,20 @@ class TableClearer:
             found = self._lost_among(ident, candidates, where, frozenset(guessed))
             if found is not None and not self._suspect_under(found, suspects):
                 return found
-        return None
+        # none alone: a heap of several of them (`table_lost.match_heap`)
+        regions, centres = self._regions_to_try(ident.unknown)
+        suspected = {name: self.recognizers[name] for name in suspects}
+        where = {**places, **{name: self.ledger.unnamed[-1] for name in suspects}}
+        return match_heap(
+            self._survey_capture,
+            regions,
+            centres,
+            lost,
+            suspected,
+            where,
+            self.settings.lost,
+            self.sort.box_for,
+        )
 
     def _suspect_under(self, found: LostMatch, suspects: tuple[str, ...]) -> bool:
         """Could a blind lift at `found` hold a suspect instead (`_lost_to_pick`: seen on the
@@ -531,9 +551,7 @@ class TableClearer:
         capture, s = self._survey_capture, self.settings.lost
 
         def match(regions: tuple[UnknownRegion, ...]) -> LostMatch | None:
-            centres = [np.array(self.table.point(capture, r.centroid)) for r in regions]
-            kept = [i for i, c in enumerate(centres) if not self._grasped_empty(c)]
-            regions, centres = tuple(regions[i] for i in kept), [centres[i] for i in kept]
+            regions, centres = self._regions_to_try(regions)
             return match_lost(capture, regions, centres, lost, places, s, self.sort.box_for, guessed)
 
         whole = match(ident.unknown)
@@ -544,6 +562,15 @@ class TableClearer:
         smallest = self.identify_settings.min_unknown_area * ident.unknown[0].mask.size
         piece = match(colour_patches(capture, ident.unknown, lost, smallest))
         return None if piece is None else replace(piece, piece=True)
+
+    def _regions_to_try(
+        self, regions: tuple[UnknownRegion, ...]
+    ) -> tuple[tuple[UnknownRegion, ...], list[FloatArray]]:
+        """`regions` of the last survey and their centres on the table [m], without those
+        where blind grasps closed on nothing (`_grasped_empty`)."""
+        centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in regions]
+        kept = [i for i, c in enumerate(centres) if not self._grasped_empty(c)]
+        return tuple(regions[i] for i in kept), [centres[i] for i in kept]
 
     def _grasped_empty(self, centre: FloatArray) -> bool:
         """Did `lost.empty_grasps` blind grasps within `lost.empty_reach` of `centre` ((2,)

@@ -371,6 +371,48 @@ def match_lost(
     return None
 
 
+def match_heap(
+    capture: StereoCapture,
+    regions: tuple[UnknownRegion, ...],
+    centres: list[FloatArray],
+    named: Mapping[str, Recognizer],
+    suspects: Mapping[str, Recognizer],
+    places: Mapping[str, LostPlace],
+    settings: LostSettings,
+    box_for: Callable[[str], str],
+) -> LostMatch | None:
+    """A region that is a heap of several lost cloths, none of which it shows enough of
+    alone (`match_lost` found none): the first region (largest first) where at least two
+    of the cloths that may lie there (`near_the_loss`: the lost ones the job `named`, and the
+    `suspects`, seen by a survey and gone since a double pick laid its unnamed companion
+    back) with at least one named among them, all belong in one box, and together explain
+    `min_share` of its pixels (their main colours joined, `palette_share`). The match is the
+    named one whose colours it shows most, the others its `alike`, none guessed: a blind lift
+    that weighs as some of them together (`weighed_as`) goes into that box as one. A cloth of
+    the other box that may lie there rules the region out; one never seen at all could be
+    in the heap too, and then the weight is more than the candidates' (laid back). Bench
+    episode 89 (session 22): a first lift took all three cloths of the pile (65 g), the
+    put-back heap showed the colours of three, no one of them filled 60 % of it, and none was
+    picked again."""
+    candidates = {**named, **suspects}
+    if len(candidates) < 2 or not named:
+        return None
+    fitness = next(iter(candidates.values())).settings.fitness
+    _, _, codes = _survey_colours(capture, candidates)
+    for region, centre in zip(regions, centres, strict=True):
+        here = [n for n in candidates if n not in places or near_the_loss(centre, places[n], settings)]
+        if len(here) < 2 or not any(n in named for n in here) or len({box_for(n) for n in here}) > 1:
+            continue
+        palette = np.unique(np.concatenate([main_codes(candidates[n].model) for n in here]))
+        share = palette_share(codes[region.mask], palette, fitness.hue_threshold_in)
+        if share < settings.min_share:
+            continue
+        fits = colour_shares(capture, region, {n: candidates[n] for n in here})
+        name = max((n for n in here if n in named), key=lambda n: fits[n].score)
+        return LostMatch(name, region, share, tuple(n for n in here if n != name))
+    return None
+
+
 def weighed_as(
     weighed: float,
     name: str,
@@ -643,6 +685,7 @@ __all__ = [
     "inner_pixel",
     "inner_pixels",
     "lit_value",
+    "match_heap",
     "match_lost",
     "near_the_loss",
     "not_lighter",

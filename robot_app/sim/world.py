@@ -219,8 +219,8 @@ class World:
         cannot be moving (`_moved_by_hand`: not held, not near a hand that pushes, not touching
         a cloth that is; a hand still, well above the table or rising straight up pushes
         nothing: an open hand leaving what it let go lifts nothing sideways), lying free on
-        the table outside
-        the boxes (not falling: its mean vertical speed under the bound), whose mean speed along
+        the table outside the boxes (not falling: its mean vertical speed under the bound),
+        whose mean speed along
         the table grew in this step beyond the bound gets back the speed it had (or the bound,
         if it had less), in the direction it now has; its nodes keep their velocities relative
         to each other (`ClothBody.set_mean_velocity`). Friction still slows a sliding cloth and
