@@ -611,3 +611,25 @@ def test_a_heap_of_lost_cloths_of_one_box_is_taken_as_one() -> None:
     assert heap({}, both) is None  # no cloth lost by name
     assert heap({"yellow": yellow}, {}) is None  # one cloth is no heap
     assert heap({"yellow": yellow}, {"stripes": stripes}) is None  # not their colours
+
+
+def test_no_grasp_comes_down_by_a_box_wall() -> None:
+    """`clear_of_walls`: the whites box's outer walls lie 0.12 m from its centre; a grasp
+    point within `wall_clearance` of them is refused, also for an identified cloth's grasp
+    (`TableClearer._grasps_at`: held-out episode 107, a finger on the colours box's wall),
+    before any IK is asked."""
+    from robot_app.control import table_clearer
+    from robot_app.control.table_furniture import clear_of_walls
+
+    points = np.array([[0.30, 0.40], [0.30, 0.45], [0.12, 0.56], [0.30, 0.56], [0.60, 0.0]])
+    np.testing.assert_array_equal(clear_of_walls(points, [WHITES], 0.05), [False, False, True, False, True])
+    np.testing.assert_array_equal(clear_of_walls(points, [WHITES], 0.0), [True, False, True, False, True])
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job.boxes = {"whites": WHITES}
+    job.settings = ClearTableSettings()
+    job.loop_settings = LoopSettings()
+    job.table_z = 0.0
+    asked: list[list[float]] = []
+    job.motion = SimpleNamespace(reaches=lambda p: asked.append(list(p)) or True)
+    assert not job._grasps_at(np.array([0.30, 0.43, 0.01])) and asked == []
+    assert job._grasps_at(np.array([0.60, 0.0, 0.01])) and len(asked) == 3

@@ -51,7 +51,7 @@ from robot_app.control.clear_table_records import (
     TableArea,
     TableResult,
 )
-from robot_app.control.episode import EpisodeAbortError, Outcome, PhaseRecord, VisionCycle
+from robot_app.control.episode import EpisodeAbortError, EpisodeResult, Outcome, PhaseRecord, VisionCycle
 from robot_app.control.grasp_point import points_in_mask
 from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
@@ -72,7 +72,12 @@ from robot_app.control.pick_handover import check_found_in_place, grasp_in_model
 from robot_app.control.pick_place import LIFTED, PickPlaceLoop, observation_posture
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings
-from robot_app.control.table_furniture import furniture_mask, table_beyond_sheet, without_furniture
+from robot_app.control.table_furniture import (
+    clear_of_walls,
+    furniture_mask,
+    table_beyond_sheet,
+    without_furniture,
+)
 from robot_app.control.table_layers import layer_map
 from robot_app.control.table_ledger import TableLedger
 from robot_app.control.table_lost import (
@@ -394,6 +399,17 @@ class TableClearer:
                 attempt.notes.append(
                     f"grasp moved to ({xy[0]:.2f}, {xy[1]:.2f}): the best point was out of reach"
                 )
+            if attempt.grasp is not None and not self._clear_of_walls(attempt.grasp.point_world):
+                xy = attempt.grasp.point_world
+                reason = (
+                    f"no grasp clear of the boxes: every point of {target.name} the survey saw lies within "
+                    f"{self.settings.lost.wall_clearance * 100:.0f} cm of a box's walls (best at "
+                    f"({xy[0]:.2f}, {xy[1]:.2f}))"
+                )
+                attempt.notes.append(f"unreachable: {reason}")
+                result = EpisodeResult.not_started(Outcome.UNREACHABLE, reason, "pile")
+                self.ledger.record_attempt(attempt, result, self.cell.time, self.weights.get(target.name))
+                return False
         recognizer = pick_recognizer(self.recognizers[target.name], target, self.settings.pick_depth_window)
         truth = self.ground_truth(target.name) if self.ground_truth is not None else None
         loop = PickPlaceLoop(
@@ -615,8 +631,17 @@ class TableClearer:
         before the grasp, at the grasp and at the lift's height all have IK solutions (cameras
         looking down, as the loop keeps them)."""
         s, cloth_z = self.loop_settings, float(point[2])
+        if not self._clear_of_walls(point):
+            return False
         heights = (cloth_z + s.pregrasp_height, cloth_z + s.grasp_height, self.table_z + s.lift_height)
         return all(self.motion.reaches([point[0], point[1], h]) for h in heights)
+
+    def _clear_of_walls(self, point: FloatArray) -> bool:
+        """Does the open hand come down at `point` (Σ_W [m]) clear of every box's walls
+        (`table_furniture.clear_of_walls`, `lost.wall_clearance`)? Held-out bench episode 107
+        (session 22): a cloth laid back against the colours box's wall was grasped 9 mm from
+        it, and the finger touched the wall (4 collisions)."""
+        return bool(clear_of_walls(point[:2], self.boxes.values(), self.settings.lost.wall_clearance)[0])
 
     def _raised(self, target: Detection, pose: FloatArray, attempt: AttemptState) -> FloatArray:
         """(M, 2) [m] the points of `target`'s seen part whose surface the survey's pair shows

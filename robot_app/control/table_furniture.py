@@ -122,12 +122,23 @@ def graspable(
     ok = table.ahead(capture, u, v)
     if top is not None:
         ok &= top.contains(xy, edge_inset)
-    for box in boxes:
-        c = np.asarray(box.centre, dtype=float)
-        reach = box.outer_half + wall_clearance
-        ok &= np.max(np.abs(xy - c[:2]), axis=1) > reach
+    ok &= clear_of_walls(xy, boxes, wall_clearance)
     keep[v[ok], u[ok]] = True
     return keep
+
+
+def clear_of_walls(
+    xy: npt.ArrayLike, boxes: Iterable[BoxPlace], wall_clearance: float
+) -> npt.NDArray[np.bool_]:
+    """(N,) which table points `xy` ((N, 2) [m]) lie at least `wall_clearance` [m] outside
+    every box's outer walls: where the open hand (half span about 5 cm) comes down without
+    touching a wall."""
+    points = np.asarray(xy, dtype=float).reshape(-1, 2)
+    ok = np.ones(len(points), dtype=bool)
+    for box in boxes:
+        c = np.asarray(box.centre, dtype=float)
+        ok &= np.max(np.abs(points - c[:2]), axis=1) > box.outer_half + wall_clearance
+    return ok
 
 
 def table_coloured(
@@ -170,6 +181,7 @@ def table_beyond_sheet(
 
 
 __all__ = [
+    "clear_of_walls",
     "furniture_mask",
     "graspable",
     "off_sheet",
