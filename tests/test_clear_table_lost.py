@@ -633,3 +633,26 @@ def test_no_grasp_comes_down_by_a_box_wall() -> None:
     job.motion = SimpleNamespace(reaches=lambda p: asked.append(list(p)) or True)
     assert not job._grasps_at(np.array([0.30, 0.43, 0.01])) and asked == []
     assert job._grasps_at(np.array([0.60, 0.0, 0.01])) and len(asked) == 3
+
+
+def test_a_blind_grasp_comes_down_over_its_point_not_across_a_wall() -> None:
+    """`_approach`: from a low pose (by the box) up over the walls first, across at that
+    height, then down to the pregrasp point; from a high pose across at that height; where
+    the hand does not reach that height over the point, straight there once raised
+    (held-out episode 107: a finger on the colours box's wall)."""
+    from robot_app.control.table_lost import WALL_MARGIN, _approach
+
+    reach = {"ok": True}
+    job = SimpleNamespace(
+        boxes={"whites": WHITES}, table_z=0.0, motion=SimpleNamespace(reaches=lambda p: reach["ok"])
+    )
+    safe = WHITES.wall_height + WALL_MARGIN
+    low = _approach(np.array([0.30, 0.50, 0.08]), (0.18, 0.38), 0.03, 0.055, job)  # type: ignore[arg-type]
+    np.testing.assert_allclose(low, [[0.30, 0.50, safe], [0.18, 0.38, safe], [0.18, 0.38, 0.085]])
+    high = _approach(np.array([0.5, 0.0, 0.5]), (0.18, 0.38), 0.03, 0.055, job)  # type: ignore[arg-type]
+    np.testing.assert_allclose(high, [[0.18, 0.38, safe], [0.18, 0.38, 0.085]])
+    on_heap = _approach(np.array([0.5, 0.0, 0.5]), (0.6, 0.0), 0.12, 0.055, job)  # type: ignore[arg-type]
+    np.testing.assert_allclose(on_heap, [[0.6, 0.0, 0.175]])  # above the walls already
+    reach["ok"] = False
+    base = _approach(np.array([0.30, 0.50, 0.08]), (0.18, 0.38), 0.03, 0.055, job)  # type: ignore[arg-type]
+    np.testing.assert_allclose(base, [[0.30, 0.50, safe], [0.18, 0.38, 0.085]])

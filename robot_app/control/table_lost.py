@@ -74,6 +74,7 @@ if TYPE_CHECKING:
 LIT_PERCENTILE = 95  # a region's or model's lit value: this percentile of its pixels' V
 LIGHTER_TOLERANCE = 40.0  # grey levels a region may look lighter than a cloth's lit value
 MIN_LIGHT_SHARE = 0.2  # share of LIGHT pixels from which a region fits a white cloth fully
+WALL_MARGIN = 0.05  # [m] a blind grasp's approach stays this far over the boxes' walls until over its point
 REACH_TRIES = 24  # deepest pixels of a lost cloth's region tried for a reachable blind grasp
 MAX_HEAP = 3  # lost cloths one blind lift may hold together (a put-back heap of a double pick and more)
 WHOLE = 0.9  # a colour patch this much of its region is the region (tested whole)
@@ -524,7 +525,10 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     try:
         job.set_phase("approach", name)
         start = job.cell.time
-        job.motion.move_tcp([x, y, grasp_z + loop.pregrasp_height - s.grasp_height])
+        for point in _approach(
+            job.motion.tcp_position(), (x, y), grasp_z, loop.pregrasp_height - s.grasp_height, job
+        ):
+            job.motion.move_tcp(point)
         job.motion.move_tcp([x, y, grasp_z], speed=job.settings.put_down_speed)
         job.cell.set_gripper(0.0)
         job.motion.hold(loop.close_time)
@@ -554,6 +558,26 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
         # a double pick's other cloth, not named, placed (named by colours and weight)
         placed_unnamed = sum(1 for n in (attempt.name, *attempt.came_along) if n not in known_lost)
         del job.ledger.unnamed[len(job.ledger.unnamed) - min(placed_unnamed, len(job.ledger.unnamed)) :]
+
+
+def _approach(
+    here: FloatArray, xy: tuple[float, float], grasp_z: float, above: float, job: TableClearer
+) -> list[list[float]]:
+    """The blind grasp's way to `above` [m] over `grasp_z` at `xy`, `WALL_MARGIN` over the
+    boxes' walls until over the point: straight up from `here` first if it is lower, across
+    at that height, then down to the pregrasp point. A straight line from a low pose (a
+    put-back's end, a box check) to the pregrasp point passed the colours box's wall:
+    held-out bench episode 107 (session 22), the left finger on it at TCP (0.305, -0.410,
+    0.090). Where the hand does not reach that height over the point (by the arm's base: the
+    replay's blind grasp at (0.20, -0.25)), the last leg goes straight from `here` raised."""
+    walls = max((box.wall_height for box in job.boxes.values()), default=0.0)
+    safe = job.table_z + walls + WALL_MARGIN
+    x, y = xy
+    points = [[float(here[0]), float(here[1]), safe]] if here[2] < safe else []
+    pregrasp = grasp_z + above
+    if pregrasp < safe and job.motion.reaches([x, y, safe]):
+        points.append([x, y, safe])
+    return [*points, [x, y, pregrasp]]
 
 
 def _blind_grasp_height(
