@@ -251,8 +251,9 @@ class World:
         )
         previous, self._motion = self._motion, {}
         speeding: list[tuple[ClothBody, FloatArray, float, float]] = []
+        all_nodes: dict[int, FloatArray] = {}
         for cloth in self.cloths:
-            nodes = cloth.nodes()
+            nodes = all_nodes[cloth.body_id] = cloth.nodes()
             centre = nodes.mean(axis=0)
             last_centre, last_velocity = previous.get(cloth.body_id, (None, None))
             velocity = None if last_centre is None else (centre - last_centre) / self.dt
@@ -268,7 +269,7 @@ class World:
             speeding.append((cloth, velocity, speed, speed_before))
         if not speeding:
             return
-        moved = self._moved_by_hand(tcp, hand_pushes)
+        moved = self._moved_by_hand(all_nodes, tcp, hand_pushes)
         for cloth, velocity, speed, speed_before in speeding:
             if cloth.body_id in moved:
                 continue
@@ -278,12 +279,12 @@ class World:
             self._motion[cloth.body_id] = (self._motion[cloth.body_id][0], held_back)
             self.slides_held += 1
 
-    def _moved_by_hand(self, tcp: FloatArray, hand_pushes: bool) -> set[int]:
-        """Body ids of the cloths the hand may move this step: those it holds, when it
+    def _moved_by_hand(self, nodes: dict[int, FloatArray], tcp: FloatArray, hand_pushes: bool) -> set[int]:
+        """Body ids of the cloths the hand may move this step (`nodes`: body id -> (N, 3) node
+        positions [m], as read this step): those it holds, when it
         `hand_pushes` (low over the table and moving, other than straight up) those with a
         node within `HAND_REACH` of the TCP, and every cloth touching one of these (a node
         within `TOUCH`), and so on: a cloth held, pushed or dragged, or lying on one that is."""
-        nodes = {cloth.body_id: cloth.nodes() for cloth in self.cloths}
         moved = {cloth.body_id for cloth in self.cloths if cloth.is_grasped}
         if hand_pushes:
             moved |= {
