@@ -233,14 +233,7 @@ class TableClearer:
         """Clears the table; never raises for a failed pick. A stop the user asked for
         (`InterruptError` from `on_step`) ends the job where it is, `interrupted`."""
         wall_start, start = time.perf_counter(), self.cell.time
-        self.ledger = TableLedger()
-        self._views: dict[str, BoxView | None] = dict.fromkeys(self.boxes)
-        self._collisions = 0
-        self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
-        self._laid: list[tuple[AttemptState, FloatArray, FloatArray]] = []  # put-backs: (start, let-go)
-        self._before_pick: _BeforePick | None = None
-        self.recovery.forget()
-        self._survey_camera_pose = self.observation_camera_pose.copy()
+        self._start()
         interrupted, stop_reason = False, ""
         last: Identification | None = None
         try:
@@ -289,7 +282,25 @@ class TableClearer:
             stop_reason = f"the job's own motion failed: {err}"
         return self._result(last, stop_reason, interrupted, start, wall_start)
 
+    def _start(self) -> None:
+        """A fresh job's books: nothing picked, laid back or looked at yet."""
+        self.ledger = TableLedger()
+        self._views: dict[str, BoxView | None] = dict.fromkeys(self.boxes)
+        self._collisions = 0
+        self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
+        self._laid: list[tuple[AttemptState, FloatArray, FloatArray]] = []  # put-backs: (start, let-go)
+        self._before_pick: _BeforePick | None = None
+        self.recovery.forget()
+        self._survey_camera_pose = self.observation_camera_pose.copy()
+
     # ------------------------------------------------------------------ survey
+    def first_survey(self) -> Identification:
+        """A fresh job's first survey from the observation pose, and nothing else
+        (`experiments.first_survey`, `scripts/bench_survey.py`)."""
+        self._start()
+        self._back_to_observation()
+        return self._survey()
+
     def _survey(self, meanwhile: Callable[[], None] | None = None) -> Identification:
         """Surveys from where the arm is; `meanwhile` moves the arm while the computer
         identifies (it must bring it back: the job goes on from where it ends)."""
@@ -327,7 +338,8 @@ class TableClearer:
             smallest = self.identify_settings.min_unknown_area * furniture.size
             ident = replace(ident, unknown=without_furniture(ident.unknown, furniture, smallest))
         self._survey_capture, self._survey_wall = capture, time.perf_counter() - wall
-        self._wait(time.process_time() - cpu, len(names) - len(ident.skipped), meanwhile)
+        recognitions = len(names) - len(ident.skipped) + len(ident.searched_again)
+        self._wait(time.process_time() - cpu, recognitions, meanwhile)
         self._phase = "survey"
         return ident
 

@@ -18,6 +18,7 @@ from typing import Any
 
 from pydantic import Field, model_validator
 
+from robot_app.arrays import FloatArray
 from robot_app.config import SettingValueError, StrictModel
 from robot_app.control.box_check import BoxCheckSettings
 from robot_app.control.clear_table_records import (
@@ -50,7 +51,7 @@ from robot_app.sim import ModelStation, SimCell, World, WorldConfig, cloth_spec
 from robot_app.sim.config import CATALOGUE_SIZE
 from robot_app.sim.pile import Pile, PileSettings, make_pile
 from robot_app.vision import ClothModel, ModelSettings, RecognitionSettings, Recognizer, make_model
-from robot_app.vision.identify import IdentifySettings
+from robot_app.vision.identify import Identification, IdentifySettings
 
 WORLD_DEFAULTS: dict[str, Any] = {  # what the job's world differs in from pick-place's
     "boxes": [
@@ -218,10 +219,8 @@ def _run_in_cell(
     record_file: Path | None,
     stop: Callable[[], None] | None,
 ) -> ClearTableEpisode:
-    w = config.world
     cell = SimCell(world, grasp_radius=config.grasp_radius)
-    kinematics = Kinematics.from_urdf(w.robot.urdf, "base_link", "tcp")
-    limits = JointLimits.from_urdf(w.robot.urdf, config.trajectory)
+    limits = JointLimits.from_urdf(config.world.robot.urdf, config.trajectory)
     settings = _recognition_settings(config)
     recognizers = {name: Recognizer(model, world.stereo.rig, settings) for name, model in models.items()}
     witness = PickWitness(world, pile, config.faults)
@@ -248,36 +247,18 @@ def _run_in_cell(
         if stop is not None:
             stop()
 
-    boxes = tuple(
-        BoxPlace(b.name, b.centre.copy(), b.inner_size, b.wall_height, s.wall_thickness)
-        for b, s in zip(world.boxes, world.config.all_boxes, strict=True)
-    )
-    clearer = TableClearer(
+    clearer = _clearer(
+        config,
+        world,
         cell,
-        kinematics,
         recognizers,
         limits,
-        world.transform_observation_camera_to_world,
-        boxes,
-        config.sort,
-        w.table.top_z,
-        config.clear,
-        config.identify,
-        config.loop,
-        config.filter,
-        config.box_check,
+        scale,
         on_phase=phase,
         on_step=step,
         on_recognition=views.on_recognition if views.active else None,
         on_survey=on_survey,
         ground_truth=lambda name: truth[name].pose if name in truth else None,
-        weigh=scale.read,
-        weights={
-            name: scale.weigh_model(n) for name, n in ((cloth_name(n), n) for n in config.known_numbers)
-        },
-        posture_seed=w.robot.home_joints,
-        sheet=_sheet(w),
-        table_top=_table_top(w),
     )
     world.robot.reset_joints(
         clearer.observation_joints
@@ -300,6 +281,91 @@ def _run_in_cell(
         tuple(witness.lifts),
         world.slides_held,
     )
+
+
+def _clearer(
+    config: ClearTableConfig,
+    world: World,
+    cell: SimCell,
+    recognizers: dict[str, Recognizer],
+    limits: JointLimits,
+    scale: WristScale,
+    **callbacks: Any,
+) -> TableClearer:
+    """The job for this cell (`callbacks`: TableClearer's on_phase, on_step, ...)."""
+    w = config.world
+    boxes = tuple(
+        BoxPlace(b.name, b.centre.copy(), b.inner_size, b.wall_height, s.wall_thickness)
+        for b, s in zip(world.boxes, world.config.all_boxes, strict=True)
+    )
+    return TableClearer(
+        cell,
+        Kinematics.from_urdf(w.robot.urdf, "base_link", "tcp"),
+        recognizers,
+        limits,
+        world.transform_observation_camera_to_world,
+        boxes,
+        config.sort,
+        w.table.top_z,
+        config.clear,
+        config.identify,
+        config.loop,
+        config.filter,
+        config.box_check,
+        weigh=scale.read,
+        weights={
+            name: scale.weigh_model(n) for name, n in ((cloth_name(n), n) for n in config.known_numbers)
+        },
+        posture_seed=w.robot.home_joints,
+        sheet=_sheet(w),
+        table_top=_table_top(w),
+        **callbacks,
+    )
+
+
+@dataclass(frozen=True)
+class FirstSurvey:
+    """The job's first survey of a fresh pile, and the truth to judge it by.
+
+    Attributes:
+        identification: what the survey made of the pair (after the furniture is taken out).
+        transform_camera_to_world: (4, 4) the right camera's pose at the survey.
+        truth: cloth name -> (4, 4) its ground-truth pose Σ_M in Σ_W, for the cloths in the pile.
+        pile: the pile's catalogue numbers, in drop order.
+        same_family: the pile has two or more cloths of one hue family.
+        max_overlap: the largest overlap of two of its cloths (share of the smaller).
+    """
+
+    identification: Identification
+    transform_camera_to_world: FloatArray
+    truth: dict[str, FloatArray]
+    pile: tuple[int, ...]
+    same_family: bool
+    max_overlap: float
+
+
+def first_survey(config: ClearTableConfig) -> FirstSurvey:
+    """Builds the episode's pile and cell as `run_clear_table` does and makes only the job's
+    first survey from the observation pose (`scripts/bench_survey.py`)."""
+    models = {cloth_name(n): _model(config.world, config.model, n) for n in config.known_numbers}
+    with World(config.world) as world:
+        pile = make_pile(world, config.pile, seed=config.seed)
+        cell = SimCell(world, grasp_radius=config.grasp_radius)
+        settings = _recognition_settings(config)
+        recognizers = {name: Recognizer(model, world.stereo.rig, settings) for name, model in models.items()}
+        limits = JointLimits.from_urdf(config.world.robot.urdf, config.trajectory)
+        scale = WristScale(cell, config.scale, config.seed)
+        clearer = _clearer(config, world, cell, recognizers, limits, scale)
+        world.robot.reset_joints(clearer.observation_joints)
+        found = clearer.first_survey()
+        return FirstSurvey(
+            found,
+            clearer.survey_capture.transform_right_camera_to_world.copy(),
+            {cloth_name(c.number): c.body.pose() for c in pile.cloths},
+            tuple(c.number for c in pile.cloths),
+            pile.same_family,
+            pile.max_overlap,
+        )
 
 
 def _recognition_settings(config: ClearTableConfig) -> RecognitionSettings:
@@ -332,4 +398,4 @@ def _model(world: WorldConfig, settings: ModelSettings, number: int) -> ClothMod
     return _cached_model(world.model_dump_json(), settings.model_dump_json(), number)
 
 
-__all__ = ["ClearTableConfig", "ClearTableEpisode", "run_clear_table"]
+__all__ = ["ClearTableConfig", "ClearTableEpisode", "FirstSurvey", "first_survey", "run_clear_table"]

@@ -52,6 +52,7 @@ from robot_app.vision.regions import (
     sheet_mask,
     undistorted,
 )
+from robot_app.vision.search_again import Identified, search_again
 
 
 class IdentifySettings(StrictModel):
@@ -71,6 +72,10 @@ class IdentifySettings(StrictModel):
             free (something unrecognised may lie on it) [-].
         prefilter: share of a model's area its main colours must cover in the foreground
             for it to be searched (0: search every model) [-].
+        search_again: a model not kept whose search ended on a cloth already identified
+            (more than `shared_limit` of its explained pixels are a kept detection's) is
+            searched once more with the kept detections painted over in a colour foreign
+            to it (`search_again`).
     """
 
     candidate_confidence: float = Field(0.15, ge=0.0, le=1.0)
@@ -81,6 +86,7 @@ class IdentifySettings(StrictModel):
     explained_margin: int = Field(2, ge=0, le=20)
     unknown_cover: float = Field(0.1, ge=0.0, le=1.0)
     prefilter: float = Field(0.15, ge=0.0, le=1.0)
+    search_again: bool = False
 
 
 @dataclass(frozen=True)
@@ -139,7 +145,9 @@ class Identification:
         unknown: foreground regions no detection explains, largest first.
         covered: names of detections an unknown region covers more than `unknown_cover` of.
         skipped: models not searched (step 0).
-        recognitions: every model's recognition, by name.
+        recognitions: every model's recognition, by name (the second search's for those
+            searched again).
+        searched_again: models searched a second time (`IdentifySettings.search_again`).
     """
 
     detections: tuple[Detection, ...]
@@ -149,6 +157,7 @@ class Identification:
     recognitions: Mapping[str, Recognition]
     covered: tuple[str, ...] = ()
     skipped: tuple[str, ...] = ()
+    searched_again: tuple[str, ...] = ()
 
     def free(self) -> tuple[Detection, ...]:
         """Detections nothing lies on (known or unknown), most confident first."""
@@ -205,7 +214,63 @@ def identify(
         if on_recognition is not None:
             on_recognition(name, recognitions[name])
     skipped = tuple(name for name in recognizers if name not in searched)
-    return replace(resolve(recognizers, recognitions, image_right_bgr, s), skipped=skipped)
+    found = resolve(recognizers, recognitions, image_right_bgr, s)
+    again = _caught_by_kept(recognizers, found, image_right_bgr, s) if s.search_again else []
+    looked: dict[str, Recognition] = {}
+    if again:
+        identified = [
+            Identified(recognizers[d.name].model, d.transform_model_to_camera, d.explained)
+            for d in found.detections
+        ]
+        looked = search_again(
+            {n: recognizers[n] for n in again},
+            identified,
+            image_left_bgr, image_right_bgr, margin=s.explained_margin, seed=seed + 1,
+            on_recognition=on_recognition,
+        )  # fmt: skip
+        recognitions.update(looked)  # their first poses lay on kept detections: never kept
+        found = resolve(recognizers, recognitions, image_right_bgr, s)
+    return replace(found, skipped=skipped, searched_again=tuple(looked))
+
+
+def _caught_by_kept(
+    recognizers: Mapping[str, Recognizer],
+    found: Identification,
+    image_right_bgr: npt.NDArray[np.uint8],
+    s: IdentifySettings,
+) -> list[str]:
+    """The searched models not kept whose search ended on a kept detection (more than
+    `shared_limit` of the pixels their pose explains are a kept detection's: a white
+    cloth's search drawn onto a whiter one, bench episode 88, session 23) and whose main
+    colours the foreground no kept detection explains still shows for `prefilter` of
+    their area (step 0 again, on what is left: else there is nothing to look for)."""
+    kept = {d.name for d in found.detections}
+    if not kept:
+        return []
+    first = next(iter(recognizers.values()))
+    image = undistorted(image_right_bgr, first.rig.right)
+    codes = image_codes(
+        image, sheet_gains(image, first.model, first.settings.exposure), first.settings.fitness
+    )
+    taken = np.zeros(codes.shape, dtype=bool)
+    for d in found.detections:
+        taken |= d.explained
+    size = 2 * s.explained_margin + 1
+    grown = cv2.dilate(taken.astype(np.uint8), np.ones((size, size), np.uint8)) > 0
+    foreground = ~sheet_mask(image, first.model.background_hue, s.sheet_tolerance, s.sheet_min_saturation)
+    left = set(_colours_cover(recognizers, codes, foreground & ~grown, s.prefilter))
+    caught = []
+    for name, r in found.recognitions.items():
+        model = recognizers[name].model
+        if name in kept or name not in left or model.texture_mask is None:
+            continue
+        _, agree = explained(
+            model, first.rig.right, r.transform_model_to_camera, codes, first.settings.fitness
+        )
+        own = int(np.count_nonzero(agree))
+        if own and np.count_nonzero(agree & taken) / own > s.shared_limit:
+            caught.append(name)
+    return caught
 
 
 def _worth_searching(
@@ -217,23 +282,32 @@ def _worth_searching(
     if s.prefilter <= 0:
         return names
     first = recognizers[names[0]]
-    camera = first.rig.right
-    image = undistorted(image_right_bgr, camera)
-    fitness = first.settings.fitness
-    codes = image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness)
+    image = undistorted(image_right_bgr, first.rig.right)
+    codes = image_codes(
+        image, sheet_gains(image, first.model, first.settings.exposure), first.settings.fitness
+    )
     foreground = ~sheet_mask(image, first.model.background_hue, s.sheet_tolerance, s.sheet_min_saturation)
-    seen = codes[foreground]
-    present = np.bincount(seen.astype(np.int64), minlength=COLOUR_CODES)
+    return _colours_cover(recognizers, codes, foreground, s.prefilter)
+
+
+def _colours_cover(
+    recognizers: Mapping[str, Recognizer], codes: npt.NDArray[np.uint16], where: Mask, share: float
+) -> list[str]:
+    """The models whose main colours cover at least `share` of their area (at the search
+    depth) among the pixels `where` of the image whose colour `codes` are given."""
+    present = np.bincount(codes[where].astype(np.int64), minlength=COLOUR_CODES)
     kept = []
-    for name in names:
-        recognizer = recognizers[name]
+    for name, recognizer in recognizers.items():
         model = recognizer.model
+        camera = recognizer.rig.right
         depth = float(np.mean(recognizer.settings.propose.bounds.z))
         area = model_area(model) * (camera.camera_matrix[0, 0] / depth) ** 2  # [px]
-        palette = main_codes(model)
-        matching = colours_match(np.arange(COLOUR_CODES)[:, None], palette[None, :], fitness.hue_threshold_in)
-        covered = int(present[np.any(matching, axis=1)].sum())
-        if covered >= s.prefilter * area:
+        matching = colours_match(
+            np.arange(COLOUR_CODES)[:, None],
+            main_codes(model)[None, :],
+            recognizer.settings.fitness.hue_threshold_in,
+        )
+        if int(present[np.any(matching, axis=1)].sum()) >= share * area:
             kept.append(name)
     return kept
 
