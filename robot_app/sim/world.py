@@ -39,6 +39,9 @@ HAND_STILL = 0.05  # [m/s] the hand slower than this pushes no cloth along (`Wor
 HAND_CLEAR = 0.1  # [m] the TCP this far above the table top touches no lying cloth (`World.step`)
 HAND_REACH = 0.1  # [m] cloth nodes this close to the TCP may touch the hand (`World.step`)
 TOUCH = 0.04  # [m] cloths whose nodes come this close may touch (a pile's layers lie ~16 mm apart)
+HELD_MEMORY = 0.5  # [s] a cloth held back this recently may not speed up at all (`World.step`)
+HELD_DECAY = 0.9  # its speed along the table after a step it tried to speed up again [-]
+CREEP = 0.005  # [m/s] ... from this speed (a settling cloth's nodes jitter below it)
 SUNK = 0.003  # [m] a cloth node deeper than this in the table top is set back onto it (`World.step`)
 FLIP_FACE_UP = np.diag([1.0, -1.0, -1.0])  # Σ_M of a face-up cloth: z into the table
 OCCLUDER_RGBA = (0.12, 0.25, 0.85, 1.0)  # the blue paper of Fig. 11 (b)
@@ -110,6 +113,7 @@ class World:
         self.table_corrections = 0  # cloth nodes set back onto the solid table (`step`)
         self.slides_held = 0  # steps a lying cloth was kept from speeding up by itself (`step`)
         self._motion: dict[int, tuple[FloatArray, FloatArray | None]] = {}  # centre, velocity
+        self._held_at: dict[int, float] = {}  # body id -> when the guard last held it back [s]
         self._cache = cache_dir()
         top = c.table.top_z
         tx, ty = c.table.centre_xy
@@ -233,7 +237,12 @@ class World:
         survey's view, by the whites box, and no cloth of it was seen again). Until session
         22 the guard held only while no cloth was held at all: in bench episode 78 two cloths
         lying 0.25 m from the pair being laid back, touching nothing that moved, sped up to
-        1.5 m/s along the table and fell off its end. Velocities
+        1.5 m/s along the table and fell off its end. Once held
+        back, a cloth may not speed up at all for `HELD_MEMORY` (from `CREEP`): each step it
+        tries, its speed drops to `HELD_DECAY` of what it had (at most the bound), as friction
+        would slow it. Until session 23 it kept the bound's speed: in held-out episode 117 two
+        cloths a pick had dragged crept on at 0.05 m/s for 6 s, 0.3 m, half out of the survey's
+        view, and were never seen again. Velocities
         are the nodes' mean displacement over one step (pybullet does not report a soft body's
         velocity)."""
         bound = self.config.cloth.free_slide_speed
@@ -261,7 +270,9 @@ class World:
             if velocity is None or last_velocity is None:
                 continue
             speed, speed_before = float(np.hypot(*velocity[:2])), float(np.hypot(*last_velocity[:2]))
-            if speed <= bound or speed <= speed_before or abs(float(velocity[2])) > bound:
+            # held back lately: it may not speed up at all (else the push held it at the bound)
+            floor = CREEP if self.time - self._held_at.get(cloth.body_id, -np.inf) <= HELD_MEMORY else bound
+            if speed <= floor or speed <= speed_before or abs(float(velocity[2])) > bound:
                 continue
             on_table = bool(np.all((np.abs(nodes[:, 0] - tx) < sx / 2) & (np.abs(nodes[:, 1] - ty) < sy / 2)))
             if not on_table or any(np.any(box.contains(nodes)) for box in self.boxes):
@@ -273,10 +284,14 @@ class World:
         for cloth, velocity, speed, speed_before in speeding:
             if cloth.body_id in moved:
                 continue
+            again = self.time - self._held_at.get(cloth.body_id, -np.inf) <= HELD_MEMORY
             held_back = velocity.copy()
-            held_back[:2] *= max(speed_before, bound) / speed
+            held_back[:2] *= (
+                HELD_DECAY * min(speed_before, bound) if again else max(speed_before, bound)
+            ) / speed
             cloth.set_mean_velocity(held_back)
             self._motion[cloth.body_id] = (self._motion[cloth.body_id][0], held_back)
+            self._held_at[cloth.body_id] = self.time
             self.slides_held += 1
 
     def _moved_by_hand(self, nodes: dict[int, FloatArray], tcp: FloatArray, hand_pushes: bool) -> set[int]:
