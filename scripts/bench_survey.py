@@ -16,8 +16,11 @@ detection is judged by the simulator's truth:
   pick are all that stand in the way).
 Each is split into found (the recogniser's own decision) and candidate (kept below the
 threshold: the pick loop searches again). A pile cloth no right detection names is
-*missed* (hidden under others, or not recognised). The figures are what the job starts
-from; the pile changes after every pick, so they are not the job's whole identification.
+*missed* (hidden under others, or not recognised); each cloth's share in view (its pixels in
+the true right camera, by pybullet's segmentation, over its flat outline's) is printed
+beside its name, and the cloths at least half in view (*seen*) are counted apart. The
+figures are what the job starts from; the pile changes after every pick, so they are not
+the job's whole identification.
 """
 
 from __future__ import annotations
@@ -41,8 +44,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_clear_table import DEFAULT_CONFIG, episode_overrides
 
 KINDS = ("right", "misplaced", "wrong_name")
+SEEN = 0.5  # a cloth the camera truly sees this share of (of its flat outline) is "seen"
 COLUMNS = (
-    "episode", "overrides", "pile", "cloths", "same_family", "max_overlap", "detections", "missed",
+    "episode", "overrides", "pile", "cloths", "seen", "seen_right", "same_family", "max_overlap",
+    "detections", "missed",
     *(f"{k}_{s}" for k in KINDS for s in ("found", "candidate")),
     "unknown_regions", "recognitions", "searched_again", "wall_s", "crashed",
 )  # fmt: skip
@@ -76,13 +81,16 @@ def run_one(job: tuple[int, int, tuple[str, ...], float]) -> dict[str, object]:
         judged.append(f"{d.name}:{kind}/{state}:{d.confidence:.2f}:{error * 1000:.0f}mm")
         row[f"{kind}_{state}"] = int(row.get(f"{kind}_{state}", 0)) + 1  # type: ignore[call-overload]
     missed = [name for name in truth if name not in right_names]
+    seen = [name for name in truth if survey.visible[name] >= SEEN]
     return row | {
-        "pile": " ".join(truth),
+        "pile": " ".join(f"{name}({survey.visible[name]:.0%})" for name in truth),
         "cloths": len(truth),
+        "seen": len(seen),
+        "seen_right": sum(1 for name in seen if name in right_names),
         "same_family": survey.same_family,
         "max_overlap": round(survey.max_overlap, 3),
         "detections": " ".join(judged),
-        "missed": " ".join(missed),
+        "missed": " ".join(f"{name}({survey.visible[name]:.0%})" for name in missed),
         "unknown_regions": len(ident.unknown),
         "recognitions": len(ident.recognitions) + len(ident.searched_again),
         "searched_again": " ".join(ident.searched_again),
@@ -102,13 +110,17 @@ def summary_of(rows: list[dict[str, object]], fixed: tuple[str, ...]) -> dict[st
     missed: dict[str, int] = {}
     for r in done:
         for name in str(r["missed"]).split():
-            missed[name] = missed.get(name, 0) + 1
+            number = name.split("(")[0]
+            missed[number] = missed.get(number, 0) + 1
     return {
         "episodes": len(rows),
         "crashed": len(rows) - len(done),
         "cloths": cloths,
         "identified_right": right,
         "identified_right_rate": right / max(cloths, 1),
+        "seen": total("seen"),
+        "seen_identified_right": total("seen_right"),
+        "seen_identified_right_rate": total("seen_right") / max(total("seen"), 1),
         **counts,
         "wrong_name": counts["wrong_name_found"] + counts["wrong_name_candidate"],
         "episodes_with_a_wrong_name": sum(

@@ -16,6 +16,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import cv2
+import numpy as np
 from pydantic import Field, model_validator
 
 from robot_app.arrays import FloatArray
@@ -46,8 +48,10 @@ from robot_app.experiments.clear_table_faults import (
 from robot_app.experiments.clear_table_judge import TableVerdict, judge
 from robot_app.experiments.clear_table_views import TableViews
 from robot_app.experiments.recording import require_rerun
+from robot_app.geometry import invert_transform, transform_points
 from robot_app.outputs import atomic_path
 from robot_app.sim import ModelStation, SimCell, World, WorldConfig, cloth_spec
+from robot_app.sim.cameras import RIGHT_FRAME, segmentation
 from robot_app.sim.config import CATALOGUE_SIZE
 from robot_app.sim.pile import Pile, PileSettings, make_pile
 from robot_app.vision import ClothModel, ModelSettings, RecognitionSettings, Recognizer, make_model
@@ -331,6 +335,8 @@ class FirstSurvey:
         identification: what the survey made of the pair (after the furniture is taken out).
         transform_camera_to_world: (4, 4) the right camera's pose at the survey.
         truth: cloth name -> (4, 4) its ground-truth pose Σ_M in Σ_W, for the cloths in the pile.
+        visible: cloth name -> the share of its outline's area (laid flat at its true pose,
+            projected into the true right camera) that the camera truly sees of it.
         pile: the pile's catalogue numbers, in drop order.
         same_family: the pile has two or more cloths of one hue family.
         max_overlap: the largest overlap of two of its cloths (share of the smaller).
@@ -339,6 +345,7 @@ class FirstSurvey:
     identification: Identification
     transform_camera_to_world: FloatArray
     truth: dict[str, FloatArray]
+    visible: dict[str, float]
     pile: tuple[int, ...]
     same_family: bool
     max_overlap: float
@@ -362,10 +369,27 @@ def first_survey(config: ClearTableConfig) -> FirstSurvey:
             found,
             clearer.survey_capture.transform_right_camera_to_world.copy(),
             {cloth_name(c.number): c.body.pose() for c in pile.cloths},
+            _visible(world, pile),
             tuple(c.number for c in pile.cloths),
             pile.same_family,
             pile.max_overlap,
         )
+
+
+def _visible(world: World, pile: Pile) -> dict[str, float]:
+    """Per pile cloth, its truly seen pixels in the right camera over its flat outline's."""
+    camera, pose = world.stereo.true_rig.right, world.robot.frame_pose(RIGHT_FRAME)
+    seen = segmentation(world.client, camera, pose, world.config.cameras.near, world.config.cameras.far)
+    world_to_camera = invert_transform(pose)
+    shares = {}
+    for cloth in pile.cloths:
+        outline = transform_points(world_to_camera, cloth.body.outline_world())
+        whole = np.zeros(seen.shape, np.uint8)
+        cv2.fillPoly(whole, [np.round(camera.project(outline)).astype(np.int32)], 1)
+        shares[cloth_name(cloth.number)] = float(
+            np.count_nonzero(seen == cloth.body.body_id) / max(int(np.count_nonzero(whole)), 1)
+        )
+    return shares
 
 
 def _recognition_settings(config: ClearTableConfig) -> RecognitionSettings:
