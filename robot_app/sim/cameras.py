@@ -9,6 +9,7 @@ that a point projected with `PinholeCamera.project` lands on the rendered pixel.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -110,19 +111,18 @@ def render_bgr_depth(
     light = lighting or Lighting()
     width, height = camera.image_size
     colour = {} if light.colour == (1.0, 1.0, 1.0) else {"lightColor": list(light.colour)}
-    _, _, rgba, zbuffer, _ = pb.getCameraImage(
-        width,
-        height,
-        viewMatrix=gl_view_matrix(transform_camera_to_world),
-        projectionMatrix=gl_projection_matrix(camera, near, far),
-        renderer=pb.ER_TINY_RENDERER,
+    _, _, rgba, zbuffer, _ = tiny_render(
+        client,
+        camera,
+        transform_camera_to_world,
+        near,
+        far,
         shadow=0,
         lightDirection=list(light.direction),
         lightAmbientCoeff=light.ambient,
         lightDiffuseCoeff=light.diffuse,
         lightSpecularCoeff=light.specular,
         flags=pb.ER_NO_SEGMENTATION_MASK,
-        physicsClientId=client,
         **colour,
     )
     image = np.asarray(rgba, dtype=np.uint8).reshape(height, width, 4)
@@ -140,15 +140,32 @@ def segmentation(
     """(H, W) the pybullet body id seen at each pixel (-1: nothing), soft bodies included:
     the truth of what the camera sees (benchmarks judge a survey by it)."""
     width, height = camera.image_size
-    _, _, _, _, seg = pb.getCameraImage(
-        width,
-        height,
-        viewMatrix=gl_view_matrix(transform_camera_to_world),
-        projectionMatrix=gl_projection_matrix(camera, near, far),
-        renderer=pb.ER_TINY_RENDERER,
-        physicsClientId=client,
-    )
+    seg = tiny_render(client, camera, transform_camera_to_world, near, far)[4]
     return np.asarray(seg, dtype=np.int64).reshape(height, width)
+
+
+def tiny_render(
+    client: int,
+    camera: PinholeCamera,
+    transform_camera_to_world: npt.ArrayLike,
+    near: float,
+    far: float,
+    **options: Any,
+) -> tuple[Any, ...]:
+    """pybullet's `getCameraImage` with its CPU renderer, for `camera` at that pose (OpenCV
+    frame in Σ_W [m]), clipped at `near`, `far` [m]; `options`: its other keywords."""
+    width, height = camera.image_size
+    return tuple(
+        pb.getCameraImage(
+            width,
+            height,
+            viewMatrix=gl_view_matrix(transform_camera_to_world),
+            projectionMatrix=gl_projection_matrix(camera, near, far),
+            renderer=pb.ER_TINY_RENDERER,
+            physicsClientId=client,
+            **options,
+        )
+    )
 
 
 def linear_depth(zbuffer: npt.ArrayLike, near: float, far: float) -> FloatArray:

@@ -22,10 +22,9 @@ from robot_app.arrays import FloatArray
 from robot_app.geometry import invert_transform
 from robot_app.sim.cameras import (
     Lighting,
-    gl_projection_matrix,
-    gl_view_matrix,
     linear_depth,
     render_bgr_depth,
+    tiny_render,
 )
 from robot_app.sim.realism import LightingSettings, StationLightingSettings
 from robot_app.vision.camera import PinholeCamera
@@ -112,16 +111,7 @@ class ShadowMap:
         fov = 2.0 * np.arctan(radius / LAMP_DISTANCE)
         camera = PinholeCamera.from_fov((size, size), fov)
         near, far = 0.2, LAMP_DISTANCE + 1.0
-        _, _, _, zbuffer, _ = pb.getCameraImage(
-            size,
-            size,
-            viewMatrix=gl_view_matrix(pose),
-            projectionMatrix=gl_projection_matrix(camera, near, far),
-            renderer=pb.ER_TINY_RENDERER,
-            shadow=0,
-            flags=pb.ER_NO_SEGMENTATION_MASK,
-            physicsClientId=client,
-        )
+        zbuffer = tiny_render(client, camera, pose, near, far, shadow=0, flags=pb.ER_NO_SEGMENTATION_MASK)[3]
         depth = linear_depth(np.asarray(zbuffer, dtype=np.float64).reshape(size, size), near, far)
         depth.setflags(write=False)
         return cls(camera, pose, depth, 2.0 * radius / size)
