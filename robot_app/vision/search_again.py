@@ -10,6 +10,14 @@ does: paint it over in a colour the searched model does not have, and the search
 elsewhere. A foreign colour is what the fitness reads as an occluder (neutral), not the
 green sheet (which says "no cloth here"), so a cloth lying under the painted one keeps
 its chance of being found where it shows.
+
+Off by default (`identify.search_again`): on two synthetic plain whites it finds the
+smaller one in 3 of 3 seeds where the first search ended on the larger one in 2 of 3
+(`tests/test_identify_search_again.py`), but in the realistic cell's piles it named no
+cloth more (`scripts/bench_survey.py`, episodes 200-223: 70 of 93 either way, +1.8
+recognitions per survey): the cloths it finds there are too hidden under the painted ones
+to be candidates, and the misses of a realistic pile are in the decision (docs/history.md,
+session 23).
 """
 
 from __future__ import annotations
