@@ -248,17 +248,13 @@ def _caught_by_kept(
     if not kept:
         return []
     first = next(iter(recognizers.values()))
-    image = undistorted(image_right_bgr, first.rig.right)
-    codes = image_codes(
-        image, sheet_gains(image, first.model, first.settings.exposure), first.settings.fitness
-    )
+    codes, sheet = _codes_and_sheet(first, image_right_bgr, s)
     taken = np.zeros(codes.shape, dtype=bool)
     for d in found.detections:
         taken |= d.explained
     size = 2 * s.explained_margin + 1
     grown = cv2.dilate(taken.astype(np.uint8), np.ones((size, size), np.uint8)) > 0
-    foreground = ~sheet_mask(image, first.model.background_hue, s.sheet_tolerance, s.sheet_min_saturation)
-    left = set(_colours_cover(recognizers, codes, foreground & ~grown, s.prefilter))
+    left = set(_colours_cover(recognizers, codes, ~sheet & ~grown, s.prefilter))
     caught = []
     for name, r in found.recognitions.items():
         model = recognizers[name].model
@@ -281,13 +277,20 @@ def _worth_searching(
     names = list(recognizers)
     if s.prefilter <= 0:
         return names
-    first = recognizers[names[0]]
-    image = undistorted(image_right_bgr, first.rig.right)
-    codes = image_codes(
-        image, sheet_gains(image, first.model, first.settings.exposure), first.settings.fitness
-    )
-    foreground = ~sheet_mask(image, first.model.background_hue, s.sheet_tolerance, s.sheet_min_saturation)
-    return _colours_cover(recognizers, codes, foreground, s.prefilter)
+    codes, sheet = _codes_and_sheet(recognizers[names[0]], image_right_bgr, s)
+    return _colours_cover(recognizers, codes, ~sheet, s.prefilter)
+
+
+def _codes_and_sheet(
+    recognizer: Recognizer, image_right_bgr: npt.NDArray[np.uint8], s: IdentifySettings
+) -> tuple[npt.NDArray[np.uint16], Mask]:
+    """The right image's colour codes (undistorted, after the sheet's exposure gains) and
+    its green-sheet pixels, as every model's recogniser on the rig reads them."""
+    image = undistorted(image_right_bgr, recognizer.rig.right)
+    gains = sheet_gains(image, recognizer.model, recognizer.settings.exposure)
+    codes = image_codes(image, gains, recognizer.settings.fitness)
+    sheet = sheet_mask(image, recognizer.model.background_hue, s.sheet_tolerance, s.sheet_min_saturation)
+    return codes, sheet
 
 
 def _colours_cover(
@@ -322,9 +325,8 @@ def resolve(
     s = settings or IdentifySettings()
     first = next(iter(recognizers.values()))
     camera = first.rig.right
-    image = undistorted(image_right_bgr, camera)
     fitness = first.settings.fitness
-    codes = image_codes(image, sheet_gains(image, first.model, first.settings.exposure), fitness)
+    codes, sheet = _codes_and_sheet(first, image_right_bgr, s)
     candidates = sorted(
         (name for name, r in recognitions.items() if r.confidence >= s.candidate_confidence),
         key=lambda name: -recognitions[name].confidence,
@@ -346,7 +348,6 @@ def resolve(
     above = tuple(
         pair for i, a in enumerate(kept) for b in kept[i + 1 :] if (pair := _upper(a, b)) is not None
     )
-    sheet = sheet_mask(image, first.model.background_hue, s.sheet_tolerance, s.sheet_min_saturation)
     unknown = _unknown(sheet, kept, s)
     covered = tuple(
         d.name
