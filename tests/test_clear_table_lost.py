@@ -543,11 +543,11 @@ def test_a_heap_is_not_lifted_blind_where_a_hidden_suspect_of_another_box_weighs
     job.weights = {"No.20": 0.025, "No.15": 0.0265, "No.17": 0.024, "No.12": 0.012}
     region = UnknownRegion((10.0, 10.0), 100, np.ones((20, 20), bool))
     found = LostMatch("No.20", region, 0.96)
-    assert not job._suspect_under(found, ())
-    assert not job._suspect_under(found, ("No.15",))  # same box: wherever it goes, it is right
-    assert job._suspect_under(found, ("No.15", "No.17"))  # a white of the same weight
-    assert not job._suspect_under(found, ("No.12",))  # a white the load cell tells apart
-    assert not job._suspect_under(LostMatch("No.20", region, 0.96, alike=("No.17",)), ("No.17",))
+    assert job._suspects_under(found, ()) == ()
+    assert job._suspects_under(found, ("No.15",)) == ()  # same box: wherever it goes, it is right
+    assert job._suspects_under(found, ("No.15", "No.17")) == ("No.17",)  # a white of the same weight
+    assert job._suspects_under(found, ("No.12",)) == ()  # a white the load cell tells apart
+    assert job._suspects_under(LostMatch("No.20", region, 0.96, alike=("No.17",)), ("No.17",)) == ()
 
 
 def test_a_cloth_a_pick_moved_is_looked_for_along_the_way_to_the_box() -> None:

@@ -14,6 +14,7 @@ from robot_app.config import StrictModel
 from robot_app.control.box_check import BoxCheck
 from robot_app.control.episode import EpisodeResult
 from robot_app.control.grasp_point import PileGraspSettings
+from robot_app.control.held_look import HeldLookSettings
 from robot_app.control.job_motion import PutBackSettings
 from robot_app.control.limits import LimitReport
 from robot_app.control.table_layers import LayerSettings
@@ -50,6 +51,10 @@ class LostSettings(StrictModel):
             no cloth the fingers can take (bench episode 40, session 20: eight blind attempts,
             under two guessed names, at a white region by the arm's base at table height).
         empty_reach: see `empty_grasps` [m].
+        held_look: where a cloth of another box that weighs as much may lie hidden under
+            the region (a suspect: seen, gone since a double pick), the lifted cloth is
+            looked at against free table (`held_look`) and put back unless it shows its
+            colours; off: such a region is not picked.
     """
 
     enabled: bool = True
@@ -62,6 +67,7 @@ class LostSettings(StrictModel):
     wall_clearance: float = Field(0.05, ge=0.0)
     empty_grasps: int = Field(2, ge=1)
     empty_reach: float = Field(0.06, gt=0.0)
+    held_look: HeldLookSettings = Field(default_factory=HeldLookSettings)
 
 
 class OffSheetSettings(StrictModel):

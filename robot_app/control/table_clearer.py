@@ -533,8 +533,14 @@ class TableClearer:
             candidates = {**lost, **{name: self.recognizers[name] for name in guessed}}
             where = {**places, **{name: self.ledger.unnamed[-1] for name in guessed}}
             found = self._lost_among(ident, candidates, where, frozenset(guessed))
-            if found is not None and not self._suspect_under(found, suspects):
+            if found is None:
+                continue
+            doubted = self._suspects_under(found, suspects)
+            if not doubted:
                 return found
+            if self.settings.lost.held_look.enabled:
+                # the lifted cloth is looked at before it goes anywhere (`table_lost._carry`)
+                return replace(found, doubted=doubted)
         # none alone: a heap of several of them (`table_lost.match_heap`)
         regions, centres = self._regions_to_try(ident.unknown)
         suspected = {name: self.recognizers[name] for name in suspects}
@@ -550,21 +556,25 @@ class TableClearer:
             self.sort.box_for,
         )
 
-    def _suspect_under(self, found: LostMatch, suspects: tuple[str, ...]) -> bool:
-        """Could a blind lift at `found` hold a suspect instead (`_lost_to_pick`: seen on the
-        table, gone since a double pick laid back with an unnamed companion), hidden under
-        the region, of another box and weighing as much (`weight_verdict`), so that neither
-        colours nor weight would tell? Bench episode 60 (session 21): the heap in No.20's
-        colours was lifted as No.20 and held the suspect No.15 (same box, 26 g for 24 g)."""
+    def _suspects_under(self, found: LostMatch, suspects: tuple[str, ...]) -> tuple[str, ...]:
+        """The suspects (`_lost_to_pick`: seen on the table, gone since a double pick laid
+        back with an unnamed companion) a blind lift at `found` could hold instead, hidden
+        under the region, of another box and weighing as much (`weight_verdict`), so that
+        neither the region's colours nor the weight would tell. Bench episode 60 (session
+        21): the heap in No.20's colours was lifted as No.20 and held the suspect No.15 (same
+        box, 26 g for 24 g). Such a lift is looked at (`held_look`) or, without the look,
+        not made: held-out episodes 116, 120 and 161 (session 24) each ended with a
+        put-back heap matched to its lost cloth and never lifted for such a suspect."""
         box = self.sort.box_for(found.name)
         own = self.weights.get(found.name)
+        doubted = []
         for name in suspects:
             if name in (found.name, *found.alike) or self.sort.box_for(name) == box:
                 continue
             weight = self.weights.get(name)
             if own is None or weight is None or weight_verdict(weight, own, name, self.settings)[0] == "ok":
-                return True
-        return False
+                doubted.append(name)
+        return tuple(doubted)
 
     def _lost_among(
         self,

@@ -248,7 +248,7 @@ def _caught_by_kept(
     if not kept:
         return []
     first = next(iter(recognizers.values()))
-    codes, sheet = _codes_and_sheet(first, image_right_bgr, s)
+    codes, sheet = codes_and_sheet(first, image_right_bgr, s)
     taken = np.zeros(codes.shape, dtype=bool)
     for d in found.detections:
         taken |= d.explained
@@ -277,11 +277,11 @@ def _worth_searching(
     names = list(recognizers)
     if s.prefilter <= 0:
         return names
-    codes, sheet = _codes_and_sheet(recognizers[names[0]], image_right_bgr, s)
+    codes, sheet = codes_and_sheet(recognizers[names[0]], image_right_bgr, s)
     return _colours_cover(recognizers, codes, ~sheet, s.prefilter)
 
 
-def _codes_and_sheet(
+def codes_and_sheet(
     recognizer: Recognizer, image_right_bgr: npt.NDArray[np.uint8], s: IdentifySettings
 ) -> tuple[npt.NDArray[np.uint16], Mask]:
     """The right image's colour codes (undistorted, after the sheet's exposure gains) and
@@ -326,7 +326,7 @@ def resolve(
     first = next(iter(recognizers.values()))
     camera = first.rig.right
     fitness = first.settings.fitness
-    codes, sheet = _codes_and_sheet(first, image_right_bgr, s)
+    codes, sheet = codes_and_sheet(first, image_right_bgr, s)
     candidates = sorted(
         (name for name, r in recognitions.items() if r.confidence >= s.candidate_confidence),
         key=lambda name: -recognitions[name].confidence,
@@ -394,4 +394,12 @@ def _unknown(sheet: Mask, kept: list[Detection], s: IdentifySettings) -> tuple[U
     return tuple(sorted(regions, key=lambda region: -region.area))
 
 
-__all__ = ["Detection", "Identification", "IdentifySettings", "UnknownRegion", "identify", "resolve"]
+__all__ = [
+    "Detection",
+    "Identification",
+    "IdentifySettings",
+    "UnknownRegion",
+    "codes_and_sheet",
+    "identify",
+    "resolve",
+]
