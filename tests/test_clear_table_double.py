@@ -9,6 +9,7 @@ identity is then not sure, and the lift is put back.
 
 from __future__ import annotations
 
+import contextlib
 from types import SimpleNamespace
 
 import numpy as np
@@ -23,7 +24,7 @@ from robot_app.control.table_ledger import TableLedger
 
 def _job(monkeypatch: pytest.MonkeyPatch, put_back: list[str]) -> table_clearer.TableClearer:
     job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
-    job.settings = ClearTableSettings(survey_latency=0.0)
+    job.settings = ClearTableSettings(survey_latency=0.0, held_look={"name_companion": False})
     job.weights = {"No.19": 0.021, "No.10": 0.029, "No.12": 0.011, "No.11": 0.024}
     job.recognizers = {
         n: SimpleNamespace(name=n, model=SimpleNamespace(points_in=np.zeros((4, 3)))) for n in job.weights
@@ -113,7 +114,9 @@ def _shedding_job(monkeypatch: pytest.MonkeyPatch, put_back: list[str], readings
     """No.19's lift weighs the extra and no cloth is named; the hand can lay it down along a
     path (it then stands at (0.60, 0.10)) and lift it again, weighing `readings` in turn."""
     job = _job(monkeypatch, put_back)
-    job.settings = ClearTableSettings(survey_latency=0.0, put_back={"shed": True})
+    job.settings = ClearTableSettings(
+        survey_latency=0.0, put_back={"shed": True}, held_look={"name_companion": False}
+    )
     monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: None)
     where = {"tcp": np.array([0.50, 0.00, 0.40])}
     moves: list[np.ndarray] = []
@@ -162,3 +165,71 @@ def test_a_double_pick_still_heavy_after_being_laid_down_is_put_back(monkeypatch
         job._after_lift(attempt, SimpleNamespace(arm=SimpleNamespace(resume_at=lambda q: None)))  # type: ignore[arg-type]
     assert put_back == ["No.19"] and attempt.shed_at is None
     assert any("still 50 g lifted" in n for n in attempt.notes)
+
+
+# --------------------------------------- the other cloth named by its colours seen hanging
+def _looking_job(monkeypatch: pytest.MonkeyPatch, put_back: list[str], own: dict[str, float]):
+    """No.19's lift weighs No.19 and a cloth of 24-29 g (50 g); neither the survey nor memory
+    names it; the look at what hangs shows `own` (cloth -> share of the held pixels in its own
+    colours)."""
+    from robot_app.control.held_look import HeldColours
+
+    job = _job(monkeypatch, put_back)
+    job.settings = ClearTableSettings(survey_latency=0.0)
+    job.weigh = lambda: 0.050
+    job.ledger.last_seen.update({"No.10": np.array([0.3, 0.1]), "No.11": np.array([0.5, 0.05])})
+    job.weights["No.7"] = 0.027  # weighs the extra too, but no survey has seen it: not asked
+    job.recognizers["No.7"] = job.recognizers["No.10"]
+    monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: None)
+    looked: list[tuple[str, ...]] = []
+
+    def look(job, meant, others, looks=1):
+        looked.append(tuple(others))
+        return HeldColours(4000, 0.7, {n: own.get(n, 0.0) for n in others}), "looked from 12 cm aside"
+
+    monkeypatch.setattr(table_clearer, "look_at_held", look)
+    return job, looked
+
+
+def _lift(job) -> table_clearer.AttemptState:
+    attempt = _attempt()
+    resumed: list[object] = []
+    with contextlib.suppress(EpisodeAbortError):  # put back
+        job._after_lift(attempt, SimpleNamespace(arm=SimpleNamespace(resume_at=resumed.append)))
+    assert resumed, "the loop goes on from where the look left the hand"
+    return attempt
+
+
+def test_the_other_cloth_seen_hanging_in_its_own_colours_is_named_and_placed_along(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    put_back: list[str] = []
+    job, looked = _looking_job(monkeypatch, put_back, {"No.11": 0.3})
+    attempt = _lift(job)
+    assert looked == [("No.10", "No.11")]  # only the cloths seen that weigh the extra (29 g) are asked
+    assert attempt.came_along == ("No.11",) and attempt.named_by == "look" and put_back == []
+
+
+def test_the_other_cloth_seen_hanging_from_the_other_box_is_put_back_named(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    put_back: list[str] = []
+    job, _ = _looking_job(monkeypatch, put_back, {"No.11": 0.3})
+    job.sort = SortSettings(default="colours", boxes={"whites": (11,)})
+    attempt = _lift(job)
+    assert attempt.came_along == () and attempt.laid_back_too == ("No.11",) and put_back == ["No.19"]
+
+
+def test_nothing_seen_hanging_or_cloths_of_both_boxes_name_no_one(monkeypatch: pytest.MonkeyPatch) -> None:
+    cases = (
+        ({"No.11": 0.05}, ()),  # too little of it
+        ({"No.11": 0.3, "No.10": 0.2}, (10,)),  # cloths of both boxes
+        ({"No.11": 0.3, "No.10": 0.25}, ()),  # one box, but which one is not told
+    )
+    for own, whites in cases:
+        put_back: list[str] = []
+        job, _ = _looking_job(monkeypatch, put_back, own)
+        job.sort = SortSettings(default="colours", boxes={"whites": whites})
+        attempt = _lift(job)
+        assert attempt.came_along == () and attempt.laid_back_too == () and attempt.unnamed_along
+        assert put_back == ["No.19"] and attempt.named_by == ""

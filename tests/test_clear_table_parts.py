@@ -445,7 +445,7 @@ def test_a_surveyed_cloth_that_weighs_the_extra_but_stayed_in_place_is_not_carri
     from robot_app.control.table_ledger import TableLedger
 
     job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
-    job.settings = ClearTableSettings(survey_latency=0.0)
+    job.settings = ClearTableSettings(survey_latency=0.0, held_look={"name_companion": False})
     job.weights = {"No.10": 0.0266, "No.4": 0.0229, "No.17": 0.0227}
     job.recognizers = {n: SimpleNamespace(name=n, model=_square()) for n in job.weights}  # type: ignore[misc]
     job.ledger = TableLedger()

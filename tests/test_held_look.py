@@ -103,23 +103,24 @@ def test_the_verdict_wants_the_meant_colours_and_hardly_any_of_the_doubted_ones(
     meant[:, :27] = True  # 90 % white: the meant towel
     doubted = np.zeros_like(held)
     doubted[:, 27:30] = True  # 10 % pink: the doubted cloth's own colour shows
-    seen = held_colours(np.zeros(held.shape), held, meant, {"No.5": doubted})
+    seen = held_colours(held, meant, meant, {"No.5": doubted})
     assert seen.pixels == 300 and seen.meant == pytest.approx(0.9) and seen.own["No.5"] == pytest.approx(0.1)
     alone, what = held_verdict(seen, s)
     assert not alone and "No.5" in what
     # colours both palettes share tell nothing: the white of a cloth with white dots
     both = meant.copy()
-    seen = held_colours(np.zeros(held.shape), held, meant, {"No.6": both})
+    seen = held_colours(held, meant, meant, {"No.6": both})
     assert seen.own["No.6"] == 0.0 and held_verdict(seen, s)[0]
     assert not held_verdict(HeldColours(50, 1.0, {}), s)[0]  # too little seen: not sure
     assert not held_verdict(HeldColours(500, 0.2, {}), s)[0]  # not its colours
 
 
 # ------------------------------------------------- the look in the job (`table_lost._look_at_held`)
-def _look_job(hanging: int, lying: int):
+def _look_job(hanging: int, lying: int, survey_saw_lying: bool = True):
     """A job whose hand holds synthetic cloth `hanging` 0.3 m under its right camera (in the
-    lower part of the image) after lifting it from beside cloth `lying`, which the survey
-    saw on the table at (0.5, 0.0) from 0.7 m up."""
+    lower part of the image) after lifting it from beside cloth `lying`, on the table at
+    (0.5, 0.0), which the survey from 0.7 m up saw there (or, `survey_saw_lying` False,
+    did not: it lay elsewhere and the lift dragged it there)."""
     from robot_app.control.clear_table_records import ClearTableSettings
     from robot_app.control.loop_settings import LoopSettings
     from robot_app.geometry import make_transform, rotation_about_z
@@ -131,8 +132,8 @@ def _look_job(hanging: int, lying: int):
     on_table = make_transform(rotation_about_z(0.4), [0.5, 0.0, 0.0])
     under_hand = make_transform(rotation_about_z(0.2), [0.0, 0.05, 0.3])  # in the camera's frame
 
-    def view(camera_to_world: np.ndarray, held: bool) -> SimpleNamespace:
-        placements = [(synthetic_cloth(lying), np.linalg.inv(camera_to_world) @ on_table)]
+    def view(camera_to_world: np.ndarray, held: bool, lies: bool = True) -> SimpleNamespace:
+        placements = [(synthetic_cloth(lying), np.linalg.inv(camera_to_world) @ on_table)] if lies else []
         if held:
             placements.append((synthetic_cloth(hanging), under_hand))
         left, right = render_stereo_pair(RIG, placements, rng=np.random.default_rng(3))
@@ -152,8 +153,8 @@ def _look_job(hanging: int, lying: int):
     models = {name: recognizer(n, name) for n, name in ((1, "yellow"), (9, "violet"))}
     job = SimpleNamespace(
         settings=ClearTableSettings(), loop_settings=LoopSettings(), identify_settings=IdentifySettings(),
-        rig=RIG, table_z=0.0, recognizers=models,
-        survey_capture=view(looking_down(0.5, 0.0, 0.7), held=False),
+        rig=RIG, table_z=0.0, recognizers=models, sheet=None, boxes={},
+        survey_capture=view(looking_down(0.5, 0.0, 0.7), held=False, lies=survey_saw_lying),
         cell=SimpleNamespace(capture=capture, time=0.0),
         motion=SimpleNamespace(tcp_position=lambda: state["tcp"].copy(), move_tcp=move_tcp, hold=lambda _: 0),
     )  # fmt: skip
@@ -161,11 +162,30 @@ def _look_job(hanging: int, lying: int):
 
 
 def test_the_job_sees_which_cloth_hangs_from_the_hand_against_free_table() -> None:
-    from robot_app.control.table_lost import _look_at_held
+    from robot_app.control.held_look import look_at_held
 
     job, _ = _look_job(hanging=1, lying=9)  # the yellow cloth lifted beside the violet one
-    alone, what = _look_at_held(job, "yellow", ("violet",))  # type: ignore[arg-type]
+    seen, where = look_at_held(job, "yellow", ("violet",))  # type: ignore[arg-type]
+    assert seen is not None, where
+    alone, what = held_verdict(seen, job.settings.held_look)
     assert alone and "violet's own 0%" in what  # the violet one on the table is not taken for it
     job, _ = _look_job(hanging=9, lying=1)  # the violet one came up where the yellow one was meant
-    alone, what = _look_at_held(job, "yellow", ("violet",))  # type: ignore[arg-type]
-    assert not alone and "violet's own" in what
+    seen, where = look_at_held(job, "yellow", ("violet",))  # type: ignore[arg-type]
+    assert seen is not None and seen.own["violet"] > 0.5
+    assert not held_verdict(seen, job.settings.held_look)[0]
+
+
+def test_two_looks_keep_what_moves_with_the_hand_and_drop_what_lies() -> None:
+    from robot_app.control.held_look import look_at_held
+
+    # the survey saw only sheet where the violet cloth lies now (dragged there by the lift)
+    job, state = _look_job(hanging=1, lying=9, survey_saw_lying=False)
+    seen, _ = look_at_held(job, "yellow", ("violet",))  # type: ignore[arg-type]
+    assert seen is not None and seen.own["violet"] > 0.0  # one look takes the lying cloth for held
+    job, state = _look_job(hanging=1, lying=9, survey_saw_lying=False)
+    start = state["tcp"].copy()
+    seen, where = look_at_held(job, "yellow", ("violet",), looks=2)  # type: ignore[arg-type]
+    assert seen is not None, where
+    assert seen.own["violet"] < job.settings.held_look.name_share  # two looks do not
+    assert seen.meant > 0.9 and seen.pixels >= job.settings.held_look.min_pixels
+    assert float(np.hypot(*(state["tcp"][:2] - start[:2]))) > 0.0

@@ -51,10 +51,6 @@ class LostSettings(StrictModel):
             no cloth the fingers can take (bench episode 40, session 20: eight blind attempts,
             under two guessed names, at a white region by the arm's base at table height).
         empty_reach: see `empty_grasps` [m].
-        held_look: where a cloth of another box that weighs as much may lie hidden under
-            the region (a suspect: seen, gone since a double pick), the lifted cloth is
-            looked at against free table (`held_look`) and put back unless it shows its
-            colours; off: such a region is not picked.
     """
 
     enabled: bool = True
@@ -67,7 +63,6 @@ class LostSettings(StrictModel):
     wall_clearance: float = Field(0.05, ge=0.0)
     empty_grasps: int = Field(2, ge=1)
     empty_reach: float = Field(0.06, gt=0.0)
-    held_look: HeldLookSettings = Field(default_factory=HeldLookSettings)
 
 
 class OffSheetSettings(StrictModel):
@@ -216,6 +211,9 @@ class ClearTableSettings(StrictModel):
         off_sheet: the bare table beyond the green sheet taken out of the unknown regions.
         moved: an unknown region a placed pick moved (the sheet bared where it lay), booked
             as a cloth that came along unnamed (`table_moved`).
+        held_look: the lifted cloth looked at against table the survey saw free
+            (`held_look`): a blind lift that could hold a hidden cloth of another box, and a
+            double pick's other cloth nobody named.
     """
 
     max_picks: int = Field(15, ge=1)
@@ -243,6 +241,7 @@ class ClearTableSettings(StrictModel):
     lost: LostSettings = Field(default_factory=LostSettings)
     off_sheet: OffSheetSettings = Field(default_factory=OffSheetSettings)
     moved: MovedSettings = Field(default_factory=MovedSettings)
+    held_look: HeldLookSettings = Field(default_factory=HeldLookSettings)
 
 
 @dataclass(frozen=True)
@@ -303,7 +302,7 @@ class PickAttempt:
             own survey did not see them), not from vision at the lift.
         named_by: how a double pick's other cloth was named ("grasp": the one surveyed
             cloth under the grasp point that weighs the extra and is gone from its place;
-            "memory"; "": not named).
+            "memory"; "look": its own colours seen hanging, `held_look`; "": not named).
         laid_back_too: the named other cloth of a double pick put back with it (another box).
     """
 

@@ -20,8 +20,10 @@ cloth's own (`held_verdict`).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import time
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -30,26 +32,49 @@ from pydantic import Field
 
 from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
+from robot_app.errors import IKError
+from robot_app.vision.identify import codes_and_sheet
+from robot_app.vision.regions import main_codes
+
+if TYPE_CHECKING:
+    from robot_app.control.table_clearer import TableClearer
 
 Mask = npt.NDArray[np.bool_]
 GRID_PX = 8  # hover candidates are scored on every GRID_PX-th pixel of the hand's view
+BEYOND_INSET = 0.02  # [m] table points the survey did not see count as free this far inside the sheet
+ALL_COLOURS = 0.98  # a cloth's colours that cover this share of its S_in: "any of its colours"
 
 
 class HeldLookSettings(StrictModel):
-    """The look at a lifted cloth (the `clear.lost.held_look` section). Lengths [m].
+    """The look at a lifted cloth (the `clear.held_look` section). Lengths [m].
 
     Attributes:
-        enabled: look where the weight cannot tell (else such a region is not picked).
+        enabled: look at a blind lift where the weight cannot tell it from a hidden cloth
+            of another box (`table_lost`; off: such a region is not picked).
+        name_companion: look at a double pick whose other cloth neither the survey nor
+            memory names, and name it by its own colours seen hanging (two looks from
+            points `confirm_shift` apart, so that a cloth lying on the table, dragged by
+            the lift where the survey saw sheet, is not taken for it).
         reach: the hand moves at most this far from the lift point to look [m].
         step: hover points on a grid of this spacing [m].
-        min_free: share of the hand's view the survey saw as free sheet (what the look can
-            read against) needed at the hover point [-].
+        min_free: share of the hand's view behind the held cloth (`hanging_region`) the
+            survey saw as free sheet (what the look can read against) needed at the hover
+            point [-].
         min_pixels: held pixels (against predicted sheet) needed to read its colours.
         meant_share: share of them in the meant cloth's main colours needed [-].
         doubt_share: share of them in another cloth's own colours (none of the meant
             cloth's) from which the lift is taken for that cloth too [-].
         opening: the held mask is opened by this square [px] (the plane mapping's
             misfit at cloth edges, noise).
+        name_share: share of the held pixels in a cloth's own colours (none of the meant
+            cloth's) from which it is named as hanging too [-].
+        name_margin: ... at least this much more than any other cloth's share [-].
+        confirm_shift: the second look's point this far at least from the first [m].
+        persist_px: what hangs is taken where both looks see it within this [px] (it
+            swings a little; a cloth lying on the table moves some 35 px per 5 cm).
+        hang_radius, hang_depth: where a held cloth can hang: within this of the TCP's
+            vertical, down to this under it [m] (`hanging_region`); the hover points are
+            scored by the free table behind that part of the view.
     """
 
     enabled: bool = True
@@ -60,6 +85,13 @@ class HeldLookSettings(StrictModel):
     meant_share: float = Field(0.4, ge=0.0, le=1.0)
     doubt_share: float = Field(0.08, ge=0.0, le=1.0)
     opening: int = Field(5, ge=1, le=31)
+    name_companion: bool = True
+    name_share: float = Field(0.1, gt=0.0, le=1.0)
+    name_margin: float = Field(0.1, ge=0.0, le=1.0)
+    confirm_shift: float = Field(0.05, gt=0.0)
+    persist_px: int = Field(9, ge=1, le=41)
+    hang_radius: float = Field(0.12, gt=0.0)
+    hang_depth: float = Field(0.35, gt=0.05)
 
 
 @dataclass(frozen=True)
@@ -117,19 +149,32 @@ def table_homography(
     )
 
 
-def free_in_view(survey_sheet: Mask, homography: FloatArray, image_size: tuple[int, int]) -> Mask:
+def free_in_view(
+    survey_sheet: Mask,
+    homography: FloatArray,
+    image_size: tuple[int, int],
+    beyond: Mask | None = None,
+) -> Mask:
     """(H, W) pixels of the second view where the survey saw free sheet (`table_homography`
-    from the survey's view); False where it saw anything else or saw nothing."""
+    from the survey's view); False where it saw anything else; where it saw nothing, the
+    second view's `beyond` (None: False)."""
     width, height = image_size
-    mapped = cv2.warpPerspective(
-        np.asarray(survey_sheet, dtype=np.uint8),
-        np.asarray(homography, dtype=np.float64),
-        (width, height),
-        flags=cv2.INTER_NEAREST,
-        borderMode=cv2.BORDER_CONSTANT,
-        borderValue=0,
-    )
-    return np.asarray(mapped > 0, dtype=bool)
+
+    def mapped(mask: npt.ArrayLike) -> Mask:
+        warped = cv2.warpPerspective(
+            np.asarray(mask, dtype=np.uint8),
+            np.asarray(homography, dtype=np.float64),
+            (width, height),
+            flags=cv2.INTER_NEAREST,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=0,
+        )
+        return np.asarray(warped > 0, dtype=bool)
+
+    free = mapped(survey_sheet)
+    if beyond is not None:
+        free |= ~mapped(np.ones_like(survey_sheet)) & np.asarray(beyond, dtype=bool)
+    return free
 
 
 def held_mask(sheet_now: Mask, free_before: Mask, opening: int) -> Mask:
@@ -147,12 +192,18 @@ def hover_offsets(
     camera_to_world: FloatArray,
     table_z: float,
     settings: HeldLookSettings,
+    hanging: Mask | None = None,
+    beyond: Callable[[FloatArray], Mask] | None = None,
 ) -> list[tuple[FloatArray, float]]:
     """Horizontal moves ((2,) [m], within `reach`) of the hand, each with the share of the
-    moved view the survey saw as free sheet, those of at least `min_free` only, the freest
-    first (nearer first among equals)."""
+    moved view the survey saw as free sheet (of the view's `hanging` pixels, where what the
+    hand holds can be seen: `hanging_region`; None: all; table points the survey did not
+    see count as free where `beyond` ((N, 2) [m] -> (N,) bools) says so), those of at
+    least `min_free` only, the freest first (nearer first among equals)."""
     height, width = survey_sheet.shape
     v, u = np.mgrid[GRID_PX // 2 : height : GRID_PX, GRID_PX // 2 : width : GRID_PX]
+    if hanging is not None and np.any(np.asarray(hanging)[v, u]):
+        u, v = u[np.asarray(hanging)[v, u]], v[np.asarray(hanging)[v, u]]
     pixels = np.column_stack([u.ravel(), v.ravel()]).astype(float)
     n = int(np.floor(settings.reach / settings.step))
     steps = np.arange(-n, n + 1) * settings.step
@@ -164,13 +215,14 @@ def hover_offsets(
                 continue
             moved = np.array(camera_to_world, dtype=float)
             moved[:2, 3] += shift
-            seen = project_to_image(
-                camera_matrix, survey_camera_to_world, table_points(camera_matrix, moved, pixels, table_z)
-            )
+            on_table = table_points(camera_matrix, moved, pixels, table_z)
+            seen = project_to_image(camera_matrix, survey_camera_to_world, on_table)
             iu, iv = np.rint(seen[:, 0]).astype(int), np.rint(seen[:, 1]).astype(int)
             inside = (iu >= 0) & (iu < width) & (iv >= 0) & (iv < height)
             free = np.zeros(len(pixels), dtype=bool)
             free[inside] = survey_sheet[iv[inside], iu[inside]]
+            if beyond is not None and not inside.all():
+                free[~inside] = beyond(on_table[~inside, :2])
             share = float(free.mean())
             if share >= settings.min_free:
                 scored.append((shift, share))
@@ -178,22 +230,53 @@ def hover_offsets(
     return scored
 
 
+def hanging_region(
+    camera_matrix: FloatArray,
+    camera_to_world: FloatArray,
+    tcp: FloatArray,
+    image_size: tuple[int, int],
+    settings: HeldLookSettings,
+) -> Mask:
+    """(H, W) the pixels of the hand's view where a cloth hanging from the TCP (`tcp`, (3,)
+    [m]) can show: the convex hull of a vertical cylinder of `hang_radius` from 0.05 m to
+    `hang_depth` under it, in front of the camera."""
+    width, height = image_size
+    angles = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)
+    ring = np.column_stack([np.cos(angles), np.sin(angles)]) * settings.hang_radius
+    points = [
+        np.column_stack([tcp[0] + ring[:, 0], tcp[1] + ring[:, 1], np.full(len(ring), tcp[2] - depth)])
+        for depth in (0.05, settings.hang_depth)
+    ]
+    world = np.vstack(points)
+    T = np.asarray(camera_to_world, dtype=float)
+    ahead = (world - T[:3, 3]) @ T[:3, :3][:, 2] > 0.02
+    mask = np.zeros((height, width), np.uint8)
+    if np.count_nonzero(ahead) >= 3:
+        pixels = project_to_image(camera_matrix, camera_to_world, world[ahead])
+        hull = cv2.convexHull(np.clip(pixels, -1e4, 1e4).astype(np.float32)).astype(np.int32)
+        cv2.fillConvexPoly(mask, hull, 1)
+    return np.asarray(mask > 0, dtype=bool)
+
+
 def held_colours(
-    codes: npt.ArrayLike,
     held: Mask,
     meant: npt.ArrayLike,
+    meant_any: npt.ArrayLike,
     others: Mapping[str, npt.ArrayLike],
 ) -> HeldColours:
-    """The held pixels' shares: in the meant cloth's palette (`meant`, (H, W) bools of the
-    image's pixels in it) and, per other cloth (the same, in its palette), in its palette
-    and not the meant one's."""
+    """The held pixels' shares: in the meant cloth's main colours (`meant`, (H, W) bools of
+    the image's pixels in them) and, per other cloth (the same, in its main colours), in
+    its colours and in none of the meant cloth's (`meant_any`: nearly all its colours,
+    so that a print's small patches do not count as another cloth's)."""
     held = np.asarray(held, dtype=bool)
     count = int(held.sum())
-    mine = np.asarray(meant, dtype=bool)[held]
     if count == 0:
         return HeldColours(0, 0.0, {name: 0.0 for name in others})
+    mine = np.asarray(meant, dtype=bool)[held]
+    any_mine = np.asarray(meant_any, dtype=bool)[held]
     own = {
-        name: float(np.mean(np.asarray(theirs, dtype=bool)[held] & ~mine)) for name, theirs in others.items()
+        name: float(np.mean(np.asarray(theirs, dtype=bool)[held] & ~any_mine))
+        for name, theirs in others.items()
     }
     return HeldColours(count, float(np.mean(mine)), own)
 
@@ -213,14 +296,105 @@ def held_verdict(seen: HeldColours, settings: HeldLookSettings) -> tuple[bool, s
     return True, what
 
 
+def _grown(mask: Mask, px: int) -> Mask:
+    return np.asarray(cv2.dilate(np.asarray(mask, np.uint8), np.ones((px, px), np.uint8)) > 0)
+
+
+def look_at_held(
+    job: TableClearer, meant: str, others: Sequence[str], looks: int = 1
+) -> tuple[HeldColours | None, str]:
+    """Moves the lifted cloth over the freest table within reach (`hover_offsets`), looks
+    (`looks` = 2: once more from a point `confirm_shift` away, keeping only what both see
+    within `persist_px`: what hangs moves with the hand, what lies does not) and returns
+    what hangs (`held_colours` for `meant` and `others`) and a note; None where no such
+    point is free and reachable. The hand stays at the last look (the transfer or the
+    put-back goes on from there); the arm holds for the computation."""
+    # the job's own modules, which import this one's settings
+    from robot_app.control.table_furniture import clear_of_walls
+    from robot_app.control.table_lost import in_palette
+
+    s = job.settings.held_look
+    camera = job.rig.right
+    K, size = camera.camera_matrix, (camera.width, camera.height)
+    recognizer = job.recognizers[meant]
+    threshold = recognizer.settings.fitness.hue_threshold_in
+    survey = job.survey_capture
+    survey_pose = survey.transform_right_camera_to_world
+    _, survey_sheet = codes_and_sheet(recognizer, survey.right_bgr, job.identify_settings)
+    here = job.cell.capture()
+    cpu = time.process_time()
+    tcp = job.motion.tcp_position()
+    pose = here.transform_right_camera_to_world
+    hanging = hanging_region(K, pose, tcp, size, s)
+
+    def beyond(xy: FloatArray) -> Mask:
+        """Table points the survey did not see, taken for free sheet: on the green sheet,
+        clear of the boxes (what lies there shows in neither look at the same pixels)."""
+        if job.sheet is None:
+            return np.zeros(len(xy), dtype=bool)
+        return job.sheet.contains(xy, BEYOND_INSET) & clear_of_walls(xy, job.boxes.values(), BEYOND_INSET)
+
+    offsets = hover_offsets(
+        survey_sheet, K, survey_pose, pose, job.table_z, s, hanging, beyond if looks > 1 else None
+    )
+    job.motion.hold(time.process_time() - cpu)
+    palettes = {n: main_codes(job.recognizers[n].model) for n in (meant, *others)}
+    wide = main_codes(recognizer.model, ALL_COLOURS)
+    seen_at: list[FloatArray] = []
+    views: list[tuple[Mask, dict[str, Mask], Mask]] = []
+    for shift, _ in offsets:
+        if seen_at and min(float(np.hypot(*(shift - at))) for at in seen_at) < s.confirm_shift:
+            continue
+        try:
+            job.motion.move_tcp([tcp[0] + shift[0], tcp[1] + shift[1], tcp[2]])
+        except IKError:
+            continue
+        job.motion.hold(job.loop_settings.settle_time)
+        capture = job.cell.capture()
+        cpu = time.process_time()
+        codes, sheet = codes_and_sheet(recognizer, capture.right_bgr, job.identify_settings)
+        homography = table_homography(
+            K, survey_pose, capture.transform_right_camera_to_world, job.table_z, size
+        )
+        unseen = None
+        if looks > 1:  # what lies beyond the survey's view drops out between the two looks
+            grid = np.mgrid[0 : size[1], 0 : size[0]]
+            pixels = np.column_stack([grid[1].ravel(), grid[0].ravel()]).astype(float)
+            on_table = table_points(K, capture.transform_right_camera_to_world, pixels, job.table_z)
+            unseen = beyond(on_table[:, :2]).reshape(size[1], size[0])
+        held = held_mask(sheet, free_in_view(survey_sheet, homography, size, unseen), s.opening)
+        views.append(
+            (
+                held,
+                {n: in_palette(codes, p, threshold) for n, p in palettes.items()},
+                in_palette(codes, wide, threshold),
+            )
+        )
+        job.motion.hold(time.process_time() - cpu)
+        seen_at.append(shift)
+        if len(views) == looks:
+            break
+    if len(views) < looks:
+        return None, "no free table within reach to look against"
+    held, colours, any_meant = views[0]
+    for later_held, later_colours, _ in views[1:]:
+        held = held & _grown(later_held, s.persist_px)
+        colours = {n: colours[n] & _grown(later_colours[n] & later_held, s.persist_px) for n in colours}
+    seen = held_colours(held, colours[meant], any_meant, {n: colours[n] for n in others})
+    where = ", ".join(f"{float(np.hypot(*at)) * 100:.0f} cm aside" for at in seen_at)
+    return seen, f"looked from {where}"
+
+
 __all__ = [
     "HeldColours",
     "HeldLookSettings",
     "free_in_view",
+    "hanging_region",
     "held_colours",
     "held_mask",
     "held_verdict",
     "hover_offsets",
+    "look_at_held",
     "project_to_image",
     "table_homography",
     "table_points",

@@ -56,14 +56,7 @@ from robot_app.arrays import FloatArray
 from robot_app.control.cell import StereoCapture
 from robot_app.control.clear_table_records import ClearTableSettings, LostPlace, LostSettings
 from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
-from robot_app.control.held_look import (
-    free_in_view,
-    held_colours,
-    held_mask,
-    held_verdict,
-    hover_offsets,
-    table_homography,
-)
+from robot_app.control.held_look import held_verdict, look_at_held
 from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, weight_verdict
 from robot_app.control.pick_place import EMPTY_GRASP, LIFTED, carry_over_box, release_into_box
@@ -73,7 +66,7 @@ from robot_app.errors import IKError
 from robot_app.vision import Recognizer
 from robot_app.vision.exposure import sheet_gains
 from robot_app.vision.hue import DARK, LIGHT, colours_match
-from robot_app.vision.identify import UnknownRegion, codes_and_sheet
+from robot_app.vision.identify import UnknownRegion
 from robot_app.vision.regions import image_codes, main_codes, undistorted
 
 if TYPE_CHECKING:
@@ -659,7 +652,9 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             job.put_back(attempt, None)
             return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
     if match.doubted:
-        alone, seen = _look_at_held(job, name, match.doubted)
+        hanging, where = look_at_held(job, name, match.doubted)
+        alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
+        seen += "" if hanging is None else f" ({where})"
         attempt.notes.append(f"looked at against free table (could be {', '.join(match.doubted)}): {seen}")
         if not alone:
             attempt.lift_check = "wrong"
@@ -687,46 +682,6 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     _phase(job, name, "release", start, "")
     job.check_box(attempt)
     return Outcome.PLACED, f"{name} placed (picked blind, its weight read)"
-
-
-def _look_at_held(job: TableClearer, name: str, doubted: tuple[str, ...]) -> tuple[bool, str]:
-    """Moves the lifted cloth over table the survey saw free (`held_look.hover_offsets`),
-    looks, and says whether what hangs shows `name`'s colours and hardly any of the
-    `doubted` cloths' own (`held_look.held_verdict`), and what was seen. The hand stays
-    there (the transfer or the put-back goes on from it); the arm holds for the computation."""
-    s = job.settings.lost.held_look
-    camera = job.rig.right
-    K, size = camera.camera_matrix, (camera.width, camera.height)
-    recognizer = job.recognizers[name]
-    survey = job.survey_capture
-    _, survey_sheet = codes_and_sheet(recognizer, survey.right_bgr, job.identify_settings)
-    here = job.cell.capture()
-    cpu = time.process_time()
-    table_z = job.table_z
-    survey_pose = survey.transform_right_camera_to_world
-    offsets = hover_offsets(survey_sheet, K, survey_pose, here.transform_right_camera_to_world, table_z, s)
-    job.motion.hold(time.process_time() - cpu)
-    tcp = job.motion.tcp_position()
-    for shift, free in offsets:
-        try:
-            job.motion.move_tcp([tcp[0] + shift[0], tcp[1] + shift[1], tcp[2]])
-        except IKError:
-            continue
-        job.motion.hold(job.loop_settings.settle_time)
-        capture = job.cell.capture()
-        cpu = time.process_time()
-        codes, sheet = codes_and_sheet(recognizer, capture.right_bgr, job.identify_settings)
-        homography = table_homography(K, survey_pose, capture.transform_right_camera_to_world, table_z, size)
-        held = held_mask(sheet, free_in_view(survey_sheet, homography, size), s.opening)
-        threshold = recognizer.settings.fitness.hue_threshold_in
-        palettes = {
-            n: in_palette(codes, main_codes(job.recognizers[n].model), threshold) for n in (name, *doubted)
-        }
-        seen = held_colours(codes, held, palettes[name], {n: palettes[n] for n in doubted})
-        job.motion.hold(time.process_time() - cpu)
-        alone, what = held_verdict(seen, s)
-        return alone, f"{what} ({free:.0%} of the view free, {float(np.hypot(*shift)) * 100:.0f} cm aside)"
-    return False, "no free table within reach to look against"
 
 
 def _phase(job: TableClearer, name: str, phase: str, start: float, note: str) -> None:
