@@ -13,6 +13,8 @@ something to find; natural double picks count too. The cell is the `--realism` p
 its nodes inside the walls, at any height; the cloths heaped over the rim are counted).
 Every episode not cleared is listed with its cause; each episode's results folder
 (cloths.csv, picks.csv, surveys.csv, summary.json) is kept in `--out`/episode_NNN.
+Ctrl-C stops the sweep: the episodes finished by then are summarised as usual (summary.json
+says "interrupted": true; exit 130).
 """
 
 from __future__ import annotations
@@ -161,21 +163,29 @@ def main() -> None:
     rows: list[dict[str, object]] = []
     start = time.perf_counter()
     # each episode the first world of a fresh process: it depends on its seed and settings only
-    with fresh_process_pool(args.workers) as pool:
-        for row in pool.imap_unordered(run_one, jobs):
-            rows.append(row)
-            done = len(rows)
-            ok = sum(bool(r["cleared"]) for r in rows)
-            print(
-                f"[{done}/{args.episodes}] episode {row['episode']}: "
-                f"{'cleared' if row['cleared'] else 'NOT cleared: ' + str(row.get('cause'))} "
-                f"- {ok}/{done} cleared",
-                flush=True,
-            )
-            _write_rows(out / "episodes.csv", rows)
+    interrupted = False
+    try:
+        with fresh_process_pool(args.workers) as pool:
+            for row in pool.imap_unordered(run_one, jobs):
+                rows.append(row)
+                done = len(rows)
+                ok = sum(bool(r["cleared"]) for r in rows)
+                print(
+                    f"[{done}/{args.episodes}] episode {row['episode']}: "
+                    f"{'cleared' if row['cleared'] else 'NOT cleared: ' + str(row.get('cause'))} "
+                    f"- {ok}/{done} cleared",
+                    flush=True,
+                )
+                _write_rows(out / "episodes.csv", rows)
+    except KeyboardInterrupt:  # Ctrl-C: the episodes finished so far are summarised, not lost
+        interrupted = True
+        print(f"\ninterrupted: summary of the {len(rows)} episode(s) finished", file=sys.stderr, flush=True)
+    if not rows:
+        sys.exit(130)
     rows.sort(key=lambda r: int(r["episode"]))  # type: ignore[arg-type]
     _write_rows(out / "episodes.csv", rows)
     summary = _summary(rows, args, fixed, time.perf_counter() - start)
+    summary["interrupted"] = interrupted
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     print(json.dumps(summary, indent=2))
     failed = [r for r in rows if not r["cleared"]]
@@ -184,6 +194,8 @@ def main() -> None:
         print(f"  episode {r['episode']} [{r['overrides']}] pile {r.get('pile')}: {r.get('cause')}")
     goals = summary["goals"]
     print("goals: " + "; ".join(f"{name}: {'PASS' if ok else 'MISS'}" for name, ok in goals.items()))
+    if interrupted:
+        sys.exit(130)
 
 
 def _summary(
