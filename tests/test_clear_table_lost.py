@@ -65,6 +65,23 @@ def survey():
     return recognizers, ident, capture
 
 
+def test_a_region_a_spent_lost_cloth_explains_goes_to_no_guess(survey) -> None:
+    # held-out bench episode 227 (session 24): No.6, put back four times, had no attempts left
+    # and left the candidates; its region went to the guessed No.7 of the other box
+    recognizers, ident, capture = survey
+    settings, centres = LostSettings(), [np.array([0.6, 0.1])]
+    twins = {"violet": recognizers["violet"], "twin": recognizer(9, "violet twin")}
+    boxes = {"violet": "whites", "twin": "colours"}.__getitem__
+    guessed = frozenset({"twin"})
+    alone = {"twin": twins["twin"]}  # the spent violet left out: the guess takes its region
+    taken = match_lost(capture, ident.unknown, centres, alone, {}, settings, boxes, guessed)
+    assert taken is not None and taken.name == "twin"
+    spent = frozenset({"violet"})  # the spent violet ranked, never taken, and nobody else is
+    assert match_lost(capture, ident.unknown, centres, twins, {}, settings, boxes, guessed, spent) is None
+    only = {"violet": twins["violet"]}
+    assert match_lost(capture, ident.unknown, centres, only, {}, settings, boxes, frozenset(), spent) is None
+
+
 def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
     recognizers, ident, capture = survey
     assert [d.name for d in ident.detections] == ["yellow"] and len(ident.unknown) == 1
@@ -205,12 +222,24 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     job.sort = SimpleNamespace(box_for=lambda name: "colours")  # type: ignore[assignment]
     asked: list[tuple[set[str], dict[str, LostPlace]]] = []
 
-    def fake_match(capture, regions, centres, lost, places, settings, box_for=None, guessed=frozenset()):
+    def fake_match(
+        capture,
+        regions,
+        centres,
+        lost,
+        places,
+        settings,
+        box_for=None,
+        guessed=frozenset(),
+        spent=frozenset(),
+    ):
         asked.append((set(lost), dict(places)))
         guesses.append(set(guessed))
+        spents.append(set(spent))
         return None
 
     guesses: list[set[str]] = []
+    spents: list[set[str]] = []
 
     monkeypatch.setattr(table_clearer, "match_lost", fake_match)
     ident = SimpleNamespace(detections=(SimpleNamespace(name="No.2"),), unknown=())
@@ -229,14 +258,16 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     assert guesses[-1] == {"No.3", "No.4"} and guesses[0] == set()  # No.1 is known by name
     job.ledger.records["No.1"]["attempts"] = job.settings.max_attempts  # attempts used up
     job._lost_to_pick(ident)  # type: ignore[arg-type]
-    assert asked[-1][0] == {"No.3", "No.4"}
+    # still ranked (its colours explain its region: no guess takes it), never taken
+    assert asked[-1][0] == {"No.1", "No.3", "No.4"} and spents[-1] == {"No.1"}
+    assert spents[0] == set()
     # seen once and never picked is no alibi (bench episode 19's No.5, identified at 0.24 by
     # the first survey, came up with the first pick and was laid back with it); placed is
     job.ledger.records["No.3"] = {"attempts": 0, "sim_time": 0.0, "notes": []}
     job.ledger.records["No.4"] = {"attempts": 1, "sim_time": 0.0, "notes": []}
     job.ledger.placed_order.append("No.4")
     job._lost_to_pick(ident)  # type: ignore[arg-type]
-    assert asked[-1][0] == {"No.3"} and asked[-1][1]["No.3"] is nameless
+    assert asked[-1][0] == {"No.1", "No.3"} and asked[-1][1]["No.3"] is nameless  # No.1: spent
     # a suspect (seen by a survey, not seen now, not placed) is asked alone first, then with
     # every other guess (bench episode 60, session 20)
     job.ledger.records["No.4"]["attempts"] = 0
@@ -244,7 +275,7 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     job.ledger.last_seen["No.4"] = np.array([0.5, 0.1])
     job._lost_to_pick(ident)  # type: ignore[arg-type]
     assert [guess for guess in guesses[-2:]] == [{"No.4"}, {"No.3", "No.4"}]
-    assert asked[-2][0] == {"No.4"} and asked[-2][1]["No.4"] is nameless
+    assert asked[-2][0] == {"No.1", "No.4"} and asked[-2][1]["No.4"] is nameless
     job.ledger.last_seen["No.2"] = np.array([0.6, 0.0])  # seen now: no suspect, nor a guess
     job.ledger.last_seen["No.3"] = np.array([0.4, 0.0])  # every guess a suspect: one round
     calls = len(asked)

@@ -510,7 +510,13 @@ class TableClearer:
             for name in self.ledger.lost
             if name not in seen and self.ledger.untried(name, self.settings.max_attempts)
         }
-        places = {name: self.ledger.lost[name] for name in lost}
+        # lost cloths with no attempts left still explain their regions (`match_lost`'s `spent`)
+        spent = {
+            name: self.recognizers[name]
+            for name in self.ledger.lost
+            if name not in seen and name not in lost and name in self.recognizers
+        }
+        places = {name: self.ledger.lost[name] for name in (*lost, *spent)}
         rounds: list[tuple[str, ...]] = [()]
         suspects: tuple[str, ...] = ()
         if self.ledger.unnamed:
@@ -531,9 +537,9 @@ class TableClearer:
             suspects = tuple(name for name in guesses if name in self.ledger.last_seen)
             rounds = [suspects, guesses] if suspects and len(suspects) < len(guesses) else [guesses]
         for guessed in rounds:
-            candidates = {**lost, **{name: self.recognizers[name] for name in guessed}}
+            candidates = {**lost, **spent, **{name: self.recognizers[name] for name in guessed}}
             where = {**places, **{name: self.ledger.unnamed[-1] for name in guessed}}
-            found = self._lost_among(ident, candidates, where, frozenset(guessed))
+            found = self._lost_among(ident, candidates, where, frozenset(guessed), frozenset(spent))
             if found is None:
                 continue
             doubted = self._suspects_under(found, suspects)
@@ -583,6 +589,7 @@ class TableClearer:
         lost: Mapping[str, Recognizer],
         places: Mapping[str, LostPlace],
         guessed: frozenset[str],
+        spent: frozenset[str] = frozenset(),
     ) -> LostMatch | None:
         """`match_lost` over `ident`'s unknown regions for the candidates `lost` (lost at
         `places`; `guessed`: those of them only guessed), then over their pieces in one
@@ -591,7 +598,7 @@ class TableClearer:
 
         def match(regions: tuple[UnknownRegion, ...]) -> LostMatch | None:
             regions, centres = self._regions_to_try(regions)
-            return match_lost(capture, regions, centres, lost, places, s, self.sort.box_for, guessed)
+            return match_lost(capture, regions, centres, lost, places, s, self.sort.box_for, guessed, spent)
 
         whole = match(ident.unknown)
         if whole is not None or not ident.unknown:

@@ -342,6 +342,7 @@ def match_lost(
     settings: LostSettings,
     box_for: Callable[[str], str] | None = None,
     guessed: frozenset[str] = frozenset(),
+    spent: frozenset[str] = frozenset(),
 ) -> LostMatch | None:
     """The first region (largest first) whose colours are a lost cloth's (`min_share`)
     that lies where that cloth may be (`near_the_loss`; `centres`: each region's centre on
@@ -354,7 +355,13 @@ def match_lost(
     too, with `min_share` of the region in its colours: the region is then likely the two
     laid back together, which a blind lift weighs as both (bench episode 19 on 0bb8019: the
     heap of No.8 and its unnamed companion, taken for No.16, lifted four cloths, and the heap
-    they were put back as slid off the table)."""
+    they were put back as slid off the table).
+
+    `spent`: those of `lost` with no attempts left. They are ranked and rival as the others
+    (their colours still explain their region), but a region one of them fits best is not
+    taken: held-out bench episode 227 (session 24): No.6, put back four times, had no
+    attempts left and left the candidates, and its region (white with purple and red) went
+    to the guessed No.7, of the other box: No.6 into the colours box."""
     if not lost:
         return None
     for region, centre in zip(regions, centres, strict=True):
@@ -367,6 +374,8 @@ def match_lost(
         if not ranked or ranked[0][1].share * ranked[0][1].lightness < settings.min_share:
             continue  # not its colours, or a white cloth's palette on a dark or grey region
         name, best = ranked[0]
+        if name in spent:
+            continue  # its colours are a lost cloth's with no attempts left: nobody else's
         if name in guessed and any(
             other not in guessed and fit.share >= settings.min_share for other, fit in ranked[1:]
         ):
