@@ -779,7 +779,8 @@ class TableClearer:
                     )
             if other is None and self.settings.held_look.name_companion:
                 other, looked = self._companion_seen_hanging(attempt, extra)
-                loop.arm.resume_at(self.motion.q)  # the look moved the hand
+                if looked:  # the look may have moved the hand
+                    loop.arm.resume_at(self.motion.q)
                 if other is not None:
                     attempt.named_by = "look"
                     source = f" (identity from its colours seen hanging: {looked})"
