@@ -202,8 +202,9 @@ def hover_offsets(
     least `min_free` only, the freest first (nearer first among equals)."""
     height, width = survey_sheet.shape
     v, u = np.mgrid[GRID_PX // 2 : height : GRID_PX, GRID_PX // 2 : width : GRID_PX]
-    if hanging is not None and np.any(np.asarray(hanging)[v, u]):
-        u, v = u[np.asarray(hanging)[v, u]], v[np.asarray(hanging)[v, u]]
+    behind = None if hanging is None else np.asarray(hanging, dtype=bool)[v, u]
+    if behind is not None and behind.any():
+        u, v = u[behind], v[behind]
     pixels = np.column_stack([u.ravel(), v.ravel()]).astype(float)
     n = int(np.floor(settings.reach / settings.step))
     steps = np.arange(-n, n + 1) * settings.step
