@@ -233,3 +233,83 @@ def test_nothing_seen_hanging_or_cloths_of_both_boxes_name_no_one(monkeypatch: p
         attempt = _lift(job)
         assert attempt.came_along == () and attempt.laid_back_too == () and attempt.unnamed_along
         assert put_back == ["No.19"] and attempt.named_by == ""
+
+
+def _under_job(monkeypatch: pytest.MonkeyPatch, put_back: list[str], stayed: set[str]):
+    """No.19 lay on No.11 (24 g) and No.12 (11 g) in its survey; its lift weighs 45 g (No.19
+    and 24 g more); neither a cloth by the grasp nor memory names the other one; after the
+    lift the cloths in `stayed` are still found where the survey saw them."""
+    job = _job(monkeypatch, put_back)
+    job.weigh = lambda: 0.045
+    monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: None)
+    monkeypatch.setattr(table_clearer, "still_there", lambda recognizer, *args: recognizer.name in stayed)
+    return job
+
+
+def _lift_under(
+    monkeypatch: pytest.MonkeyPatch, job, under: tuple[str, ...], resumed: list[object] | None = None
+) -> table_clearer.AttemptState:
+    attempt = _attempt()
+    attempt.under = under
+    attempt.others = tuple(SimpleNamespace(name=n, transform_model_to_camera=np.eye(4)) for n in under)  # type: ignore[misc]
+    monkeypatch.setattr(
+        table_clearer, "to_world", lambda capture, pose: pose
+    )  # the survey's pose in the world
+    with contextlib.suppress(EpisodeAbortError):  # put back
+        job._after_lift(
+            attempt,
+            SimpleNamespace(arm=SimpleNamespace(resume_at=(resumed if resumed is not None else []).append)),
+        )
+    return attempt
+
+
+def test_the_one_cloth_it_lay_on_that_weighs_the_extra_and_is_gone_is_named(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    put_back: list[str] = []
+    job = _under_job(monkeypatch, put_back, stayed=set())
+    attempt = _lift_under(monkeypatch, job, ("No.12", "No.11"))  # No.12 is too light for the extra
+    assert attempt.came_along == ("No.11",) and attempt.named_by == "under" and put_back == []
+    # another one that weighs the extra too but still lies where the survey saw it
+    job = _under_job(monkeypatch, put_back, stayed={"No.10"})
+    attempt = _lift_under(monkeypatch, job, ("No.10", "No.11"))
+    assert attempt.came_along == ("No.11",) and attempt.named_by == "under" and put_back == []
+
+
+def test_a_cloth_it_lay_on_still_in_its_place_or_two_that_weigh_the_extra_name_no_one(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    for stayed, under in (({"No.11"}, ("No.11",)), (set(), ("No.11", "No.10")), (set(), ())):
+        put_back: list[str] = []
+        job = _under_job(monkeypatch, put_back, stayed)
+        attempt = _lift_under(monkeypatch, job, under)
+        assert attempt.came_along == () and attempt.unnamed_along and attempt.named_by == ""
+        assert put_back == ["No.19"]
+
+
+def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_under(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # No.17 (whites) weighs the extra too: a look at what hangs must not show its colours
+    from robot_app.control.held_look import HeldColours
+
+    for shown, named in ((0.0, True), (0.2, False)):
+        put_back: list[str] = []
+        job = _under_job(monkeypatch, put_back, stayed=set())
+        job.weights["No.17"] = 0.025
+        job.recognizers["No.17"] = job.recognizers["No.10"]
+        looked: list[tuple[str, ...]] = []
+
+        def look(job, meant, others, looks=1, shown=shown, looked=looked):
+            looked.append(tuple(others))
+            return HeldColours(5000, 0.8, {n: shown for n in others}), "looked from 20 cm aside"
+
+        monkeypatch.setattr(table_clearer, "look_at_held", look)
+        resumed: list[object] = []
+        attempt = _lift_under(monkeypatch, job, ("No.11",), resumed)
+        assert looked == [("No.17",)] and resumed, "the loop goes on from where the look left the hand"
+        if named:
+            assert attempt.came_along == ("No.11",) and attempt.named_by == "under" and put_back == []
+        else:
+            assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
+            assert any("another box" in note for note in attempt.notes)

@@ -302,7 +302,8 @@ class PickAttempt:
             own survey did not see them), not from vision at the lift.
         named_by: how a double pick's other cloth was named ("grasp": the one surveyed
             cloth under the grasp point that weighs the extra and is gone from its place;
-            "memory"; "look": its own colours seen hanging, `held_look`; "": not named).
+            "under": the one cloth the target lay on that weighs the extra, gone; "memory";
+            "look": its own colours seen hanging, `held_look`; "": not named).
         laid_back_too: the named other cloth of a double pick put back with it (another box).
     """
 

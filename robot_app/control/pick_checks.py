@@ -35,6 +35,7 @@ class AttemptState:
     transform_target_to_world: FloatArray
     start_time: float
     others: tuple[Detection, ...] = ()  # the survey's other detections
+    under: tuple[str, ...] = ()  # of `others`, those the survey saw the target lie on
     grasp: PileGrasp | None = None  # where to grasp, away from the other cloths (Σ_W)
     grasp_used: bool = False
     grasp_point_model: FloatArray | None = None  # the loop's grasp point in Σ_M (last search)
@@ -45,7 +46,7 @@ class AttemptState:
     put_back_at: FloatArray | None = None  # (2,) where a put-back let go [m]
     shed_at: tuple[FloatArray, FloatArray] | None = None  # a shed double pick's laid strip [m]
     unnamed_along: bool = False  # a double pick whose other cloth no survey identified
-    named_by: str = ""  # how a double pick's other cloth was named: "grasp" or "memory"
+    named_by: str = ""  # how a double pick's other cloth was named: "grasp", "under", "memory", "look"
     lift_check: str = ""
     weighed: float | None = None
     put_back: bool = False
@@ -54,6 +55,7 @@ class AttemptState:
     check_wall_s: float = 0.0
     notes: list[str] = field(default_factory=list)
     lost_name: str = ""  # the cloth meant, without a detection
+    doubted: tuple[str, ...] = ()  # lost cloths a blind lift could hold instead (`LostMatch.doubted`)
 
     @property
     def name(self) -> str:

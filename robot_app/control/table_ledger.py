@@ -47,6 +47,10 @@ class TableLedger:
             since.
         unnamed: where double picks whose other cloth was not named were laid back (that
             cloth is one of the known cloths not placed).
+        maybe: lost cloth name -> other places it may lie: where blind lifts that could have
+            held it (`AttemptState.doubted`) were put back.
+        unsure: lost cloth name -> the cloths its last put-back lift could have held instead
+            (`AttemptState.doubted`): laid back under its name, it may be one of them.
         moved_by: numbers (from 1) of the placed attempts that moved a cloth nobody
             identified (`TableClearer._notice_moved`).
     """
@@ -62,6 +66,8 @@ class TableLedger:
         self.last_survey: dict[str, int] = {}
         self.lost: dict[str, LostPlace] = {}
         self.unnamed: list[LostPlace] = []
+        self.maybe: dict[str, list[LostPlace]] = {}
+        self.unsure: dict[str, tuple[str, ...]] = {}
         self.empty_grasps: list[FloatArray] = []  # (2,) where blind grasps closed on nothing [m]
         self.moved_by: list[int] = []
 
@@ -103,6 +109,8 @@ class TableLedger:
             self.last_pose[d.name] = pose.copy()
             self.last_survey[d.name] = len(self.surveys) + 1
             self.lost.pop(d.name, None)  # recognised again
+            self.maybe.pop(d.name, None)
+            self.unsure.pop(d.name, None)
             entry = self.records.setdefault(d.name, _new_entry())
             if d.name in self.placed_order and d.name not in self.seen_in_box:
                 # booked placed (a double pick's companion, a release not seen in the box),
@@ -179,6 +187,16 @@ class TableLedger:
                 self.lost.setdefault(
                     companion, LostPlace(put_back, f"put back with {name}", start, end, before, laid)
                 )
+            if attempt.put_back and attempt.doubted:
+                self.unsure[name] = attempt.doubted
+            elif name in self.unsure:
+                del self.unsure[name]
+            for doubted in attempt.doubted if attempt.put_back else ():
+                if doubted in self.lost:  # the lift may have held it: it may lie there now
+                    where = LostPlace(
+                        put_back, f"maybe held by {name}'s lift, put back", start, end, before, laid
+                    )
+                    self.maybe.setdefault(doubted, []).append(where)
             if attempt.put_back and attempt.unnamed_along:
                 self.unnamed.append(
                     LostPlace(put_back, f"came up with {name}, not named", start, end, before, laid)
@@ -219,6 +237,8 @@ class TableLedger:
         entry = self.records.setdefault(name, _new_entry())
         entry["confirmed"] = confirmed
         self.lost.pop(name, None)
+        self.maybe.pop(name, None)
+        self.unsure.pop(name, None)
         if name not in self.placed_order:
             self.placed_order.append(name)
         if confirmed:
