@@ -50,10 +50,11 @@ def test_a_cloth_placed_again_after_it_was_found_on_the_table_counts_once() -> N
     assert record.outcome is ClothOutcome.PLACED and record.order == 1
 
 
-def _put_back(ledger: TableLedger, name: str, at: tuple[float, float]) -> None:
-    """Books an attempt at `name` that the job laid back onto the table at `at` [m]."""
+def _put_back(ledger: TableLedger, name: str, at: tuple[float, float], doubted: tuple[str, ...] = ()) -> None:
+    """Books an attempt at `name` that the job laid back onto the table at `at` [m] (a
+    blind lift that could have held the `doubted` cloths instead)."""
     box = BoxPlace("colours", np.array([0.3, -0.56, 0.0]), 0.22)
-    attempt = AttemptState(None, box, np.eye(4), 0.0, lost_name=name)
+    attempt = AttemptState(None, box, np.eye(4), 0.0, lost_name=name, doubted=doubted)
     attempt.put_back, attempt.put_back_at = True, np.array(at)
     report = LimitReport(0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
     result = EpisodeResult(
@@ -103,3 +104,19 @@ def test_blind_grasps_that_closed_on_nothing_keep_the_job_off_that_spot() -> Non
     assert not job._grasped_empty(np.array([0.17, 0.33]) + 0.05)  # beyond them
     job.settings = ClearTableSettings(lost={"empty_grasps": 3})
     assert not job._grasped_empty(np.array([0.19, 0.30]))  # two are not three
+
+
+def test_a_doubted_lift_put_back_leaves_its_name_unsure_and_the_doubted_cloth_maybe_there() -> None:
+    # replay of held-out episode 233 (session 25): the guess No.6, looked at for No.9 and put
+    # back, was lifted again as "No.6 laid back", unlooked, and No.9 went into whites
+    ledger = TableLedger()
+    _put_back(ledger, "No.9", (0.63, -0.03))
+    _put_back(ledger, "No.6", (0.40, 0.10), doubted=("No.9", "No.17"))  # No.17 was never lost
+    assert ledger.unsure["No.6"] == ("No.9", "No.17")
+    assert set(ledger.maybe) == {"No.9"}
+    assert np.allclose(ledger.maybe["No.9"][0].end, (0.40, 0.10))
+    assert np.allclose(ledger.lost["No.9"].end, (0.63, -0.03))  # where it was lost stays
+    _put_back(ledger, "No.6", (0.45, 0.10))  # laid back again by a lift that doubted no one
+    assert "No.6" not in ledger.unsure
+    _survey(ledger, "No.9")  # recognised again: no longer lost anywhere
+    assert "No.9" not in ledger.maybe and "No.9" not in ledger.lost
