@@ -34,7 +34,7 @@ from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.errors import IKError
 from robot_app.vision.identify import codes_and_sheet
-from robot_app.vision.regions import main_codes
+from robot_app.vision.regions import in_palette, main_codes
 
 if TYPE_CHECKING:
     from robot_app.control.table_clearer import TableClearer
@@ -310,9 +310,8 @@ def look_at_held(
     what hangs (`held_colours` for `meant` and `others`) and a note; None where no such
     point is free and reachable. The hand stays at the last look (the transfer or the
     put-back goes on from there); the arm holds for the computation."""
-    # the job's own modules, which import this one's settings
+    # table_furniture imports clear_table_records, which imports this module's settings
     from robot_app.control.table_furniture import clear_of_walls
-    from robot_app.control.table_lost import in_palette
 
     s = job.settings.held_look
     camera = job.rig.right

@@ -67,7 +67,7 @@ from robot_app.vision import Recognizer
 from robot_app.vision.exposure import sheet_gains
 from robot_app.vision.hue import DARK, LIGHT, colours_match
 from robot_app.vision.identify import UnknownRegion
-from robot_app.vision.regions import image_codes, main_codes, undistorted
+from robot_app.vision.regions import image_codes, in_palette, main_codes, undistorted, with_folds
 
 if TYPE_CHECKING:
     from robot_app.control.table_clearer import TableClearer
@@ -174,22 +174,6 @@ def shows_light(codes: npt.ArrayLike) -> float:
     return float(np.clip(np.mean(flat == LIGHT) / MIN_LIGHT_SHARE, 0.0, 1.0))
 
 
-def _with_folds(palette: npt.ArrayLike) -> npt.NDArray[np.int64]:
-    """`palette` with DARK appended when it has a LIGHT tone and no DARK one: a white
-    cloth's folds lie in its own shade (`palette_share`)."""
-    colours = np.asarray(palette, dtype=np.int64).reshape(-1)
-    if np.any(colours == LIGHT) and not np.any(colours == DARK):
-        colours = np.append(colours, DARK)
-    return colours
-
-
-def in_palette(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> npt.NDArray[np.bool_]:
-    """Which `codes` are in `palette` (a model's main codes), as `palette_share` counts them."""
-    flat = np.asarray(codes)
-    colours = _with_folds(palette).reshape((1,) * flat.ndim + (-1,))
-    return np.asarray(np.any(colours_match(flat[..., None], colours, hue_threshold), axis=-1), dtype=bool)
-
-
 def _palette_bins(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> FloatArray:
     """Share of `codes` taken by each colour of `palette` (the first that matches, most
     frequent first), a LIGHT tone taking DARK pixels as in `palette_share`."""
@@ -198,7 +182,7 @@ def _palette_bins(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: i
     if not flat.size:
         return bins
     light = np.flatnonzero(own == LIGHT)
-    colours = _with_folds(own)
+    colours = with_folds(own)
     matching = colours_match(flat[:, None], colours[None, :], hue_threshold)
     first = np.argmax(matching, axis=1)[np.any(matching, axis=1)]
     counts = np.bincount(first, minlength=len(colours)).astype(float)
@@ -733,7 +717,6 @@ __all__ = [
     "LostMatch",
     "colour_patches",
     "colour_shares",
-    "in_palette",
     "inner_pixel",
     "inner_pixels",
     "lit_value",

@@ -26,7 +26,7 @@ from robot_app.arrays import FloatArray
 from robot_app.vision.camera import PinholeCamera
 from robot_app.vision.cloth_model import ClothModel
 from robot_app.vision.fitness_scores import FitnessSettings
-from robot_app.vision.hue import colour_codes, colours_match, hue_distance, to_hsv
+from robot_app.vision.hue import DARK, LIGHT, colour_codes, colours_match, hue_distance, to_hsv
 
 Mask = npt.NDArray[np.bool_]
 Codes = npt.NDArray[np.uint16]
@@ -146,13 +146,32 @@ def _texture_pixels_per_image_pixel(H: FloatArray, shape: tuple[int, int]) -> fl
     return float(10.0 / max(float(step), 1e-9))
 
 
+def with_folds(palette: npt.ArrayLike) -> npt.NDArray[np.int64]:
+    """`palette` with DARK appended when it has a LIGHT tone and no DARK one: a white
+    cloth's folds lie in its own shade (`control.table_lost.palette_share`)."""
+    colours = np.asarray(palette, dtype=np.int64).reshape(-1)
+    if np.any(colours == LIGHT) and not np.any(colours == DARK):
+        colours = np.append(colours, DARK)
+    return colours
+
+
+def in_palette(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> npt.NDArray[np.bool_]:
+    """Which `codes` are in `palette` (a model's main codes), as
+    `control.table_lost.palette_share` counts them."""
+    flat = np.asarray(codes)
+    colours = with_folds(palette).reshape((1,) * flat.ndim + (-1,))
+    return np.asarray(np.any(colours_match(flat[..., None], colours, hue_threshold), axis=-1), dtype=bool)
+
+
 __all__ = [
     "explained",
     "footprint",
     "homography_model_to_image",
     "image_codes",
+    "in_palette",
     "main_codes",
     "model_area",
     "sheet_mask",
     "undistorted",
+    "with_folds",
 ]
