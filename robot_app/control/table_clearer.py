@@ -391,7 +391,9 @@ class TableClearer:
         box = self.boxes[self.sort.box_for(target.name)]
         pose = to_world(capture, target.transform_model_to_camera)
         others = tuple(d for d in ident.detections if d.name != target.name)
-        under = tuple(low for up, low in ident.above if up == target.name)
+        under = tuple(
+            low for up, low in ident.above if up == target.name and any(d.name == low for d in others)
+        )
         attempt = AttemptState(target, box, pose, self.cell.time, others, under)
         attempt.obstacles_xy = self._obstacles_of(target, ident)
         if self.settings.pile_grasp.enabled:
