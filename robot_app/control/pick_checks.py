@@ -63,6 +63,13 @@ class AttemptState:
         return self.target.name if self.target is not None else self.lost_name
 
 
+def weighs_extra(extra: float, weight: float | None, settings: ClearTableSettings) -> bool:
+    """Could a cloth of `weight` [kg] (None: unknown) be the `extra` [kg] a double pick's
+    load cell read over the meant cloth (`weight_tolerance`, `weight_floor`)?"""
+    s = settings
+    return weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor
+
+
 def weight_verdict(
     weighed: float, expected: float, name: str, settings: ClearTableSettings
 ) -> tuple[str, str]:
@@ -99,7 +106,7 @@ def companion(
         if u0 >= u1 or v0 >= v1 or not np.any(d.footprint[v0:v1, u0:u1]):
             continue
         weight = weights.get(d.name)
-        if weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor:
+        if weighs_extra(extra, weight, s):
             fits.append(d.name)
     return fits[0] if len(fits) == 1 else None
 
@@ -135,7 +142,7 @@ def remembered_companion(
         if not len(points) or float(np.min(np.hypot(*(points - grasp).T))) > s.remembered_reach:
             continue
         weight = weights.get(name)
-        if weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor:
+        if weighs_extra(extra, weight, s):
             fits.append(name)
     return fits[0] if len(fits) == 1 else None
 
@@ -198,5 +205,6 @@ __all__ = [
     "companion",
     "remembered_companion",
     "still_there",
+    "weighs_extra",
     "weight_verdict",
 ]

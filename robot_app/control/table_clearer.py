@@ -67,6 +67,7 @@ from robot_app.control.pick_checks import (
     companion,
     remembered_companion,
     still_there,
+    weighs_extra,
     weight_verdict,
 )
 from robot_app.control.pick_handover import check_found_in_place, grasp_in_model, pick_recognizer, pile_grasp
@@ -880,12 +881,7 @@ class TableClearer:
         No.17 stayed and was not found, a hanging cloth hid it), so one of the meant cloth's
         box goes along only if no cloth of another box shows hanging (`_other_box_hanging`)."""
         s = self.settings
-        fits = [
-            name
-            for name in attempt.under
-            if (weight := self.weights.get(name)) is not None
-            and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor
-        ]
+        fits = [name for name in attempt.under if weighs_extra(extra, self.weights.get(name), s)]
         gone = [name for name in fits if not self._stayed(name, attempt, capture)]
         return gone[0] if len(gone) == 1 else None
 
@@ -906,7 +902,7 @@ class TableClearer:
             and name not in placed
             and name in self.recognizers
             and self.sort.box_for(name) != attempt.box.name
-            and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor
+            and weighs_extra(extra, weight, s)
         ]
         if not rivals or not s.held_look.enabled:
             return "", False
@@ -944,7 +940,7 @@ class TableClearer:
             and name in known
             and name not in placed
             and name in self.recognizers
-            and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor
+            and weighs_extra(extra, weight, s)
         ]
         if not weighing:
             return None, ""
