@@ -5,12 +5,13 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
+import cv2
 import numpy as np
 import pytest
 
 from robot_app.control.clear_table_records import ClearTableSettings
 from robot_app.control.loop_settings import LoopSettings
-from robot_app.control.table_lost import LostMatch, _blind_grasp_height
+from robot_app.control.table_lost import LostMatch, _blind_grasp_height, _heap_top, inner_pixel
 from robot_app.control.table_surface import SurfaceSettings, aimed_at, surface_height
 from robot_app.geometry import make_transform, rotation_about_z
 from robot_app.vision import Recognition
@@ -135,3 +136,51 @@ def test_a_blind_grasp_is_aimed_at_the_top_of_the_heap_where_the_pair_measures_i
     plain = SimpleNamespace(mask=detections["plain"].explained)
     centre = _world(PLAIN, (0.0, 0.0))
     assert _blind_grasp_height(_blind_job(pile), LostMatch("plain", plain, 0.9), centre[:2], []) == fixed
+
+
+def _table_point(capture, pixel) -> tuple[float, float]:
+    """Where the ray through a right-image pixel meets the table (z = 0)."""
+    ray = np.linalg.inv(CAMERA.camera_matrix) @ np.array([pixel[0], pixel[1], 1.0])
+    T = capture.transform_right_camera_to_world
+    direction = T[:3, :3] @ ray
+    t = -T[2, 3] / direction[2]
+    x, y, _ = T[:3, 3] + t * direction
+    return float(x), float(y)
+
+
+def _filled(mask: np.ndarray) -> np.ndarray:
+    hull = cv2.convexHull(cv2.findNonZero(mask.astype(np.uint8)))
+    filled = np.zeros(mask.shape, np.uint8)
+    cv2.fillConvexPoly(filled, hull, 1)
+    return filled.astype(bool)
+
+
+def test_a_blind_grasp_goes_to_the_heaps_top_not_its_innermost_point(pile) -> None:
+    _, detections, _ = pile
+    # a heap: the lower cloth's region with the upper cloth's near part on it (its far part
+    # cut off), the innermost pixel on the lower cloth at 8 mm
+    upper = _filled(detections["upper"].explained)
+    heap = _filled(detections["lower"].explained) | (upper & (np.arange(upper.shape[1]) < 150)[None, :])
+    u, v = inner_pixel(heap)
+    assert not upper[round(v), round(u)]
+    job = _blind_job(pile)
+    job.table = SimpleNamespace(point=_table_point)
+    match = LostMatch("upper", SimpleNamespace(mask=heap), 0.9)
+    top = _heap_top(job, match, heap, lambda x, y: True)
+    assert top is not None
+    x, y, z, note = top
+    assert z == pytest.approx(0.052 + LoopSettings().grasp_height, abs=0.003)  # on the upper cloth
+    assert "at the heap's top" in note
+    # the point lies on the upper cloth (within the model's outline at its pose)
+    recognizers, _, _ = pile
+    footprint = (CAMERA_TO_WORLD @ UPPER)[:3, :3] @ recognizers["upper"].model.points_in.T
+    footprint = footprint.T + (CAMERA_TO_WORLD @ UPPER)[:3, 3]
+    assert np.min(np.hypot(footprint[:, 0] - x, footprint[:, 1] - y)) < 0.005
+    # none of it where the hand cannot reach, after a grasp that closed on nothing, or off
+    assert _heap_top(job, match, heap, lambda x, y: False) is None
+    missed = _blind_job(pile, misses=1)
+    missed.table = job.table
+    assert _heap_top(missed, match, heap, lambda x, y: True) is None
+    off = _blind_job(pile)
+    off.table, off.settings = job.table, ClearTableSettings.model_validate({"lost": {"top_tries": 0}})
+    assert _heap_top(off, match, heap, lambda x, y: True) is None

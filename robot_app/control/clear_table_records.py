@@ -51,6 +51,23 @@ class LostSettings(StrictModel):
             no cloth the fingers can take (bench episode 40, session 20: eight blind attempts,
             under two guessed names, at a white region by the arm's base at table height).
         empty_reach: see `empty_grasps` [m].
+        top_tries: deep points of the region's graspable part (`top_depth`, 8 px apart)
+            whose surface the survey's pair measures; the blind grasp goes to the highest
+            one measured (`table_surface`), the top of the heap: fingers coming down beside
+            it sweep the cloth away before they close (held-out episode 264, session 26:
+            No.12 lay flat at 8 mm at the innermost point and draped up to 85 mm beside it;
+            the descent pushed it 10 cm aside, the grasp closed on nothing). 0: the
+            innermost reachable point, as before.
+        top_depth: ... only points at least this share of the deepest one's distance
+            from the region's border [-].
+        regrasps: where a blind grasp's fingers close on nothing (the cell's hold measure
+            0) above `grasp_height`, they open, go `regrasp_step` lower and close again, at
+            most this many times (a heap's top measured high: held-out episodes 264 and
+            287, session 26, closed 26-28 mm over the nearest cloth) [-].
+        regrasp_step: see `regrasps` [m].
+        top_correlation: ... and only surfaces measured at least this correlated (the
+            patch around a point over a layer's edge finds the upper layer beside it at a
+            weak correlation: 0.71 against 0.89-0.97 on it, `tests/test_clear_table_surface`) [-].
     """
 
     enabled: bool = True
@@ -63,6 +80,11 @@ class LostSettings(StrictModel):
     wall_clearance: float = Field(0.05, ge=0.0)
     empty_grasps: int = Field(2, ge=1)
     empty_reach: float = Field(0.06, gt=0.0)
+    top_tries: int = Field(12, ge=0, le=64)
+    top_depth: float = Field(0.5, ge=0.0, le=1.0)
+    top_correlation: float = Field(0.85, ge=-1.0, le=1.0)
+    regrasps: int = Field(3, ge=0, le=10)
+    regrasp_step: float = Field(0.012, gt=0.0, le=0.05)
 
 
 class OffSheetSettings(StrictModel):

