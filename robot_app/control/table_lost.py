@@ -14,10 +14,11 @@ unknown region is not a guess about an unknown table when:
    (within `margin` of each other): neither is picked if they belong in different boxes;
    if they belong in the same box, which one it is does not change where it goes, so the
    best is picked and the others are its *alike* (`LostMatch.alike`);
-2. once lifted (fingers closed at `grasp_height` over the innermost pixel of the region's
-   part a hand can close on: on the table top, clear of the boxes' walls,
-   `table_furniture.graspable`; a region with no such part is not grasped, its attempt
-   booked `unreachable` with the cause), the
+2. once lifted (fingers closed over the heap's top, the highest surface the survey's pair
+   measures at the deep points of the region's part a hand can close on, `_heap_top`, or
+   at `grasp_height` over its innermost pixel; that part lies on the table top, clear of
+   the boxes' walls, `table_furniture.graspable`; a region with no such part is not
+   grasped, its attempt booked `unreachable` with the cause), the
    wrist's load cell reads that cloth's weight (`weight_verdict`, as every lift), or
    that of the cloth and some of its alike together, or of one of its alike
    (`weighed_as`: a heap of two lost cloths of one box comes up as one, and goes into
