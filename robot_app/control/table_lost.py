@@ -664,15 +664,15 @@ def _heap_top(
     `reaches`, the one whose surface the survey's pair measures highest (`surface_heights`
     inside the region, as `_blind_grasp_height`; only measurements that correlate at least
     `lost.top_correlation`: a patch over a layer's edge finds the upper layer at a weak
-    correlation beside it), with the TCP the loop's `grasp_height`
-    over it (at least `lost.grasp_height` over the table) where the point's ray meets that
-    surface (a heap's top 9 cm up, 20 cm off the camera's axis, lies 3 cm nearer the axis
-    than the ray's point on the table): (x, y, z) [m] and the note; None
-    when off, when no point is measured, or after a blind grasp of this cloth closed on
-    nothing (then `_blind_grasp_height`). Fingers coming down at the innermost point beside
-    a higher part sweep a light cloth away before they close (held-out episode 264, session
-    26: No.12 lay flat at 8 mm there and draped up to 85 mm beside it; pushed 10 cm, the
-    grasp held nothing). The arm holds for the time measured."""
+    correlation beside it), with the TCP the loop's `grasp_height` over it (at least
+    `lost.grasp_height` over the table) where the point's ray meets that surface (a heap's
+    top 9 cm up, 20 cm off the camera's axis, lies 3 cm nearer the axis than the ray's
+    point on the table): (x, y, z) [m] and the note; None when off, when no point is
+    measured, or after a blind grasp of this cloth closed on nothing (then
+    `_blind_grasp_height`). Fingers coming down at the innermost point beside a higher part
+    sweep a light cloth away before they close (held-out episode 264, session 26: No.12
+    lay flat at 8 mm there and draped up to 85 mm beside it; pushed 10 cm, the grasp held
+    nothing). The arm holds for the time measured."""
     s, table_z = job.settings, job.table_z
     if (
         s.lost.top_tries <= 0
