@@ -6,50 +6,64 @@ from __future__ import annotations
 
 from types import SimpleNamespace
 
+import numpy as np
+
 from robot_app.control.clear_table_records import ClearTableSettings
 from robot_app.control.table_lost import weighs_instead
+from robot_app.geometry import make_transform
 
 WEIGHTS = {"No.18": 0.0209, "No.17": 0.0201, "No.9": 0.0162, "No.4": 0.0160, "No.2": 0.0163, "No.7": 0.060}
-BOXES = {
-    "No.18": "whites",
-    "No.17": "whites",
-    "No.4": "whites",
-    "No.9": "colours",
-    "No.2": "colours",
-    "No.7": "colours",
+BOXES = {name: "whites" for name in ("No.18", "No.17", "No.4")} | {
+    name: "colours" for name in ("No.9", "No.2", "No.7")
 }
+# every model a 0.2 m square of points around its origin
+SQUARE = np.array([[x, y, 0.0] for x in np.linspace(-0.1, 0.1, 11) for y in np.linspace(-0.1, 0.1, 11)])
+GRASP = (0.58, -0.20)
 
 
-def _job(lost=(), last_survey=None, placed=(), surveys=5) -> SimpleNamespace:
+def _at(x: float, y: float) -> np.ndarray:
+    return make_transform(np.eye(3), [x, y, 0.0])
+
+
+def _job(lost=(), seen=None, placed=(), surveys=7) -> SimpleNamespace:
+    """`seen`: name -> (the number of the last survey that saw it, where)."""
+    seen = seen or {}
     ledger = SimpleNamespace(
         placed_order=list(placed),
         surveys=[None] * surveys,
-        last_survey=dict(last_survey or {}),
+        last_survey={name: survey for name, (survey, _) in seen.items()},
+        last_pose={name: pose for name, (_, pose) in seen.items()},
         lost=dict.fromkeys(lost),
     )
     return SimpleNamespace(
         ledger=ledger,
         weights=WEIGHTS,
-        recognizers=dict.fromkeys(WEIGHTS),
+        recognizers={name: SimpleNamespace(model=SimpleNamespace(points_in=SQUARE)) for name in WEIGHTS},
         sort=SimpleNamespace(box_for=BOXES.__getitem__),
         settings=ClearTableSettings(),
     )
 
 
-def test_a_lost_cloth_of_the_other_box_that_weighs_as_much_as_one_of_the_lift_is_named() -> None:
-    # No.18 and No.17 read 41 g; No.9 (colours, lost) with No.17 weighs as much
-    job = _job(lost=("No.18", "No.9", "No.4"))
-    assert weighs_instead(job, "whites", ("No.18", "No.17"), 0.0410) == ("No.9",)
-    # a cloth of the same box (No.4) goes there anyway; one too heavy (No.7) could not be it
-    assert weighs_instead(_job(lost=("No.7",)), "whites", ("No.18", "No.17"), 0.0410) == ()
-    # a single cloth named by its weight, and a hidden one (seen by an earlier survey only)
-    job = _job(last_survey={"No.2": 3, "No.9": 5})
-    assert weighs_instead(job, "whites", ("No.17",), 0.0170) == ("No.2",)
+def test_a_cloth_of_the_other_box_that_weighs_as_much_as_one_of_the_lift_is_named() -> None:
+    # No.18 and No.17 read 41 g; No.9 (colours) with No.17 weighs as much: lost, or a
+    # candidate of the last survey 4 cm from the grasp (episode 304)
+    assert weighs_instead(
+        _job(lost=("No.18", "No.9", "No.4")), "whites", ("No.18", "No.17"), 0.041, GRASP
+    ) == ("No.9",)
+    near = _job(lost=("No.18",), seen={"No.9": (7, _at(0.54, -0.196))})
+    assert weighs_instead(near, "whites", ("No.18", "No.17"), 0.041, GRASP) == ("No.9",)
+    # hidden since an earlier survey, wherever it was seen; a single cloth named by its weight
+    hidden = _job(seen={"No.2": (3, _at(0.2, 0.3))})
+    assert weighs_instead(hidden, "whites", ("No.17",), 0.0170, GRASP) == ("No.2",)
 
 
-def test_placed_cloths_and_cloths_the_last_survey_saw_are_not_doubted() -> None:
-    assert weighs_instead(_job(lost=("No.9",), placed=("No.9",)), "whites", ("No.18", "No.17"), 0.041) == ()
-    seen_now = _job(last_survey={"No.9": 5})  # the fifth survey is the last one: No.9 lies in view
-    assert weighs_instead(seen_now, "whites", ("No.18", "No.17"), 0.041) == ()
+def test_cloths_that_cannot_be_in_the_lift_are_not_named() -> None:
+    lift = ("No.18", "No.17")
+    # same box (No.4), too heavy (No.7), placed (No.9)
+    assert weighs_instead(_job(lost=("No.4", "No.7")), "whites", lift, 0.041, GRASP) == ()
+    assert weighs_instead(_job(lost=("No.9",), placed=("No.9",)), "whites", lift, 0.041, GRASP) == ()
+    # seen by the last survey with its footprint 10 cm from the grasp: it lies apart
+    apart = _job(seen={"No.9": (7, _at(0.58, 0.0))})
+    assert weighs_instead(apart, "whites", lift, 0.041, GRASP) == ()
     # a reading that no swap explains names nobody
-    assert weighs_instead(_job(lost=("No.9",)), "whites", ("No.18", "No.17"), 0.080) == ()
+    assert weighs_instead(_job(lost=("No.9",)), "whites", lift, 0.080, GRASP) == ()

@@ -64,6 +64,7 @@ from robot_app.control.pick_place import EMPTY_GRASP, LIFTED, carry_over_box, re
 from robot_app.control.table_furniture import OPENING, graspable
 from robot_app.control.table_surface import surface_height, surface_heights
 from robot_app.errors import IKError
+from robot_app.geometry import transform_points
 from robot_app.vision import Recognizer
 from robot_app.vision.exposure import sheet_gains
 from robot_app.vision.hue import DARK, LIGHT, colours_match
@@ -744,7 +745,8 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             f"(colours alike, same box): placed as {'one lift' if len(held) > 1 else held[0]}"
         )
         name = held[0]
-        instead = weighs_instead(job, attempt.box.name, held, weighed)
+        grasp_xy = attempt.transform_target_to_world[:2, 3]
+        instead = weighs_instead(job, attempt.box.name, held, weighed, grasp_xy)
         if instead:
             attempt.notes.append(f"as much as {' or '.join(instead)} (another box) in their stead")
     else:
@@ -788,29 +790,39 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     return Outcome.PLACED, f"{name} placed (picked blind, its weight read)"
 
 
-def weighs_instead(job: TableClearer, box: str, held: Sequence[str], weighed: float) -> tuple[str, ...]:
+def weighs_instead(
+    job: TableClearer, box: str, held: Sequence[str], weighed: float, grasp_xy: npt.ArrayLike
+) -> tuple[str, ...]:
     """The cloths of another box than `box` that could stand for one of `held` (the
     cloths a blind lift was named after by its weight, `weighed_as`) in the load cell's
-    reading `weighed` [kg] (`weighs_extra`): not placed, and lost, or seen by an earlier
-    survey and not by the last one (hidden, maybe in the heap). Held-out episode 304
-    (session 26): a blind lift meant for the dropped No.18 read 41 g, No.18 and No.17
-    (whites) together; it held No.17 and No.9 (colours, 16 g, put back there, missed
-    blind, then not found), which weigh as much: No.9 went into whites."""
-    placed, surveys = set(job.ledger.placed_order), len(job.ledger.surveys)
-    hidden = {name for name, survey in job.ledger.last_survey.items() if survey < surveys}
+    reading `weighed` [kg] (`weighs_extra`): not placed, and lost, or seen by a survey;
+    one the last survey saw only if its footprint there comes within `remembered_reach`
+    [m] of the grasp at `grasp_xy` [m] (farther, it lies apart from the lift). Held-out
+    episode 304 (session 26): a blind lift meant for the dropped No.18 read 41 g, No.18
+    and No.17 (whites) together; it held No.17 and No.9 (colours, 16 g: put back there,
+    missed blind, not found by the loop, a candidate of the last survey 4 cm from the
+    grasp), which weigh as much: No.9 went into whites."""
+    ledger, s = job.ledger, job.settings
+    placed, surveys = set(ledger.placed_order), len(ledger.surveys)
+    grasp = np.asarray(grasp_xy, dtype=float).reshape(2)
+
+    def apart(name: str) -> bool:
+        if name in ledger.lost or ledger.last_survey.get(name) != surveys:
+            return False
+        footprint = transform_points(ledger.last_pose[name], job.recognizers[name].model.points_in)
+        return float(np.min(np.hypot(*(footprint[:, :2] - grasp).T))) > s.remembered_reach
+
     total = sum(job.weights[name] for name in held)
     return tuple(
         sorted(
             name
-            for name in set(job.ledger.lost) | hidden
+            for name in set(ledger.lost) | set(ledger.last_pose)
             if name not in placed
             and name not in held
             and name in job.recognizers
             and job.sort.box_for(name) != box
-            and any(
-                weighs_extra(weighed - (total - job.weights[m]), job.weights.get(name), job.settings)
-                for m in held
-            )
+            and any(weighs_extra(weighed - (total - job.weights[m]), job.weights.get(name), s) for m in held)
+            and not apart(name)
         )
     )
 
