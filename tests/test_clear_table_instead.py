@@ -59,11 +59,22 @@ def test_a_cloth_of_the_other_box_that_weighs_as_much_as_one_of_the_lift_is_name
 
 def test_cloths_that_cannot_be_in_the_lift_are_not_named() -> None:
     lift = ("No.18", "No.17")
-    # same box (No.4), too heavy (No.7), placed (No.9)
+    # same box (No.4), heavier than the whole lift (No.7), placed (No.9)
     assert weighs_instead(_job(lost=("No.4", "No.7")), "whites", lift, 0.041, GRASP) == ()
     assert weighs_instead(_job(lost=("No.9",), placed=("No.9",)), "whites", lift, 0.041, GRASP) == ()
     # seen by the last survey with its footprint 10 cm from the grasp: it lies apart
     apart = _job(seen={"No.9": (7, _at(0.58, 0.0))})
     assert weighs_instead(apart, "whites", lift, 0.041, GRASP) == ()
-    # a reading that no swap explains names nobody
-    assert weighs_instead(_job(lost=("No.9",)), "whites", lift, 0.080, GRASP) == ()
+    # one cloth named by its weight: only a cloth of about that weight stands for it
+    assert weighs_instead(_job(lost=("No.9",)), "whites", ("No.17",), 0.0280, GRASP) == ()
+
+
+def test_a_heap_named_as_several_cloths_is_doubted_for_every_lighter_one_of_the_other_box() -> None:
+    # episode 299 on 7941f33: 65 g named "No.16 and No.3" (colours) held No.19, No.3 and
+    # No.17 (whites, 24 g): no one-for-one swap weighs 65 g, but No.17 could be in it
+    whites = {"No.16": 0.0308, "No.3": 0.0224, "No.17": 0.0240, "No.18": 0.070}
+    job = _job(lost=("No.17", "No.18"))
+    job.weights = whites
+    job.recognizers = dict.fromkeys(whites)
+    job.sort = SimpleNamespace(box_for=lambda name: "whites" if name in ("No.17", "No.18") else "colours")
+    assert weighs_instead(job, "colours", ("No.16", "No.3"), 0.0653, GRASP) == ("No.17",)  # not No.18: 70 g
