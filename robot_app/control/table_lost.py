@@ -62,7 +62,7 @@ from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, weighs_extra, weight_verdict
 from robot_app.control.pick_place import EMPTY_GRASP, LIFTED, carry_over_box, release_into_box
 from robot_app.control.table_furniture import OPENING, graspable
-from robot_app.control.table_surface import surface_height, surface_heights
+from robot_app.control.table_surface import SurfaceHeight, surface_heights
 from robot_app.errors import IKError
 from robot_app.geometry import transform_points
 from robot_app.vision import Recognizer
@@ -626,6 +626,31 @@ def _close_lowering(
     return held, closings
 
 
+def _measurable(job: TableClearer, match: LostMatch) -> bool:
+    """May a blind grasp of `match` be aimed at the surface the survey's pair measures?
+    Not with `clear.surface` off, for a cloth without a recogniser, or after a blind grasp
+    of this cloth closed on nothing (then at `lost.grasp_height` over the table)."""
+    return (
+        job.settings.surface.enabled and job.ledger.misses(match.name) == 0 and match.name in job.recognizers
+    )
+
+
+def _surfaces(
+    job: TableClearer, match: LostMatch, points: Sequence[tuple[float, float]]
+) -> list[SurfaceHeight]:
+    """The surface the survey's pair measures at each table point (x, y) [m] inside the
+    region of `match` (`table_surface.surface_heights`, with its recogniser's model); the
+    arm holds for the computation time."""
+    cpu = time.process_time()
+    recognizer, table_z = job.recognizers[match.name], job.table_z
+    found = surface_heights(
+        job.survey_capture, job.rig, recognizer.model, recognizer.settings.depth, match.region.mask,
+        [[x, y, table_z] for x, y in points], table_z, job.settings.surface,
+    )  # fmt: skip
+    job.motion.hold(time.process_time() - cpu)
+    return found
+
+
 def _blind_grasp_height(
     job: TableClearer, match: LostMatch, xy: tuple[float, float], notes: list[str]
 ) -> float:
@@ -638,15 +663,9 @@ def _blind_grasp_height(
     top they reach the top cloth's layer, as on a pile. The arm holds for the time measured."""
     s, table_z = job.settings, job.table_z
     fixed = table_z + s.lost.grasp_height
-    if not s.surface.enabled or job.ledger.misses(match.name) > 0 or match.name not in job.recognizers:
+    if not _measurable(job, match):
         return fixed
-    cpu = time.process_time()
-    recognizer = job.recognizers[match.name]
-    found = surface_height(
-        job.survey_capture, job.rig, recognizer.model, recognizer.settings.depth, match.region.mask,
-        [xy[0], xy[1], table_z], table_z, s.surface,
-    )  # fmt: skip
-    job.motion.hold(time.process_time() - cpu)
+    (found,) = _surfaces(job, match, [xy])
     if not found.trusted:
         return fixed
     aimed = max(fixed, found.z + job.loop_settings.grasp_height)
@@ -675,25 +694,14 @@ def _heap_top(
     lay flat at 8 mm there and draped up to 85 mm beside it; pushed 10 cm, the grasp held
     nothing). The arm holds for the time measured."""
     s, table_z = job.settings, job.table_z
-    if (
-        s.lost.top_tries <= 0
-        or not s.surface.enabled
-        or job.ledger.misses(match.name) > 0
-        or match.name not in job.recognizers
-    ):
+    if s.lost.top_tries <= 0 or not _measurable(job, match):
         return None
     capture = job.survey_capture
     pixels = inner_pixels(aims, s.lost.top_tries, TOP_APART, s.lost.top_depth)
     points = [p for p in (job.table.point(capture, px) for px in pixels) if reaches(*p)]
     if not points:
         return None
-    cpu = time.process_time()
-    recognizer = job.recognizers[match.name]
-    found = surface_heights(
-        capture, job.rig, recognizer.model, recognizer.settings.depth, match.region.mask,
-        [[x, y, table_z] for x, y in points], table_z, s.surface,
-    )  # fmt: skip
-    job.motion.hold(time.process_time() - cpu)
+    found = _surfaces(job, match, points)
     measured = [
         (f, p)
         for f, p in zip(found, points, strict=True)
