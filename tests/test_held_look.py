@@ -116,11 +116,17 @@ def test_the_verdict_wants_the_meant_colours_and_hardly_any_of_the_doubted_ones(
 
 
 # ------------------------------------------------- the look in the job (`table_lost._look_at_held`)
-def _look_job(hanging: int, lying: int, survey_saw_lying: bool = True):
+def _look_job(
+    hanging: int,
+    lying: int,
+    survey_saw_lying: bool = True,
+    cloths: tuple[tuple[int, str], ...] = ((1, "yellow"), (9, "violet")),
+):
     """A job whose hand holds synthetic cloth `hanging` 0.3 m under its right camera (in the
     lower part of the image) after lifting it from beside cloth `lying`, on the table at
     (0.5, 0.0), which the survey from 0.7 m up saw there (or, `survey_saw_lying` False,
-    did not: it lay elsewhere and the lift dragged it there)."""
+    did not: it lay elsewhere and the lift dragged it there). The job knows the models of
+    `cloths` (catalogue index, name)."""
     from robot_app.control.clear_table_records import ClearTableSettings
     from robot_app.control.loop_settings import LoopSettings
     from robot_app.geometry import make_transform, rotation_about_z
@@ -150,7 +156,7 @@ def _look_job(hanging: int, lying: int, survey_saw_lying: bool = True):
     def move_tcp(point) -> None:
         state["tcp"] = np.asarray(point, dtype=float)
 
-    models = {name: recognizer(n, name) for n, name in ((1, "yellow"), (9, "violet"))}
+    models = {name: recognizer(n, name) for n, name in cloths}
     job = SimpleNamespace(
         settings=ClearTableSettings(), loop_settings=LoopSettings(), identify_settings=IdentifySettings(),
         rig=RIG, table_z=0.0, recognizers=models, sheet=None, boxes={},
@@ -189,3 +195,25 @@ def test_two_looks_keep_what_moves_with_the_hand_and_drop_what_lies() -> None:
     assert seen.own["violet"] < job.settings.held_look.name_share  # two looks do not
     assert seen.meant > 0.9 and seen.pixels >= job.settings.held_look.min_pixels
     assert float(np.hypot(*(state["tcp"][:2] - start[:2]))) > 0.0
+
+
+def test_cloths_of_shared_colours_are_told_apart_by_their_mix() -> None:
+    # held-out episode 315 (session 26): No.6 (73 % white, 16 % purple, 11 % red) lifted for
+    # No.7 (77 % purple, 23 % white) showed 93 % in No.7's colours and 6 % in No.6's own red,
+    # and went into the colours box. Here: the violet-and-yellow checks meant, the plain violet
+    # ellipse doubted (no colour of its own: its violet is the checks' too)
+    from robot_app.control.held_look import look_at_held
+
+    cloths = ((4, "checks"), (9, "violet"))
+    job, _ = _look_job(hanging=9, lying=0, cloths=cloths)  # the plain violet one came up
+    seen, where = look_at_held(job, "checks", ("violet",))  # type: ignore[arg-type]
+    assert seen is not None, where
+    assert seen.meant > 0.9 and seen.own["violet"] == 0.0  # its colours alone cannot tell
+    alone, what = held_verdict(seen, job.settings.held_look)
+    assert not alone and "as good: violet's" in what
+    job, _ = _look_job(hanging=4, lying=0, cloths=cloths)  # the checks themselves
+    seen, where = look_at_held(job, "checks", ("violet",))  # type: ignore[arg-type]
+    assert seen is not None and seen.meant_fit is not None, where
+    alone, what = held_verdict(seen, job.settings.held_look)
+    assert alone, what
+    assert seen.meant_fit.score - seen.fits["violet"].score >= job.settings.held_look.margin
