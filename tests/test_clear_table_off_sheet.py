@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 from robot_app.control.clear_table_records import OffSheetSettings, TableArea
-from robot_app.control.table_furniture import off_sheet, table_beyond_sheet, without_furniture
 from robot_app.control.colour_fit import palette_share
+from robot_app.control.table_furniture import off_sheet, table_beyond_sheet, without_furniture
 from robot_app.control.table_survey import TablePlane
 from robot_app.geometry import make_transform
 from robot_app.vision import PinholeCamera

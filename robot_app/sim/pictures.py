@@ -39,7 +39,10 @@ def overview_image(world: World, camera: PinholeCamera, pose: FloatArray) -> npt
     shadows = None
     if world.config.lighting.shadows:
         shadows = world.stereo.shadow_map((camera,), (pose,), size=512)
-    return render_lit(world.client, camera, pose, world.lighting, shadows, world.config.lighting.penumbra)
+    light = world.config.lighting
+    return render_lit(
+        world.client, camera, pose, world.lighting, shadows, light.penumbra, two_sided=light.two_sided
+    )
 
 
 def write_pictures(out: str | Path, config: WorldConfig, scene: SceneSettings, seed: int = 0) -> list[Path]:

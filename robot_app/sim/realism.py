@@ -77,6 +77,11 @@ class LightingSettings(StrictModel):
     key_rgb: Vec3 = Field((1.0, 1.0, 1.0), description="key colour, linear RGB gains 0-1")
     specular: float = Field(0.0, ge=0.0, le=0.5, description="renderer's specular coefficient")
     shadows: bool = False
+    two_sided: bool = Field(
+        True,
+        description="draw a cloth lying face down lit, as its face up (a second render per image; "
+        "off: TinyRenderer lights it by ambient only, `lighting.render_two_sided`)",
+    )
     shadow_map_size: int = Field(128, ge=32, le=2048, description="shadow map side [px]")
     penumbra: float = Field(0.006, ge=0.0, le=0.05, description="width of soft shadow edges [m]")
     station: StationLightingSettings = StationLightingSettings()

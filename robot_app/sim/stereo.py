@@ -29,7 +29,7 @@ from robot_app.sim.cameras import (
 )
 from robot_app.sim.config import WorldConfig
 from robot_app.sim.imaging import CameraModel, FrameClock, image_motion
-from robot_app.sim.lighting import ShadowMap, draw_lighting, shade_shadows
+from robot_app.sim.lighting import ShadowMap, draw_lighting, render_two_sided, shade_shadows
 from robot_app.sim.realism import CALIBRATED_RIG_PRESETS, calibrated_rig_file
 from robot_app.vision.camera import PinholeCamera, StereoRig, load_rig, save_rig
 
@@ -115,7 +115,8 @@ class StereoCamera:
         frames = (LEFT_FRAME, RIGHT_FRAME)
         for model, camera, pose, frame in zip(self._models, cameras, poses, frames, strict=True):
             near, far = self._config.cameras.near, self._config.cameras.far
-            image, depth = render_bgr_depth(self._client, camera, pose, near, far, self.lighting)
+            render = render_two_sided if self._config.lighting.two_sided else render_bgr_depth
+            image, depth = render(self._client, camera, pose, near, far, self.lighting)
             if shadow_map is not None:
                 penumbra = self._config.lighting.penumbra
                 image = shade_shadows(image, depth, camera, pose, self.lighting, shadow_map, penumbra)
