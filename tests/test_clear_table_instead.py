@@ -12,7 +12,7 @@ from robot_app.control.clear_table_records import ClearTableSettings
 from robot_app.control.table_lost import weighs_instead
 from robot_app.geometry import make_transform
 
-WEIGHTS = {"No.18": 0.0209, "No.17": 0.0201, "No.9": 0.0162, "No.4": 0.0160, "No.2": 0.0163, "No.7": 0.060}
+WEIGHTS = {"No.18": 0.0209, "No.17": 0.0201, "No.9": 0.0162, "No.4": 0.0160, "No.2": 0.0163, "No.7": 0.080}
 BOXES = {name: "whites" for name in ("No.18", "No.17", "No.4")} | {
     name: "colours" for name in ("No.9", "No.2", "No.7")
 }
@@ -65,16 +65,28 @@ def test_cloths_that_cannot_be_in_the_lift_are_not_named() -> None:
     # seen by the last survey with its footprint 10 cm from the grasp: it lies apart
     apart = _job(seen={"No.9": (7, _at(0.58, 0.0))})
     assert weighs_instead(apart, "whites", lift, 0.041, GRASP) == ()
-    # one cloth named by its weight: only a cloth of about that weight stands for it
-    assert weighs_instead(_job(lost=("No.9",)), "whites", ("No.17",), 0.0280, GRASP) == ()
+    # one cloth named by its weight: a cloth heavier than the reading cannot be in it
+    assert weighs_instead(_job(lost=("No.7",)), "whites", ("No.17",), 0.0280, GRASP) == ()
 
 
-def test_a_heap_named_as_several_cloths_is_doubted_for_every_lighter_one_of_the_other_box() -> None:
+def test_a_lift_named_as_one_cloth_is_doubted_for_the_other_box_cloths_that_could_be_in_it() -> None:
+    # held-out episode 328 (session 27): a blind lift meant for No.8 read 43 g, the weight of
+    # its alike No.16 alone (colours); it held No.8 and the dragged No.17 (whites, 24 g), lost
+    # nearby after a put-back, and No.17 went into colours
+    weights = {"No.8": 0.0212, "No.16": 0.0430, "No.17": 0.0240, "No.6": 0.080}
+    job = _job(lost=("No.8", "No.17", "No.6"))
+    job.weights = weights
+    job.recognizers = dict.fromkeys(weights)
+    job.sort = SimpleNamespace(box_for=lambda name: "whites" if name in ("No.17", "No.6") else "colours")
+    assert weighs_instead(job, "colours", ("No.16",), 0.0427, GRASP) == ("No.17",)  # not No.6: 80 g
+
+
+def test_a_heap_named_as_several_cloths_is_doubted_for_the_other_box_cloths_that_could_be_in_it() -> None:
     # episode 299 on 7941f33: 65 g named "No.16 and No.3" (colours) held No.19, No.3 and
     # No.17 (whites, 24 g): no one-for-one swap weighs 65 g, but No.17 could be in it
-    whites = {"No.16": 0.0308, "No.3": 0.0224, "No.17": 0.0240, "No.18": 0.070}
+    whites = {"No.16": 0.0308, "No.3": 0.0224, "No.17": 0.0240, "No.18": 0.120}
     job = _job(lost=("No.17", "No.18"))
     job.weights = whites
     job.recognizers = dict.fromkeys(whites)
     job.sort = SimpleNamespace(box_for=lambda name: "whites" if name in ("No.17", "No.18") else "colours")
-    assert weighs_instead(job, "colours", ("No.16", "No.3"), 0.0653, GRASP) == ("No.17",)  # not No.18: 70 g
+    assert weighs_instead(job, "colours", ("No.16", "No.3"), 0.0653, GRASP) == ("No.17",)  # not No.18: 120 g
