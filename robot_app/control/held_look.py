@@ -311,9 +311,10 @@ def held_verdict(seen: HeldColours, settings: HeldLookSettings) -> tuple[bool, s
         return False, what
     if seen.meant_fit is not None:
         ahead = seen.meant_fit.score - settings.margin
-        rivals = [f"{name}'s {fit.score:.2f}" for name, fit in seen.fits.items() if fit.score > ahead]
-        if rivals:
-            return False, f"{what}; its colour fit {seen.meant_fit.score:.2f}, as good: {', '.join(rivals)}"
+        fits = ", ".join(f"{name}'s {fit.score:.2f}" for name, fit in seen.fits.items())
+        what += f"; its colour fit {seen.meant_fit.score:.2f}" + (f", {fits}" if fits else "")
+        if any(fit.score > ahead for fit in seen.fits.values()):
+            return False, f"{what} (within {settings.margin:.2f})"
     return True, what
 
 
