@@ -616,7 +616,8 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         name = held[0]
         grasp_xy = attempt.transform_target_to_world[:2, 3]
         instead = weighs_instead(job, attempt.box.name, held, weighed, grasp_xy)
-        along = with_the_meant(weighed, expected, instead, job.weights, job.settings)
+        meant = (match.name, *match.alike)
+        along = with_the_meant(weighed, meant, instead, job.weights, job.settings)
         if along:
             # no look tells: a dragged cloth hangs inside the held one (held-out episode 328)
             attempt.lift_check = "double"
@@ -716,22 +717,26 @@ def weighs_instead(
 
 def with_the_meant(
     weighed: float,
-    meant: float | None,
+    meant: Sequence[str],
     others: Sequence[str],
     weights: Mapping[str, float],
     settings: ClearTableSettings,
 ) -> tuple[str, ...]:
     """Of `others` (cloths of another box that could be in a blind lift, `weighs_instead`),
-    those whose weight is what the reading `weighed` [kg] adds to the meant cloth's
-    (`meant` [kg]; None: unknown, none): the lift is then as well the meant cloth with one
-    of them as what `weighed_as` named it, and the look cannot settle it, since a dragged
-    cloth hangs inside the held one. Held-out episode 328 (session 27): a blind lift meant
-    for No.8 (21 g) read 43 g, No.16's weight alone (colours, a guess); it held No.8 with
-    the dragged No.17 (whites, 24 g, lost nearby), which the look did not see (18,412 held
-    pixels all in No.8's orange), and No.17 went into colours."""
-    if meant is None:
-        return ()
-    return tuple(name for name in others if weighs_extra(weighed - meant, weights.get(name), settings))
+    those whose weight is what the reading `weighed` [kg] adds to that of one of the cloths
+    the lift was meant for (`meant`: the match and its alike; unknown weights skipped): the
+    lift is then as well such a cloth with one of them as what `weighed_as` named it, and
+    the look cannot settle it, since a dragged cloth hangs inside the held one. Held-out
+    episode 328 (session 27): a blind lift meant for No.8 (21 g) read 43 g, the weight of its
+    alike No.16 alone (colours, a guess); it held No.8 with the dragged No.17 (whites, 24 g,
+    lost nearby), which the look did not see (18,412 held pixels all in No.8's orange), and
+    No.17 went into colours. Its replay on the first form of this rule (the match's own
+    weight only) put it into colours as the guess No.16 with No.12 (45 g), the match being
+    No.16 by then."""
+    held = [weights[name] for name in meant if name in weights]
+    return tuple(
+        name for name in others if any(weighs_extra(weighed - w, weights.get(name), settings) for w in held)
+    )
 
 
 def _phase(job: TableClearer, name: str, phase: str, start: float, note: str) -> None:
