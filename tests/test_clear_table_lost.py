@@ -594,9 +594,9 @@ def test_a_guess_is_doubted_for_the_never_seen_cloths_whose_colours_its_region_s
 ) -> None:
     # held-out episode 327 (session 26): a double pick's companion, never seen, was guessed
     # the grey melange No.19 (its region 98 % in grey and white, 18.3 g read, No.19's 18.2 g)
-    # and went into colours; it was the white No.18 (20.9 g), never seen, whose folds lie in
-    # the same grey: a never-seen cloth of another box that the region's colours and the
-    # weight fit as well is doubted (the lift is looked at before it goes anywhere)
+    # and went into colours; it was the white No.18 (20.9 g), never seen (laid face down):
+    # a never-seen cloth of another box that the region's colours and the weight fit as
+    # well is doubted (the lift is looked at before it goes anywhere)
     from robot_app.control import table_clearer
     from robot_app.control.clear_table_records import ClearTableSettings
     from robot_app.control.colour_fit import ColourFit

@@ -612,8 +612,10 @@ class TableClearer:
         only a guess: `_suspects_under` doubts those of another box that weigh as much.
         Held-out episode 327 (session 26): a double pick's companion, never seen, was guessed
         the grey melange No.19 (its region 98 % in its grey and white) and placed in colours
-        by its weight (18.3 g, No.19's 18.2 g); it was the white No.18 (20.9 g), whose
-        folds lie in the same grey."""
+        by its weight (18.3 g, No.19's 18.2 g); it was the white No.18 (20.9 g), never
+        seen. (Its region was 99 % DARK, lit value 67: No.18 lay face down, which the
+        renderer drew unlit until session 27, so this test alone, with No.18's `shows_light`
+        0 there, would not have doubted it then; drawn lit, its back shows white.)"""
         if found.name not in found.guessed:
             return ()
         placed = set(self.ledger.placed_order)
