@@ -206,13 +206,13 @@ def test_cloths_of_shared_colours_are_told_apart_by_their_mix() -> None:
 
     cloths = ((4, "checks"), (9, "violet"))
     job, _ = _look_job(hanging=9, lying=0, cloths=cloths)  # the plain violet one came up
-    seen, where = look_at_held(job, "checks", ("violet",))  # type: ignore[arg-type]
+    seen, where = look_at_held(job, "checks", ("violet",), fit=True)  # type: ignore[arg-type]
     assert seen is not None, where
     assert seen.meant > 0.9 and seen.own["violet"] == 0.0  # its colours alone cannot tell
     alone, what = held_verdict(seen, job.settings.held_look)
     assert not alone and "violet's 1.00 (within 0.20)" in what
     job, _ = _look_job(hanging=4, lying=0, cloths=cloths)  # the checks themselves
-    seen, where = look_at_held(job, "checks", ("violet",))  # type: ignore[arg-type]
+    seen, where = look_at_held(job, "checks", ("violet",), fit=True)  # type: ignore[arg-type]
     assert seen is not None and seen.meant_fit is not None, where
     alone, what = held_verdict(seen, job.settings.held_look)
     assert alone, what

@@ -323,14 +323,15 @@ def _grown(mask: Mask, px: int) -> Mask:
 
 
 def look_at_held(
-    job: TableClearer, meant: str, others: Sequence[str], looks: int = 1
+    job: TableClearer, meant: str, others: Sequence[str], looks: int = 1, fit: bool = False
 ) -> tuple[HeldColours | None, str]:
     """Moves the lifted cloth over the freest table within reach (`hover_offsets`), looks
     (`looks` = 2: once more from a point `confirm_shift` away, keeping only what both see
     within `persist_px`: what hangs moves with the hand, what lies does not) and returns
     what hangs (`held_colours` for `meant` and `others`) and a note; None where no such
     point is free and reachable. The hand stays at the last look (the transfer or the
-    put-back goes on from there); the arm holds for the computation."""
+    put-back goes on from there); the arm holds for the computation. `fit`: also score what
+    hangs by each cloth's colour fit (`HeldColours.meant_fit`, `fits`; `held_verdict` uses them)."""
     # table_furniture imports clear_table_records, which imports this module's settings
     from robot_app.control.table_furniture import clear_of_walls
 
@@ -399,15 +400,16 @@ def look_at_held(
             break
     if len(views) < looks or first is None:
         return None, "no free table within reach to look against"
-    cpu = time.process_time()
     held, colours, any_meant = views[0]
     for later_held, later_colours, _ in views[1:]:
         held = held & _grown(later_held, s.persist_px)
         colours = {n: colours[n] & _grown(later_colours[n] & later_held, s.persist_px) for n in colours}
     seen = held_colours(held, colours[meant], any_meant, {n: colours[n] for n in others})
-    fits = colour_shares(first, held, {n: job.recognizers[n] for n in (meant, *others)})
-    seen = replace(seen, meant_fit=fits.pop(meant), fits=fits)
-    job.motion.hold(time.process_time() - cpu)
+    if fit:
+        cpu = time.process_time()
+        fits = colour_shares(first, held, {n: job.recognizers[n] for n in (meant, *others)})
+        seen = replace(seen, meant_fit=fits.pop(meant), fits=fits)
+        job.motion.hold(time.process_time() - cpu)
     where = ", ".join(f"{float(np.hypot(*at)) * 100:.0f} cm aside" for at in seen_at)
     return seen, f"looked from {where}"
 

@@ -639,7 +639,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
     doubted = (*match.doubted, *(n for n in instead if n not in match.doubted))
     if doubted:
-        hanging, where = look_at_held(job, name, doubted)
+        hanging, where = look_at_held(job, name, doubted, fit=True)
         alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
         seen += "" if hanging is None else f" ({where})"
         attempt.notes.append(f"looked at against free table (could be {', '.join(doubted)}): {seen}")
