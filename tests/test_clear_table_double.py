@@ -178,7 +178,7 @@ def _looking_job(monkeypatch: pytest.MonkeyPatch, put_back: list[str], own: dict
     job.settings = ClearTableSettings(survey_latency=0.0)
     job.weigh = lambda: 0.050
     job.ledger.last_seen.update({"No.10": np.array([0.3, 0.1]), "No.11": np.array([0.5, 0.05])})
-    job.weights["No.7"] = 0.027  # weighs the extra too, but no survey has seen it: not asked
+    job.weights["No.7"] = 0.027  # weighs the extra too; no survey has seen it (it may lie hidden)
     job.recognizers["No.7"] = job.recognizers["No.10"]
     monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: None)
     looked: list[tuple[str, ...]] = []
@@ -206,8 +206,23 @@ def test_the_other_cloth_seen_hanging_in_its_own_colours_is_named_and_placed_alo
     put_back: list[str] = []
     job, looked = _looking_job(monkeypatch, put_back, {"No.11": 0.3})
     attempt = _lift(job)
-    assert looked == [("No.10", "No.11")]  # only the cloths seen that weigh the extra (29 g) are asked
+    assert looked == [("No.10", "No.11", "No.7")]  # the cloths not placed that weigh the extra (29 g)
     assert attempt.came_along == ("No.11",) and attempt.named_by == "look" and put_back == []
+
+
+def test_a_cloth_never_seen_is_named_by_its_colours_seen_hanging(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Held-out episode 384 (session 28): No.2, never identified (it lay under No.7), came
+    up with No.7 at every lift, and each lift was put back unlooked: no cloth a survey had
+    seen weighed the extra. A cloth never seen is asked too; placed, it is booked."""
+    put_back: list[str] = []
+    job, looked = _looking_job(monkeypatch, put_back, {"No.7": 0.35})
+    attempt = _lift(job)
+    assert "No.7" in looked[0]
+    assert attempt.came_along == ("No.7",) and attempt.named_by == "look" and put_back == []
+    placed, looked = _looking_job(monkeypatch, [], {"No.11": 0.3})
+    placed.ledger.placed_order.append("No.7")  # once placed, it is no one's companion any more
+    _lift(placed)
+    assert looked == [("No.10", "No.11")]
 
 
 def test_the_other_cloth_seen_hanging_from_the_other_box_is_put_back_named(
