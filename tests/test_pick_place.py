@@ -262,3 +262,41 @@ def test_success_is_decided_once_from_outcome_limits_contacts_and_placement() ->
     absent = ok | {"grasp_attempts": 0, "placed_fraction": 0.0, "target_present": False}
     assert judge_success(Outcome.NOT_PRESENT, **absent)
     assert not judge_success(Outcome.NOT_PRESENT, **(absent | {"grasp_attempts": 1}))
+
+
+def _searches_miss(monkeypatch: pytest.MonkeyPatch, shift_m: float) -> EpisodeResult:
+    """One episode whose every one-shot search is made to miss the cloth (its result kept,
+    `found` off), the loop given where another recognition found it: the truth moved by
+    `shift_m` along x (0: the cloth's place; 0.25: bare sheet beside it)."""
+    from dataclasses import replace
+
+    from robot_app.control import pick_place, vision_pipeline
+
+    search = vision_pipeline.VisionPipeline.search
+
+    def missing(self, seed):
+        result = search(self, seed)
+        return replace(result, recognition=replace(result.recognition, found=False, confidence=0.0))
+
+    monkeypatch.setattr(vision_pipeline.VisionPipeline, "search", missing)
+    init = pick_place.PickPlaceLoop.__init__
+
+    def told(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        expected = self.ground_truth().copy()
+        expected[0, 3] += shift_m
+        self.expected_pose = expected
+
+    monkeypatch.setattr(pick_place.PickPlaceLoop, "__init__", told)
+    return episode("seed=1", "scene.target=3")
+
+
+def test_a_cloth_every_search_misses_is_checked_where_the_caller_found_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The clear-table job's survey found the cloth, the loop's searches did not (held-out
+    episode 395, session 28): the last search's frame is checked at the survey's pose, and
+    the pick goes on; checked where no cloth lies, nothing is found."""
+    assert_placed(_searches_miss(monkeypatch, 0.0))
+    absent = _searches_miss(monkeypatch, 0.25)
+    assert absent.outcome is Outcome.NOT_PRESENT and absent.grasp_attempts == 0

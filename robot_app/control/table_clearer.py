@@ -446,6 +446,7 @@ class TableClearer:
             on_recognition=lambda cycle: self._loop_vision(cycle, attempt, loop),
             ground_truth=truth,
             posture_seed=self.motion.q,
+            expected_pose=pose,
         )
         self._before_pick = _BeforePick(
             target.name,
