@@ -328,3 +328,40 @@ def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_under(
         else:
             assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
             assert any("another box" in note for note in attempt.notes)
+
+
+def test_the_cloth_it_lay_on_seen_in_its_place_from_the_look_is_not_named(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Held-out episode 401 (session 28): the check after the lift missed No.8 in its place
+    (the hanging cloth hid it), the look at what hangs showed no cloth of another box (No.17
+    hung inside), and No.8 was named "under": No.17 went into colours. Seen again from where
+    the hand looked, the cloth it lay on is still there: no name, put back."""
+    from robot_app.control.held_look import HeldColours
+
+    for seen_from_the_look, named in ((False, True), (True, False)):
+        put_back: list[str] = []
+        job = _under_job(monkeypatch, put_back, stayed=set())
+        job.weights["No.17"] = 0.025
+        job.recognizers["No.17"] = job.recognizers["No.10"]
+        checks: list[str] = []
+
+        def still_there(recognizer, *args, checks=checks, seen=seen_from_the_look):
+            if recognizer.name != "No.11":
+                return False  # the meant cloth left its place
+            checks.append(recognizer.name)
+            return seen and len(checks) > 1  # the check after the lift misses it
+
+        monkeypatch.setattr(table_clearer, "still_there", still_there)
+        monkeypatch.setattr(
+            table_clearer,
+            "look_at_held",
+            lambda job, meant, others, looks=1: (HeldColours(5000, 0.8, dict.fromkeys(others, 0.0)), "aside"),
+        )
+        attempt = _lift_under(monkeypatch, job, ("No.11",))
+        assert checks == ["No.11", "No.11"]  # after the lift, and from where the hand looked
+        if named:
+            assert attempt.came_along == ("No.11",) and attempt.named_by == "under" and put_back == []
+        else:
+            assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
+            assert any("still lies where the survey saw it" in note for note in attempt.notes)
