@@ -120,3 +120,20 @@ def test_a_doubted_lift_put_back_leaves_its_name_unsure_and_the_doubted_cloth_ma
     assert "No.6" not in ledger.unsure
     _survey(ledger, "No.9")  # recognised again: no longer lost anywhere
     assert "No.9" not in ledger.maybe and "No.9" not in ledger.lost
+
+
+def test_a_double_pick_dropped_in_transfer_loses_both_cloths() -> None:
+    """Held-out episode 404 (session 28): No.10 and No.4, one box, lifted together and
+    dropped on the way; No.4 was never booked lost, so nothing looked for it."""
+    ledger = TableLedger()
+    _survey(ledger, "No.10", "No.4")
+    box = BoxPlace("colours", np.array([0.3, -0.56, 0.0]), 0.22)
+    attempt = AttemptState(None, box, np.eye(4), 0.0, lost_name="No.10")
+    attempt.came_along, attempt.dropped = ("No.4",), True
+    report = LimitReport(0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
+    result = EpisodeResult(
+        Outcome.LOST, False, "dropped during the transfer", None, 1.0, 0.0, (), (), report, 0, 0, 1, 0, 0, 0
+    )
+    ledger.record_attempt(attempt, result, 1.0, 0.026)
+    assert set(ledger.lost) == {"No.10", "No.4"}
+    assert ledger.lost["No.4"].how == "dropped with No.10" and "No.4" not in ledger.placed_order

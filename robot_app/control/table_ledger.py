@@ -183,6 +183,11 @@ class TableLedger:
             laid = attempt.put_back and attempt.put_back_at is not None  # let go where the job chose
             self.lost[name] = LostPlace(kind, how, start, end, before, laid)
             put_back = LossKind.PUT_BACK
+            for companion in attempt.came_along if attempt.dropped else ():
+                # it hung from the same fingers (held-out episode 404, session 28: No.4, to go
+                # into colours with No.10, fell with it, was never looked for and stayed)
+                with_it = LostPlace(kind, f"dropped with {name}", start, end, before, laid)
+                self.lost.setdefault(companion, with_it)
             for companion in attempt.laid_back_too if attempt.put_back else ():
                 self.lost.setdefault(
                     companion, LostPlace(put_back, f"put back with {name}", start, end, before, laid)
