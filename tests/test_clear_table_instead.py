@@ -104,3 +104,28 @@ def test_a_lift_that_weighs_the_meant_cloth_with_one_of_the_other_box_is_not_nam
     weights["No.16"] = 0.032
     assert with_the_meant(0.0452, ("No.16",), ("No.17",), weights, s) == ()
     assert with_the_meant(0.0452, ("No.16", "No.8", "No.12"), ("No.17",), weights, s) == ("No.17",)
+
+
+def test_lost_cloths_of_the_box_that_may_lie_at_the_grasp_join_the_lift_s_naming() -> None:
+    """Held-out episode 407 (session 28): No.8 and No.2, both colours, came up together at
+    five lifts; the region showed only No.8's orange (No.2 hung inside), so No.2 was no
+    alike of it, and every 45 g lift went back. `lost_with` gives the lost cloths of the
+    lift's box that may lie at the grasp, and `weighed_as` names the lift after both."""
+    from robot_app.control.clear_table_records import LossKind, LostPlace
+    from robot_app.control.table_lost import lost_with, weighed_as
+
+    def place(start, end):
+        return LostPlace(LossKind.PUT_BACK, "put back", np.array(start), np.array(end), (), True)
+
+    job = _job()
+    job.ledger.lost = {
+        "No.9": place((0.55, -0.20), (0.60, -0.20)),  # colours, laid back where the grasp is
+        "No.2": place((0.55, -0.20), (0.58, -0.10)),  # colours, there too
+        "No.18": place((0.55, -0.20), (0.58, -0.20)),  # whites: another box, never with it
+        "No.7": place((0.10, 0.40), (0.10, 0.50)),  # colours, lost far from the grasp
+    }
+    partners = lost_with(job, "No.9", "colours", (), GRASP)
+    assert partners == ("No.2",)
+    assert weighed_as(0.0325, "No.9", partners, WEIGHTS, job.settings) == ("No.9", "No.2")
+    job.ledger.placed_order.append("No.2")  # placed since: not in any lift
+    assert lost_with(job, "No.9", "colours", (), GRASP) == ()
