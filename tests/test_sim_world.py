@@ -233,6 +233,8 @@ def _slide(
     hand: tuple[float, float, float] | None = None,
     hand_xy: tuple[float, float] = (0.5, 0.05),
     steps: int = 120,
+    at: tuple[float, float] = (0.5, 0.05),
+    yaw: float = 0.4,
 ) -> tuple[float, float, int]:
     """A cloth on the table with nothing held and the hand still at the observation pose, for
     `steps` (0.5 s): given 0.5 m/s along x as it is laid (`start="push"`), given that and 0.98 m/s
@@ -243,7 +245,7 @@ def _slide(
     and `World.slides_held`. `bound`: `world.cloth.free_slide_speed`. `hand`: the hand's
     velocity (x, y, z) [m/s] as the world reads it, its TCP 0.05 m over the table at `hand_xy`
     (over the cloth by default; the robot's own readings replaced: the rule is what is
-    tested, the physics is pybullet's)."""
+    tested, the physics is pybullet's). `at`, `yaw`: where and how the cloth is laid (x, y) [m], [rad]."""
     config = SMALL.model_copy(update={"cloth": ClothPhysicsSettings(free_slide_speed=bound)})
     with World(config) as world:
         if hand is not None:
@@ -252,7 +254,7 @@ def _slide(
             world.robot.frame_pose = lambda name: low  # type: ignore[method-assign]
             world.robot.frame_velocity = lambda name: (np.array(hand), np.zeros(3))  # type: ignore[method-assign]
         drop = 0.3 if start == "fall" else 0.0
-        cloth = world.add_cloth(cloth_spec(4), 0.5, 0.05, 0.4, drop_height=drop, settle=start == "pulled")
+        cloth = world.add_cloth(cloth_spec(4), *at, yaw, drop_height=drop, settle=start == "pulled")
         if start == "fall":
             world.step(24)
         if start == "pulled":
@@ -368,3 +370,15 @@ def test_a_cloth_dragged_goes_no_faster_than_what_drags_it(monkeypatch: pytest.M
     monkeypatch.setattr("robot_app.sim.world.DRAG_SHARE", np.inf)
     _, _, free = _two_pulled(0.0, monkeypatch, held_still=True)
     assert free > 1.0
+
+
+def test_a_cloth_lying_in_a_box_does_not_speed_up_by_itself() -> None:
+    """Held-out episode 400 (session 28): two cloths lying in the colours box sped up to
+    0.7 m/s with the hand 0.7 m away, climbed its wall and fell to the floor. A cloth lying
+    in a box (centre (0.30, -0.56), 0.22 m inside) is held back as one on the table; off,
+    the same pull speeds it up until it meets the wall."""
+    box = (0.30, -0.56)
+    _, fastest, held = _slide(None, "pulled", at=box, yaw=0.0)
+    assert fastest > 0.15 and held == 0
+    _, fastest, held = _slide(0.05, "pulled", at=box, yaw=0.0)
+    assert fastest < 0.05 + 8.0 / 240 + 0.01 and held > 20
