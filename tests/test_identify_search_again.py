@@ -70,14 +70,22 @@ def test_a_cloth_painted_over_no_longer_holds_the_search(whites) -> None:
 
 
 def test_identify_searches_again_and_keeps_both_cloths(whites) -> None:
+    """Over seeds (whether a first search ends on the larger cloth depends on the GA's run,
+    and so on the machine's arithmetic: seed 0 did on session 27's machine, not on session
+    28's), every identification keeps both cloths where they are, and the seeds whose first
+    search ended on the larger one searched the smaller one again; at least one did."""
     recognizers, left, right = whites
-    ident = identify(recognizers, left, right, IdentifySettings(search_again=True), seed=0)
-    names = {d.name: d for d in ident.detections}
-    assert set(names) == {"large", "small"}
-    assert ident.searched_again == ("small",)
-    for name, truth in (("large", LARGE_POSE), ("small", SMALL_POSE)):
-        error = np.linalg.norm(names[name].transform_model_to_camera[:2, 3] - truth[:2, 3])
-        assert error < 0.005, f"{name}: {error * 1000:.1f} mm off"
+    again = 0
+    for seed in range(6):
+        ident = identify(recognizers, left, right, IdentifySettings(search_again=True), seed=seed)
+        names = {d.name: d for d in ident.detections}
+        assert set(names) == {"large", "small"}, f"seed {seed}"
+        assert ident.searched_again in ((), ("small",)), f"seed {seed}"
+        again += ident.searched_again == ("small",)
+        for name, truth in (("large", LARGE_POSE), ("small", SMALL_POSE)):
+            error = np.linalg.norm(names[name].transform_model_to_camera[:2, 3] - truth[:2, 3])
+            assert error < 0.005, f"seed {seed}, {name}: {error * 1000:.1f} mm off"
+    assert again >= 1, "no seed needed the second search: the scene no longer tests it"
 
 
 def test_nothing_searched_again_when_every_model_is_kept(whites) -> None:
