@@ -70,6 +70,12 @@ def weighs_extra(extra: float, weight: float | None, settings: ClearTableSetting
     return weight is not None and abs(extra - weight) <= weight * s.weight_tolerance + s.weight_floor
 
 
+def could_be_in(extra: float, weight: float | None, settings: ClearTableSettings) -> bool:
+    """Could a cloth of `weight` [kg] be in the `extra` [kg] a load cell read: all of it
+    (`weighs_extra`) or a part of it, with others (lighter than it)?"""
+    return weight is not None and (weight < extra or weighs_extra(extra, weight, settings))
+
+
 def weight_verdict(
     weighed: float, expected: float, name: str, settings: ClearTableSettings
 ) -> tuple[str, str]:

@@ -66,6 +66,7 @@ from robot_app.control.pick_checks import (
     AttemptState,
     check_release,
     companion,
+    could_be_in,
     remembered_companion,
     still_there,
     weighs_extra,
@@ -924,23 +925,17 @@ class TableClearer:
 
     def _other_box_hanging(self, attempt: AttemptState, extra: float) -> tuple[str, bool]:
         """Before a double pick named `under` goes into the box with the meant cloth: the
-        cloths of another box, not placed, that weigh the `extra` [kg] as well (one could
-        hang hidden in its place: held-out episode 216, session 25: No.2's lift held No.10,
+        cloths of another box, not placed, that weigh the `extra` [kg] or less
+        (`could_be_in`: one, or two lighter ones, could hang hidden in its place: held-out episode 216, session 25: No.2's lift held No.10,
         never seen, and the check after the lift missed No.17, which No.2 lay on and which
         stayed), looked for hanging (`held_look`, two looks): ("" when none could be there
         or none shows `doubt_share` of the held pixels in its own colours, else why not;
         whether the hand moved to look)."""
         s = self.settings
-        placed = set(self.ledger.placed_order)
-        rivals = [
-            name
-            for name, weight in self.weights.items()
-            if name != attempt.name
-            and name not in placed
-            and name in self.recognizers
-            and self.sort.box_for(name) != attempt.box.name
-            and weighs_extra(extra, weight, s)
-        ]
+        box = attempt.box.name
+        rivals = self._not_placed(
+            attempt, lambda name, weight: self.sort.box_for(name) != box and could_be_in(extra, weight, s)
+        )
         if not rivals or not s.held_look.enabled:
             return "", False
         self._phase = "look at lift"
@@ -955,6 +950,16 @@ class TableClearer:
             )
         attempt.notes.append(f"looked at what hangs: no cloth of another box ({seen.pixels} px; {where})")
         return "", True
+
+    def _not_placed(self, attempt: AttemptState, keep: Callable[[str, float], bool]) -> list[str]:
+        """The cloths other than the meant one, with a model and not placed, that `keep`
+        (name, weight [kg]) takes, in the catalogue's order."""
+        placed = set(self.ledger.placed_order)
+        return [
+            name
+            for name, weight in self.weights.items()
+            if name != attempt.name and name not in placed and name in self.recognizers and keep(name, weight)
+        ]
 
     def _companion_seen_hanging(self, attempt: AttemptState, extra: float) -> tuple[str | None, str]:
         """The double pick's other cloth named by its own colours seen hanging (`held_look`,
@@ -972,29 +977,13 @@ class TableClearer:
         note ("" when no cloth weighs the extra, and nothing was looked at). Held-out run
         116-165 (session 23): 61 double picks put back with the other cloth unnamed."""
         s, hl = self.settings, self.settings.held_look
-        placed = set(self.ledger.placed_order)
-        weighing = [
-            name
-            for name, weight in self.weights.items()
-            if name != attempt.name
-            and name not in placed
-            and name in self.recognizers
-            and weighs_extra(extra, weight, s)
-        ]
+        weighing = self._not_placed(attempt, lambda name, weight: weighs_extra(extra, weight, s))
         if not weighing:
             return None, ""
         # lighter cloths may be the extra two or more at a time (held-out episode 412,
         # session 28: 39 g extra, No.6 and No.18 of whites; No.16, crimson, weighing 39 g
         # and never seen, was named by 13 % of red, No.6's motifs): looked at too
-        parts = [
-            name
-            for name, weight in self.weights.items()
-            if name != attempt.name
-            and name not in placed
-            and name in self.recognizers
-            and name not in weighing
-            and weight < extra
-        ]
+        parts = self._not_placed(attempt, lambda name, weight: name not in weighing and weight < extra)
         self._phase = "look at lift"
         seen, where = look_at_held(self, attempt.name, [*weighing, *parts], looks=2)
         if seen is None:

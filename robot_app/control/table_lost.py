@@ -60,7 +60,14 @@ from robot_app.control.colour_fit import colour_shares, palette_share, survey_co
 from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
 from robot_app.control.held_look import held_verdict, look_at_held
 from robot_app.control.intercept import hanging_reach
-from robot_app.control.pick_checks import DROPPED, PUT_BACK, AttemptState, weighs_extra, weight_verdict
+from robot_app.control.pick_checks import (
+    DROPPED,
+    PUT_BACK,
+    AttemptState,
+    could_be_in,
+    weighs_extra,
+    weight_verdict,
+)
 from robot_app.control.pick_place import EMPTY_GRASP, LIFTED, carry_over_box, release_into_box
 from robot_app.control.table_furniture import OPENING, graspable
 from robot_app.control.table_surface import SurfaceHeight, surface_heights
@@ -727,10 +734,6 @@ def weighs_instead(
         footprint = transform_points(ledger.last_pose[name], job.recognizers[name].model.points_in)
         return float(np.min(np.hypot(*(footprint[:, :2] - grasp).T))) > s.remembered_reach
 
-    def could_be(weight: float | None) -> bool:
-        # it may be the lift alone, or in it with any of them, or with others
-        return weight is not None and (weight < weighed or weighs_extra(weighed, weight, s))
-
     return tuple(
         sorted(
             name
@@ -739,7 +742,7 @@ def weighs_instead(
             and name not in held
             and name in job.recognizers
             and job.sort.box_for(name) != box
-            and could_be(job.weights.get(name))
+            and could_be_in(weighed, job.weights.get(name), s)  # alone, or with any of them
             and not apart(name)
         )
     )
