@@ -774,3 +774,23 @@ def test_a_blind_grasp_comes_down_over_its_point_not_across_a_wall() -> None:
     reach["ok"] = False
     base = _approach(np.array([0.30, 0.50, 0.08]), (0.18, 0.38), 0.03, 0.055, job)  # type: ignore[arg-type]
     np.testing.assert_allclose(base, [[0.30, 0.50, safe], [0.18, 0.38, 0.085]])
+
+
+def test_a_blind_grasp_aims_away_from_where_blind_grasps_closed_on_nothing() -> None:
+    """Held-out episode 409 (session 28): ten blind grasps at one spot of one region lifted
+    nothing, the region's centre 8 cm away; the next grasp's aims leave out the pixels whose
+    table point lies within `empty_reach` of such a spot, and a region with none left is
+    given up."""
+    from types import SimpleNamespace
+
+    from robot_app.control.table_lost import away_from
+
+    table = SimpleNamespace(pixels=lambda capture, u, v: np.stack([u / 100.0, v / 100.0], axis=1))
+    aims = np.zeros((20, 20), bool)
+    aims[5:15, 5:15] = True  # table points 0.05-0.14 m along both axes
+    assert np.array_equal(away_from(aims, None, table, [], 0.06), aims)
+    kept = away_from(aims, None, table, [np.array([0.05, 0.05])], 0.03)
+    v, u = np.nonzero(aims & ~kept)
+    assert len(u) and np.all(np.hypot(u / 100 - 0.05, v / 100 - 0.05) <= 0.03)  # only those near
+    assert kept[14, 14] and not kept[5, 5]
+    assert not np.any(away_from(aims, None, table, [np.array([0.1, 0.1])], 0.2))

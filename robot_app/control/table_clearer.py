@@ -926,11 +926,11 @@ class TableClearer:
     def _other_box_hanging(self, attempt: AttemptState, extra: float) -> tuple[str, bool]:
         """Before a double pick named `under` goes into the box with the meant cloth: the
         cloths of another box, not placed, that weigh the `extra` [kg] or less
-        (`could_be_in`: one, or two lighter ones, could hang hidden in its place: held-out episode 216, session 25: No.2's lift held No.10,
-        never seen, and the check after the lift missed No.17, which No.2 lay on and which
-        stayed), looked for hanging (`held_look`, two looks): ("" when none could be there
-        or none shows `doubt_share` of the held pixels in its own colours, else why not;
-        whether the hand moved to look)."""
+        (`could_be_in`: one, or two lighter ones, could hang hidden in its place: held-out
+        episode 216, session 25: No.2's lift held No.10, never seen, and the check after the
+        lift missed No.17, which No.2 lay on and which stayed), looked for hanging
+        (`held_look`, two looks): ("" when none could be there or none shows `doubt_share`
+        of the held pixels in its own colours, else why not; whether the hand moved to look)."""
         s = self.settings
         box = attempt.box.name
         rivals = self._not_placed(
