@@ -303,6 +303,23 @@ def test_a_cloth_it_lay_on_still_in_its_place_or_two_that_weigh_the_extra_name_n
         assert put_back == ["No.19"]
 
 
+def _under_job_with_a_white(monkeypatch: pytest.MonkeyPatch, put_back: list[str]):
+    """`_under_job` where nothing stayed, and No.17 (whites) weighs the extra too."""
+    job = _under_job(monkeypatch, put_back, stayed=set())
+    job.weights["No.17"] = 0.025
+    job.recognizers["No.17"] = job.recognizers["No.10"]
+    return job
+
+
+def _assert_under_named(attempt, put_back: list[str], named: bool, why: str) -> None:
+    """No.11 named "under" and placed along, or no name, the lift put back, `why` noted."""
+    if named:
+        assert attempt.came_along == ("No.11",) and attempt.named_by == "under" and put_back == []
+    else:
+        assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
+        assert any(why in note for note in attempt.notes)
+
+
 def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_under(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
@@ -311,9 +328,7 @@ def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_under(
 
     for shown, named in ((0.0, True), (0.2, False)):
         put_back: list[str] = []
-        job = _under_job(monkeypatch, put_back, stayed=set())
-        job.weights["No.17"] = 0.025
-        job.recognizers["No.17"] = job.recognizers["No.10"]
+        job = _under_job_with_a_white(monkeypatch, put_back)
         looked: list[tuple[str, ...]] = []
 
         def look(job, meant, others, looks=1, shown=shown, looked=looked):
@@ -324,11 +339,7 @@ def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_under(
         resumed: list[object] = []
         attempt = _lift_under(monkeypatch, job, ("No.11",), resumed)
         assert looked == [("No.17",)] and resumed, "the loop goes on from where the look left the hand"
-        if named:
-            assert attempt.came_along == ("No.11",) and attempt.named_by == "under" and put_back == []
-        else:
-            assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
-            assert any("another box" in note for note in attempt.notes)
+        _assert_under_named(attempt, put_back, named, "another box")
 
 
 def test_the_cloth_it_lay_on_seen_in_its_place_from_the_look_is_not_named(
@@ -342,9 +353,7 @@ def test_the_cloth_it_lay_on_seen_in_its_place_from_the_look_is_not_named(
 
     for seen_from_the_look, named in ((False, True), (True, False)):
         put_back: list[str] = []
-        job = _under_job(monkeypatch, put_back, stayed=set())
-        job.weights["No.17"] = 0.025
-        job.recognizers["No.17"] = job.recognizers["No.10"]
+        job = _under_job_with_a_white(monkeypatch, put_back)
         checks: list[str] = []
 
         def still_there(recognizer, *args, checks=checks, seen=seen_from_the_look):
@@ -361,11 +370,7 @@ def test_the_cloth_it_lay_on_seen_in_its_place_from_the_look_is_not_named(
         )
         attempt = _lift_under(monkeypatch, job, ("No.11",))
         assert checks == ["No.11", "No.11"]  # after the lift, and from where the hand looked
-        if named:
-            assert attempt.came_along == ("No.11",) and attempt.named_by == "under" and put_back == []
-        else:
-            assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
-            assert any("still lies where the survey saw it" in note for note in attempt.notes)
+        _assert_under_named(attempt, put_back, named, "still lies where the survey saw it")
 
 
 def test_a_cloth_named_hanging_is_not_named_where_lighter_cloths_of_another_box_show(
