@@ -841,11 +841,9 @@ class TableClearer:
                     attempt.named_by = "under"
                     source = " (identity: the one cloth it lay on that weighs the extra, gone from there)"
                     if self.sort.box_for(other) == attempt.box.name:
-                        doubt, moved = self._other_box_hanging(attempt, extra)
+                        doubt, moved = self._other_box_hanging(attempt, extra, other)
                         if moved:  # the look moved the hand
                             loop.arm.resume_at(self.motion.q)
-                            if not doubt and self._stayed(other, attempt, self.cell.capture()):
-                                doubt = STILL_IN_PLACE
                         if doubt:
                             attempt.notes.append(
                                 f"double pick: {other} would be the other cloth{source}, but {doubt}"
@@ -923,14 +921,16 @@ class TableClearer:
         gone = [name for name in fits if not self._stayed(name, attempt, capture)]
         return gone[0] if len(gone) == 1 else None
 
-    def _other_box_hanging(self, attempt: AttemptState, extra: float) -> tuple[str, bool]:
+    def _other_box_hanging(self, attempt: AttemptState, extra: float, named: str) -> tuple[str, bool]:
         """Before a double pick named `under` goes into the box with the meant cloth: the
         cloths of another box, not placed, that weigh the `extra` [kg] or less
         (`could_be_in`: one, or two lighter ones, could hang hidden in its place: held-out
         episode 216, session 25: No.2's lift held No.10, never seen, and the check after the
         lift missed No.17, which No.2 lay on and which stayed), looked for hanging
         (`held_look`, two looks): ("" when none could be there or none shows `doubt_share`
-        of the held pixels in its own colours, else why not; whether the hand moved to look)."""
+        of the held pixels in its own colours and, from where the hand looked, the `named`
+        cloth is not found where the survey saw it, else why not; whether the hand moved to
+        look)."""
         s = self.settings
         box = attempt.box.name
         rivals = self._not_placed(
@@ -948,6 +948,8 @@ class TableClearer:
                 f"what hangs shows cloths of another box ({seen.pixels} px: {', '.join(showing)}; {where})",
                 True,
             )
+        if self._stayed(named, attempt, self.cell.capture()):  # seen from beside the lift
+            return STILL_IN_PLACE, True
         attempt.notes.append(f"looked at what hangs: no cloth of another box ({seen.pixels} px; {where})")
         return "", True
 
