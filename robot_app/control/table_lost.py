@@ -631,6 +631,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     loop, table_z, name = job.loop_settings, job.table_z, match.name
     expected = job.weights.get(name)
     held: tuple[str, ...] = ()
+    partners: tuple[str, ...] = ()  # lost cloths of the box that may lie at the grasp (`lost_with`)
     instead: tuple[str, ...] = ()  # cloths of another box that would weigh as much as `held`
     if job.weigh is None or expected is None:
         verdict, what = "wrong", f"{name}'s weight unknown: its identity cannot be confirmed"
