@@ -15,6 +15,7 @@ from robot_app.control.held_look import (
     held_mask,
     held_verdict,
     hover_offsets,
+    palette_masks,
     project_to_image,
     table_homography,
     table_points,
@@ -113,6 +114,30 @@ def test_the_verdict_wants_the_meant_colours_and_hardly_any_of_the_doubted_ones(
     assert seen.own["No.6"] == 0.0 and held_verdict(seen, s)[0]
     assert not held_verdict(HeldColours(50, 1.0, {}), s)[0]  # too little seen: not sure
     assert not held_verdict(HeldColours(500, 0.2, {}), s)[0]  # not its colours
+
+
+def test_a_hanging_cloths_shade_is_no_other_cloths_own_colour() -> None:
+    # held-out episode 463 (session 29): two violet cloths hanging, 20-27 % of them DARK (their
+    # shaded side), none LIGHT; every white cloth took the DARK as its folds and doubted the pair
+    from robot_app.vision.hue import DARK, LIGHT
+
+    violet, white, black = np.array([150, 155]), np.array([LIGHT]), np.array([DARK])
+    codes = np.array([[150] * 6 + [155] * 2 + [DARK] * 2])  # 80 % violet, 20 % shade
+    held = np.ones_like(codes, dtype=bool)
+    palettes = {"violet": violet, "white": white, "black": black}
+    masks = palette_masks(codes, palettes, "violet", hue_threshold=4)
+    seen = held_colours(held, masks["violet"], masks["violet"], {n: masks[n] for n in ("white", "black")})
+    assert seen.meant == pytest.approx(0.8)
+    assert seen.own["white"] == 0.0  # its folds' shade is any hanging cloth's shade
+    assert seen.own["black"] == pytest.approx(0.2)  # a dark cloth's own colour still counts
+    # a white cloth that hangs shows its light; meant, its shade counts as its own
+    codes = np.array([[150] * 6 + [LIGHT] * 3 + [DARK]])
+    masks = palette_masks(codes, palettes, "violet", hue_threshold=4)
+    assert held_colours(held, masks["violet"], masks["violet"], {"white": masks["white"]}).own["white"] == (
+        pytest.approx(0.3)
+    )
+    masks = palette_masks(codes, palettes, "white", hue_threshold=4)
+    assert masks["white"].sum() == 4 and masks["violet"].sum() == 6
 
 
 # ------------------------------------------------- the look in the job (`table_lost._look_at_held`)

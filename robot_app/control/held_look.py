@@ -297,6 +297,23 @@ def held_colours(
     return HeldColours(count, float(np.mean(mine)), own)
 
 
+def palette_masks(
+    codes: npt.ArrayLike, palettes: Mapping[str, npt.ArrayLike], meant: str, hue_threshold: int
+) -> dict[str, Mask]:
+    """Per cloth, which pixels (`codes`, colour codes) are in its main colours (`palettes`):
+    the `meant` cloth's with its folds' shade (`regions.with_folds`: a white cloth hanging
+    shows DARK where it turns from the light), every other cloth's without it. A hanging
+    cloth's shaded side reads DARK whatever its colour: held-out episode 463 (session 29),
+    No.13 and No.15 (violet, colours) came up together, 20-27 % of the held pixels DARK and
+    none LIGHT, and every white cloth showed them as its own folds (15-20 %, over
+    `doubt_share`), so the pair went back at four lifts. Another cloth's DARK counts only
+    where DARK is one of its own main colours (a dark cloth)."""
+    return {
+        name: in_palette(codes, palette, hue_threshold, folds=name == meant)
+        for name, palette in palettes.items()
+    }
+
+
 def held_verdict(seen: HeldColours, settings: HeldLookSettings) -> tuple[bool, str]:
     """(the lift holds the meant cloth alone as far as its colours tell, what was seen)."""
     if seen.pixels < settings.min_pixels:
@@ -390,7 +407,7 @@ def look_at_held(
         views.append(
             (
                 held,
-                {n: in_palette(codes, p, threshold) for n, p in palettes.items()},
+                palette_masks(codes, palettes, meant, threshold),
                 in_palette(codes, wide, threshold),
             )
         )
@@ -424,6 +441,7 @@ __all__ = [
     "held_verdict",
     "hover_offsets",
     "look_at_held",
+    "palette_masks",
     "project_to_image",
     "table_homography",
     "table_points",

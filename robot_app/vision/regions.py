@@ -155,11 +155,16 @@ def with_folds(palette: npt.ArrayLike) -> npt.NDArray[np.int64]:
     return colours
 
 
-def in_palette(codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int) -> npt.NDArray[np.bool_]:
+def in_palette(
+    codes: npt.ArrayLike, palette: npt.ArrayLike, hue_threshold: int, folds: bool = True
+) -> npt.NDArray[np.bool_]:
     """Which `codes` are in `palette` (a model's main codes), as
-    `control.table_lost.palette_share` counts them."""
+    `control.table_lost.palette_share` counts them (`folds`: with the folds' shade,
+    `with_folds`)."""
     flat = np.asarray(codes)
-    colours = with_folds(palette).reshape((1,) * flat.ndim + (-1,))
+    colours = (with_folds(palette) if folds else np.asarray(palette, dtype=np.int64)).reshape(
+        (1,) * flat.ndim + (-1,)
+    )
     return np.asarray(np.any(colours_match(flat[..., None], colours, hue_threshold), axis=-1), dtype=bool)
 
 
