@@ -137,3 +137,34 @@ def test_a_double_pick_dropped_in_transfer_loses_both_cloths() -> None:
     ledger.record_attempt(attempt, result, 1.0, 0.026)
     assert set(ledger.lost) == {"No.10", "No.4"}
     assert ledger.lost["No.4"].how == "dropped with No.10" and "No.4" not in ledger.placed_order
+
+
+def _placed_attempt(ledger: TableLedger, name: str) -> None:
+    """Books an attempt at `name` that placed it into its box."""
+    box = BoxPlace("colours", np.array([0.3, -0.56, 0.0]), 0.22)
+    attempt = AttemptState(None, box, np.eye(4), 0.0, lost_name=name)
+    report = LimitReport(0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
+    result = EpisodeResult(Outcome.PLACED, True, "placed", None, 1.0, 0.0, (), (), report, 0, 0, 1, 0, 0, 0)
+    ledger.record_attempt(attempt, result, 1.0, 0.024)
+    ledger.placed(name, confirmed=True)
+
+
+def test_a_cloth_whose_attempts_are_spent_gets_one_more_after_another_is_placed() -> None:
+    # held-out episodes 415 and 464 (session 29): the cloth that came up with it at every lift
+    # was placed after its attempts were spent, and it lay alone on the table, never tried again
+    ledger = TableLedger()
+    for _ in range(4):
+        _put_back(ledger, "No.18", (0.5, 0.1))
+    assert not ledger.untried("No.18", max_attempts=4)
+    _placed_attempt(ledger, "No.9")  # the pile changed
+    assert ledger.untried("No.18", max_attempts=4)
+    _put_back(ledger, "No.18", (0.5, 0.1))
+    assert not ledger.untried("No.18", max_attempts=4)  # one more per placement
+    for _ in range(3):
+        _placed_attempt(ledger, "No.10")
+        assert ledger.untried("No.18", max_attempts=4)
+        _put_back(ledger, "No.18", (0.5, 0.1))
+    _placed_attempt(ledger, "No.11")
+    assert not ledger.untried("No.18", max_attempts=4)  # never more than twice as many
+    (record,) = (r for r in ledger.cloths(None, lambda name: "colours", 4) if r.name == "No.18")
+    assert record.outcome is ClothOutcome.FAILED and record.attempts == 8

@@ -170,7 +170,8 @@ class ClearTableSettings(StrictModel):
 
     Attributes:
         max_picks: pick attempts in all before the job gives up.
-        max_attempts: pick attempts per cloth.
+        max_attempts: pick attempts per cloth, and one more (up to twice as many) whenever
+            a cloth was placed since its last attempt (`TableLedger.untried`).
         same_place: the loop's recognition must find the cloth this close to where the
             survey saw it (else it found another cloth of that look, and stops).
         pick_depth_window: the pick's recogniser searches the cloth this far nearer or

@@ -256,13 +256,13 @@ class TableClearer:
                 last = self._survey(meanwhile=boxes_first)
                 boxes_first = None
                 self._notice_moved()
-                target = choose_target(last, self.ledger.records, self.settings.max_attempts)
+                target = choose_target(last, self.ledger.records, self._untried)
                 for place in self._places_to_look(last) if target is None else ():
                     self._record_survey(last, None)
                     if not self._look_from(place):
                         continue
                     last = self._survey()
-                    target = choose_target(last, self.ledger.records, self.settings.max_attempts)
+                    target = choose_target(last, self.ledger.records, self._untried)
                     if target is not None or self._lost_to_pick(last) is not None:
                         break
                 lost = self._lost_to_pick(last) if target is None else None
@@ -289,6 +289,10 @@ class TableClearer:
         except (IKError, TrajectoryError) as err:
             stop_reason = f"the job's own motion failed: {err}"
         return self._result(last, stop_reason, interrupted, start, wall_start)
+
+    def _untried(self, name: str) -> bool:
+        """Has `name` attempts left (`TableLedger.untried`)?"""
+        return self.ledger.untried(name, self.settings.max_attempts)
 
     def _start(self) -> None:
         """A fresh job's books: nothing picked, laid back or looked at yet."""
@@ -519,7 +523,7 @@ class TableClearer:
         lost = {
             name: self.recognizers[name]
             for name in self.ledger.lost
-            if name not in seen and self.ledger.untried(name, self.settings.max_attempts)
+            if name not in seen and self._untried(name)
         }
         # lost cloths with no attempts left still explain their regions (`match_lost`'s `spent`)
         spent = {
@@ -540,10 +544,7 @@ class TableClearer:
             guesses = tuple(
                 name
                 for name in self.recognizers
-                if name not in lost
-                and name not in placed
-                and name not in seen
-                and self.ledger.untried(name, self.settings.max_attempts)
+                if name not in lost and name not in placed and name not in seen and self._untried(name)
             )
             suspects = tuple(name for name in guesses if name in self.ledger.last_seen)
             rounds = [suspects, guesses] if suspects and len(suspects) < len(guesses) else [guesses]
@@ -709,7 +710,7 @@ class TableClearer:
             self._survey_capture,
             ident,
             self.ledger.last_seen,
-            lambda name: name not in placed and self.ledger.untried(name, self.settings.max_attempts),
+            lambda name: name not in placed and self._untried(name),
             dropped_on,
             len(self.ledger.attempts),
         )

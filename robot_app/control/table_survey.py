@@ -7,7 +7,7 @@ Pure functions of one survey's capture and identification (`vision.identify`); t
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -66,20 +66,19 @@ class TablePlane:
 
 
 def choose_target(
-    ident: Identification, records: Mapping[str, Mapping[str, object]], max_attempts: int
+    ident: Identification, records: Mapping[str, Mapping[str, object]], untried: Callable[[str], bool]
 ) -> Detection | None:
     """The cloth to pick next: the most confident one nothing lies on, among those with
-    attempts left (`max_attempts`); else the most visible one with attempts left.
+    attempts left (`untried`); else the most visible one with attempts left.
 
     Args:
         ident: the survey's identification.
-        records: cloth name -> the job's record ("attempts", "unconfirmed", ...).
-        max_attempts: pick attempts per cloth.
+        records: cloth name -> the job's record ("unconfirmed", ...).
+        untried: cloth name -> has it attempts left (`TableLedger.untried`)?
     """
 
     def eligible(d: Detection) -> bool:
-        tried = int(records.get(d.name, {}).get("attempts", 0))  # type: ignore[call-overload]
-        if tried >= max_attempts:
+        if not untried(d.name):
             return False
         # a candidate below the recogniser's threshold gets one closer look by the loop
         unconfirmed = bool(records.get(d.name, {}).get("unconfirmed", False))
