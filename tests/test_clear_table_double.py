@@ -21,13 +21,16 @@ from robot_app.control.episode import EpisodeAbortError
 from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_ledger import TableLedger
 
+CORNERS = np.array([[-0.1, -0.1, 0.0], [0.1, -0.1, 0.0], [0.1, 0.1, 0.0], [-0.1, 0.1, 0.0]])  # a 0.2 m square
+
 
 def _job(monkeypatch: pytest.MonkeyPatch, put_back: list[str]) -> table_clearer.TableClearer:
     job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
     job.settings = ClearTableSettings(survey_latency=0.0, held_look={"name_companion": False})
     job.weights = {"No.19": 0.021, "No.10": 0.029, "No.12": 0.011, "No.11": 0.024}
     job.recognizers = {
-        n: SimpleNamespace(name=n, model=SimpleNamespace(points_in=np.zeros((4, 3)))) for n in job.weights
+        n: SimpleNamespace(name=n, model=SimpleNamespace(points_in=CORNERS, grasp_point=np.zeros(3)))
+        for n in job.weights
     }  # type: ignore[misc]
     job.ledger = TableLedger()
     job.table_z = 0.0
@@ -81,8 +84,10 @@ def test_without_a_laid_back_cloth_near_the_grasp_both_go_into_the_box(
     job = _job(monkeypatch, put_back)
     _lay_back(job, (0.20, -0.20), (0.30, -0.25))  # laid far from the grasp at (0.50, 0.00)
     attempt = _attempt()
-    job._after_lift(attempt, SimpleNamespace(arm=SimpleNamespace(resume_at=lambda q: None)))  # type: ignore[arg-type]
+    loop = SimpleNamespace(arm=SimpleNamespace(resume_at=lambda q: None), extra_reach=0.0)
+    job._after_lift(attempt, loop)  # type: ignore[arg-type]
     assert attempt.came_along == ("No.10",) and put_back == [] and attempt.named_by == "memory"
+    assert loop.extra_reach == pytest.approx(0.1 * np.sqrt(2.0))  # No.10 hangs from No.19: carried higher
 
 
 def test_a_laid_back_pair_near_the_grasp_makes_the_other_cloth_unsure(

@@ -34,6 +34,7 @@ def _job(lost=(), seen=None, placed=(), surveys=7) -> SimpleNamespace:
         last_survey={name: survey for name, (survey, _) in seen.items()},
         last_pose={name: pose for name, (_, pose) in seen.items()},
         lost=dict.fromkeys(lost),
+        unnamed=[],
     )
     return SimpleNamespace(
         ledger=ledger,
@@ -129,3 +130,31 @@ def test_lost_cloths_of_the_box_that_may_lie_at_the_grasp_join_the_lift_s_naming
     assert weighed_as(0.0325, "No.9", partners, WEIGHTS, job.settings) == ("No.9", "No.2")
     job.ledger.placed_order.append("No.2")  # placed since: not in any lift
     assert lost_with(job, "No.9", "colours", (), GRASP) == ()
+
+
+def test_suspects_of_an_unnamed_companion_put_back_where_the_grasp_is_join_the_lift_s_naming() -> None:
+    """Held-out episode 415 (session 29): No.12 came up with No.20 (colours both, 38 g) at
+    four blind lifts, each put back; No.20 was seen by the first survey only and had come up,
+    unnamed, with the put-back double pick the grasp's region lay at. It may be the lift's
+    second cloth as a lost cloth of its box may."""
+    from robot_app.control.clear_table_records import LossKind, LostPlace
+    from robot_app.control.table_lost import lost_with, weighed_as
+
+    weights = WEIGHTS | {"No.12": 0.0109, "No.20": 0.0235}
+    job = _job(seen={"No.20": (1, _at(0.5, 0.1)), "No.2": (7, _at(0.5, 0.1)), "No.4": (2, _at(0.5, 0.1))})
+    job.weights = weights
+    job.sort = SimpleNamespace(box_for=lambda name: BOXES.get(name, "colours"))
+    unnamed = LostPlace(
+        LossKind.PUT_BACK, "came up with No.15, not named", np.array(GRASP), np.array(GRASP), ()
+    )
+    assert lost_with(job, "No.12", "colours", (), GRASP) == ()  # no unnamed companion laid there
+    job.ledger.unnamed.append(unnamed)
+    # No.20: hidden since survey 1; No.2 is seen by the last survey (7); No.4 is of whites
+    partners = lost_with(job, "No.12", "colours", (), GRASP)
+    assert partners == ("No.20",)
+    assert weighed_as(0.0384, "No.12", partners, weights, job.settings) == ("No.12", "No.20")
+    far = LostPlace(
+        LossKind.PUT_BACK, "came up with No.15, not named", np.array((0.1, 0.5)), np.array((0.1, 0.6)), ()
+    )
+    job.ledger.unnamed[:] = [far]  # laid back far from this grasp
+    assert lost_with(job, "No.12", "colours", (), GRASP) == ()

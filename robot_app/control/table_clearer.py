@@ -55,6 +55,7 @@ from robot_app.control.colour_fit import colour_shares
 from robot_app.control.episode import EpisodeAbortError, EpisodeResult, Outcome, PhaseRecord, VisionCycle
 from robot_app.control.grasp_point import points_in_mask
 from robot_app.control.held_look import look_at_held
+from robot_app.control.intercept import hanging_reach
 from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits
@@ -289,6 +290,12 @@ class TableClearer:
         except (IKError, TrajectoryError) as err:
             stop_reason = f"the job's own motion failed: {err}"
         return self._result(last, stop_reason, interrupted, start, wall_start)
+
+    def hanging_reach(self, name: str) -> float:
+        """How far cloth `name` hangs below where it is held [m] (`intercept.hanging_reach`
+        from its grasp point), the reach a cloth hanging from a held one adds to it."""
+        model = self.recognizers[name].model
+        return hanging_reach(model.points_in, model.grasp_point)
 
     def _untried(self, name: str) -> bool:
         """Has `name` attempts left (`TableLedger.untried`)?"""
@@ -880,6 +887,7 @@ class TableClearer:
             if other is not None and self.sort.box_for(other) == attempt.box.name:
                 attempt.came_along = (other,)
                 attempt.remembered = (other,) if source else ()
+                loop.extra_reach = self.hanging_reach(other)  # it hangs from the meant cloth
                 attempt.notes.append(
                     f"double pick ({what}): {other} came along{source}, same box: both placed"
                 )

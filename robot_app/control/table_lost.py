@@ -649,7 +649,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         # more than, or other than, the cloth meant came up; all of it belongs in this box
         attempt.lift_check = "double" if len(held) > 1 else "wrong"
         attempt.lost_name, attempt.came_along = held[0], held[1:]
-        why = "lost there too" if any(n in partners for n in held) else "colours alike"
+        why = "may lie there too" if any(n in partners for n in held) else "colours alike"
         attempt.notes.append(
             f"{weighed * 1000:.0f} g lifted: the weight of {' and '.join(held)} "
             f"({why}, same box): placed as {'one lift' if len(held) > 1 else held[0]}"
@@ -693,7 +693,9 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             )
     start = job.cell.time
     job.set_phase("transfer", name)
-    carry_over_box(job.motion, attempt.box.centre, table_z, loop)
+    # the other cloths of a lift named as several hang from the held one
+    extra = max((job.hanging_reach(other) for other in held[1:]), default=0.0)
+    carry_over_box(job.motion, attempt.box.centre, table_z, loop, extra, job.motion.tcp_position())
     _phase(job, name, "transfer", start, "")
     if not job.cell.holding():
         attempt.dropped = True
@@ -704,7 +706,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     start = job.cell.time
     job.set_phase("release", name)
     model = job.recognizers[name].model
-    reach = hanging_reach(model.points_in, model.grasp_point)
+    reach = hanging_reach(model.points_in, model.grasp_point) + extra
     release_into_box(job.motion, job.cell, attempt.box.centre, table_z, loop, reach)
     _phase(job, name, "release", start, "")
     job.check_box(attempt)
@@ -719,20 +721,34 @@ def lost_with(
     region shows their colours: a double pick's other cloth, put back inside the meant
     one, shows none (held-out episode 407, session 28: No.8 and No.2, both colours, came up
     together at five lifts, the region 100 % in No.8's orange; each read 43-46 g, the two
-    together, and went back, as No.2 was no alike of the region). `weighed_as` may name
-    the lift after them with `name`; they go into its box."""
+    together, and went back, as No.2 was no alike of it). With them, where the grasp may
+    be at a put-back of a double pick whose other cloth was not named (`TableLedger.unnamed`,
+    `near_the_loss`), the suspects of that cloth in `box`: seen by an earlier survey, not by
+    the last, not lost and not placed (`TableClearer._lost_to_pick`'s). Held-out episodes
+    415 and 429 (session 29): No.12 came up with No.20 at four blind lifts (38 g), No.8 with
+    No.14 and No.11 (78 g), all colours, each hidden since the first survey and put back
+    with the meant cloth unnamed; every lift went back, as neither was lost. `weighed_as`
+    may name the lift after them with `name`; they go into its box (`weighs_instead` and
+    `with_the_meant` still doubt the cloths of another box that could be in it)."""
     ledger, placed = job.ledger, set(job.ledger.placed_order)
     grasp = np.asarray(grasp_xy, dtype=float).reshape(2)
+    near = {other for other, place in ledger.lost.items() if near_the_loss(grasp, place, job.settings.lost)}
+    if any(near_the_loss(grasp, place, job.settings.lost) for place in ledger.unnamed):
+        surveys = len(ledger.surveys)
+        near |= {
+            other
+            for other, survey in ledger.last_survey.items()
+            if survey != surveys and other not in ledger.lost
+        }
     return tuple(
         sorted(
             other
-            for other, place in ledger.lost.items()
+            for other in near
             if other != name
             and other not in alike
             and other not in placed
             and other in job.weights
             and job.sort.box_for(other) == box
-            and near_the_loss(grasp, place, job.settings.lost)
         )
     )
 
