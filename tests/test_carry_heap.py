@@ -54,3 +54,19 @@ def test_a_heap_too_high_to_reach_is_carried_as_high_as_the_arm_reaches() -> Non
     motion = Motion(highest=s.transfer_height - 0.01)
     with pytest.raises(IKError):  # not even one cloth's height: as before, the caller's abort
         carry_over_box(motion, BOX, 0.0, s, 0.2, TCP)  # type: ignore[arg-type]
+
+
+def test_what_the_load_cell_no_longer_reads_over_the_box_fell_on_the_way() -> None:
+    # held-out episode 475 (session 29): No.17 came up with No.6 (50 g) and fell back onto the
+    # table as the hand rose; the job booked it placed
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.pick_checks import fell_on_the_way
+
+    s = ClearTableSettings()
+    along = {"No.17": 0.024, "No.11": 0.028}
+    assert fell_on_the_way(0.075, 0.022, along, s) == ()  # all three still carried
+    assert fell_on_the_way(0.022, 0.022, along, s) == ("No.17", "No.11")  # the meant cloth alone
+    assert fell_on_the_way(0.051, 0.022, along, s) == ("No.17",)  # 22 + 28 g: No.17 fell
+    assert fell_on_the_way(0.046, 0.022, {"No.17": 0.024}, s) == ()
+    assert fell_on_the_way(0.200, 0.022, {"No.17": 0.024}, s) == ("No.17",)  # nothing fits: not sure
+    assert fell_on_the_way(0.046, 0.022, {"No.17": None}, s) == ("No.17",)  # weight unknown: not sure

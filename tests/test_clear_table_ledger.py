@@ -168,3 +168,15 @@ def test_a_cloth_whose_attempts_are_spent_gets_one_more_after_another_is_placed(
     assert not ledger.untried("No.18", max_attempts=4)  # never more than twice as many
     (record,) = (r for r in ledger.cloths(None, lambda name: "colours", 4) if r.name == "No.18")
     assert record.outcome is ClothOutcome.FAILED and record.attempts == 8
+
+
+def test_a_cloth_that_fell_from_a_double_pick_on_the_way_is_lost_not_placed() -> None:
+    ledger = TableLedger()
+    _survey(ledger, "No.6", "No.17")
+    box = BoxPlace("whites", np.array([0.3, 0.56, 0.0]), 0.22)
+    attempt = AttemptState(None, box, np.eye(4), 0.0, lost_name="No.6", came_along=(), fell=("No.17",))
+    report = LimitReport(0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
+    result = EpisodeResult(Outcome.PLACED, True, "placed", None, 1.0, 0.0, (), (), report, 0, 0, 1, 0, 0, 0)
+    ledger.record_attempt(attempt, result, 1.0, 0.022)
+    assert ledger.placed_order == ["No.6"] and "No.17" in ledger.lost
+    assert "fell from No.6's lift" in ledger.lost["No.17"].how

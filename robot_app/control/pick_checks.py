@@ -7,6 +7,7 @@ held) and after RELEASE (the box changed with the cloth's colours).
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -42,6 +43,7 @@ class AttemptState:
     obstacles_xy: FloatArray | None = None  # (M, 2) the other cloths the survey saw [m]
     came_along: tuple[str, ...] = ()
     remembered: tuple[str, ...] = ()  # of `came_along`, those known from an earlier survey only
+    fell: tuple[str, ...] = ()  # of those that came along, the ones gone by the end of the transfer
     laid_back_too: tuple[str, ...] = ()  # known cloths that came along and were put back with it
     put_back_at: FloatArray | None = None  # (2,) where a put-back let go [m]
     shed_at: tuple[FloatArray, FloatArray] | None = None  # a shed double pick's laid strip [m]
@@ -87,6 +89,31 @@ def weight_verdict(
     if weighed < expected * (1 - s.weight_tolerance) - s.weight_floor:
         return "wrong", f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g"
     return "ok", ""
+
+
+def fell_on_the_way(
+    weighed: float, meant: float, along: Mapping[str, float | None], settings: ClearTableSettings
+) -> tuple[str, ...]:
+    """Of the cloths `along` (name -> weight [kg], None unknown) that came up with the meant
+    cloth (`meant` [kg]) to go into its box, those the load cell's reading `weighed` [kg]
+    over the box no longer carries: the others of the ones whose weight with the meant
+    cloth's comes nearest the reading (the more kept at a tie), in `along`'s order; all of
+    them when that is not the reading (`weight_verdict`). Held-out episode 475 (session 29):
+    No.17 came up with No.6 (whites both, 50 g), fell back onto the table as the hand rose,
+    and the job booked it placed; a blind lift of a guessed No.2 then took it into colours."""
+    names = list(along)
+    known = [name for name in names if along[name] is not None]
+    best: tuple[float, int, tuple[str, ...]] = (abs(weighed - meant), 0, ())  # none kept
+    for size in range(1, len(known) + 1):
+        for kept in itertools.combinations(known, size):
+            total = meant + sum(float(along[name] or 0.0) for name in kept)
+            key = (abs(weighed - total), -size, kept)
+            best = key if key[:2] < best[:2] else best
+    kept = best[2]
+    total = meant + sum(float(along[name] or 0.0) for name in kept)
+    if weight_verdict(weighed, total, "", settings)[0] != "ok":
+        return tuple(names)
+    return tuple(name for name in names if name not in kept)
 
 
 def companion(
@@ -209,6 +236,7 @@ __all__ = [
     "agrees",
     "check_release",
     "companion",
+    "fell_on_the_way",
     "remembered_companion",
     "still_there",
     "weighs_extra",

@@ -68,6 +68,7 @@ from robot_app.control.pick_checks import (
     check_release,
     companion,
     could_be_in,
+    fell_on_the_way,
     remembered_companion,
     still_there,
     weighs_extra,
@@ -509,6 +510,8 @@ class TableClearer:
             raise EpisodeAbortError(
                 Outcome.LOST, f"{DROPPED} during the transfer: the gripper came empty over the box"
             )
+        elif record.phase == "transfer":
+            self.check_carried(attempt)
         elif record.phase == "release":
             self._after_release(attempt, loop)
 
@@ -1102,6 +1105,22 @@ class TableClearer:
         attempt.check_wall_s += time.perf_counter() - wall
         self._wait(time.process_time() - cpu, 1)
         return None if stayed else name
+
+    def check_carried(self, attempt: AttemptState) -> None:
+        """Over the box, before the release: does the hand still carry the cloths that came
+        along with the meant one (`AttemptState.came_along`)? Those the load cell no longer
+        reads (`fell_on_the_way`) fell on the way: not placed, booked lost along the way
+        (`AttemptState.fell`, `TableLedger.record_attempt`)."""
+        expected = self.weights.get(attempt.name)
+        if not attempt.came_along or self.weigh is None or expected is None:
+            return
+        weighed = float(self.weigh())
+        along = {name: self.weights.get(name) for name in attempt.came_along}
+        fell = fell_on_the_way(weighed, expected, along, self.settings)
+        if fell:
+            attempt.fell = fell
+            attempt.came_along = tuple(name for name in attempt.came_along if name not in fell)
+            attempt.notes.append(f"{weighed * 1000:.0f} g over the box: {' and '.join(fell)} fell on the way")
 
     def _after_release(self, attempt: AttemptState, loop: PickPlaceLoop) -> None:
         """Checks the box (`check_box`); the loop's HOME then starts from the look."""

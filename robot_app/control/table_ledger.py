@@ -237,6 +237,14 @@ class TableLedger:
                         True,
                     )
                 )
+        for companion in attempt.fell:  # it came up with the lift and was gone over the box
+            self.lost[companion] = LostPlace(
+                LossKind.DROPPED,
+                f"fell from {name}'s lift on the way to the box",
+                attempt.transform_target_to_world[:2, 3].copy(),
+                box.centre[:2].copy(),
+                self.surveys[-1].unknown if self.surveys else (),
+            )
         if result.outcome is Outcome.PLACED:
             confirmed = attempt.box_check is not None and attempt.box_check.confirmed
             self.placed(name, confirmed)

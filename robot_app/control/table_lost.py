@@ -641,10 +641,9 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         if verdict != "ok":
             most = 1 if match.piece else MAX_HEAP
             grasp_xy = attempt.transform_target_to_world[:2, 3]
-            partners = lost_with(job, name, attempt.box.name, match.alike, grasp_xy)
-            held = weighed_as(
-                weighed, name, (*match.alike, *partners), job.weights, job.settings, most, match.guessed
-            )
+            partners = lost_with(job, name, attempt.box.name, grasp_xy)
+            along, only_alone = lift_candidates(match, partners)
+            held = weighed_as(weighed, name, along, job.weights, job.settings, most, only_alone)
     if held:
         # more than, or other than, the cloth meant came up; all of it belongs in this box
         attempt.lift_check = "double" if len(held) > 1 else "wrong"
@@ -703,6 +702,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         job.cell.release()
         job.cell.set_gripper(loop.gripper_open)
         return Outcome.LOST, f"{DROPPED} during the transfer: the gripper came empty over the box"
+    job.check_carried(attempt)
     start = job.cell.time
     job.set_phase("release", name)
     model = job.recognizers[name].model
@@ -713,9 +713,15 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     return Outcome.PLACED, f"{name} placed (picked blind, its weight read)"
 
 
-def lost_with(
-    job: TableClearer, name: str, box: str, alike: Sequence[str], grasp_xy: npt.ArrayLike
-) -> tuple[str, ...]:
+def lift_candidates(match: LostMatch, partners: Sequence[str]) -> tuple[tuple[str, ...], frozenset[str]]:
+    """The cloths besides `match.name` a blind lift may be named after by its weight
+    (`weighed_as`): the match's alike and the `partners` that may lie at the grasp
+    (`lost_with`); and those of them taken only alone: the guesses (`LostMatch.guessed`)
+    that are no partner."""
+    return tuple(dict.fromkeys((*match.alike, *partners))), match.guessed - frozenset(partners)
+
+
+def lost_with(job: TableClearer, name: str, box: str, grasp_xy: npt.ArrayLike) -> tuple[str, ...]:
     """The other lost cloths of `box`, not placed, that may lie where a blind lift meant for
     `name` grasped (`grasp_xy` [m], `near_the_loss` of their loss) whether or not the
     region shows their colours: a double pick's other cloth, put back inside the meant
@@ -728,8 +734,11 @@ def lost_with(
     415 and 429 (session 29): No.12 came up with No.20 at four blind lifts (38 g), No.8 with
     No.14 and No.11 (78 g), all colours, each hidden since the first survey and put back
     with the meant cloth unnamed; every lift went back, as neither was lost. `weighed_as`
-    may name the lift after them with `name`; they go into its box (`weighs_instead` and
-    `with_the_meant` still doubt the cloths of another box that could be in it)."""
+    may name the lift after them with `name`, a suspect too where the match guessed it
+    (`LostMatch.guessed`, otherwise only ever taken alone: replay of held-out 475, No.17 and
+    No.6 of whites came up together, No.6 a guess by its colours, and went back); they go
+    into its box (`weighs_instead` and `with_the_meant` still doubt the cloths of another
+    box that could be in it). Alike or not: the caller merges them with the match's alike."""
     ledger, placed = job.ledger, set(job.ledger.placed_order)
     grasp = np.asarray(grasp_xy, dtype=float).reshape(2)
     near = {other for other, place in ledger.lost.items() if near_the_loss(grasp, place, job.settings.lost)}
@@ -745,7 +754,6 @@ def lost_with(
             other
             for other in near
             if other != name
-            and other not in alike
             and other not in placed
             and other in job.weights
             and job.sort.box_for(other) == box
@@ -857,6 +865,7 @@ __all__ = [
     "colour_patches",
     "inner_pixel",
     "inner_pixels",
+    "lift_candidates",
     "match_heap",
     "match_lost",
     "near_the_loss",
