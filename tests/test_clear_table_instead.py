@@ -174,3 +174,37 @@ def test_a_guess_that_may_lie_at_the_grasp_may_be_named_with_the_meant_cloth() -
     along, only_alone = lift_candidates(match, ("No.6",))  # a suspect of an unnamed put-back there
     assert along == ("No.6",) and only_alone == frozenset()
     assert weighed_as(0.046, "No.17", along, weights, s, alone_only=only_alone) == ("No.17", "No.6")
+
+
+def test_a_never_seen_cloth_that_showed_hanging_from_an_unnamed_put_back_nearby_is_doubted() -> None:
+    # held-out episode 514 (session 29): No.1 (colours, never identified) came up with No.18
+    # (whites) and showed 11 % of its own colours hanging; the pair was put back unnamed, and a
+    # blind lift there, named "No.6 and No.18" by its weight, took No.1 into whites
+    from robot_app.control.clear_table_records import LossKind, LostPlace
+
+    job = _job(lost=("No.18",))
+    lift = ("No.18", "No.17")
+    assert weighs_instead(job, "whites", lift, 0.041, GRASP) == ()  # No.9 never seen: not doubted
+    showed = LostPlace(
+        LossKind.PUT_BACK,
+        "came up with No.18, not named",
+        np.array(GRASP),
+        np.array(GRASP),
+        (),
+        True,
+        ("No.9", "No.4"),
+    )
+    job.ledger.unnamed.append(showed)
+    assert weighs_instead(job, "whites", lift, 0.041, GRASP) == ("No.9",)  # No.4: same box
+    assert with_the_meant(0.041, ("No.18",), ("No.9",), WEIGHTS, job.settings) == ("No.9",)  # 21 + 16 g
+    far = LostPlace(
+        LossKind.PUT_BACK,
+        "came up with No.18, not named",
+        np.array((0.1, 0.5)),
+        np.array((0.1, 0.6)),
+        (),
+        True,
+        ("No.9",),
+    )
+    job.ledger.unnamed[:] = [far]
+    assert weighs_instead(job, "whites", lift, 0.041, GRASP) == ()

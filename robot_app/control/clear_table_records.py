@@ -155,6 +155,9 @@ class LostPlace:
         before: (x, y) [m] of the unknown regions of the survey before the loss.
         laid: the job let it go itself along the way (a put-back, a shed): an unknown
             region seen before on that strip is no alibi, the cloth was laid over it.
+        showed: for a double pick put back with its other cloth unnamed, the cloths whose
+            own colours the look at what hung showed (`TableClearer._companion_seen_hanging`,
+            at least `held_look.doubt_share`): one of them may be that cloth, seen or not.
     """
 
     kind: LossKind
@@ -163,6 +166,7 @@ class LostPlace:
     end: FloatArray
     before: tuple[tuple[float, float], ...]
     laid: bool = False
+    showed: tuple[str, ...] = ()
 
 
 class ClearTableSettings(StrictModel):

@@ -214,7 +214,9 @@ class TableLedger:
                     self.maybe.setdefault(doubted, []).append(where)
             if attempt.put_back and attempt.unnamed_along:
                 self.unnamed.append(
-                    LostPlace(put_back, f"came up with {name}, not named", start, end, before, laid)
+                    LostPlace(
+                        put_back, f"came up with {name}, not named", start, end, before, laid, attempt.showed
+                    )
                 )
         if attempt.shed_at is not None:  # the other cloth was left lying along the strip
             start, end = attempt.shed_at
