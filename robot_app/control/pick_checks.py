@@ -104,14 +104,13 @@ def fell_on_the_way(
     and the job booked it placed; a blind lift of a guessed No.2 then took it into colours."""
     names = list(along)
     known = [name for name in names if along[name] is not None]
-    best: tuple[float, int, tuple[str, ...]] = (abs(weighed - meant), 0, ())  # none kept
+    best: tuple[float, int, tuple[str, ...], float] = (abs(weighed - meant), 0, (), meant)  # none kept
     for size in range(1, len(known) + 1):
         for kept in itertools.combinations(known, size):
             total = meant + sum(float(along[name] or 0.0) for name in kept)
-            key = (abs(weighed - total), -size, kept)
+            key = (abs(weighed - total), -size, kept, total)
             best = key if key[:2] < best[:2] else best
-    kept = best[2]
-    total = meant + sum(float(along[name] or 0.0) for name in kept)
+    _, _, kept, total = best
     if weight_verdict(weighed, total, "", settings)[0] != "ok":
         return tuple(names)
     return tuple(name for name in names if name not in kept)
