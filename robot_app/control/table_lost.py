@@ -59,7 +59,6 @@ from robot_app.control.clear_table_records import ClearTableSettings, LostPlace,
 from robot_app.control.colour_fit import colour_shares, palette_share, survey_colours
 from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
 from robot_app.control.held_look import held_verdict, look_at_held
-from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import (
     DROPPED,
     PUT_BACK,
@@ -705,8 +704,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     job.check_carried(attempt)
     start = job.cell.time
     job.set_phase("release", name)
-    model = job.recognizers[name].model
-    reach = hanging_reach(model.points_in, model.grasp_point) + extra
+    reach = job.hanging_reach(name) + extra
     release_into_box(job.motion, job.cell, attempt.box.centre, table_z, loop, reach)
     _phase(job, name, "release", start, "")
     job.check_box(attempt)
