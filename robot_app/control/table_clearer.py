@@ -353,7 +353,7 @@ class TableClearer:
             if self.sheet is not None and self.settings.off_sheet.enabled:
                 # ... and so is the bare table beyond the green sheet (a cloth across its edge)
                 furniture |= table_beyond_sheet(
-                    capture, self.rig.right, self.table, self.sheet, self.settings.off_sheet
+                    capture, self.rig.right, self.table, self.sheet, self.settings.off_sheet, furniture
                 )
             smallest = self.identify_settings.min_unknown_area * furniture.size
             ident = replace(ident, unknown=without_furniture(ident.unknown, furniture, smallest))

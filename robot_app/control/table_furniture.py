@@ -142,28 +142,38 @@ def clear_of_walls(
 
 
 def table_coloured(
-    image_bgr: npt.NDArray[np.uint8], beyond: npt.NDArray[np.bool_], settings: OffSheetSettings
+    image_bgr: npt.NDArray[np.uint8],
+    beyond: npt.NDArray[np.bool_],
+    settings: OffSheetSettings,
+    known: npt.NDArray[np.bool_] | None = None,
 ) -> npt.NDArray[np.bool_]:
     """(H, W) the `beyond` pixels of `image_bgr` that show the bare table: saturated at
     least `min_saturation` and within `hue_tolerance` of the table's hue, which is the
     most frequent hue (HSV_FULL, circular, summed over ±`MODE_WINDOW`) of the saturated
-    `beyond` pixels. Hues are read off the image averaged over `SMOOTHING` px square,
-    and the mask is closed by as much (a dark shade's hue is noise pixel by pixel). Shade
-    keeps a surface's hue, so the table's shadows are table too; a white or grey cloth
-    (no hue) and a cloth of another hue are not."""
+    `beyond` pixels not `known` (other furniture: a box's orange walls are a large
+    saturated surface too); or washed out: brighter than `clipped` in a channel and less
+    saturated than `min_saturation` (the exposure clipped the table's colour away). Hues
+    and brightness are read off the image averaged over `SMOOTHING` px square, and the
+    mask is closed by as much (a dark shade's hue is noise pixel by pixel). Shade keeps a
+    surface's hue, so the table's shadows are table too; a white or grey cloth (no hue)
+    that is not clipped and a cloth of another hue are not."""
     smooth = cv2.blur(image_bgr, (SMOOTHING, SMOOTHING))
     hsv = cv2.cvtColor(smooth, cv2.COLOR_BGR2HSV_FULL)
     hue = hsv[..., 0].astype(np.int32)
-    sample = beyond & (hsv[..., 1] >= settings.min_saturation)
-    if np.count_nonzero(sample) < settings.min_pixels:
-        return np.zeros(beyond.shape, bool)
-    histogram = np.bincount(hue[sample], minlength=256).astype(float)
-    summed = sum(np.roll(histogram, shift) for shift in range(-MODE_WINDOW, MODE_WINDOW + 1))
-    table_hue = int(np.argmax(summed))
-    apart = np.abs((hue - table_hue + 128) % 256 - 128)
-    table = (sample & (apart <= settings.hue_tolerance)).astype(np.uint8)
+    saturated = hsv[..., 1] >= settings.min_saturation
+    washed_out = beyond & ~saturated & (smooth.max(axis=2) >= settings.clipped)
+    sample = beyond & saturated
+    if known is not None:
+        sample &= ~known
+    table = washed_out.copy()
+    if np.count_nonzero(sample) >= settings.min_pixels:
+        histogram = np.bincount(hue[sample], minlength=256).astype(float)
+        summed = sum(np.roll(histogram, shift) for shift in range(-MODE_WINDOW, MODE_WINDOW + 1))
+        table_hue = int(np.argmax(summed))
+        apart = np.abs((hue - table_hue + 128) % 256 - 128)
+        table |= beyond & saturated & (apart <= settings.hue_tolerance)
     square = np.ones((SMOOTHING, SMOOTHING), np.uint8)
-    closed = cv2.morphologyEx(table, cv2.MORPH_CLOSE, square)
+    closed = cv2.morphologyEx(table.astype(np.uint8), cv2.MORPH_CLOSE, square)
     return np.asarray(closed.astype(bool) & beyond, dtype=bool)
 
 
@@ -173,11 +183,13 @@ def table_beyond_sheet(
     table: TablePlane,
     sheet: TableArea,
     settings: OffSheetSettings,
+    known: npt.NDArray[np.bool_] | None = None,
 ) -> npt.NDArray[np.bool_]:
     """(H, W) the pixels of the undistorted right image that show the bare table beyond
-    the green sheet (`off_sheet` and `table_coloured`): known furniture, not a cloth."""
+    the green sheet (`off_sheet` and `table_coloured`, `known`: other furniture's pixels):
+    known furniture, not a cloth."""
     image = undistorted(capture.right_bgr, camera)
-    return table_coloured(image, off_sheet(capture, table, sheet, image.shape[:2]), settings)
+    return table_coloured(image, off_sheet(capture, table, sheet, image.shape[:2]), settings, known)
 
 
 __all__ = [
