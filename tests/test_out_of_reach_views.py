@@ -198,3 +198,51 @@ def test_a_look_at_a_place_out_of_reach_goes_as_far_towards_it_as_the_arm_reache
     nowhere = RingArm(np.array([0.48, 0.0, 0.45]))
     nowhere.reaches = lambda p: False  # type: ignore[method-assign]
     assert not recovery(nowhere).look_from(far, offset, camera_z, observation)
+
+
+def test_a_put_back_heap_is_laid_where_a_blind_grasp_reaches_past_the_strip_s_end() -> None:
+    # Replay of held-out episode 519 (session 30): four cloths lifted at x = 0.47 m were laid
+    # out 207 mm towards the arm's base; the strip's end was graspable, the heap spread 0.1 m
+    # past it, out of every blind grasp's reach.
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.job_motion import PutBackSettings
+    from robot_app.control.table_recovery import TableRecovery
+    from robot_app.control.table_survey import TablePlane
+    from robot_app.geometry import make_transform
+    from robot_app.vision import ClothModel, PinholeCamera
+
+    camera = PinholeCamera.from_fov((320, 240), np.deg2rad(60))
+    survey = SimpleNamespace(
+        transform_right_camera_to_world=make_transform(np.diag([1.0, -1.0, -1.0]), [0.45, 0.0, 0.6])
+    )
+    grid = np.arange(-0.08, 0.0801, 0.01)
+    u, v = np.meshgrid(grid, grid)
+    points = np.column_stack([u.ravel(), v.ravel(), np.zeros(u.size)])
+    model = ClothModel(
+        "sq", points, np.full(len(points), 10, np.uint16), points[:4], 85.0, np.zeros(3), (0.16, 0.16)
+    )
+    angles = np.linspace(-2.4, 2.4, 9)  # every way but towards the base is taken by other cloths
+    others = np.concatenate(
+        [np.column_stack([0.47 + r * np.cos(a), r * np.sin(a)]) for a in angles for r in (0.1, 0.15, 0.2)]
+    )
+    start = np.array([0.47, 0.0, 0.4])
+
+    def laid(margin: float) -> tuple[np.ndarray, np.ndarray]:
+        """(where the hand let go, the strip's direction) with `margin` past its end."""
+        arm = RingArm(start)
+        settings = ClearTableSettings()
+        settings = settings.model_copy(update={"put_back": PutBackSettings(reach_margin=margin)})
+        recovery = TableRecovery(
+            arm, SimpleNamespace(), TablePlane(camera.camera_matrix, 0.0), camera,  # type: ignore[arg-type]
+            settings, LoopSettings(),
+        )  # fmt: skip
+        assert recovery.lay_down(survey, model, None, others, [])  # type: ignore[arg-type]
+        end = arm.sent[-1]
+        direction = (end[:2] - start[:2]) / np.linalg.norm(end[:2] - start[:2])
+        return end, direction
+
+    end, direction = laid(0.0)
+    assert float(np.hypot(*end[:2])) >= 0.33  # the strip's end is graspable ...
+    assert float(np.hypot(*(end[:2] + 0.1 * direction))) < 0.33  # ... the heap past it is not
+    end, direction = laid(0.1)
+    assert float(np.hypot(*(end[:2] + 0.1 * direction))) >= 0.33

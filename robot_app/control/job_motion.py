@@ -209,6 +209,11 @@ class PutBackSettings(StrictModel):
             the meant cloth, weighed alone then, goes on to its box. Off: in the simulated
             cell no shed of 6 left its other cloth behind (bench episodes 29-32 and 43,
             session 20; 3 of them dragged cloths), and each cost about 4 s.
+        reach_margin: a blind grasp must reach the laid cloth this far past the strip's
+            end too (`TableRecovery._graspable_along`): a double pick's heap spreads past
+            it. Replay of held-out episode 519 (session 30): four cloths laid out 207 mm
+            towards the arm's base from a lift at x = 0.47 m, the strip's end graspable at
+            x = 0.29 m; the heap lay to x = 0.18 m and its blind grasps had no IK solution.
     """
 
     lay_out: bool = True
@@ -218,6 +223,7 @@ class PutBackSettings(StrictModel):
     view_margin: float = Field(0.04, ge=0.0, le=0.2)
     waypoints: int = Field(3, ge=1, le=10)
     free_distance: float = Field(0.1, gt=0.0, le=0.5)
+    reach_margin: float = Field(0.1, ge=0.0, le=0.5)
 
 
 @dataclass(frozen=True)

@@ -249,14 +249,17 @@ class TableRecovery:
         return None
 
     def _graspable_along(self, path: LayOutPath) -> bool:
-        """Can a blind grasp later reach the laid cloth: over the strip's middle and its end
-        (where the hand lets go), the pregrasp, grasp (`lost.grasp_height`) and lift heights?
-        A cloth laid towards the arm's base lay out of every grasp's reach (bench episode 30,
-        session 20: No.7 laid back to x = 0.22 m, then four blind attempts `out of reach`)."""
+        """Can a blind grasp later reach the laid cloth: over the strip's middle, its end
+        (where the hand lets go) and `put_back.reach_margin` past it (a heap spreads past the
+        end), the pregrasp, grasp (`lost.grasp_height`) and lift heights? A cloth laid
+        towards the arm's base lay out of every grasp's reach (bench episode 30, session 20:
+        No.7 laid back to x = 0.22 m, then four blind attempts `out of reach`)."""
         table_z, loop = self.table.table_z, self.loop_settings
         heights = (loop.pregrasp_height, self.settings.lost.grasp_height, loop.lift_height)
-        ends = (path.waypoints[len(path.waypoints) // 2], path.waypoints[-1])
-        return all(self.motion.reaches([p[0], p[1], table_z + h]) for p in ends for h in heights)
+        end = path.waypoints[-1][:2]
+        past = end + self.settings.put_back.reach_margin * path.direction
+        spots = (path.waypoints[len(path.waypoints) // 2][:2], end, past)
+        return all(self.motion.reaches([x, y, table_z + h]) for x, y in spots for h in heights)
 
 
 __all__ = ["TableRecovery"]
