@@ -129,10 +129,12 @@ class RingArm:
         self.tcp = np.array(q, dtype=float)
 
 
-def test_a_put_back_is_laid_where_a_blind_grasp_can_reach_it_again() -> None:
-    # Bench episode 30 (session 20): a double lift at x = 0.42 m laid back towards the arm's
-    # base, to x = 0.22 m, where every later blind grasp was out of reach.
+def _laid_out(lift_x: float, inner: float, margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Where a `RingArm` (`inner`) lets go of a square cloth lifted at (`lift_x`, 0) after
+    laying it out, and the strip's direction, when every way but towards the arm's base is
+    taken by other cloths (`put_back.reach_margin` = `margin`; None: the default)."""
     from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.job_motion import PutBackSettings
     from robot_app.control.table_recovery import TableRecovery
     from robot_app.control.table_survey import TablePlane
     from robot_app.geometry import make_transform
@@ -140,7 +142,7 @@ def test_a_put_back_is_laid_where_a_blind_grasp_can_reach_it_again() -> None:
 
     camera = PinholeCamera.from_fov((320, 240), np.deg2rad(60))
     survey = SimpleNamespace(
-        transform_right_camera_to_world=make_transform(np.diag([1.0, -1.0, -1.0]), [0.40, 0.0, 0.6])
+        transform_right_camera_to_world=make_transform(np.diag([1.0, -1.0, -1.0]), [lift_x - 0.02, 0.0, 0.6])
     )
     grid = np.arange(-0.08, 0.0801, 0.01)
     u, v = np.meshgrid(grid, grid)
@@ -148,24 +150,30 @@ def test_a_put_back_is_laid_where_a_blind_grasp_can_reach_it_again() -> None:
     model = ClothModel(
         "sq", points, np.full(len(points), 10, np.uint16), points[:4], 85.0, np.zeros(3), (0.16, 0.16)
     )
-    # every way but towards the base is taken by other cloths
     angles = np.linspace(-2.4, 2.4, 9)
     others = np.concatenate(
-        [np.column_stack([0.42 + r * np.cos(a), r * np.sin(a)]) for a in angles for r in (0.1, 0.15, 0.2)]
+        [np.column_stack([lift_x + r * np.cos(a), r * np.sin(a)]) for a in angles for r in (0.1, 0.15, 0.2)]
     )
-    notes: list[str] = []
+    settings = ClearTableSettings()
+    if margin is not None:
+        settings = settings.model_copy(update={"put_back": PutBackSettings(reach_margin=margin)})
+    start = np.array([lift_x, 0.0, 0.4])
+    arm = RingArm(start, inner=inner)
+    recovery = TableRecovery(
+        arm, SimpleNamespace(), TablePlane(camera.camera_matrix, 0.0), camera,  # type: ignore[arg-type]
+        settings, LoopSettings(),
+    )  # fmt: skip
+    assert recovery.lay_down(survey, model, None, others, [])  # type: ignore[arg-type]
+    end = arm.sent[-1]
+    return end, (end[:2] - start[:2]) / np.linalg.norm(end[:2] - start[:2])
 
-    def laid_end(arm: RingArm) -> np.ndarray:
-        recovery = TableRecovery(
-            arm, SimpleNamespace(), TablePlane(camera.camera_matrix, 0.0), camera,  # type: ignore[arg-type]
-            ClearTableSettings(), LoopSettings(),
-        )  # fmt: skip
-        assert recovery.lay_down(survey, model, None, others, notes)  # type: ignore[arg-type]
-        return arm.sent[-1]
 
-    anywhere = laid_end(RingArm(np.array([0.42, 0.0, 0.4]), inner=0.0))
+def test_a_put_back_is_laid_where_a_blind_grasp_can_reach_it_again() -> None:
+    # Bench episode 30 (session 20): a double lift at x = 0.42 m laid back towards the arm's
+    # base, to x = 0.22 m, where every later blind grasp was out of reach.
+    anywhere, _ = _laid_out(0.42, inner=0.0)
     assert float(np.hypot(anywhere[0], anywhere[1])) < 0.33  # the free way leads to the base
-    ring = laid_end(RingArm(np.array([0.42, 0.0, 0.4])))
+    ring, _ = _laid_out(0.42, inner=0.33)
     assert float(np.hypot(ring[0], ring[1])) >= 0.33  # not laid out of reach
 
 
@@ -204,45 +212,8 @@ def test_a_put_back_heap_is_laid_where_a_blind_grasp_reaches_past_the_strip_s_en
     # Replay of held-out episode 519 (session 30): four cloths lifted at x = 0.47 m were laid
     # out 207 mm towards the arm's base; the strip's end was graspable, the heap spread 0.1 m
     # past it, out of every blind grasp's reach.
-    from robot_app.control.clear_table_records import ClearTableSettings
-    from robot_app.control.job_motion import PutBackSettings
-    from robot_app.control.table_recovery import TableRecovery
-    from robot_app.control.table_survey import TablePlane
-    from robot_app.geometry import make_transform
-    from robot_app.vision import ClothModel, PinholeCamera
-
-    camera = PinholeCamera.from_fov((320, 240), np.deg2rad(60))
-    survey = SimpleNamespace(
-        transform_right_camera_to_world=make_transform(np.diag([1.0, -1.0, -1.0]), [0.45, 0.0, 0.6])
-    )
-    grid = np.arange(-0.08, 0.0801, 0.01)
-    u, v = np.meshgrid(grid, grid)
-    points = np.column_stack([u.ravel(), v.ravel(), np.zeros(u.size)])
-    model = ClothModel(
-        "sq", points, np.full(len(points), 10, np.uint16), points[:4], 85.0, np.zeros(3), (0.16, 0.16)
-    )
-    angles = np.linspace(-2.4, 2.4, 9)  # every way but towards the base is taken by other cloths
-    others = np.concatenate(
-        [np.column_stack([0.47 + r * np.cos(a), r * np.sin(a)]) for a in angles for r in (0.1, 0.15, 0.2)]
-    )
-    start = np.array([0.47, 0.0, 0.4])
-
-    def laid(margin: float) -> tuple[np.ndarray, np.ndarray]:
-        """(where the hand let go, the strip's direction) with `margin` past its end."""
-        arm = RingArm(start)
-        settings = ClearTableSettings()
-        settings = settings.model_copy(update={"put_back": PutBackSettings(reach_margin=margin)})
-        recovery = TableRecovery(
-            arm, SimpleNamespace(), TablePlane(camera.camera_matrix, 0.0), camera,  # type: ignore[arg-type]
-            settings, LoopSettings(),
-        )  # fmt: skip
-        assert recovery.lay_down(survey, model, None, others, [])  # type: ignore[arg-type]
-        end = arm.sent[-1]
-        direction = (end[:2] - start[:2]) / np.linalg.norm(end[:2] - start[:2])
-        return end, direction
-
-    end, direction = laid(0.0)
+    end, direction = _laid_out(0.47, inner=0.33, margin=0.0)
     assert float(np.hypot(*end[:2])) >= 0.33  # the strip's end is graspable ...
     assert float(np.hypot(*(end[:2] + 0.1 * direction))) < 0.33  # ... the heap past it is not
-    end, direction = laid(0.1)
+    end, direction = _laid_out(0.47, inner=0.33)  # the default margin, 0.1 m
     assert float(np.hypot(*(end[:2] + 0.1 * direction))) >= 0.33
