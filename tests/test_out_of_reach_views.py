@@ -7,6 +7,7 @@ where it must, never so low that the cameras stop seeing the cloth."""
 from __future__ import annotations
 
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -129,10 +130,12 @@ class RingArm:
         self.tcp = np.array(q, dtype=float)
 
 
-def _laid_out(lift_x: float, inner: float, margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Where a `RingArm` (`inner`) lets go of a square cloth lifted at (`lift_x`, 0) after
-    laying it out, and the strip's direction, when every way but towards the arm's base is
-    taken by other cloths (`put_back.reach_margin` = `margin`; None: the default)."""
+def _recovery_scene(
+    arm: RingArm, lift_x: float, margin: float | None = None
+) -> tuple[Any, SimpleNamespace, Any, np.ndarray]:
+    """(a `TableRecovery` for `arm`, the survey, a square cloth's model, the other cloths'
+    points) where a cloth lifted at (`lift_x`, 0) finds every way but towards the arm's
+    base taken by other cloths (`put_back.reach_margin` = `margin`; None: the default)."""
     from robot_app.control.clear_table_records import ClearTableSettings
     from robot_app.control.job_motion import PutBackSettings
     from robot_app.control.table_recovery import TableRecovery
@@ -157,13 +160,23 @@ def _laid_out(lift_x: float, inner: float, margin: float | None = None) -> tuple
     settings = ClearTableSettings()
     if margin is not None:
         settings = settings.model_copy(update={"put_back": PutBackSettings(reach_margin=margin)})
-    start = np.array([lift_x, 0.0, 0.4])
-    arm = RingArm(start, inner=inner)
+    cell = SimpleNamespace(release=lambda: None, set_gripper=lambda opening: None)
+    arm.hold = lambda duration: None  # type: ignore[attr-defined]
+    arm.move_tcp = lambda p, speed=1.0: arm.move_to_joints(arm.solve_tcp(p))  # type: ignore[attr-defined]
     recovery = TableRecovery(
-        arm, SimpleNamespace(), TablePlane(camera.camera_matrix, 0.0), camera,  # type: ignore[arg-type]
+        arm, cell, TablePlane(camera.camera_matrix, 0.0), camera,  # type: ignore[arg-type]
         settings, LoopSettings(),
     )  # fmt: skip
-    assert recovery.lay_down(survey, model, None, others, [])  # type: ignore[arg-type]
+    return recovery, survey, model, others
+
+
+def _laid_out(lift_x: float, inner: float, margin: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Where a `RingArm` (`inner`) lets go of the square cloth of `_recovery_scene` after
+    laying it out, and the strip's direction."""
+    start = np.array([lift_x, 0.0, 0.4])
+    arm = RingArm(start, inner=inner)
+    recovery, survey, model, others = _recovery_scene(arm, lift_x, margin)
+    assert recovery.lay_down(survey, model, None, others, [])
     end = arm.sent[-1]
     return end, (end[:2] - start[:2]) / np.linalg.norm(end[:2] - start[:2])
 
@@ -217,3 +230,21 @@ def test_a_put_back_heap_is_laid_where_a_blind_grasp_reaches_past_the_strip_s_en
     assert float(np.hypot(*(end[:2] + 0.1 * direction))) < 0.33  # ... the heap past it is not
     end, direction = _laid_out(0.47, inner=0.33)  # the default margin, 0.1 m
     assert float(np.hypot(*(end[:2] + 0.1 * direction))) >= 0.33
+
+
+def test_a_put_back_after_a_look_out_of_reach_starts_from_over_the_lift() -> None:
+    # Replay of held-out episode 519 (session 30): the look at a lift of four cloths took them
+    # towards the arm's base (x = 0.25 m), and the put-back laid them out from there
+    lifted_at, look = np.array([0.47, 0.0, 0.4]), np.array([0.25, 0.0, 0.4])
+    arm = RingArm(look)
+    recovery, survey, model, others = _recovery_scene(arm, 0.47)
+    notes: list[str] = []
+    recovery.put_back(survey, model, None, others, notes, lifted_at)
+    assert np.allclose(arm.sent[0], lifted_at)  # back over the lift first
+    let_go = recovery.put_back_spots[-1]
+    assert float(np.hypot(*let_go)) >= 0.33 and any("over the lift" in n for n in notes)
+    # without the lift's place: lowered where the look left it, out of every grasp's reach
+    arm = RingArm(look)
+    recovery, survey, model, others = _recovery_scene(arm, 0.47)
+    recovery.put_back(survey, model, None, others, [], None)
+    assert float(np.hypot(*recovery.put_back_spots[-1])) < 0.33

@@ -46,6 +46,7 @@ class AttemptState:
     fell: tuple[str, ...] = ()  # of those that came along, the ones gone by the end of the transfer
     laid_back_too: tuple[str, ...] = ()  # known cloths that came along and were put back with it
     put_back_at: FloatArray | None = None  # (2,) where a put-back let go [m]
+    lifted_at: FloatArray | None = None  # (3,) the TCP right after the lift, before any look [m]
     shed_at: tuple[FloatArray, FloatArray] | None = None  # a shed double pick's laid strip [m]
     unnamed_along: bool = False  # a double pick whose other cloth no survey identified
     showed: tuple[str, ...] = ()  # cloths whose own colours the look at such a pick showed

@@ -810,6 +810,7 @@ class TableClearer:
         """Did the meant cloth, and only it, leave the table? Else put it back (the loop's
         abort then goes home from where the put-back ended)."""
         self._phase = "lift check"
+        attempt.lifted_at = self.motion.tcp_position()
         capture = self.cell.capture()
         wall, cpu = time.perf_counter(), time.process_time()
         name = attempt.name
@@ -1153,13 +1154,19 @@ class TableClearer:
         check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings)
 
     def put_back(self, attempt: AttemptState, grasp_point_model: FloatArray | None) -> None:
-        """Lays a rejected lift back onto free table (`TableRecovery.put_back`) and books
-        where it let go; the arm stays above the laid cloth (a loop run then resumes there,
+        """Lays a rejected lift back onto free table (`TableRecovery.put_back`, from over where
+        it was lifted if a look took it out of a blind grasp's reach) and books where it let
+        go; the arm stays above the laid cloth (a loop run then resumes there,
         `ArmMotion.resume_at`)."""
         self._phase = "put back"
         model = self.recognizers[attempt.name].model
         start, end = self.recovery.put_back(
-            self._survey_capture, model, grasp_point_model, attempt.obstacles_xy, attempt.notes
+            self._survey_capture,
+            model,
+            grasp_point_model,
+            attempt.obstacles_xy,
+            attempt.notes,
+            attempt.lifted_at,
         )
         attempt.put_back = True
         attempt.put_back_at = end.copy()

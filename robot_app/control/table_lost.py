@@ -446,6 +446,7 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
         start = job.cell.time
         job.set_phase("lift", name)
         job.motion.move_tcp([x, y, table_z + loop.lift_height])
+        attempt.lifted_at = job.motion.tcp_position()
         lifted = job.cell.holding()
         _phase(job, name, "lift", start, LIFTED if lifted else EMPTY_GRASP)
         if not lifted:

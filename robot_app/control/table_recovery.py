@@ -137,6 +137,7 @@ class TableRecovery:
         grasp_point_model: FloatArray | None,
         obstacles_xy: FloatArray | None,
         notes: list[str],
+        lifted_at: FloatArray | None = None,
     ) -> tuple[FloatArray, FloatArray]:
         """Lays what the gripper holds back onto the table, spread out over free table in
         the survey's view and on the table top, clear of the boxes (`job_motion.lay_out_paths`;
@@ -144,10 +145,23 @@ class TableRecovery:
         reachable, lowers it while moving away from the view's middle (towards it where the
         table ends that way). Lets go and rises clear of the laid
         cloth; the caller goes on from there (no way back to the lift pose: the next move
-        is home). Returns the laid strip: from above where it was lifted to where it was let
-        go ((2,) x, y [m] each)."""
+        is home). Where a blind grasp could not reach the table under the hand (a look at
+        what hangs took it there), it first goes back over `lifted_at` ((3,) [m], the TCP
+        after the lift), at its height now: the laid cloth starts under the hand. Replay of
+        held-out episode 519 (session 30): the look at a lift of four cloths took them
+        towards the arm's base, the put-back laid them out from there, and nine blind grasps
+        had no IK solution. Returns the laid strip: from above where it was lifted to where
+        it was let go ((2,) x, y [m] each)."""
         s, table_z = self.settings, self.table.table_z
         above = self.motion.tcp_position()
+        if lifted_at is not None and not self._graspable_at(above[:2]):
+            back = np.array([lifted_at[0], lifted_at[1], above[2]])
+            try:
+                self.motion.move_tcp(back)
+                notes.append("put back from over the lift: no blind grasp reaches the table under the look")
+                above = back
+            except IKError:
+                pass
         if not (s.put_back.lay_out and self.lay_down(survey, model, grasp_point_model, obstacles_xy, notes)):
             outward = above[:2] - survey.transform_right_camera_to_world[:2, 3]
             outward = outward / max(float(np.linalg.norm(outward)), 1e-9)
@@ -249,17 +263,22 @@ class TableRecovery:
         return None
 
     def _graspable_along(self, path: LayOutPath) -> bool:
-        """Can a blind grasp later reach the laid cloth: over the strip's middle, its end
-        (where the hand lets go) and `put_back.reach_margin` past it (a heap spreads past the
-        end), the pregrasp, grasp (`lost.grasp_height`) and lift heights? A cloth laid
+        """Can a blind grasp later reach the laid cloth (`_graspable_at`): over the strip's
+        start, middle, end (where the hand lets go) and `put_back.reach_margin` past it (a
+        heap spreads past the end)? A cloth laid
         towards the arm's base lay out of every grasp's reach (bench episode 30, session 20:
         No.7 laid back to x = 0.22 m, then four blind attempts `out of reach`)."""
-        table_z, loop = self.table.table_z, self.loop_settings
-        heights = (loop.pregrasp_height, self.settings.lost.grasp_height, loop.lift_height)
         end = path.waypoints[-1][:2]
         past = end + self.settings.put_back.reach_margin * path.direction
-        spots = (path.waypoints[len(path.waypoints) // 2][:2], end, past)
-        return all(self.motion.reaches([x, y, table_z + h]) for x, y in spots for h in heights)
+        spots = (path.waypoints[0][:2], path.waypoints[len(path.waypoints) // 2][:2], end, past)
+        return all(self._graspable_at(xy) for xy in spots)
+
+    def _graspable_at(self, xy: FloatArray) -> bool:
+        """Does a blind grasp reach the table at `xy` ((2,) [m]): the pregrasp, grasp
+        (`lost.grasp_height`) and lift heights over it?"""
+        table_z, loop = self.table.table_z, self.loop_settings
+        heights = (loop.pregrasp_height, self.settings.lost.grasp_height, loop.lift_height)
+        return all(self.motion.reaches([xy[0], xy[1], table_z + h]) for h in heights)
 
 
 __all__ = ["TableRecovery"]
