@@ -248,3 +248,17 @@ def test_a_put_back_after_a_look_out_of_reach_starts_from_over_the_lift() -> Non
     recovery, survey, model, others = _recovery_scene(arm, 0.47)
     recovery.put_back(survey, model, None, others, [], None)
     assert float(np.hypot(*recovery.put_back_spots[-1])) < 0.33
+
+
+def test_a_laid_cloth_must_be_graspable_across_the_strip_s_end() -> None:
+    # Replay of held-out episode 519 (session 30): laid out to (0.24, -0.27), 0.37 m from the
+    # base, the heap spread across the strip to 0.28 m, where no blind grasp reaches the table
+    from robot_app.control.job_motion import LayOutPath
+
+    arm = RingArm(np.array([0.40, 0.20, 0.4]), inner=0.33)
+    recovery, *_ = _recovery_scene(arm, 0.40)
+    start, end = np.array([0.40, 0.20]), np.array([0.37, 0.0])  # along the ring, 0.37 m out
+    direction = (end - start) / np.linalg.norm(end - start)
+    path = LayOutPath(direction, np.array([[*start, 0.2], [*(start + end) / 2, 0.1], [*end, 0.05]]), 0.1)
+    assert recovery._graspable_along(path, 0.0)  # the strip and past its end: in reach
+    assert not recovery._graspable_along(path, 0.08)  # its inner side lies 0.29 m out

@@ -225,6 +225,7 @@ class TableRecovery:
         obstacles = obstacles_xy if obstacles_xy is not None else np.empty((0, 2))
         table = None if self.table_top is None else self.table_top.corners()
         walls = [(b.centre[:2], b.outer_half) for b in self.boxes]
+        half_width = cloth_half_width(model.points_in)
 
         def paths_within(room: FloatArray) -> tuple[LayOutPath, ...]:
             return lay_out_paths(
@@ -235,7 +236,7 @@ class TableRecovery:
                 obstacles,
                 room,
                 self.settings.put_back,
-                half_width=cloth_half_width(model.points_in),
+                half_width=half_width,
                 table_xy=table,
                 keep_out=walls,
             )
@@ -252,7 +253,7 @@ class TableRecovery:
                     joints.append(self.motion.solve_tcp(point))
             except IKError:
                 continue
-            if not self._graspable_along(path):
+            if not self._graspable_along(path, half_width):
                 continue
             notes.append(
                 f"put back laid out over {min(reach, self.settings.put_back.max_length) * 1000:.0f} mm "
@@ -262,15 +263,20 @@ class TableRecovery:
             return joints
         return None
 
-    def _graspable_along(self, path: LayOutPath) -> bool:
+    def _graspable_along(self, path: LayOutPath, half_width: float) -> bool:
         """Can a blind grasp later reach the laid cloth (`_graspable_at`): over the strip's
-        start, middle, end (where the hand lets go) and `put_back.reach_margin` past it (a
-        heap spreads past the end)? A cloth laid
-        towards the arm's base lay out of every grasp's reach (bench episode 30, session 20:
-        No.7 laid back to x = 0.22 m, then four blind attempts `out of reach`)."""
+        start, middle and end (where the hand lets go), `half_width` [m] to either side of
+        the end and `put_back.reach_margin` past it (a heap spreads past the end)? The
+        likeliest misses are asked first. A cloth laid towards the arm's base lay out of
+        every grasp's reach (bench episode 30, session 20: No.7 laid back to x = 0.22 m,
+        then four blind attempts `out of reach`; the replay of held-out 519, session 30:
+        four cloths laid out to (0.24, -0.27), 0.37 m from the base, spread across the
+        strip to 0.28 m, where no blind grasp reaches the table)."""
         end = path.waypoints[-1][:2]
+        across = np.array([-path.direction[1], path.direction[0]]) * half_width
         past = end + self.settings.put_back.reach_margin * path.direction
-        spots = (path.waypoints[0][:2], path.waypoints[len(path.waypoints) // 2][:2], end, past)
+        middle = path.waypoints[len(path.waypoints) // 2][:2]
+        spots = (past, end + across, end - across, end, middle, path.waypoints[0][:2])
         return all(self._graspable_at(xy) for xy in spots)
 
     def _graspable_at(self, xy: FloatArray) -> bool:
