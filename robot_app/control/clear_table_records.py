@@ -108,7 +108,7 @@ class OffSheetSettings(StrictModel):
         clipped: a pixel beyond the sheet this bright in a channel [0-255] and less
             saturated than `min_saturation` is the table washed out: the exposure clipped
             its colour away, and no cloth could be told by its colours there either. Held-out
-            bench episodes 517, 519, 540 (session 29): from the looks around, the bare table
+            bench episodes 517 and 540 (session 29): from the looks around, the bare table
             lay nearly white (saturation 0-9, brightness 255) and was picked blind as a lost
             cloth's region up to ten times (`grasp missed`, `out of reach`).
     """

@@ -102,10 +102,10 @@ def fell_on_the_way(
     cloth's comes nearest the reading (the more kept at a tie), in `along`'s order. When
     that is not the reading (`weight_verdict`): none if it reads more and every weight is
     known (the replay of held-out episode 540, session 30: 71 g over the box for No.11 and
-    No.4, 50 g, booked No.4 fallen while it hung there with No.17), else all of them (not sure).
-    Held-out episode 475 (session 29):
-    No.17 came up with No.6 (whites both, 50 g), fell back onto the table as the hand rose,
-    and the job booked it placed; a blind lift of a guessed No.2 then took it into colours."""
+    No.4, 50 g, booked No.4 fallen while it hung there with No.17), else all of them (not
+    sure). Held-out episode 475 (session 29): No.17 came up with No.6 (whites both, 50 g),
+    fell back onto the table as the hand rose, and the job booked it placed; a blind lift of
+    a guessed No.2 then took it into colours."""
     names = list(along)
     known = [name for name in names if along[name] is not None]
     best: tuple[float, int, tuple[str, ...], float] = (abs(weighed - meant), 0, (), meant)  # none kept

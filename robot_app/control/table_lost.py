@@ -826,13 +826,12 @@ def with_the_meant(
     settle it, since a dragged cloth hangs inside the held one. Replay of held-out episode
     540 (session 30): 67 g named "No.11 and No.4" (50 g, within the tolerance that lets a
     dragged cloth read light) held No.17 of whites (24 g) too, inside; it went into colours.
-    Held-out
-    episode 328 (session 27): a blind lift meant for No.8 (21 g) read 43 g, the weight of its
-    alike No.16 alone (colours, a guess); it held No.8 with the dragged No.17 (whites, 24 g,
-    lost nearby), which the look did not see (18,412 held pixels all in No.8's orange), and
-    No.17 went into colours. Its replay on the first form of this rule (the match's own
-    weight only) put it into colours as the guess No.16 with No.12 (45 g), the match being
-    No.16 by then."""
+    Held-out episode 328 (session 27): a blind lift meant for No.8 (21 g) read 43 g, the
+    weight of its alike No.16 alone (colours, a guess); it held No.8 with the dragged No.17
+    (whites, 24 g, lost nearby), which the look did not see (18,412 held pixels all in
+    No.8's orange), and No.17 went into colours. Its replay on the first form of this rule
+    (the match's own weight only) put it into colours as the guess No.16 with No.12 (45 g),
+    the match being No.16 by then."""
     held = [weights[name] for name in meant if name in weights]
     if named and all(name in weights for name in named):
         held.append(sum(weights[name] for name in named))
