@@ -426,9 +426,11 @@ def test_a_blind_lift_is_named_after_the_lost_cloths_whose_weights_it_reads() ->
     assert weighed_as(0.047, "No.1", (), weights, settings) == ()  # no alike: a heavier lift is laid back
     # lighter than the meant cloth by more than the tolerance: its lighter alike alone
     assert weighed_as(0.011, "No.3", ("No.4", "No.2"), weights, settings) == ("No.4",)
-    # three together are the most one lift is taken for
-    assert weighed_as(0.076, "No.1", ("No.2", "No.3"), weights, settings) == ("No.1", "No.2", "No.3")
-    assert weighed_as(0.150, "No.1", ("No.2", "No.3", "No.4"), weights, settings) == ()
+    # two together are the most one lift is taken for: at three cloths' weight the tolerance
+    # is a whole cloth's, and three cannot be told from four (held-out episode 593)
+    assert weighed_as(0.076, "No.1", ("No.2", "No.3"), weights, settings) == ()
+    assert weighed_as(0.076, "No.1", ("No.2", "No.3"), weights, settings, most=3) == ("No.1", "No.2", "No.3")
+    assert weighed_as(0.058, "No.1", ("No.2", "No.3"), weights, settings) == ("No.1", "No.2")
     assert weighed_as(0.047, "No.1", ("No.9",), weights, settings) == ()  # a weight not known: no
     # a lift from a piece of a heap is one cloth or nothing: the others below are not its alike
     assert weighed_as(0.047, "No.1", ("No.2",), weights, settings, most=1) == ()
@@ -442,7 +444,7 @@ def test_a_blind_lift_is_named_after_the_lost_cloths_whose_weights_it_reads() ->
     assert alone(0.047, "No.1", ("No.2",), guessed="No.2") == ()  # No.1 + No.2: a sum with a guess
     assert alone(0.026, "No.1", ("No.2",), guessed="No.2") == ("No.1",)
     assert alone(0.033, "No.1", ("No.2",), guessed="No.1") == ("No.2",)  # the guess alone is no sum
-    assert alone(0.076, "No.1", ("No.2", "No.3"), guessed="No.9") == ("No.1", "No.2", "No.3")
+    assert alone(0.047, "No.1", ("No.2", "No.3"), guessed="No.9") == ("No.1", "No.2")  # others summed
 
 
 # --------------------------------------------------------------- where a blind hand may aim
