@@ -2,8 +2,9 @@
 
 `make_pile` draws 2-6 catalogue cloths (or takes the ones given), places each at a
 random pose inside the recognition range and drops them one after the other, each from
-above the cloths already under it, so that a later cloth lies on an earlier one where
-their outlines overlap: a real overlap of soft bodies (pybullet's deformable-deformable
+above the cloths already under it (above the top of the highest stack its outline
+overlaps, a folded cloth counting two layers), so that a later cloth lies on an earlier one
+where their outlines overlap: a real overlap of soft bodies (pybullet's deformable-deformable
 contact keeps them apart by about twice `world.cloth.collision_margin`; below 7 mm of
 margin the contact lets most nodes through, so the clear-table config sets 8 mm). Each
 cloth is wrinkled and maybe folded as the realism preset says.
@@ -179,9 +180,11 @@ def make_pile(world: World, settings: PileSettings | None = None, seed: int = 0)
     look_rng = np.random.default_rng((seed, 29))
     layer = 2.0 * world.config.cloth.collision_margin + 0.002
     bodies = []
+    tops: list[int] = []  # layers up to each dropped cloth's top (a folded one is two thick)
     for k, (spec, (x, y, yaw)) in enumerate(zip(specs, poses, strict=True)):
-        under = sum(1 for j in range(k) if np.any(rasters[j] & rasters[k]))
+        under = max((tops[j] for j in range(k) if np.any(rasters[j] & rasters[k])), default=0)
         look = ClothLook.draw(look_rng, spec.size, amplitude, folds)
+        tops.append(under + (2 if look.fold is not None else 1))
         bodies.append(
             world.add_cloth(spec, x, y, yaw, under * layer + s.drop_height, settle=False, look=look)
         )
