@@ -166,6 +166,7 @@ class LostPlace:
         showed: for a double pick put back with its other cloth unnamed, the cloths whose
             own colours the look at what hung showed (`TableClearer._companion_seen_hanging`,
             at least `held_look.doubt_share`): one of them may be that cloth, seen or not.
+        looked: that look was taken (without it, any cloth never seen may be that cloth).
     """
 
     kind: LossKind
@@ -175,6 +176,7 @@ class LostPlace:
     before: tuple[tuple[float, float], ...]
     laid: bool = False
     showed: tuple[str, ...] = ()
+    looked: bool = False
 
 
 class ClearTableSettings(StrictModel):

@@ -50,6 +50,7 @@ class AttemptState:
     shed_at: tuple[FloatArray, FloatArray] | None = None  # a shed double pick's laid strip [m]
     unnamed_along: bool = False  # a double pick whose other cloth no survey identified
     showed: tuple[str, ...] = ()  # cloths whose own colours the look at such a pick showed
+    looked: bool = False  # that look was taken
     named_by: str = ""  # how a double pick's other cloth was named: "grasp", "under", "memory", "look"
     lift_check: str = ""
     weighed: float | None = None

@@ -1003,6 +1003,7 @@ class TableClearer:
         seen, where = look_at_held(self, attempt.name, [*weighing, *parts], looks=2)
         if seen is None:
             return None, where
+        attempt.looked = True
         attempt.showed = tuple(n for n in (*weighing, *parts) if seen.own[n] >= hl.doubt_share)
         showing = sorted((n for n in weighing if seen.own[n] >= hl.name_share), key=lambda n: -seen.own[n])
         note = (

@@ -215,7 +215,14 @@ class TableLedger:
             if attempt.put_back and attempt.unnamed_along:
                 self.unnamed.append(
                     LostPlace(
-                        put_back, f"came up with {name}, not named", start, end, before, laid, attempt.showed
+                        put_back,
+                        f"came up with {name}, not named",
+                        start,
+                        end,
+                        before,
+                        laid,
+                        attempt.showed,
+                        attempt.looked,
                     )
                 )
         if attempt.shed_at is not None:  # the other cloth was left lying along the strip
