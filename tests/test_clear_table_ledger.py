@@ -180,3 +180,44 @@ def test_a_cloth_that_fell_from_a_double_pick_on_the_way_is_lost_not_placed() ->
     ledger.record_attempt(attempt, result, 1.0, 0.022)
     assert ledger.placed_order == ["No.6"] and "No.17" in ledger.lost
     assert "fell from No.6's lift" in ledger.lost["No.17"].how
+
+
+def _survey_at(ledger: TableLedger, **where: tuple[float, float]) -> None:
+    """A survey that saw each named cloth (No_15=...: "No.15") at (x, y) [m]."""
+    capture = SimpleNamespace(time=float(len(ledger.surveys)), transform_right_camera_to_world=np.eye(4))
+    poses = {name.replace("_", "."): np.eye(4) for name in where}
+    for name, (x, y) in where.items():
+        poses[name.replace("_", ".")][:2, 3] = (x, y)
+    detections = tuple(
+        SimpleNamespace(name=n, confidence=0.9, transform_model_to_camera=p) for n, p in poses.items()
+    )
+    ident = SimpleNamespace(detections=detections, dropped=(), above=(), unknown=())
+    ledger.record_survey(capture, 0.0, ident, None, SimpleNamespace())  # type: ignore[arg-type]
+
+
+def test_a_companion_named_and_put_back_but_seen_where_it_lay_leaves_the_put_back_unnamed() -> None:
+    # held-out episode 632 (session 31): No.6's lift was named "No.6 and No.15" (No.15 it lay
+    # on, thought gone) and put back; No.15 lay on where it was, and No.1, never identified,
+    # had come up instead and stayed by the put-back spot, a region no rule looked at
+    ledger = TableLedger()
+    _survey_at(ledger, No_6=(0.50, -0.07), No_15=(0.60, -0.07))
+    box = BoxPlace("whites", np.array([0.3, 0.56, 0.0]), 0.22)
+    attempt = AttemptState(None, box, np.eye(4), 0.0, lost_name="No.6")
+    attempt.put_back, attempt.put_back_at, attempt.laid_back_too = True, np.array((0.42, -0.13)), ("No.15",)
+    report = LimitReport(0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
+    result = EpisodeResult(
+        Outcome.GRASP_FAILED, False, "put back: double", None, 1.0, 0.0, (), (), report, 0, 0, 1, 0, 0, 0
+    )
+    ledger.record_attempt(attempt, result, 1.0, 0.021)
+    assert "No.15" in ledger.lost and ledger.unnamed == []
+    _survey_at(ledger, No_15=(0.611, -0.076))  # where it lay: it never came up
+    assert "No.15" not in ledger.lost
+    assert len(ledger.unnamed) == 1 and np.allclose(ledger.unnamed[0].end, (0.42, -0.13))
+    assert "came up with No.6, not named" in ledger.unnamed[0].how
+
+    # seen again away from where it lay (laid back with the pair): it was in the lift
+    ledger = TableLedger()
+    _survey_at(ledger, No_6=(0.50, -0.07), No_15=(0.60, -0.07))
+    ledger.record_attempt(attempt, result, 1.0, 0.021)
+    _survey_at(ledger, No_15=(0.45, -0.12))
+    assert ledger.unnamed == []

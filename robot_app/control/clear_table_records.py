@@ -167,6 +167,8 @@ class LostPlace:
             own colours the look at what hung showed (`TableClearer._companion_seen_hanging`,
             at least `held_look.doubt_share`): one of them may be that cloth, seen or not.
         looked: that look was taken (without it, any cloth never seen may be that cloth).
+        companion_of: for a cloth named as a double pick's other cloth and put back with it,
+            the cloth that pick was meant for ("" otherwise).
     """
 
     kind: LossKind
@@ -177,6 +179,7 @@ class LostPlace:
     laid: bool = False
     showed: tuple[str, ...] = ()
     looked: bool = False
+    companion_of: str = ""
 
 
 class ClearTableSettings(StrictModel):
