@@ -221,3 +221,36 @@ def test_a_companion_named_and_put_back_but_seen_where_it_lay_leaves_the_put_bac
     ledger.record_attempt(attempt, result, 1.0, 0.021)
     _survey_at(ledger, No_15=(0.45, -0.12))
     assert ledger.unnamed == []
+
+
+def test_cloths_seen_and_gone_since_are_booked_hidden_where_they_were_seen() -> None:
+    # held-out episode 626 (session 31): No.14 and No.19 crumpled into a heap with No.13
+    # after No.5 was lifted off them; the job stopped with the heap an unknown region
+    from robot_app.control.clear_table_records import LossKind
+
+    ledger = TableLedger()
+    _survey_at(ledger, No_5=(0.53, 0.14), No_14=(0.55, -0.05), No_19=(0.62, 0.08))
+    _placed_attempt(ledger, "No.5")
+    _survey_at(ledger, No_13=(0.54, 0.04))
+    _put_back(ledger, "No.13", (0.45, 0.0))
+    assert ledger.hide(lambda name: name != "No.19") == ["No.14"]  # No.19: no attempts left
+    place = ledger.lost["No.14"]
+    assert place.kind is LossKind.HIDDEN and np.allclose(place.start, (0.55, -0.05))
+    assert ledger.lost["No.13"].kind is LossKind.PUT_BACK  # lost already: not booked again
+    assert set(ledger.remembered_poses(set())) >= {"No.14", "No.19"}  # not moved by the job
+    _survey_at(ledger, No_14=(0.52, -0.03))  # recognised again
+    assert "No.14" not in ledger.lost
+
+
+def test_the_job_books_hidden_cloths_only_with_unknown_regions_left() -> None:
+    from robot_app.control import table_clearer
+    from robot_app.control.clear_table_records import ClearTableSettings
+
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job.settings, job.ledger = ClearTableSettings(), TableLedger()
+    _survey_at(job.ledger, No_14=(0.55, -0.05), No_19=(0.62, 0.08))
+    seen_19 = (SimpleNamespace(name="No.19"),)
+    assert not job._book_hidden(SimpleNamespace(unknown=(), detections=()))  # nothing to find them in
+    assert job.ledger.lost == {}
+    assert job._book_hidden(SimpleNamespace(unknown=((0.5, 0.0),), detections=seen_19))
+    assert set(job.ledger.lost) == {"No.14"}  # No.19 is seen now

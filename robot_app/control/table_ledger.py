@@ -97,12 +97,32 @@ class TableLedger:
         """Cloth name -> (4, 4) its pose in Σ_W where a survey last saw it [m], for the cloths
         that may still lie there: not in `seen` (the names the pick's own survey saw), not
         placed, and not moved by the job since (dropped or laid back: `lost`; where such a
-        cloth was seen last says nothing of where it lies, nor does its absence from there)."""
+        cloth was seen last says nothing of where it lies, nor does its absence from there;
+        a cloth booked lost only as hidden there, `hide`, was not moved)."""
         return {
             name: pose
             for name, pose in self.last_pose.items()
-            if name not in seen and name not in self.placed_order and name not in self.lost
+            if name not in seen
+            and name not in self.placed_order
+            and (name not in self.lost or self.lost[name].kind is LossKind.HIDDEN)
         }
+
+    def hide(self, keep: Callable[[str], bool]) -> list[str]:
+        """Books lost where a survey last saw them (`LossKind.HIDDEN`) the cloths seen by a
+        survey that `keep` takes, neither placed, seen in a box nor lost; returns them."""
+        hidden = [
+            name
+            for name in self.last_seen
+            if name not in self.placed_order
+            and name not in self.seen_in_box
+            and name not in self.lost
+            and keep(name)
+        ]
+        for name in hidden:
+            xy = self.last_seen[name].copy()
+            how = f"seen by survey {self.last_survey[name]}, not since"
+            self.lost[name] = LostPlace(LossKind.HIDDEN, how, xy, xy.copy(), ())
+        return hidden
 
     def _named_wrongly(self, name: str, seen_xy: FloatArray) -> None:
         """`name`, named as a double pick's other cloth and put back with it, seen again
