@@ -240,11 +240,17 @@ def test_never_seen_cloths_may_be_in_a_blind_lift_where_a_double_pick_was_put_ba
     )
     assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP) == ()
     job.ledger.unnamed.append(unlooked)
-    # never seen, of another box and not heavier than the reading: No.17, No.18 and No.4
-    assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP) == ("No.17", "No.18", "No.4")
+    # never seen, of another box and not heavier than the reading: No.17, No.18 and No.4,
+    # to be looked for (`unlooked`), not to put a lift back unlooked (`with_the_meant`)
+    assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP, unlooked=True) == (
+        "No.17",
+        "No.18",
+        "No.4",
+    )
+    assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP) == ()
     looked = replace(unlooked, looked=True)  # looked at: only what showed hanging
     job.ledger.unnamed[:] = [looked]
-    assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP) == ()
+    assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP, unlooked=True) == ()
     job.ledger.unnamed[:] = [replace(looked, showed=("No.18",))]
     assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP) == ("No.18",)
 

@@ -648,7 +648,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         if verdict == "ok":
             # a cloth of another box of about its weight may hang there instead (held-out
             # episode 622, session 31: 31 g, No.2's weight, held No.6 of whites)
-            instead = weighs_instead(job, attempt.box.name, (name,), weighed, grasp_xy)
+            instead = weighs_instead(job, attempt.box.name, (name,), weighed, grasp_xy, unlooked=True)
         else:
             most = 1 if match.piece else MAX_HEAP
             partners = lost_with(job, name, attempt.box.name, grasp_xy)
@@ -677,6 +677,10 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             attempt.notes.append(f"{what}: put back")
             job.put_back(attempt, None)
             return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
+        # never-seen cloths where no one looked at an unnamed put-back: looked for, not
+        # enough to put the lift back unlooked (any pair of colours weighs a colours and a
+        # white cloth's weight)
+        instead = weighs_instead(job, attempt.box.name, held, weighed, grasp_xy, unlooked=True)
         if instead:
             attempt.notes.append(f"as much as {' or '.join(instead)} (another box) in their stead")
     else:
@@ -771,7 +775,12 @@ def lost_with(job: TableClearer, name: str, box: str, grasp_xy: npt.ArrayLike) -
 
 
 def weighs_instead(
-    job: TableClearer, box: str, held: Sequence[str], weighed: float, grasp_xy: npt.ArrayLike
+    job: TableClearer,
+    box: str,
+    held: Sequence[str],
+    weighed: float,
+    grasp_xy: npt.ArrayLike,
+    unlooked: bool = False,
 ) -> tuple[str, ...]:
     """The cloths of another box than `box` that could be in a blind lift named after
     `held` by the load cell's reading `weighed` [kg] (`weighed_as`): those that weigh the
@@ -789,11 +798,11 @@ def weighs_instead(
     where it showed its own colours hanging from a double pick put back unnamed near the
     grasp (`LostPlace.showed`, `near_the_loss`): held-out episode 514 (session 29), No.1 of
     colours, never identified, came up with No.18 of whites and showed 11 % hanging; the
-    pair, put back, was lifted blind as "No.6 and No.18" and went into whites. Where no one
-    looked at what hung from that double pick (no single cloth weighed its extra), every
-    cloth never seen may be in it: held-out episode 615 (session 31), No.18 of whites, never
-    identified, came up with No.16 and No.5 (79 g, 47 g extra), put back unlooked, and went
-    into colours in a blind lift of No.16's weight."""
+    pair, put back, was lifted blind as "No.6 and No.18" and went into whites. With
+    `unlooked`, where no one looked at what hung from that double pick (no single cloth
+    weighed its extra), every cloth never seen may be in it: held-out episode 615 (session
+    31), No.18 of whites, never identified, came up with No.16 and No.5 (79 g, 47 g extra),
+    put back unlooked, and went into colours in a blind lift of No.16's weight."""
     ledger, s = job.ledger, job.settings
     placed, surveys = set(ledger.placed_order), len(ledger.surveys)
     grasp = np.asarray(grasp_xy, dtype=float).reshape(2)
@@ -803,7 +812,7 @@ def weighs_instead(
     showed = {
         name
         for place in ledger.unnamed
-        if (place.showed or not place.looked) and near_the_loss(grasp, place, s.lost)
+        if (place.showed or (unlooked and not place.looked)) and near_the_loss(grasp, place, s.lost)
         for name in (place.showed if place.looked else never_seen)
     }
 
