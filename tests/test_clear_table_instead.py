@@ -310,3 +310,36 @@ def test_a_blind_lift_of_the_meant_cloth_s_weight_is_looked_at_for_another_box_s
     outcome, _ = _carry(job, attempt, LostMatch("No.2", None, 0.9))  # type: ignore[arg-type]
     assert outcome is Outcome.PLACED
     assert looks == [] and events == [("placed", "colours")]
+
+
+def test_a_never_seen_cloth_must_show_its_own_colours_a_lost_one_only_fit_as_well(monkeypatch) -> None:
+    # held-out 651 on fe0a83a: No.7 (a print with white) fit 0.63, the never-seen white No.6
+    # 0.75 with none of its own colours showing: put back at every lift. A cloth the job knows
+    # may lie there (lost) still puts the lift back on a fit as close (episode 315)
+    from robot_app.control import table_lost
+    from robot_app.control.clear_table_records import LossKind, LostPlace
+    from robot_app.control.colour_fit import ColourFit
+    from robot_app.control.episode import Outcome
+    from robot_app.control.held_look import HeldColours
+    from robot_app.control.pick_checks import AttemptState
+    from robot_app.control.table_lost import LostMatch, _carry
+
+    def look(job, name, doubted, fit=False):
+        close = {n: ColourFit(0.75, 1.0) for n in doubted}
+        return HeldColours(5000, 0.95, dict.fromkeys(doubted, 0.0), ColourFit(0.63, 1.0), close), "here"
+
+    monkeypatch.setattr(table_lost, "look_at_held", look)
+    monkeypatch.setattr(table_lost, "carry_over_box", lambda *a: None)
+    monkeypatch.setattr(table_lost, "release_into_box", lambda *a: None)
+    unlooked = LostPlace(
+        LossKind.PUT_BACK, "came up with No.2, not named", np.array(GRASP), np.array(GRASP), (), True
+    )
+    results = {}
+    for lost in (("No.2",), ("No.2", "No.18")):  # No.18 never seen / lost nearby
+        job, _ = _carrying_job(lost, 0.0170)
+        job.ledger.unnamed.append(unlooked)
+        job.ledger.placed_order += ["No.17", "No.4"]
+        attempt = AttemptState(None, job.box, _at(*GRASP), 0.0, lost_name="No.2")
+        results[lost] = _carry(job, attempt, LostMatch("No.2", None, 0.9))[0]  # type: ignore[arg-type]
+    assert results[("No.2",)] is Outcome.PLACED
+    assert results[("No.2", "No.18")] is Outcome.GRASP_FAILED

@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import combinations
 from typing import TYPE_CHECKING
 
@@ -639,6 +639,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     held: tuple[str, ...] = ()
     partners: tuple[str, ...] = ()  # lost cloths of the box that may lie at the grasp (`lost_with`)
     instead: tuple[str, ...] = ()  # cloths of another box that would weigh as much as `held`
+    unseen: frozenset[str] = frozenset()  # of those, the never-seen ones (`weighs_instead(unlooked)`)
     if job.weigh is None or expected is None:
         verdict, what = "wrong", f"{name}'s weight unknown: its identity cannot be confirmed"
     else:
@@ -649,6 +650,9 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             # a cloth of another box of about its weight may hang there instead (held-out
             # episode 622, session 31: 31 g, No.2's weight, held No.6 of whites)
             instead = weighs_instead(job, attempt.box.name, (name,), weighed, grasp_xy, unlooked=True)
+            unseen = frozenset(instead) - set(
+                weighs_instead(job, attempt.box.name, (name,), weighed, grasp_xy)
+            )
         else:
             most = 1 if match.piece else MAX_HEAP
             partners = lost_with(job, name, attempt.box.name, grasp_xy)
@@ -680,7 +684,8 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         # never-seen cloths where no one looked at an unnamed put-back: looked for, not
         # enough to put the lift back unlooked (any pair of colours weighs a colours and a
         # white cloth's weight)
-        instead = weighs_instead(job, attempt.box.name, held, weighed, grasp_xy, unlooked=True)
+        looked_for = weighs_instead(job, attempt.box.name, held, weighed, grasp_xy, unlooked=True)
+        instead, unseen = looked_for, frozenset(looked_for) - set(instead)
         if instead:
             attempt.notes.append(f"as much as {' or '.join(instead)} (another box) in their stead")
     else:
@@ -693,6 +698,12 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     doubted = (*match.doubted, *(n for n in instead if n not in match.doubted))
     if doubted:
         hanging, where = look_at_held(job, name, doubted, fit=True)
+        if hanging is not None and unseen - set(match.doubted):
+            # a cloth never seen is held to its own colours showing, not to a fit as close as
+            # the meant cloth's (held-out 651 on fe0a83a: No.7, a print with white, fit 0.63,
+            # the never-seen white No.6 0.75 with none of its own showing: put back at every lift)
+            fits = {n: f for n, f in hanging.fits.items() if n not in unseen or n in match.doubted}
+            hanging = replace(hanging, fits=fits)
         alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
         seen += "" if hanging is None else f" ({where})"
         attempt.notes.append(f"looked at against free table (could be {', '.join(doubted)}): {seen}")
