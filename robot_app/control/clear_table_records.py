@@ -149,7 +149,7 @@ class LossKind(StrEnum):
     PUT_BACK = "put back"  # laid back on the table after a rejected lift (double or wrong)
     LEFT_BY_LIFT = "left by a lift"  # shed: left lying along the strip a double pick was laid on
     MOVED = "moved"  # dragged by a placed pick, held by nothing (`table_moved`)
-    HIDDEN = "hidden"  # seen by a survey, not since, with unknown regions left (`TableLedger.hidden`)
+    HIDDEN = "hidden"  # seen by a survey, not since, with unknown regions left (`TableLedger.hide`)
 
 
 @dataclass(frozen=True)

@@ -44,7 +44,7 @@ callbacks, so that a witness of the lifts (simulation) sees them as every other 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from itertools import combinations
 from typing import TYPE_CHECKING
@@ -820,11 +820,12 @@ def weighs_instead(
     never_seen = {
         name for name in job.recognizers if name not in ledger.last_pose and name not in ledger.lost
     }
+
+    def suspected(place: LostPlace) -> Iterable[str]:
+        return never_seen if unlooked and not place.looked else place.showed
+
     showed = {
-        name
-        for place in ledger.unnamed
-        if (place.showed or (unlooked and not place.looked)) and near_the_loss(grasp, place, s.lost)
-        for name in (place.showed if place.looked else never_seen)
+        name for place in ledger.unnamed if near_the_loss(grasp, place, s.lost) for name in suspected(place)
     }
 
     def apart(name: str) -> bool:
