@@ -9,8 +9,15 @@ import pytest
 
 from robot_app.geometry import make_transform, rotation_about_z
 from robot_app.vision import ModelCamera, PinholeCamera, Recognition, Recognizer, StereoRig, make_model
-from robot_app.vision.identify import IdentifySettings, resolve
-from robot_app.vision.regions import explained, footprint, image_codes, sheet_mask
+from robot_app.vision.identify import Detection, IdentifySettings, _upper, resolve
+from robot_app.vision.regions import (
+    explained,
+    footprint,
+    image_codes,
+    lab_image,
+    outline_contrast,
+    sheet_mask,
+)
 from robot_app.vision.synthetic import render_model_photo, render_stereo_pair
 from robot_app.vision.synthetic_catalogue import synthetic_cloth
 
@@ -127,3 +134,59 @@ def test_the_sheet_is_not_foreground(scene) -> None:
     assert 0.5 < sheet.mean() < 0.95
     u, v = CAMERA.project(TOP[:3, 3][None])[0]
     assert not sheet[round(v), round(u)]
+
+
+def _two_rectangles(upper_bgr: tuple[int, int, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A white cloth with red dots (rows 20-100, columns 20-100) under a cloth of `upper_bgr`
+    with a faint print (rows 40-110, columns 60-140), on green: image, lower and upper masks."""
+    rng = np.random.default_rng(2)
+    image = np.zeros((120, 160, 3), np.uint8)
+    image[:] = (40, 150, 40)
+    lower = np.zeros((120, 160), bool)
+    lower[20:100, 20:100] = True
+    upper = np.zeros_like(lower)
+    upper[40:110, 60:140] = True
+    image[lower] = (235, 235, 235)
+    v, u = np.indices(lower.shape)
+    for cu, cv in rng.uniform(25, 95, (8, 2)):
+        image[lower & ((u - cu) ** 2 + (v - cv) ** 2 < 25)] = (40, 40, 200)
+    image[upper] = np.clip(np.asarray(upper_bgr) + rng.normal(0, 6, (int(upper.sum()), 3)), 0, 255)
+    return image, lower, upper
+
+
+def _detection(name: str, where: np.ndarray, explained_pixels: np.ndarray, z: float) -> Detection:
+    pose = make_transform(np.eye(3), [0.0, 0.0, z])
+    return Detection(name, _recognition(pose, 0.9), where, explained_pixels)
+
+
+def test_the_cloth_whose_outline_shows_lies_on_top_though_the_other_explains_more() -> None:
+    # bench episode 668: a grey print lay on a white cloth with a print; the white ground
+    # agreed with the grey, so the lower cloth explained more of the overlap than the
+    # upper one (whose pose was a little off) and was picked from under it
+    image, lower, upper = _two_rectangles((185, 180, 190))
+    half = upper & (np.random.default_rng(3).random(upper.shape) < 0.5)
+    white, grey = _detection("white", lower, lower, 0.57), _detection("grey", upper, half, 0.58)
+    lab = lab_image(image)
+    # the grey cloth's edge over the white one is an edge in the image; the white one's
+    # edge under the grey one is not
+    assert outline_contrast(lab, upper, lower, 3.0, 4, 25) > 2 * outline_contrast(
+        lab, lower, upper, 3.0, 4, 25
+    )
+    assert _upper(white, grey, lab, IdentifySettings()) == ("grey", "white")
+    assert _upper(grey, white, lab, IdentifySettings()) == ("grey", "white")
+    # by the explained pixels alone, the white cloth would lie on top
+    assert _upper(white, grey, lab, IdentifySettings(edge_ratio=None)) == ("white", "grey")
+
+
+def test_where_no_edge_shows_the_explained_pixels_decide() -> None:
+    # a white cloth on a white cloth: neither outline steps in colour, so the edge cannot
+    # tell; the one explaining more of the overlap (then the nearer one) lies on top
+    image, lower, upper = _two_rectangles((235, 235, 235))
+    image[lower & ~upper] = (235, 235, 235)  # no dots: the same plain white both
+    lab = lab_image(image)
+    assert not np.isfinite(outline_contrast(lab, upper, lower, 3.0, 4, 10**6))  # too short an edge
+    more, less = (
+        _detection("a", lower, lower, 0.58),
+        _detection("b", upper, upper & lower & (np.indices(lower.shape)[0] < 60), 0.57),
+    )
+    assert _upper(less, more, lab, IdentifySettings()) == ("a", "b")

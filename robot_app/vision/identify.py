@@ -18,10 +18,16 @@ in the pair, and the recognitions are compared region by region (`regions.py`):
    they gather into large enough regions, *unknown* regions: a cloth that matches no
    model, or one not recognised (too hidden), or a part of a cloth its model does not
    show (a folded corner's back);
-4. of two kept detections whose footprints overlap, the one explaining more of the
-   overlap lies on top (equal: the nearer to the camera); a detection that nothing lies
-   on and that no unknown region covers more than `unknown_cover` of is *free*, and the
-   preferred pick is the most confident free one.
+4. of two kept detections whose footprints overlap, the one whose outline inside the
+   other's footprint is an edge in the image lies on top (`regions.outline_contrast`: its
+   median colour step is `edge_ratio` times the other's); where neither edge says so
+   clearly (alike colours, too short an edge), the one explaining more of the overlap
+   (equal: the nearer to the camera). Explained pixels alone mislead where the lower
+   cloth's plain colour agrees with the upper one's: a white ground under a grey print
+   explained the grey as its own, and the hidden cloth was picked from under the other
+   (held-out bench episode 668). A detection that nothing lies on and that no unknown
+   region covers more than `unknown_cover` of is *free*, and the preferred pick is the
+   most confident free one.
 
 Kept detections below the recogniser's own threshold are still candidates for a closer
 look (the pick loop searches again and decides); `Detection.found` says which.
@@ -47,8 +53,10 @@ from robot_app.vision.regions import (
     Mask,
     explained,
     image_codes,
+    lab_image,
     main_codes,
     model_area,
+    outline_contrast,
     sheet_mask,
     undistorted,
 )
@@ -72,6 +80,13 @@ class IdentifySettings(StrictModel):
             free (something unrecognised may lie on it) [-].
         prefilter: share of a model's area its main colours must cover in the foreground
             for it to be searched (0: search every model) [-].
+        edge_ratio: which of two overlapping detections lies on top is the one whose outline
+            inside the other's footprint steps in colour this many times more than the
+            other's does (None: by the explained pixels alone) [-].
+        edge_offset: the outline's colour step is between the points this far inside and
+            outside it [px of the right image].
+        edge_min_points: an outline running over fewer pixels inside the other footprint
+            than this says nothing [px].
         search_again: a model not kept whose search ended on a cloth already identified
             (more than `shared_limit` of its explained pixels are a kept detection's) is
             searched once more with the kept detections painted over in a colour foreign
@@ -86,6 +101,9 @@ class IdentifySettings(StrictModel):
     explained_margin: int = Field(2, ge=0, le=20)
     unknown_cover: float = Field(0.1, ge=0.0, le=1.0)
     prefilter: float = Field(0.15, ge=0.0, le=1.0)
+    edge_ratio: float | None = Field(1.5, gt=1.0)
+    edge_offset: float = Field(3.0, gt=0.0, le=20.0)
+    edge_min_points: int = Field(25, ge=1)
     search_again: bool = False
 
 
@@ -345,8 +363,9 @@ def resolve(
             dropped.append((name, rival.name))
             continue
         kept.append(Detection(name, r, area, agree))
+    lab = lab_image(undistorted(image_right_bgr, camera)) if s.edge_ratio is not None else None
     above = tuple(
-        pair for i, a in enumerate(kept) for b in kept[i + 1 :] if (pair := _upper(a, b)) is not None
+        pair for i, a in enumerate(kept) for b in kept[i + 1 :] if (pair := _upper(a, b, lab, s)) is not None
     )
     unknown = _unknown(sheet, kept, s)
     covered = tuple(
@@ -358,11 +377,27 @@ def resolve(
     return Identification(tuple(kept), tuple(dropped), above, unknown, dict(recognitions), covered)
 
 
-def _upper(a: Detection, b: Detection) -> tuple[str, str] | None:
-    """(upper, lower) if the footprints of a and b overlap; None if they do not."""
+def _upper(
+    a: Detection, b: Detection, image_lab: FloatArray | None, s: IdentifySettings
+) -> tuple[str, str] | None:
+    """(upper, lower) if the footprints of a and b overlap (step 4 of the module
+    docstring); None if they do not."""
     overlap = a.footprint & b.footprint
     if not np.any(overlap):
         return None
+    if image_lab is not None and s.edge_ratio is not None:
+        inset = int(np.ceil(s.edge_offset)) + 1  # clear of the other's own edge
+
+        def step(edge_of: Detection, inside: Detection) -> float:
+            return outline_contrast(
+                image_lab, edge_of.footprint, inside.footprint, s.edge_offset, inset, s.edge_min_points
+            )
+
+        step_a, step_b = step(a, b), step(b, a)
+        if step_a > s.edge_ratio * step_b:  # False with NaN
+            return (a.name, b.name)
+        if step_b > s.edge_ratio * step_a:
+            return (b.name, a.name)
     shown_a = np.count_nonzero(a.explained & overlap)
     shown_b = np.count_nonzero(b.explained & overlap)
     if shown_a == shown_b:  # both look alike there: the nearer one lies on top

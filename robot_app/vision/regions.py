@@ -11,7 +11,11 @@ pair (undistorted, as the fitness sees it):
   agrees with the model photo's at that place (`hue.colours_match`, the fitness's hue
   threshold): the part of the cloth the image shows as the model says;
 - the *sheet*: pixels of the green sheet's hue; everything else is foreground (cloths,
-  and what lies on them).
+  and what lies on them);
+- the *outline contrast* of a footprint over another: how sharply the image's colour
+  changes across the footprint's edge where it runs inside the other footprint. The edge
+  of the cloth on top is an edge in the image (its cloth against the one under it); the
+  edge of the cloth underneath is hidden there, and only the upper cloth's print crosses it.
 
 All masks are (H, W) bool arrays of the right camera's image size.
 """
@@ -120,6 +124,41 @@ def explained(
     return inside, agree
 
 
+def lab_image(image_bgr: npt.NDArray[np.uint8]) -> FloatArray:
+    """(H, W, 3) CIE L*a*b* of an 8-bit BGR image (L 0-100): colour differences by distance."""
+    return np.asarray(cv2.cvtColor(np.asarray(image_bgr, np.float32) / 255.0, cv2.COLOR_BGR2Lab), dtype=float)
+
+
+def outline_contrast(
+    image_lab: FloatArray, footprint: Mask, inside: Mask, offset: float, inset: int, min_points: int
+) -> float:
+    """The median colour difference (CIE76 delta E) across `footprint`'s edge where the edge
+    runs `inset` [px] or more inside the mask `inside`: between the image points `offset`
+    [px] inside and outside the edge along its normal. NaN where fewer than `min_points`
+    edge pixels run there. The median, not the mean: a print crossing a hidden edge
+    differs at a few places, an edge in view along most of it."""
+    mask = np.asarray(footprint, dtype=np.uint8)
+    edge = mask & ~np.asarray(cv2.erode(mask, np.ones((3, 3), np.uint8)), dtype=np.uint8)
+    size = 2 * inset + 1
+    within = np.asarray(cv2.erode(np.asarray(inside, np.uint8), np.ones((size, size), np.uint8)), np.uint8)
+    v, u = np.nonzero(edge & within)
+    if len(u) < min_points:
+        return float("nan")
+    smooth = cv2.GaussianBlur(mask.astype(np.float32), (0, 0), 2.0)
+    gy, gx = np.gradient(smooth)  # points into the footprint
+    nx, ny = gx[v, u], gy[v, u]
+    length = np.hypot(nx, ny) + 1e-9
+    nx, ny = nx / length, ny / length
+    lab = np.asarray(image_lab, dtype=np.float32)
+
+    def at(uu: FloatArray, vv: FloatArray) -> FloatArray:
+        columns, rows = uu.astype(np.float32).reshape(1, -1), vv.astype(np.float32).reshape(1, -1)
+        return np.asarray(cv2.remap(lab, columns, rows, cv2.INTER_LINEAR), dtype=float).reshape(-1, 3)
+
+    difference = at(u + offset * nx, v + offset * ny) - at(u - offset * nx, v - offset * ny)
+    return float(np.median(np.linalg.norm(difference, axis=1)))
+
+
 def model_area(model: ClothModel) -> float:
     """The cloth's area [m²]: its photo's cloth mask (else the area `make_model` recorded)."""
     if model.texture_mask is not None and model.texture_from_model is not None:
@@ -174,8 +213,10 @@ __all__ = [
     "homography_model_to_image",
     "image_codes",
     "in_palette",
+    "lab_image",
     "main_codes",
     "model_area",
+    "outline_contrast",
     "sheet_mask",
     "undistorted",
     "with_folds",
