@@ -318,6 +318,26 @@ class ClothBody:
             self._write_nodes(nodes)
         return count
 
+    def simulation_state(self) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
+        """(positions (N, 3) in Σ_W [m], anchored (N,)), both in pybullet's node order: for
+        the per-step corrections of `robot_app.sim` (`cloth_layers`), with
+        `set_free_heights`."""
+        return self._simulation_nodes(), self._held.copy()
+
+    def set_free_heights(self, heights: npt.ArrayLike) -> int:
+        """Sets the heights (Σ_W z [m], pybullet's node order) of the nodes that are not
+        anchored; returns how many changed. Only positions change, as in `move_free_nodes`."""
+        z = np.asarray(heights, dtype=float).reshape(-1)
+        nodes = self._simulation_nodes()
+        if z.shape != (len(nodes),):
+            raise ValueError(f"heights must be ({len(nodes)},), got {z.shape}")
+        change = (z != nodes[:, 2]) & ~self._held
+        count = int(np.count_nonzero(change))
+        if count:
+            nodes[change, 2] = z[change]
+            self._write_nodes(nodes)
+        return count
+
     def remove(self) -> None:
         """Deletes the soft body from its client."""
         self.release()

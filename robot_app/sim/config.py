@@ -166,6 +166,13 @@ class ClothPhysicsSettings(StrictModel):
         "is set back onto it (World.step); without it, a node trapped in the table under another cloth "
         "made put-back heaps slide off the table by themselves (scripts/pile_physics.py --alone)",
     )
+    keep_layers: bool = Field(
+        True,
+        description="a free cloth node lying low keeps its side (above or below) of every other free "
+        "cloth it lies over or under (World.step, sim/cloth_layers.py); without it, pybullet's soft "
+        "contact lets resting layers sink through each other within seconds, and a lift brings the "
+        "cloths under the lifted one up, hooked into it",
+    )
     free_slide_speed: float | None = Field(
         None,
         gt=0.0,

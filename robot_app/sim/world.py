@@ -26,6 +26,7 @@ from robot_app.geometry import (
 )
 from robot_app.sim.cameras import RIGHT_FRAME, Lighting
 from robot_app.sim.cloth_body import ClothBody
+from robot_app.sim.cloth_layers import CHECK_EVERY, LayerKeeper
 from robot_app.sim.cloth_mesh import build_cloth_mesh, cache_dir
 from robot_app.sim.cloth_visual import ClothLook, build_render_mesh, render_obj_path
 from robot_app.sim.cloths import ClothSpec
@@ -119,6 +120,9 @@ class World:
         self.time = 0.0
         self.table_corrections = 0  # cloth nodes set back onto the solid table (`step`)
         self.slides_held = 0  # steps a lying cloth was kept from speeding up by itself (`step`)
+        self.layer_corrections = 0  # cloth nodes set back on their side of another cloth (`step`)
+        self._layers = LayerKeeper()
+        self._layer_steps = 0
         self._motion: dict[int, tuple[FloatArray, FloatArray | None]] = {}  # centre, velocity
         self._held_at: dict[int, float] = {}  # body id -> when the guard last held it back [s]
         self._cache = cache_dir()
@@ -194,6 +198,7 @@ class World:
             for _ in range(n):
                 pb.stepSimulation(physicsClientId=self._client)
                 self._keep_cloths_on_table()
+                self._keep_layers()
                 self._hold_back_slides()
             self.time += n * self.dt
             return
@@ -201,6 +206,7 @@ class World:
             self.conveyor.carry(self.cloths, self.time, self.dt)
             pb.stepSimulation(physicsClientId=self._client)
             self._keep_cloths_on_table()
+            self._keep_layers()
             self._motion = {}  # a running belt carries its cloths: no slide to hold back
             self.time += self.dt
 
@@ -224,6 +230,15 @@ class World:
             self.table_corrections += cloth.lift_free_nodes(
                 top - SUNK, top + c.cloth.collision_margin, over_table
             )
+
+    def _keep_layers(self) -> None:
+        """Cloths lying on cloths keep their side of each other (`world.cloth.keep_layers`,
+        `cloth_layers.LayerKeeper`), checked every `cloth_layers.CHECK_EVERY` steps."""
+        if not self.config.cloth.keep_layers or len(self.cloths) < 2:
+            return
+        self._layer_steps += 1
+        if self._layer_steps % CHECK_EVERY == 0:
+            self.layer_corrections += self._layers.keep(self.cloths, self.config.table.top_z)
 
     def _hold_back_slides(self) -> None:
         """No cloth speeds up by itself (`world.cloth.free_slide_speed`): a cloth the hand

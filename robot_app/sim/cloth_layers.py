@@ -1,0 +1,106 @@
+"""Cloths lying on cloths keep their side of each other (`world.cloth.keep_layers`).
+
+pybullet's deformable-deformable contact does not keep two resting cloths apart for long:
+it holds a layer about twice the collision margin above the one under it when they land,
+and then lets it sink, a few millimetres a second, through the other. In a pile of bench
+episode 661 left alone, the gaps between layers went from 15-16 mm to 0 within 4 s and
+to -16 mm (crossed) within 8 s (notes `s32/creep.py`). Crossed cloths are hooked into
+each other: the top cloth of that pile, lifted after 8 s at a point 10 cm from any other
+cloth, brought the cloth under it up whole (lifted straight after the drop, it came up
+alone), and in the bench such lifts brought two or three cloths up at every attempt
+(held-out episodes 661, 668, 669, 684). Real cloths do not pass through each other.
+
+So after every `CHECK_EVERY` physics steps, each free node of a cloth lying low (within
+`LOW` of the table top) is compared with every other cloth's height there (its nodes within
+`REACH` along the table, weighted by nearness): the side it lies on (above or below, once
+more than `GAP` apart) is remembered, and a node found on the other side a check later
+(less than `JUMP` across) is set back `GAP` on its side. Only heights change, as with the solid table
+(`ClothBody.lift_free_nodes`). A node with no node of that cloth within reach forgets its
+side (it went round the edge, or away); cloths held by the gripper are left out (a lift
+may drag what lies on the held cloth: that is friction and is kept).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+from scipy.spatial import cKDTree
+
+from robot_app.sim.cloth_body import ClothBody
+
+CHECK_EVERY = 2  # physics steps between checks
+REACH = 0.02  # [m] along the table: a node of another cloth this near lies over or under it
+GAP = 0.002  # [m] a side is taken beyond this; a node that crossed is set back this far
+JUMP = 0.03  # [m] farther across than this is not a crossing (a cloth falling onto another)
+LOW = 0.06  # [m] above the table top: nodes higher up (a hanging cloth) are not compared
+NEIGHBOURS = 8  # nearest nodes looked at per node
+
+
+class LayerKeeper:
+    """Remembers which side of each other cloth every low free node lies on, and keeps it there."""
+
+    def __init__(self) -> None:
+        # (body id, other body id) -> per node of the first (pybullet's order): +1 above, -1 below, 0 unknown
+        self._sides: dict[tuple[int, int], npt.NDArray[np.int8]] = {}
+
+    def keep(self, cloths: Sequence[ClothBody], table_z: float) -> int:
+        """One check of the free cloths' low nodes; returns how many were set back."""
+        lying = [c for c in cloths if not c.is_grasped]
+        if len(lying) < 2:
+            self._sides.clear()
+            return 0
+        states = [c.simulation_state() for c in lying]
+        nodes = [np.array(positions) for positions, _ in states]
+        points = np.concatenate(nodes)
+        owner = np.concatenate([np.full(len(n), k) for k, n in enumerate(nodes)])
+        first = np.cumsum([0] + [len(n) for n in nodes])[:-1]
+        low = np.flatnonzero(points[:, 2] < table_z + LOW)
+        if len(low) < 2:
+            return 0
+        distance, near = cKDTree(points[low, :2]).query(
+            points[low, :2], k=min(NEIGHBOURS, len(low)), distance_upper_bound=REACH
+        )
+        distance, near = distance.reshape(len(low), -1), near.reshape(len(low), -1)
+        found = np.isfinite(distance)
+        neighbour_owner = np.where(found, owner[low[np.where(found, near, 0)]], -1)
+        moved = 0
+        for k, cloth in enumerate(lying):
+            rows = np.flatnonzero(owner[low] == k)
+            index = low[rows] - first[k]  # this cloth's nodes, pybullet's order
+            held = states[k][1]
+            changed = False
+            for j, other in enumerate(lying):
+                if j == k:
+                    continue
+                key = (cloth.body_id, other.body_id)
+                side = self._sides.setdefault(key, np.zeros(len(nodes[k]), np.int8))
+                of_other = neighbour_owner[rows] == j
+                has = of_other.any(axis=1)
+                seen = np.zeros(len(side), dtype=bool)
+                seen[index[has]] = True
+                side[~seen] = 0
+                if not np.any(has):
+                    continue
+                r = np.flatnonzero(has)
+                # the other cloth's height there: its nodes within reach, weighted by nearness
+                weight = of_other[r] / np.maximum(distance[rows[r]], 1e-3)
+                heights = points[low[np.where(of_other[r], near[rows[r]], 0)], 2]
+                sheet = np.sum(weight * heights, axis=1) / np.sum(weight, axis=1)
+                mine = index[r]
+                dz = nodes[k][mine, 2] - sheet
+                was = side[mine]
+                crossed = (was != 0) & (np.sign(dz) != was) & (np.abs(dz) < JUMP) & ~held[mine]
+                if np.any(crossed):
+                    nodes[k][mine[crossed], 2] = sheet[crossed] + was[crossed] * GAP
+                    moved += int(np.count_nonzero(crossed))
+                    changed = True
+                clear = ~crossed & (np.abs(dz) > GAP)
+                side[mine[clear]] = np.sign(dz[clear]).astype(np.int8)
+            if changed:
+                cloth.set_free_heights(nodes[k][:, 2])
+        return moved
+
+
+__all__ = ["CHECK_EVERY", "LayerKeeper"]

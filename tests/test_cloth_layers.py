@@ -1,0 +1,96 @@
+"""Cloths lying on cloths keep their side of each other (`sim.cloth_layers`): pybullet's
+soft contact let resting layers sink through each other within seconds, and lifts then
+brought the hooked cloths under the lifted one up with it."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from robot_app.config import load_config
+from robot_app.experiments.clear_table import ClearTableConfig
+from robot_app.sim import World
+from robot_app.sim.cloth_layers import GAP, LayerKeeper
+from robot_app.sim.pile import make_pile
+from tests.test_pile_physics import CONFIG, _below
+
+TABLE = 0.0
+
+
+class Sheet:
+    """A flat square of nodes 35 mm apart, `z` over the table, as the keeper reads a cloth."""
+
+    def __init__(self, body_id: int, z: float, offset: float = 0.0) -> None:
+        u, v = np.meshgrid(np.arange(5) * 0.035, np.arange(5) * 0.035)
+        self.body_id = body_id
+        self.nodes = np.stack([u.ravel() + offset, v.ravel(), np.full(u.size, z)], axis=1)
+        self.held = np.zeros(len(self.nodes), dtype=bool)
+        self.is_grasped = False
+
+    def simulation_state(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.nodes.copy(), self.held.copy()
+
+    def set_free_heights(self, heights: np.ndarray) -> int:
+        change = (heights != self.nodes[:, 2]) & ~self.held
+        self.nodes[change, 2] = heights[change]
+        return int(change.sum())
+
+
+def test_a_node_that_sinks_through_the_cloth_under_it_is_set_back_on_top() -> None:
+    under, over = Sheet(1, 0.008), Sheet(2, 0.024)
+    keeper = LayerKeeper()
+    assert keeper.keep([under, over], TABLE) == 0  # the sides are taken, nothing crossed
+    over.nodes[12, 2] = 0.004  # sank 4 mm through the cloth under it
+    over.nodes[13, 2] = 0.010  # lower, but still above it
+    assert keeper.keep([under, over], TABLE) >= 1
+    # both are set back on their sides, GAP from where the other was
+    assert over.nodes[12, 2] == np.float64(0.008 + GAP)
+    assert under.nodes[12, 2] < over.nodes[12, 2]
+    assert over.nodes[13, 2] == 0.010
+    assert np.all(under.nodes[np.arange(25) != 12, 2] == 0.008)  # the rest of it stays
+
+
+def test_a_held_cloth_and_far_crossings_are_left_alone() -> None:
+    under, over = Sheet(1, 0.008), Sheet(2, 0.024)
+    keeper = LayerKeeper()
+    keeper.keep([under, over], TABLE)
+    over.nodes[0, 2] = 0.008 - 0.05  # 5 cm across in one check: not a crossing (a fall)
+    assert keeper.keep([under, over], TABLE) == 0
+    under, over, keeper = Sheet(1, 0.008), Sheet(2, 0.024), LayerKeeper()
+    keeper.keep([under, over], TABLE)
+    over.is_grasped = True  # in the hand: what it drags along is friction, kept
+    over.nodes[12, 2] = 0.004
+    assert keeper.keep([under, over], TABLE) == 0
+    assert over.nodes[12, 2] == 0.004 and np.all(under.nodes[:, 2] == 0.008)
+
+
+def test_a_node_that_went_round_the_edge_forgets_its_side() -> None:
+    under, over = Sheet(1, 0.008), Sheet(2, 0.024, offset=0.1)  # two columns over the other
+    keeper = LayerKeeper()
+    keeper.keep([under, over], TABLE)
+    over.nodes[:, 0] += 0.2  # slid off the other cloth: no node of it within reach
+    keeper.keep([under, over], TABLE)
+    over.nodes[:, 0] -= 0.2
+    over.nodes[:, 2] = 0.004  # back, now under it: a new side, not a crossing
+    assert keeper.keep([under, over], TABLE) == 0
+
+
+def test_a_resting_stack_keeps_its_layers() -> None:
+    """No.5 on No.9 on No.3, left for 8 s: without the keeper, nodes of No.9 sank through
+    No.3 after 6 s (2-3 nodes more than 4 mm under it)."""
+    config = load_config(
+        ClearTableConfig,
+        CONFIG,
+        [
+            "pile.cloths=[3,9,5]",
+            "pile.layout=[[0.55,-0.09,0.0],[0.55,0.03,0.0],[0.55,0.15,0.0]]",
+            "pile.fold_probability=0.0",
+        ],
+    )
+    with World(config.world) as world:
+        pile = make_pile(world, config.pile, seed=0)
+        for _ in range(4):
+            world.step(int(2.0 / world.dt))
+            nodes = [c.body.nodes() for c in pile.cloths]
+            assert _below(nodes[0], nodes[1]) == 0, world.time  # No.9 on No.3
+            assert _below(nodes[1], nodes[2]) == 0, world.time  # No.5 on No.9
+        assert world.layer_corrections > 0  # the keeper had work to do
