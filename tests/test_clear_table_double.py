@@ -395,3 +395,30 @@ def test_a_cloth_named_hanging_is_not_named_where_lighter_cloths_of_another_box_
             assert attempt.came_along == ("No.11",) and attempt.named_by == "look" and put_back == []
         else:
             assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
+
+
+def test_a_white_cloth_of_another_box_that_may_hang_in_its_shade_withdraws_the_name(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Held-out episode 688 (session 32): No.18 (white, whites) came up under No.15; hanging,
+    it read DARK, 71 % "No.19's own" (grey melange, colours) and none of its own LIGHT, and
+    went into colours named No.19. A white cloth of another box that weighs the extra and
+    whose shade (`HeldColours.shaded`) shows `doubt_share` withdraws the name."""
+    from robot_app.control.held_look import HeldColours
+
+    for shade, named in ((0.0, True), (0.71, False)):
+        put_back: list[str] = []
+        job, _ = _looking_job(monkeypatch, put_back, {"No.11": 0.71})
+        job.sort = SortSettings(default="colours", boxes={"whites": (10,)})  # No.10 weighs the extra
+
+        def look(job, meant, others, looks=1, shade=shade):
+            own = {n: 0.71 if n == "No.11" else 0.0 for n in others}
+            shaded = {**own, "No.10": shade}
+            return HeldColours(4000, 0.05, own, shaded=shaded), "looked from 27 cm aside"
+
+        monkeypatch.setattr(table_clearer, "look_at_held", look)
+        attempt = _lift(job)
+        if named:
+            assert attempt.came_along == ("No.11",) and attempt.named_by == "look" and put_back == []
+        else:
+            assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]

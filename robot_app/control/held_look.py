@@ -115,6 +115,9 @@ class HeldColours:
         meant_fit: how they fit the meant cloth's colours, mix and lightness (`colour_fit`);
             None where not measured.
         fits: other cloth -> the same for it.
+        shaded: other cloth -> share of them in its main colours or its folds' shade
+            (`regions.with_folds`: DARK for a white cloth) and none of the meant cloth's:
+            what it may show hanging where the light does not reach it.
     """
 
     pixels: int
@@ -122,6 +125,7 @@ class HeldColours:
     own: Mapping[str, float]
     meant_fit: ColourFit | None = None
     fits: Mapping[str, ColourFit] = field(default_factory=dict)
+    shaded: Mapping[str, float] = field(default_factory=dict)
 
 
 def project_to_image(
@@ -380,7 +384,7 @@ def look_at_held(
     palettes = {n: main_codes(job.recognizers[n].model) for n in (meant, *others)}
     wide = main_codes(recognizer.model, ALL_COLOURS)
     seen_at: list[FloatArray] = []
-    views: list[tuple[Mask, dict[str, Mask], Mask]] = []
+    views: list[tuple[Mask, dict[str, Mask], Mask, dict[str, Mask]]] = []
     first: StereoCapture | None = None
     for shift, _ in offsets:
         if seen_at and min(float(np.hypot(*(shift - at))) for at in seen_at) < s.confirm_shift:
@@ -409,6 +413,7 @@ def look_at_held(
                 held,
                 palette_masks(codes, palettes, meant, threshold),
                 in_palette(codes, wide, threshold),
+                {n: in_palette(codes, palettes[n], threshold) for n in others},
             )
         )
         job.motion.hold(time.process_time() - cpu)
@@ -417,11 +422,14 @@ def look_at_held(
             break
     if len(views) < looks or first is None:
         return None, "no free table within reach to look against"
-    held, colours, any_meant = views[0]
-    for later_held, later_colours, _ in views[1:]:
+    held, colours, any_meant, shade = views[0]
+    for later_held, later_colours, _, later_shade in views[1:]:
         held = held & _grown(later_held, s.persist_px)
         colours = {n: colours[n] & _grown(later_colours[n] & later_held, s.persist_px) for n in colours}
+        shade = {n: shade[n] & _grown(later_shade[n] & later_held, s.persist_px) for n in shade}
     seen = held_colours(held, colours[meant], any_meant, {n: colours[n] for n in others})
+    shaded = held_colours(held, colours[meant], any_meant, shade).own
+    seen = replace(seen, shaded=shaded)
     if fit:
         cpu = time.process_time()
         fits = colour_shares(first, held, {n: job.recognizers[n] for n in (meant, *others)})

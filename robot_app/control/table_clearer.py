@@ -1002,7 +1002,8 @@ class TableClearer:
         (cloths of one hue family show alike, and booking the wrong one placed would leave
         the other on the table for good: replay of held-out episode 139, No.9 and No.11 at
         0.385 and 0.376), if all that show go into one box, and if no cloth of another box
-        that weighs the extra or less (a part of it) shows `doubt_share` of its own; and a
+        that weighs the extra or less (a part of it) shows `doubt_share` of its own (a white
+        one: or of its shade, `HeldColours.shaded`); and a
         note ("" when no cloth weighs the extra, and nothing was looked at). Held-out run
         116-165 (session 23): 61 double picks put back with the other cloth unnamed."""
         s, hl = self.settings, self.settings.held_look
@@ -1032,10 +1033,14 @@ class TableClearer:
         if len(showing) > 1 and seen.own[showing[0]] - seen.own[showing[1]] < hl.name_margin:
             return None, note + f": {showing[0]} not told from {showing[1]}"
         box = self.sort.box_for(showing[0])
+        # a white cloth hanging in its own shade reads DARK: held-out episode 688 (session
+        # 32), No.18 (white, whites) came up under No.15 and showed 71 % DARK, "No.19's own"
+        # (grey melange, colours), and went into colours named No.19
         doubted = [
-            f"{n}'s own {seen.own[n]:.0%}"
+            f"{n}'s own {share:.0%}"
             for n in (*weighing, *parts)
-            if self.sort.box_for(n) != box and seen.own[n] >= hl.doubt_share
+            if self.sort.box_for(n) != box
+            and (share := max(seen.own[n], seen.shaded.get(n, 0.0))) >= hl.doubt_share
         ]
         if doubted:
             return None, note + f": cloths of another box show too ({', '.join(doubted)})"
