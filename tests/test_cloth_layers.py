@@ -11,7 +11,7 @@ from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.sim import World
 from robot_app.sim.cloth_layers import GAP, LayerKeeper
 from robot_app.sim.pile import make_pile
-from tests.test_pile_physics import CONFIG, _below
+from tests.test_pile_physics import CONFIG, STACK, _below
 
 TABLE = 0.0
 
@@ -77,15 +77,7 @@ def test_a_node_that_went_round_the_edge_forgets_its_side() -> None:
 def test_a_resting_stack_keeps_its_layers() -> None:
     """No.5 on No.9 on No.3, left for 8 s: without the keeper, nodes of No.9 sank through
     No.3 after 6 s (2-3 nodes more than 4 mm under it)."""
-    config = load_config(
-        ClearTableConfig,
-        CONFIG,
-        [
-            "pile.cloths=[3,9,5]",
-            "pile.layout=[[0.55,-0.09,0.0],[0.55,0.03,0.0],[0.55,0.15,0.0]]",
-            "pile.fold_probability=0.0",
-        ],
-    )
+    config = load_config(ClearTableConfig, CONFIG, STACK)
     with World(config.world) as world:
         pile = make_pile(world, config.pile, seed=0)
         for _ in range(4):

@@ -20,6 +20,12 @@ from robot_app.sim.fresh_process import run_in_fresh_process
 from robot_app.sim.pile import make_pile
 
 CONFIG = "configs/clear_table.yaml"
+# No.5 overlapping only No.9, which lies on No.3, unfolded
+STACK = [
+    "pile.cloths=[3,9,5]",
+    "pile.layout=[[0.55,-0.09,0.0],[0.55,0.03,0.0],[0.55,0.15,0.0]]",
+    "pile.fold_probability=0.0",
+]
 
 
 def trial(seed: int, *overrides: str) -> tuple[PileTrialResult, float]:
@@ -111,15 +117,7 @@ def test_a_cloth_dropped_on_a_stack_lies_on_its_top() -> None:
     """No.5 overlaps only No.9, which lies on No.3: it must start above No.9, not at the
     height of one cloth under it (it was dropped into No.9 and settled partly under it, so
     lifting either dragged the other through it: held-out episodes 615, 620, 624)."""
-    config = load_config(
-        ClearTableConfig,
-        CONFIG,
-        [
-            "pile.cloths=[3,9,5]",
-            "pile.layout=[[0.55,-0.09,0.0],[0.55,0.03,0.0],[0.55,0.15,0.0]]",
-            "pile.fold_probability=0.0",
-        ],
-    )
+    config = load_config(ClearTableConfig, CONFIG, STACK)
     with World(config.world) as world:
         pile = make_pile(world, config.pile, seed=0)
         nodes = [c.body.nodes() for c in pile.cloths]
