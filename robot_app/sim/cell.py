@@ -25,7 +25,9 @@ HOLD_HEIGHT = 0.05  # a held cloth's median node is at least this far above the 
 REST_CONTACT = (
     0.025  # a node rests on what lies at most this far under it [m] (layers of a pile ~16 mm apart)
 )
-REST_UNDER = 0.015  # ... and at most this far aside [m]
+# ... and at most this far aside [m]: the nearest node of a 35 mm lattice lies within 25 mm (at
+# 15 mm, layers kept apart (`world.cloth.keep_layers`) over 25 mm up rested on nothing: weighed)
+REST_UNDER = 0.025
 
 
 class SimCell:
