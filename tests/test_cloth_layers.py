@@ -27,8 +27,8 @@ class Sheet:
         self.held = np.zeros(len(self.nodes), dtype=bool)
         self.is_grasped = False
 
-    def simulation_state(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.nodes.copy(), self.held.copy()
+    def simulation_nodes(self) -> np.ndarray:
+        return self.nodes.copy()
 
     def set_free_heights(self, heights: np.ndarray) -> int:
         change = (heights != self.nodes[:, 2]) & ~self.held

@@ -318,11 +318,10 @@ class ClothBody:
             self._write_nodes(nodes)
         return count
 
-    def simulation_state(self) -> tuple[FloatArray, npt.NDArray[np.bool_]]:
-        """(positions (N, 3) in Σ_W [m], anchored (N,)), both in pybullet's node order: for
-        the per-step corrections of `robot_app.sim` (`cloth_layers`), with
-        `set_free_heights`."""
-        return self._simulation_nodes(), self._held.copy()
+    def simulation_nodes(self) -> FloatArray:
+        """(N, 3) node positions in Σ_W [m], in pybullet's node order (a copy): for the
+        per-step corrections of `robot_app.sim` (`cloth_layers`), with `set_free_heights`."""
+        return self._simulation_nodes()
 
     def set_free_heights(self, heights: npt.ArrayLike) -> int:
         """Sets the heights (Σ_W z [m], pybullet's node order) of the nodes that are not

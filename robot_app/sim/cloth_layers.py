@@ -51,8 +51,7 @@ class LayerKeeper:
         if len(lying) < 2:
             self._sides.clear()
             return 0
-        states = [c.simulation_state() for c in lying]
-        nodes = [np.array(positions) for positions, _ in states]
+        nodes = [c.simulation_nodes() for c in lying]
         points = np.concatenate(nodes)
         owner = np.concatenate([np.full(len(n), k) for k, n in enumerate(nodes)])
         first = np.cumsum([0] + [len(n) for n in nodes])[:-1]
@@ -69,7 +68,6 @@ class LayerKeeper:
         for k, cloth in enumerate(lying):
             rows = np.flatnonzero(owner[low] == k)
             index = low[rows] - first[k]  # this cloth's nodes, pybullet's order
-            held = states[k][1]
             changed = False
             for j, other in enumerate(lying):
                 if j == k:
@@ -91,7 +89,7 @@ class LayerKeeper:
                 mine = index[r]
                 dz = nodes[k][mine, 2] - sheet
                 was = side[mine]
-                crossed = (was != 0) & (np.sign(dz) != was) & (np.abs(dz) < JUMP) & ~held[mine]
+                crossed = (was != 0) & (np.sign(dz) != was) & (np.abs(dz) < JUMP)
                 if np.any(crossed):
                     nodes[k][mine[crossed], 2] = sheet[crossed] + was[crossed] * GAP
                     moved += int(np.count_nonzero(crossed))
