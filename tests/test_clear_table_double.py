@@ -422,3 +422,35 @@ def test_a_white_cloth_of_another_box_that_may_hang_in_its_shade_withdraws_the_n
             assert attempt.came_along == ("No.11",) and attempt.named_by == "look" and put_back == []
         else:
             assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
+
+
+def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_memory(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # held-out episode 722 (session 33): memory named No.7 with No.1, and No.6 of whites came
+    # along too; now what hangs is looked at as for a cloth named "under"
+    from robot_app.control.held_look import HeldColours
+
+    for shown, named in ((0.0, True), (0.2, False)):
+        put_back: list[str] = []
+        job = _job(monkeypatch, put_back)
+        job.weights["No.17"] = 0.024  # whites, could hang in the 35 g extra
+        job.recognizers["No.17"] = job.recognizers["No.10"]
+        looked: list[tuple[str, ...]] = []
+
+        def look(job, meant, others, looks=1, shown=shown, looked=looked):
+            looked.append(tuple(others))
+            return HeldColours(5000, 0.8, {n: shown for n in others}), "looked from 20 cm aside"
+
+        monkeypatch.setattr(table_clearer, "look_at_held", look)
+        resumed: list[object] = []
+        loop = SimpleNamespace(arm=SimpleNamespace(resume_at=resumed.append), extra_reach=0.0)
+        attempt = _attempt()
+        with pytest.raises(EpisodeAbortError) if not named else contextlib.nullcontext():
+            job._after_lift(attempt, loop)  # type: ignore[arg-type]
+        assert looked[:1] == [("No.17",)] and resumed, "the loop goes on from where the look left the hand"
+        if named:
+            assert attempt.came_along == ("No.10",) and attempt.named_by == "memory" and put_back == []
+        else:
+            assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
+            assert any("No.10 would be the other cloth" in note for note in attempt.notes)
