@@ -83,3 +83,16 @@ def test_a_cloth_dropped_in_transfer_is_picked_again() -> None:
     episode = dropped_job()
     assert finals(episode) == {3: "colours"}, episode.verdict.cause
     assert episode.verdict.wrong_box == 0
+
+
+def test_a_cloth_dropped_into_its_box_on_the_way_is_booked_placed() -> None:
+    # it slips from the fingers near the end of the transfer and falls into the box: the
+    # look into the box finds it there, so it is not looked for around the table
+    episode = job(
+        "pile.cloths=[3]", "pile.layout=[[0.5,0.0,0.0]]", "faults.drop_transfers=[1]", "faults.drop_after=1.2"
+    )
+    assert episode.verdict.drops == 1 and episode.verdict.drops_detected == 1
+    assert finals(episode) == {3: "colours"}, episode.verdict.cause
+    (attempt,) = episode.result.attempts
+    assert attempt.dropped and attempt.result.outcome.value == "placed"
+    assert attempt.box_check is not None and attempt.box_check.confirmed

@@ -230,6 +230,9 @@ class ClearTableSettings(StrictModel):
             `min_model_share` of the change.
         box_view_height: camera above the box floor for that look and for the check
             after every release (the hand rises out of the box to it) [m].
+        drop_box_check: when the gripper comes empty over the box, look into the box as
+            after a release; a cloth seen there fell into its box on the way (placed, not
+            lost).
         pile_grasp: where on the chosen cloth to grasp (away from the other cloths).
         put_back: how a rejected lift is laid back onto the table.
         look_around: when a survey leaves nothing to pick, look again from up to this
@@ -272,6 +275,7 @@ class ClearTableSettings(StrictModel):
     survey_latency: float | None = Field(None, ge=0.0)
     look_at_boxes: bool = True
     box_view_height: float = Field(0.42, gt=0.1)
+    drop_box_check: bool = True
     pile_grasp: PileGraspSettings = Field(default_factory=PileGraspSettings)
     surface: SurfaceSettings = Field(default_factory=SurfaceSettings)
     layers: LayerSettings = Field(default_factory=LayerSettings)
@@ -335,7 +339,8 @@ class PickAttempt:
         expected_weight: the meant cloth's weight [kg] (None: unknown).
         put_back: the lift was lowered back onto the table.
         dropped: the cloth was found gone from the gripper at the end of the transfer.
-        box_check: the look into the box after releasing (None: not released).
+        box_check: the look into the box after releasing, or after the gripper came empty
+            over it (None: not looked).
         check_wall_s: computation time of the checks [s].
         grasp_clearance: the job's grasp point's distance to the nearest other cloth the
             survey saw [m] (None: the loop's own grasp point; inf: no other cloth).

@@ -25,6 +25,7 @@ from robot_app.vision.identify import Detection
 
 PUT_BACK = "put back"  # in a GRASP_FAILED reason: the job lowered the lift back
 DROPPED = "dropped"  # in a LOST reason: the gripper came empty over the box
+FELL_INTO_BOX = "the gripper came empty over the box, and the cloth lay in it: fell in on the way"
 
 
 @dataclass
@@ -239,6 +240,7 @@ def check_release(
 
 __all__ = [
     "DROPPED",
+    "FELL_INTO_BOX",
     "PUT_BACK",
     "AttemptState",
     "agrees",

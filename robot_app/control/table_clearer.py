@@ -63,6 +63,7 @@ from robot_app.control.logged_cell import LoggedCell
 from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.pick_checks import (
     DROPPED,
+    FELL_INTO_BOX,
     PUT_BACK,
     AttemptState,
     check_release,
@@ -521,6 +522,10 @@ class TableClearer:
         elif record.phase == "transfer" and not self.cell.holding():
             attempt.dropped = True
             attempt.notes.append("dropped during the transfer (gripper empty over the box)")
+            fell_in = self.fell_into_box(attempt)
+            loop.arm.resume_at(self.motion.q)
+            if fell_in:
+                raise EpisodeAbortError(Outcome.PLACED, FELL_INTO_BOX)
             raise EpisodeAbortError(
                 Outcome.LOST, f"{DROPPED} during the transfer: the gripper came empty over the box"
             )
@@ -1185,6 +1190,22 @@ class TableClearer:
         capture = self.cell.capture()
         recognizer = self.recognizers[attempt.name]
         check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings)
+
+    def fell_into_box(self, attempt: AttemptState) -> bool:
+        """After the gripper came empty over the box: did the cloth fall into its box on the
+        way (`check_box`: the box changed in its colours)? Then it is placed, not lost. In
+        the held-out bench runs 384-737 (sessions 28-32), 8 cloths booked dropped ended in
+        their box with no attempt after the drop: booked lost all the same, looked for
+        around the table, and their colours kept the region of a cloth never identified from
+        being guessed (724: No.15 in colours, No.14, same hue, left on the table)."""
+        if not self.settings.drop_box_check or attempt.came_along:
+            return False  # of several held, the look could not tell which fell in
+        self.check_box(attempt)
+        check = attempt.box_check
+        if check is None or not check.confirmed:
+            return False
+        attempt.notes.append(f"it lies in {attempt.box.name}: fell into its box on the way")
+        return True
 
     def put_back(self, attempt: AttemptState, grasp_point_model: FloatArray | None) -> None:
         """Lays a rejected lift back onto free table (`TableRecovery.put_back`, from over where

@@ -219,7 +219,9 @@ class TableLedger:
                 attempt.laid_back_too,
             )
         )
-        if attempt.dropped or attempt.put_back:
+        # a drop seen in its box after all (`TableClearer.fell_into_box`) is placed, not lost
+        lost = (attempt.dropped and result.outcome is not Outcome.PLACED) or attempt.put_back
+        if lost:
             start = attempt.transform_target_to_world[:2, 3].copy()
             end = (
                 box.centre[:2].copy()

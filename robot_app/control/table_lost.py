@@ -61,6 +61,7 @@ from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
 from robot_app.control.held_look import held_verdict, look_at_held
 from robot_app.control.pick_checks import (
     DROPPED,
+    FELL_INTO_BOX,
     PUT_BACK,
     AttemptState,
     could_be_in,
@@ -726,6 +727,8 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         attempt.notes.append("dropped during the transfer (gripper empty over the box)")
         job.cell.release()
         job.cell.set_gripper(loop.gripper_open)
+        if job.fell_into_box(attempt):
+            return Outcome.PLACED, FELL_INTO_BOX
         return Outcome.LOST, f"{DROPPED} during the transfer: the gripper came empty over the box"
     job.check_carried(attempt)
     start = job.cell.time
