@@ -9,7 +9,7 @@ import pytest
 
 from robot_app.geometry import make_transform, rotation_about_z
 from robot_app.vision import ModelCamera, PinholeCamera, Recognition, Recognizer, StereoRig, make_model
-from robot_app.vision.identify import Detection, IdentifySettings, _upper, resolve
+from robot_app.vision.identify import Detection, IdentifySettings, _upper, resolve, without
 from robot_app.vision.regions import (
     explained,
     footprint,
@@ -117,6 +117,24 @@ def test_a_cloth_without_model_lying_on_a_detection_makes_it_not_free(scene) -> 
     assert ident.free() == ()  # the yellow square lies under the stripes, the stripes under the ellipse
     u, v = CAMERA.project(on_top[:3, 3][None])[0]
     assert any(region.mask[round(v), round(u)] for region in ident.unknown)
+
+
+def test_a_detection_taken_out_leaves_its_pixels_unknown(scene) -> None:
+    # the job takes out a candidate its loop could not confirm (a crumpled cloth), to pick it
+    # blind by the colours of the region it leaves
+    recognizers, right = scene
+    recognitions = {"yellow": _recognition(BOTTOM, 0.95), "stripes": _recognition(TOP, 0.9)}
+    ident = resolve(recognizers, recognitions, right, IdentifySettings())
+    sheet = sheet_mask(right, recognizers["yellow"].model.background_hue, 25, 40)
+    rest = without(ident, ["stripes"], sheet)
+    assert [d.name for d in rest.detections] == ["yellow"] and rest.above == ()
+    u, v = CAMERA.project(TOP[:3, 3][None])[0]
+    assert not any(region.mask[round(v), round(u)] for region in ident.unknown)
+    assert any(region.mask[round(v), round(u)] for region in rest.unknown)  # the stripes' pixels
+    a, b = CAMERA.project(APART[:3, 3][None])[0]
+    assert any(region.mask[round(b), round(a)] for region in rest.unknown)  # the ellipse still
+    yellow = ident.detections[0]
+    assert not any(np.any(region.mask & yellow.explained) for region in rest.unknown)
 
 
 def test_below_the_candidate_confidence_nothing_is_detected(scene) -> None:

@@ -35,7 +35,7 @@ look (the pick loop searches again and decides); `Detection.found` says which.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass, replace
 
 import cv2
@@ -406,6 +406,25 @@ def _upper(
     return (a.name, b.name) if shown_a > shown_b else (b.name, a.name)
 
 
+def without(
+    ident: Identification, names: Collection[str], sheet: Mask, settings: IdentifySettings | None = None
+) -> Identification:
+    """`ident` with the detections `names` taken out: the foreground they explained is
+    unknown again where no other detection explains it (`unknown` recomputed from the
+    right image's `sheet` pixels, as `identify` does), and no pair `above` or `covered`
+    names them."""
+    s = settings or IdentifySettings()
+    gone = set(names)
+    kept = [d for d in ident.detections if d.name not in gone]
+    return replace(
+        ident,
+        detections=tuple(kept),
+        above=tuple((up, low) for up, low in ident.above if up not in gone and low not in gone),
+        covered=tuple(name for name in ident.covered if name not in gone),
+        unknown=_unknown(sheet, kept, s),
+    )
+
+
 def _unknown(sheet: Mask, kept: list[Detection], s: IdentifySettings) -> tuple[UnknownRegion, ...]:
     foreground = np.asarray(~sheet, dtype=np.uint8)
     union = np.zeros(sheet.shape, np.uint8)
@@ -437,4 +456,5 @@ __all__ = [
     "codes_and_sheet",
     "identify",
     "resolve",
+    "without",
 ]
