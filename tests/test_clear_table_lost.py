@@ -180,6 +180,49 @@ def test_a_candidate_the_loop_could_not_confirm_is_left_to_the_lost_cloth_rules(
     assert job._unconfirmed_as_unknown(both) is both
 
 
+def test_a_region_a_pick_moved_in_a_lost_cloths_colours_is_that_cloth_not_an_unnamed_one(survey) -> None:
+    # held-out episode 744 (session 33): the put-back heap of No.7 moved with No.9's pick and
+    # was booked an unnamed cloth; a guess of it, a cloth absent from the table, took five lifts
+    from robot_app.control import table_clearer
+
+    recognizers, ident, capture = survey
+    (region,) = ident.unknown  # the violet cloth, no detection
+
+    def job_after_pick(lost: tuple[str, ...]) -> table_clearer.TableClearer:
+        job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+        job.settings, job.recognizers = ClearTableSettings(), recognizers
+        job.sort = SimpleNamespace(box_for=lambda name: "colours")  # type: ignore[assignment]
+        job.ledger = TableLedger()
+        job.ledger.records["yellow"] = {"attempts": 1, "sim_time": 0.0, "notes": []}
+        placed = SimpleNamespace(result=SimpleNamespace(outcome=Outcome.PLACED), put_back=False)
+        job.ledger.attempts.append(placed)  # type: ignore[arg-type]
+        laid = LostPlace(
+            LossKind.PUT_BACK, "put back after the lift", np.array([0.5, 0.0]), np.array([0.6, 0.1]), ()
+        )
+        for name in lost:
+            job.ledger.lost[name] = laid
+        job._survey_camera_pose = np.eye(4)
+        job._survey_capture = capture  # type: ignore[assignment]
+        job.table = SimpleNamespace(point=lambda capture, pixel: (0.6, 0.1))  # type: ignore[assignment]
+        job._survey_sheet = lambda: np.ones(region.mask.shape, bool)  # type: ignore[method-assign]
+        footprint = np.zeros(region.mask.shape, bool)  # the picked cloth lay elsewhere
+        job._before_pick = table_clearer._BeforePick(
+            "yellow", (region,), footprint, np.eye(4), np.array([0.3, -0.56]), capture
+        )
+        job._notice_moved()
+        return job
+
+    job = job_after_pick(("violet", "stripes"))
+    assert job.ledger.unnamed == []  # the lost violet cloth moved, no unnamed one came along
+    moved = job.ledger.lost["violet"]
+    assert moved.kind is LossKind.MOVED and np.allclose(moved.end, [0.3, -0.56])
+    assert job.ledger.lost["stripes"].kind is LossKind.PUT_BACK  # not its colours: where it was
+    assert any("moved violet (lost" in note for note in job.ledger.records["yellow"]["notes"])
+    job = job_after_pick(("stripes",))  # no lost cloth in the region's colours: an unnamed one
+    assert [place.kind for place in job.ledger.unnamed] == [LossKind.MOVED]
+    assert job.ledger.lost["stripes"].kind is LossKind.PUT_BACK
+
+
 def test_inner_pixel_lies_deep_inside_a_region_that_is_not_convex() -> None:
     mask = np.zeros((40, 60), bool)
     mask[5:35, 10:20] = True  # an L, 10 px wide: its centroid (17, 26) is near the bend's edge
