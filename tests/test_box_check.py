@@ -162,3 +162,31 @@ def test_an_empty_box_needs_a_reference_look_not_the_tables_colour(cell: Cell) -
     assert again.in_view > 0.95 and again.changed < 0.02 and not again.confirmed
     guessed = check_box(None, views[1], _red_model(), fitness, settings)
     assert guessed.changed > 0.5
+
+
+def test_a_moved_shadow_is_no_cloth_when_the_check_is_shadow_proof() -> None:
+    """Held-out episode 764 (session 33): the arm's shadow lay elsewhere than at the reference
+    look; the darkened floor kept its hue, which the dropped cloth's palette had, and the
+    plain check confirmed a cloth that lay on the table. The check after a drop is shadow
+    proof: a change counts only where the colour code changed, and only hue colours."""
+    from robot_app.control.box_check import BoxView
+    from robot_app.vision import colour_codes, to_hsv
+
+    settings, fitness = BoxCheckSettings(), FitnessSettings(min_saturation=40, min_value=40)
+    floor = np.full((96, 96, 3), TABLE_BGR, np.uint8)
+    shadowed = floor.copy()
+    shadowed[:, :40] = (floor[:, :40] * 0.55).astype(np.uint8)  # a band in shadow
+    codes = colour_codes(to_hsv(np.array([[TABLE_BGR, shadowed[0, 0]]], np.uint8)), 40, 40, 128)[0]
+    assert max(codes) < 256 and abs(int(codes[0]) - int(codes[1])) <= fitness.hue_threshold_in  # same hue
+    points = np.zeros((50, 3))
+    floor_hued = ClothModel(
+        "beige", points, np.full(50, codes[0], np.uint16), points, 85.0, np.zeros(3), (0.1, 0.1)
+    )
+    seen = np.ones((96, 96), bool)
+    before, after = BoxView(floor, seen, None), BoxView(shadowed, seen, None)
+    assert check_box(before, after, floor_hued, fitness, settings).confirmed  # fooled by the shadow
+    assert not check_box(before, after, floor_hued, fitness, settings, shadow_proof=True).confirmed
+    red = floor.copy()
+    red[60:90, 60:90] = CLOTH_BGR  # a red cloth fell in
+    landed = check_box(before, BoxView(red, seen, None), _red_model(), fitness, settings, shadow_proof=True)
+    assert landed.confirmed and landed.model_share > 0.9

@@ -221,13 +221,15 @@ def check_release(
     recognizer: Recognizer,
     views: dict[str, BoxView | None],
     settings: BoxCheckSettings,
+    shadow_proof: bool = False,
 ) -> None:
     """After RELEASE: did the box's inside change with the cloth's colours since the last
-    look (`views`, updated when the box was in view)? Sets `attempt.box_check`."""
+    look (`views`, updated when the box was in view)? Sets `attempt.box_check`.
+    `shadow_proof`: see `box_check.check_box`."""
     view = box_view(capture, rig, attempt.box.centre, attempt.box.inner_size, settings)
     model = recognizer.model
     fitness = recognizer.settings.fitness
-    attempt.box_check = check_box(views[attempt.box.name], view, model, fitness, settings)
+    attempt.box_check = check_box(views[attempt.box.name], view, model, fitness, settings, shadow_proof)
     if attempt.box_check.in_view >= settings.min_in_view:
         views[attempt.box.name] = view
     if not attempt.box_check.confirmed:

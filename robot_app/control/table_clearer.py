@@ -1240,7 +1240,7 @@ class TableClearer:
         """Names what the job's next motions do, and for which cloth (its callbacks)."""
         self._phase, self._meant = phase, meant
 
-    def check_box(self, attempt: AttemptState) -> None:
+    def check_box(self, attempt: AttemptState, shadow_proof: bool = False) -> None:
         """After a release: looks into the box from above it (`box_check.look_tcp`, as
         `_look_at_boxes`: the release pose's camera saw a quarter of the floor; out of
         reach: from the release pose, noted) and checks it (`check_release`)."""
@@ -1252,7 +1252,7 @@ class TableClearer:
             attempt.notes.append("box looked into from the release pose: the look above it is out of reach")
         capture = self.cell.capture()
         recognizer = self.recognizers[attempt.name]
-        check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings)
+        check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings, shadow_proof)
 
     def fell_into_box(self, attempt: AttemptState) -> bool:
         """After the gripper came empty over the box: did the cloth fall into its box on the
@@ -1263,7 +1263,7 @@ class TableClearer:
         being guessed (724: No.15 in colours, No.14, same hue, left on the table)."""
         if not self.settings.drop_box_check or attempt.came_along:
             return False  # of several held, the look could not tell which fell in
-        self.check_box(attempt)
+        self.check_box(attempt, shadow_proof=True)  # a moved shadow is no dark cloth
         check = attempt.box_check
         if check is None or not check.confirmed:
             return False
