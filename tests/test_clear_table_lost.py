@@ -874,3 +874,22 @@ def test_a_blind_grasp_aims_away_from_where_blind_grasps_closed_on_nothing() -> 
     assert len(u) and np.all(np.hypot(u / 100 - 0.05, v / 100 - 0.05) <= 0.03)  # only those near
     assert kept[14, 14] and not kept[5, 5]
     assert not np.any(away_from(aims, None, table, [np.array([0.1, 0.1])], 0.2))
+
+
+def test_a_guessed_blind_lift_whose_weight_is_nearer_a_doubted_cloth_of_another_box_is_not_taken() -> None:
+    # held-out episode 769 (session 33): guessed No.6 (whites, 22 g), read 16.7 g, looked like
+    # No.6 by its colours; it was No.19 (colours, 20 g), and went into whites
+    from robot_app.control.table_lost import _weighs_more_like
+
+    job = SimpleNamespace(
+        weights={"No.6": 0.022, "No.19": 0.020, "No.2": 0.027, "No.18": 0.0205},
+        sort=SimpleNamespace(box_for=lambda n: "whites" if n in ("No.6", "No.18") else "colours"),
+    )
+    region = UnknownRegion((0.0, 0.0), 1, np.ones((2, 2), bool))
+    guess = LostMatch("No.6", region, 0.99, guessed=frozenset({"No.6"}))
+    doubted = ("No.2", "No.19", "No.18")
+    assert _weighs_more_like(job, "No.6", guess, doubted, 0.0167, "whites") == "No.19"  # type: ignore[arg-type]
+    assert _weighs_more_like(job, "No.6", guess, doubted, 0.0215, "whites") == ""  # type: ignore[arg-type]
+    named = LostMatch("No.6", region, 0.99)  # lost by name, not a guess: the look decides
+    assert _weighs_more_like(job, "No.6", named, doubted, 0.0167, "whites") == ""  # type: ignore[arg-type]
+    assert _weighs_more_like(job, "No.6", guess, doubted, None, "whites") == ""  # type: ignore[arg-type]
