@@ -254,3 +254,25 @@ def test_the_job_books_hidden_cloths_only_with_unknown_regions_left() -> None:
     assert job.ledger.lost == {}
     assert job._book_hidden(SimpleNamespace(unknown=((0.5, 0.0),), detections=seen_19))
     assert set(job.ledger.lost) == {"No.14"}  # No.19 is seen now
+
+
+def test_a_guessed_blind_lift_laid_back_stays_unnamed_not_lost_by_the_guess() -> None:
+    # held-out episode 769 (session 33): a lift guessed No.6 went back; booked lost as No.6,
+    # its next lift was No.6 by name, not a guess, and No.19 of colours went into whites
+    from robot_app.control.clear_table_records import LossKind, LostPlace
+
+    ledger = TableLedger()
+    came_up = LostPlace(LossKind.PUT_BACK, "came up with No.14, not named", np.zeros(2), np.ones(2), ())
+    ledger.unnamed.append(came_up)
+    box = BoxPlace("whites", np.array([0.3, 0.56, 0.0]), 0.22)
+    attempt = AttemptState(None, box, np.eye(4), 0.0, lost_name="No.6", guessed=True)
+    attempt.put_back, attempt.put_back_at = True, np.array([0.5, 0.1])
+    report = LimitReport(0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
+    result = EpisodeResult(
+        Outcome.GRASP_FAILED, False, "put back: not sure", None, 1.0, 0.0, (), (), report, 0, 0, 1, 0, 0, 0
+    )
+    ledger.record_attempt(attempt, result, 1.0, 0.022)
+    assert "No.6" not in ledger.lost and len(ledger.unnamed) == 1
+    assert np.allclose(ledger.unnamed[0].end, (0.5, 0.1)) and "guessed No.6" in ledger.unnamed[0].how
+    _put_back(ledger, "No.9", (0.6, 0.0))  # a cloth lost by name stays lost by name
+    assert np.allclose(ledger.lost["No.9"].end, (0.6, 0.0))

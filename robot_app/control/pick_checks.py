@@ -62,6 +62,7 @@ class AttemptState:
     notes: list[str] = field(default_factory=list)
     lost_name: str = ""  # the cloth meant, without a detection
     doubted: tuple[str, ...] = ()  # lost cloths a blind lift could hold instead (`LostMatch.doubted`)
+    guessed: bool = False  # a blind lift named by a guess for a companion nobody named
 
     @property
     def name(self) -> str:

@@ -232,7 +232,16 @@ class TableLedger:
             kind = LossKind.DROPPED if attempt.dropped else LossKind.PUT_BACK
             how = "dropped in transfer" if attempt.dropped else "put back after the lift"
             laid = attempt.put_back and attempt.put_back_at is not None  # let go where the job chose
-            self.lost[name] = LostPlace(kind, how, start, end, before, laid)
+            if attempt.guessed and attempt.put_back and self.unnamed:
+                # a guess laid back stays unnamed where it now lies, not lost by that name: a
+                # later blind lift of it is a guess again (held-out episode 769, session 33:
+                # a lift guessed No.6 went back, its next lift was taken for No.6 by name and
+                # No.19 of colours went into whites)
+                self.unnamed[-1] = LostPlace(
+                    kind, f"laid back after a lift guessed {name}, not named", start, end, before, laid
+                )
+            else:
+                self.lost[name] = LostPlace(kind, how, start, end, before, laid)
             put_back = LossKind.PUT_BACK
             for companion in attempt.came_along if attempt.dropped else ():
                 # it hung from the same fingers (held-out episode 404, session 28: No.4, to go

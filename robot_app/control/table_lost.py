@@ -415,7 +415,9 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     how = f"{place.how}; identity from its colours and weight" if unnamed else place.how
     where = np.eye(4)
     where[:3, 3] = (x, y, table_z)
-    attempt = AttemptState(None, box, where, job.cell.time, lost_name=name, doubted=match.doubted)
+    attempt = AttemptState(
+        None, box, where, job.cell.time, lost_name=name, doubted=match.doubted, guessed=unnamed
+    )
     seen = f"an unknown region {share:.0%} in its colours" + (
         f" (as much in {', '.join(match.alike)}'s, same box)" if match.alike else ""
     )
