@@ -325,22 +325,27 @@ def _assert_under_named(attempt, put_back: list[str], named: bool, why: str) -> 
         assert any(why in note for note in attempt.notes)
 
 
+def _look_showing(shown: float, looked: list[tuple[str, ...]]):
+    """A `look_at_held` whose held pixels show `shown` of every asked cloth's own colours;
+    the cloths asked are noted in `looked`."""
+    from robot_app.control.held_look import HeldColours
+
+    def look(job, meant, others, looks=1):
+        looked.append(tuple(others))
+        return HeldColours(5000, 0.8, {n: shown for n in others}), "looked from 20 cm aside"
+
+    return look
+
+
 def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_under(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     # No.17 (whites) weighs the extra too: a look at what hangs must not show its colours
-    from robot_app.control.held_look import HeldColours
-
     for shown, named in ((0.0, True), (0.2, False)):
         put_back: list[str] = []
         job = _under_job_with_a_white(monkeypatch, put_back)
         looked: list[tuple[str, ...]] = []
-
-        def look(job, meant, others, looks=1, shown=shown, looked=looked):
-            looked.append(tuple(others))
-            return HeldColours(5000, 0.8, {n: shown for n in others}), "looked from 20 cm aside"
-
-        monkeypatch.setattr(table_clearer, "look_at_held", look)
+        monkeypatch.setattr(table_clearer, "look_at_held", _look_showing(shown, looked))
         resumed: list[object] = []
         attempt = _lift_under(monkeypatch, job, ("No.11",), resumed)
         assert looked == [("No.17",)] and resumed, "the loop goes on from where the look left the hand"
@@ -429,20 +434,13 @@ def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_memory(
 ) -> None:
     # held-out episode 722 (session 33): memory named No.7 with No.1, and No.6 of whites came
     # along too; now what hangs is looked at as for a cloth named "under"
-    from robot_app.control.held_look import HeldColours
-
     for shown, named in ((0.0, True), (0.2, False)):
         put_back: list[str] = []
         job = _job(monkeypatch, put_back)
         job.weights["No.17"] = 0.024  # whites, could hang in the 35 g extra
         job.recognizers["No.17"] = job.recognizers["No.10"]
         looked: list[tuple[str, ...]] = []
-
-        def look(job, meant, others, looks=1, shown=shown, looked=looked):
-            looked.append(tuple(others))
-            return HeldColours(5000, 0.8, {n: shown for n in others}), "looked from 20 cm aside"
-
-        monkeypatch.setattr(table_clearer, "look_at_held", look)
+        monkeypatch.setattr(table_clearer, "look_at_held", _look_showing(shown, looked))
         resumed: list[object] = []
         loop = SimpleNamespace(arm=SimpleNamespace(resume_at=resumed.append), extra_reach=0.0)
         attempt = _attempt()
