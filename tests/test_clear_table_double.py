@@ -87,6 +87,7 @@ def test_without_a_laid_back_cloth_near_the_grasp_both_go_into_the_box(
     loop = SimpleNamespace(arm=SimpleNamespace(resume_at=lambda q: None), extra_reach=0.0)
     job._after_lift(attempt, loop)  # type: ignore[arg-type]
     assert attempt.came_along == ("No.10",) and put_back == [] and attempt.named_by == "memory"
+    assert attempt.remembered == ("No.10",)
     assert loop.extra_reach == pytest.approx(0.1 * np.sqrt(2.0))  # No.10 hangs from No.19: carried higher
 
 
@@ -320,6 +321,7 @@ def _assert_under_named(attempt, put_back: list[str], named: bool, why: str) -> 
     """No.11 named "under" and placed along, or no name, the lift put back, `why` noted."""
     if named:
         assert attempt.came_along == ("No.11",) and attempt.named_by == "under" and put_back == []
+        assert attempt.remembered == ()  # seen by the pick's survey: not "from memory" in picks.csv
     else:
         assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
         assert any(why in note for note in attempt.notes)

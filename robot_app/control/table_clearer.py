@@ -967,7 +967,7 @@ class TableClearer:
                 other, source, attempt.named_by = None, "", ""
             if other is not None and self.sort.box_for(other) == attempt.box.name:
                 attempt.came_along = (other,)
-                attempt.remembered = (other,) if source else ()
+                attempt.remembered = (other,) if attempt.named_by == "memory" else ()
                 loop.extra_reach = self.hanging_reach(other)  # it hangs from the meant cloth
                 attempt.notes.append(
                     f"double pick ({what}): {other} came along{source}, same box: both placed"
