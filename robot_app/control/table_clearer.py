@@ -451,13 +451,14 @@ class TableClearer:
         placed = set(self.ledger.placed_order)
         lost = {n: self.recognizers[n] for n in self.ledger.lost if n in self.recognizers and n not in placed}
         places = {n: self.ledger.lost[n] for n in lost}
+        how = f"moved by the pick of {before.name}"
         for m in moved:
             centre = centres[id(m.region)]
             others = tuple((float(c[0]), float(c[1])) for key, c in centres.items() if key != id(m.region))
-            how = f"moved by the pick of {before.name}"
             where = LostPlace(LossKind.MOVED, how, centre, before.box_xy, others)
-            s_lost = self.settings.lost
-            named = match_lost(before.capture, (m.region,), [centre], lost, places, s_lost, self.sort.box_for)
+            named = match_lost(
+                before.capture, (m.region,), [centre], lost, places, self.settings.lost, self.sort.box_for
+            )
             at = f"the unknown region at ({centre[0]:.2f}, {centre[1]:.2f})"
             if named is not None:
                 for name in (named.name, *named.alike):
