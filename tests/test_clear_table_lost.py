@@ -4,6 +4,7 @@ with the identification resolved at set poses, as in test_identify."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from itertools import combinations
 from types import SimpleNamespace
 
@@ -178,6 +179,55 @@ def test_a_candidate_the_loop_could_not_confirm_is_left_to_the_lost_cloth_rules(
     job.ledger.records["violet"]["attempts"] = 1
     job.settings = ClearTableSettings(lost={"enabled": False})
     assert job._unconfirmed_as_unknown(both) is both
+
+
+def test_a_cloth_seen_in_its_box_yet_found_in_an_unknown_region_is_picked_again(survey) -> None:
+    # held-out episode 768 (session 33): the grasp meant for No.13 lifted No.14 (same hue),
+    # which went in and was seen in the box as No.13; No.13 stayed an unknown region
+    from robot_app.control import table_clearer
+
+    recognizers, ident, capture = survey
+    seen = Recognition(True, 0.9, YELLOW, 0, 0, 0.0, confidence=0.95, visible_fraction=1.0)
+    strong = Recognition(True, 0.9, VIOLET, 0, 0, 0.0, confidence=0.9, visible_fraction=1.0)
+    pair = {name: recognizers[name] for name in ("yellow", "violet")}
+    both = resolve(pair, {"yellow": seen, "violet": strong}, capture.right_bgr, IdentifySettings())
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job.settings, job.identify_settings = ClearTableSettings(), IdentifySettings()
+    job.recognizers, job.rig, job._survey_capture = recognizers, RIG, capture  # type: ignore[assignment]
+    job.ledger = TableLedger()
+    job._without_furniture = lambda ident, capture: ident  # type: ignore[method-assign]
+    recorded, surveyed = [], []
+    job._record_survey = lambda ident, chosen: recorded.append(ident)  # type: ignore[method-assign]
+
+    def again(meanwhile=None, boxed=False):  # the second look: the violet one found where it lies
+        surveyed.append(boxed)
+        return both
+
+    job._survey = again  # type: ignore[method-assign]
+    assert job._boxed_again(ident) == (ident, None)  # nothing seen in a box: no second look
+    job.ledger.placed("violet", confirmed=True)
+    job.ledger.placed("yellow", confirmed=True)
+    assert "violet" in job.ledger.seen_in_box
+    rest, target = job._boxed_again(ident)
+    assert surveyed == [True] and recorded == [ident]  # the first survey booked, then looked again
+    assert target is not None and target.name == "violet"
+    assert [d.name for d in rest.detections] == ["violet"]  # the yellow stays in its box
+    assert "violet" not in job.ledger.seen_in_box and "violet" not in job.ledger.placed_order
+    assert "yellow" in job.ledger.seen_in_box and job.ledger.placed_order == ["yellow"]
+    assert "another cloth of its colours went in" in job.ledger.records["violet"]["notes"][-1]
+    # found where the first survey saw no unknown region: still taken to be in its box
+    job.ledger.placed("violet", confirmed=True)
+    rest, target = job._boxed_again(replace(ident, unknown=(elsewhere_region(ident),)))
+    assert target is None and "violet" in job.ledger.seen_in_box and rest.detections == ()
+    job.settings = ClearTableSettings(boxed_again=None)
+    assert job._boxed_again(ident) == (ident, None)
+
+
+def elsewhere_region(ident):
+    """An unknown region of the same size as `ident`'s, mirrored to the image's other side."""
+    region = ident.unknown[0]
+    mask = region.mask[:, ::-1].copy()
+    return replace(region, mask=mask)
 
 
 def test_a_region_a_pick_moved_in_a_lost_cloths_colours_is_that_cloth_not_an_unnamed_one(survey) -> None:

@@ -233,6 +233,11 @@ class ClearTableSettings(StrictModel):
         drop_box_check: when the gripper comes empty over the box, look into the box as
             after a release; a cloth seen there fell into its box on the way (placed, not
             lost).
+        boxed_again: when a survey leaves nothing to pick and unknown regions, identify
+            once more with the models of the cloths confirmed in their box too: one found
+            on the table, at least this share of its seen part in those regions, was not
+            what went in (a cloth of the same colours was: the box check cannot tell them
+            apart) and is picked again; None: off.
         pile_grasp: where on the chosen cloth to grasp (away from the other cloths).
         put_back: how a rejected lift is laid back onto the table.
         look_around: when a survey leaves nothing to pick, look again from up to this
@@ -276,6 +281,7 @@ class ClearTableSettings(StrictModel):
     look_at_boxes: bool = True
     box_view_height: float = Field(0.42, gt=0.1)
     drop_box_check: bool = True
+    boxed_again: float | None = Field(0.5, gt=0.0, le=1.0)
     pile_grasp: PileGraspSettings = Field(default_factory=PileGraspSettings)
     surface: SurfaceSettings = Field(default_factory=SurfaceSettings)
     layers: LayerSettings = Field(default_factory=LayerSettings)

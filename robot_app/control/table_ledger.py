@@ -327,6 +327,16 @@ class TableLedger:
         if confirmed:
             self.seen_in_box.add(name)
 
+    def reopen(self, name: str, how: str) -> None:
+        """`name`, booked placed and seen in its box, is on the table (`how`): not placed."""
+        self.seen_in_box.discard(name)
+        if name in self.placed_order:
+            self.placed_order.remove(name)
+        entry = self.records.setdefault(name, _new_entry())
+        entry["confirmed"] = False
+        notes: list[str] = entry["notes"]  # type: ignore[assignment]
+        notes.append(how)
+
     def cloths(
         self, last: Identification | None, box_for: Callable[[str], str], max_attempts: int
     ) -> tuple[ClothRecord, ...]:
