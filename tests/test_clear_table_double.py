@@ -454,3 +454,55 @@ def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_memory(
         else:
             assert attempt.came_along == () and attempt.named_by == "" and put_back == ["No.19"]
             assert any("No.10 would be the other cloth" in note for note in attempt.notes)
+
+
+# --------------------------------------- a wrong lift named by its colours seen hanging
+@pytest.mark.parametrize(
+    ("fits", "named"),
+    [
+        ({"No.11": 0.9, "No.10": 0.3, "No.17": 0.1}, "No.11"),  # one cloth of the box fits
+        ({"No.11": 0.9, "No.10": 0.8, "No.17": 0.1}, "No.11"),  # two of one box: the best
+        ({"No.11": 0.9, "No.10": 0.3, "No.17": 0.75}, ""),  # a white fits nearly as well
+        ({"No.11": 0.4, "No.10": 0.3, "No.17": 0.1}, ""),  # none fits well enough
+    ],
+)
+def test_a_wrong_lift_is_placed_as_the_cloth_its_colours_name_when_only_its_box_fits(
+    monkeypatch: pytest.MonkeyPatch, fits: dict[str, float], named: str
+) -> None:
+    """Held-out episode 796 (session 33): four grasps meant for No.15, still in its place
+    after each lift, held No.13 (same colours, never identified); each was put back."""
+    from robot_app.control.colour_fit import ColourFit
+    from robot_app.control.held_look import HeldColours
+
+    put_back: list[str] = []
+    job = _job(monkeypatch, put_back)
+    job.settings = ClearTableSettings(survey_latency=0.0)
+    job.weights["No.17"] = 0.024  # whites
+    job.recognizers["No.17"] = job.recognizers["No.11"]
+    job.weigh = lambda: 0.024  # No.11's weight (No.10's and No.17's within the tolerance; not No.12's)
+    monkeypatch.setattr(table_clearer, "still_there", lambda recognizer, *args: True)  # No.19 stayed
+    looked: list[tuple[str, ...]] = []
+
+    def look(job, meant, others, looks=1, fit=False):
+        looked.append(tuple(others))
+        scores = {n: ColourFit(fits[n], 1.0) for n in others}
+        return HeldColours(5000, 0.8, dict.fromkeys(others, 0.0), fits=scores), "looked from 12 cm aside"
+
+    monkeypatch.setattr(table_clearer, "look_at_held", look)
+    attempt, resumed = _attempt(), []
+    loop = SimpleNamespace(arm=SimpleNamespace(resume_at=resumed.append), extra_reach=0.0)
+    with contextlib.suppress(EpisodeAbortError):
+        job._after_lift(attempt, loop)  # type: ignore[arg-type]
+    assert looked == [("No.10", "No.11", "No.17")] and resumed  # the cloths that weigh the reading
+    assert attempt.lift_check == "wrong"
+    if named:
+        assert attempt.name == named and attempt.meant == "No.19" and put_back == []
+        assert loop.extra_reach > 0.0  # held anywhere: carried higher
+        assert any("lifted No.11 instead" in n for n in job.ledger.records["No.19"]["notes"])
+    else:
+        assert attempt.name == "No.19" and put_back == ["No.19"]
+    job.settings = ClearTableSettings(survey_latency=0.0, held_look={"name_instead": None})
+    again = _attempt()
+    with pytest.raises(EpisodeAbortError):
+        job._after_lift(again, loop)  # type: ignore[arg-type]
+    assert again.name == "No.19" and len(looked) == 1  # off: put back unlooked

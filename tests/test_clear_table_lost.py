@@ -238,13 +238,13 @@ def test_a_region_a_pick_moved_in_a_lost_cloths_colours_is_that_cloth_not_an_unn
     recognizers, ident, capture = survey
     (region,) = ident.unknown  # the violet cloth, no detection
 
-    def job_after_pick(lost: tuple[str, ...]) -> table_clearer.TableClearer:
+    def job_after_pick(lost: tuple[str, ...], held: str = "yellow") -> table_clearer.TableClearer:
         job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
         job.settings, job.recognizers = ClearTableSettings(), recognizers
         job.sort = SimpleNamespace(box_for=lambda name: "colours")  # type: ignore[assignment]
         job.ledger = TableLedger()
         job.ledger.records["yellow"] = {"attempts": 1, "sim_time": 0.0, "notes": []}
-        placed = SimpleNamespace(result=SimpleNamespace(outcome=Outcome.PLACED), put_back=False)
+        placed = SimpleNamespace(name=held, result=SimpleNamespace(outcome=Outcome.PLACED), put_back=False)
         job.ledger.attempts.append(placed)  # type: ignore[arg-type]
         laid = LostPlace(
             LossKind.PUT_BACK, "put back after the lift", np.array([0.5, 0.0]), np.array([0.6, 0.1]), ()
@@ -271,6 +271,9 @@ def test_a_region_a_pick_moved_in_a_lost_cloths_colours_is_that_cloth_not_an_unn
     job = job_after_pick(("stripes",))  # no lost cloth in the region's colours: an unnamed one
     assert [place.kind for place in job.ledger.unnamed] == [LossKind.MOVED]
     assert job.ledger.lost["stripes"].kind is LossKind.PUT_BACK
+    # the lift held another cloth than yellow (`_held_instead`): a region it left is that cloth
+    job = job_after_pick(("stripes",), held="violet")
+    assert job.ledger.unnamed == [] and job.ledger.lost["stripes"].kind is LossKind.PUT_BACK
 
 
 def test_inner_pixel_lies_deep_inside_a_region_that_is_not_convex() -> None:

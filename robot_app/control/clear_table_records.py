@@ -333,7 +333,8 @@ class PickAttempt:
     """One run of the pick-and-place loop for one cloth.
 
     Attributes:
-        name: the cloth meant (model name).
+        name: the cloth meant (model name); after a wrong lift named by its colours
+            seen hanging (`AttemptState.held_instead`), the cloth it held.
         box: the box it was meant for.
         start_time, end_time: cell time [s].
         result: the loop's result.

@@ -78,6 +78,11 @@ class HeldLookSettings(StrictModel):
         name_share: share of the held pixels in a cloth's own colours (none of the meant
             cloth's) from which it is named as hanging too [-].
         name_margin: ... at least this much more than any other cloth's share [-].
+        name_instead: a wrong lift (the meant cloth still in its place) is looked at and
+            named by the best colour fit among the cloths whose weight is the reading, if
+            the fit reaches this and no cloth of another box comes within `margin` of it
+            or shows `doubt_share` of its own colours; it then goes into the meant cloth's
+            box as that cloth (`TableClearer._held_instead`); None: put back unlooked [-].
         confirm_shift: the second look's point this far at least from the first [m].
         persist_px: what hangs is taken where both looks see it within this [px] (it
             swings a little; a cloth lying on the table moves some 35 px per 5 cm).
@@ -98,6 +103,7 @@ class HeldLookSettings(StrictModel):
     name_companion: bool = True
     name_share: float = Field(0.1, gt=0.0, le=1.0)
     name_margin: float = Field(0.1, ge=0.0, le=1.0)
+    name_instead: float | None = Field(0.5, gt=0.0, le=1.0)
     confirm_shift: float = Field(0.05, gt=0.0)
     persist_px: int = Field(9, ge=1, le=41)
     hang_radius: float = Field(0.12, gt=0.0)

@@ -63,10 +63,14 @@ class AttemptState:
     lost_name: str = ""  # the cloth meant, without a detection
     doubted: tuple[str, ...] = ()  # lost cloths a blind lift could hold instead (`LostMatch.doubted`)
     guessed: bool = False  # a blind lift named by a guess for a companion nobody named
+    held_instead: str = ""  # a wrong lift named by its colours seen hanging, booked in the meant one's stead
+    meant: str = ""  # then the cloth the grasp was meant for
 
     @property
     def name(self) -> str:
-        """The cloth meant."""
+        """The cloth meant; after a wrong lift named by the look, the cloth it holds."""
+        if self.held_instead:
+            return self.held_instead
         return self.target.name if self.target is not None else self.lost_name
 
 

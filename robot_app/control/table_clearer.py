@@ -477,8 +477,8 @@ class TableClearer:
         if before is None or not s.enabled or not before.regions or not self.ledger.attempts:
             return
         attempt = self.ledger.attempts[-1]
-        if attempt.result.outcome is not Outcome.PLACED or attempt.put_back:
-            return
+        if attempt.result.outcome is not Outcome.PLACED or attempt.put_back or attempt.name != before.name:
+            return  # (the lift held another cloth than the one meant: a region it left is that cloth)
         if not np.allclose(before.camera_pose, self._survey_camera_pose, atol=1e-6):
             return  # another view: its pixels are not the same places
         moved = moved_regions(before.regions, before.footprint, self._survey_sheet(), s)
@@ -592,7 +592,8 @@ class TableClearer:
         self._phase, self._meant = "observe", target.name
         result = loop.run()
         self._collisions += result.collisions
-        self.ledger.record_attempt(attempt, result, self.cell.time, self.weights.get(target.name))
+        # attempt.name: the cloth it held, after a wrong lift named by the look (`_held_instead`)
+        self.ledger.record_attempt(attempt, result, self.cell.time, self.weights.get(attempt.name))
         return result.outcome is Outcome.INTERRUPTED
 
     def _loop_settings(self, name: str) -> LoopSettings:
@@ -952,6 +953,8 @@ class TableClearer:
         attempt.lift_check = verdict
         if verdict == "ok":
             return
+        if stayed and not heavier and self._held_instead(attempt, what, loop):
+            return
         if verdict == "double" and attempt.weighed is not None and expected is not None:
             grasp = self.motion.tcp_position()
             grasp[2] = self.table_z
@@ -1030,6 +1033,63 @@ class TableClearer:
             # where no survey may see it (the meant cloth covers it again)
             self._hidden_spots[name] = self.recovery.put_back_spots[-1].copy()
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
+
+    def _held_instead(self, attempt: AttemptState, what: str, loop: PickPlaceLoop) -> bool:
+        """A wrong lift (the meant cloth still in its place, `what`) named by its colours
+        seen hanging (`look_at_held`, two looks, colour fits): among the cloths not placed
+        whose weight is the reading and that the pick's survey did not see away from the
+        grasp, the best fit, if it reaches `held_look.name_instead` and no cloth of another
+        box fits within `held_look.margin` of it or shows its own colours (or its shade) at
+        `doubt_share`: the lift goes on into the meant cloth's box, booked as that cloth
+        (`AttemptState.held_instead`). Whether it goes on (else the caller puts it back).
+        Held-out episode 796 (session 33): four grasps meant for No.15 lifted No.13 (same
+        colours, lying on it, never identified), each put back, No.13 over No.15 again;
+        held-out 776: a grasp meant for No.8 lifted No.12 (both of colours)."""
+        hl, s, weighed = self.settings.held_look, self.settings, attempt.weighed
+        if hl.name_instead is None or weighed is None:
+            return False
+        grasp = self.motion.tcp_position()[:2]
+
+        def apart(name: str) -> bool:  # seen by the pick's survey away from the grasp
+            seen = next((d for d in attempt.others if d.name == name), None)
+            if seen is None:
+                return False
+            pose = to_world(self._survey_capture, seen.transform_model_to_camera)
+            points = transform_points(pose, self.recognizers[name].model.points_in)
+            return float(np.min(np.hypot(*(points[:, :2] - grasp).T))) > s.remembered_reach
+
+        weighing = self._not_placed(attempt, lambda n, w: weighs_extra(weighed, w, s) and not apart(n))
+        if not weighing:
+            return False
+        self._phase = "look at lift"
+        seen, where = look_at_held(self, attempt.name, weighing, looks=2, fit=True)
+        loop.arm.resume_at(self.motion.q)  # the look may have moved the hand
+        if seen is None or seen.pixels < hl.min_pixels or not seen.fits:
+            attempt.notes.append(f"wrong lift: what it holds not seen well enough ({where})")
+            return False
+        fits = {n: seen.fits[n].score for n in weighing if n in seen.fits}
+        best = max(fits, key=lambda n: fits[n])
+        close = sorted((n for n in fits if fits[n] >= fits[best] - hl.margin), key=lambda n: -fits[n])
+        box = attempt.box.name
+        doubted = [
+            n
+            for n in weighing
+            if self.sort.box_for(n) != box
+            and (n in close or max(seen.own[n], seen.shaded.get(n, 0.0)) >= hl.doubt_share)
+        ]
+        told = ", ".join(f"{n}'s {fits[n]:.2f}" for n in close)
+        note = f"{seen.pixels} px seen hanging, colour fit {told}; {where}"
+        if fits[best] < hl.name_instead or doubted:
+            why = f"cloths of another box too ({', '.join(doubted)})" if doubted else "no cloth fits"
+            attempt.notes.append(f"wrong lift, looked at ({note}): {why}")
+            return False
+        meant, alike = attempt.name, close[1:]
+        also = f" (or {', '.join(alike)}, same box)" if alike else ""
+        attempt.notes.append(f"wrong lift ({what}): it holds {best}{also} by its colours ({note})")
+        self.ledger.note(meant, f"a grasp meant for it lifted {best} instead, placed as {best}")
+        attempt.meant, attempt.held_instead = meant, best
+        loop.extra_reach = self.hanging_reach(best)  # held anywhere: it may hang below the meant one's reach
+        return True
 
     def _companion_under(self, attempt: AttemptState, capture: StereoCapture, extra: float) -> str | None:
         """The double pick's other cloth when it is the one cloth of those the pick's survey

@@ -327,6 +327,11 @@ class TableLedger:
         if confirmed:
             self.seen_in_box.add(name)
 
+    def note(self, name: str, text: str) -> None:
+        """Adds `text` to `name`'s notes."""
+        notes: list[str] = self.records.setdefault(name, _new_entry())["notes"]  # type: ignore[assignment]
+        notes.append(text)
+
     def reopen(self, name: str, how: str) -> None:
         """`name`, booked placed and seen in its box, is on the table (`how`): not placed."""
         self.seen_in_box.discard(name)
