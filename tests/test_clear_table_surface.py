@@ -9,8 +9,9 @@ import cv2
 import numpy as np
 import pytest
 
-from robot_app.control.clear_table_records import ClearTableSettings
+from robot_app.control.clear_table_records import BoxPlace, ClearTableSettings
 from robot_app.control.loop_settings import LoopSettings
+from robot_app.control.table_furniture import clear_of_walls
 from robot_app.control.table_lost import LostMatch, _blind_grasp_height, _heap_top, inner_pixel
 from robot_app.control.table_surface import SurfaceSettings, aimed_at, surface_height
 from robot_app.geometry import make_transform, rotation_about_z
@@ -117,7 +118,7 @@ def _blind_job(pile, misses: int = 0):
     return SimpleNamespace(
         settings=ClearTableSettings(), loop_settings=LoopSettings(), table_z=0.0, rig=RIG,
         recognizers=recognizers, survey_capture=capture, ledger=ledger,
-        motion=SimpleNamespace(hold=lambda seconds: None),
+        motion=SimpleNamespace(hold=lambda seconds: None), boxes={},
     )  # fmt: skip
 
 
@@ -184,3 +185,14 @@ def test_a_blind_grasp_goes_to_the_heaps_top_not_its_innermost_point(pile) -> No
     off = _blind_job(pile)
     off.table, off.settings = job.table, ClearTableSettings.model_validate({"lost": {"top_tries": 0}})
     assert _heap_top(off, match, heap, lambda x, y: True) is None
+    # a box's wall 3 cm from that top (the hand's clearance is 5 cm): another point or none,
+    # clear of the wall where the hand comes down (held-out episodes 776 and 783, session 33)
+    box = BoxPlace("colours", np.array([x, y + 0.12 + 0.03, 0.0]), 0.22, 0.1, 0.01)
+    job.boxes = {"colours": box}
+    walled = _heap_top(job, match, heap, lambda x, y: True)
+    clearance = ClearTableSettings().lost.wall_clearance
+    assert walled is None or clear_of_walls(walled[:2], [box], clearance)[0]
+    assert walled is None or walled[:2] != pytest.approx((x, y))
+    # and none where the hand does not reach that top, up the ray from the point measured
+    job.boxes = {}
+    assert _heap_top(job, match, heap, lambda px, py: np.hypot(px - x, py - y) > 0.004) != top

@@ -69,7 +69,7 @@ from robot_app.control.pick_checks import (
     weight_verdict,
 )
 from robot_app.control.pick_place import EMPTY_GRASP, LIFTED, carry_over_box, release_into_box
-from robot_app.control.table_furniture import OPENING, graspable
+from robot_app.control.table_furniture import OPENING, clear_of_walls, graspable
 from robot_app.control.table_surface import SurfaceHeight, surface_heights
 from robot_app.errors import IKError
 from robot_app.geometry import transform_points
@@ -589,7 +589,8 @@ def _heap_top(
     `reaches`, the one whose surface the survey's pair measures highest (`surface_heights`
     inside the region, as `_blind_grasp_height`; only measurements that correlate at least
     `lost.top_correlation`: a patch over a layer's edge finds the upper layer at a weak
-    correlation beside it), with the TCP the loop's `grasp_height` over it (at least
+    correlation beside it; where the hand reaches and clears the walls at that top, up the
+    point's ray), with the TCP the loop's `grasp_height` over it (at least
     `lost.grasp_height` over the table) where the point's ray meets that surface (a heap's
     top 9 cm up, 20 cm off the camera's axis, lies 3 cm nearer the axis than the ray's
     point on the table): (x, y, z) [m] and the note; None when off, when no point is
@@ -612,13 +613,21 @@ def _heap_top(
         for f, p in zip(found, points, strict=True)
         if f.trusted and f.correlation >= s.lost.top_correlation
     ]
-    if not measured:
-        return None
-    best, (x, y) = max(measured, key=lambda m: m[0].z)
-    # the point is where the pixel's ray meets the table; the surface seen there lies up the ray
+    # the point is where the pixel's ray meets the table; the surface seen there lies up the
+    # ray, where the hand must reach and clear the walls too (held-out episodes 776 and 783,
+    # session 33: a region by a box, clear of its walls on the table, had its top moved up
+    # the ray to 3-4 cm from a wall, and a finger touched the wall at 10 blind grasps)
     camera = np.asarray(capture.transform_right_camera_to_world, dtype=float)[:3, 3]
-    along = (camera[2] - best.z) / (camera[2] - table_z)
-    x, y = (camera[:2] + along * (np.array([x, y]) - camera[:2])).tolist()
+    tops = [
+        (f, camera[:2] + (camera[2] - f.z) / (camera[2] - table_z) * (np.array(p) - camera[:2]))
+        for f, p in measured
+    ]
+    walls = job.boxes.values()
+    tops = [(f, xy) for f, xy in tops if clear_of_walls(xy, walls, s.lost.wall_clearance)[0] and reaches(*xy)]
+    if not tops:
+        return None
+    best, top = max(tops, key=lambda m: m[0].z)
+    x, y = float(top[0]), float(top[1])
     aimed = max(table_z + s.lost.grasp_height, best.z + job.loop_settings.grasp_height)
     note = (
         f"blind grasp {(aimed - table_z) * 1000:.0f} mm over the table at the heap's top: the region's "
