@@ -946,3 +946,16 @@ def test_a_guessed_blind_lift_whose_weight_is_nearer_a_doubted_cloth_of_another_
     named = LostMatch("No.6", region, 0.99)  # lost by name, not a guess: the look decides
     assert _weighs_more_like(job, "No.6", named, doubted, 0.0167, "whites") == ""  # type: ignore[arg-type]
     assert _weighs_more_like(job, "No.6", guess, doubted, None, "whites") == ""  # type: ignore[arg-type]
+    # the colours seen hanging: No.19's fit 0.49 to No.6's 0.72 is near enough for the scale to
+    # decide; 0.00 to 0.97 is not (held-out 799: No.15 of colours, guessed No.14, went back)
+    from robot_app.control.colour_fit import ColourFit
+    from robot_app.control.held_look import HeldColours
+
+    job.settings = ClearTableSettings()  # type: ignore[attr-defined]
+
+    def seen(meant: float, other: float) -> HeldColours:
+        fits = {n: ColourFit(other, 1.0) for n in doubted}
+        return HeldColours(9000, 0.9, dict.fromkeys(doubted, 0.0), ColourFit(meant, 1.0), fits)
+
+    assert _weighs_more_like(job, "No.6", guess, doubted, 0.0167, "whites", seen(0.72, 0.49)) == "No.19"  # type: ignore[arg-type]
+    assert _weighs_more_like(job, "No.6", guess, doubted, 0.0167, "whites", seen(0.97, 0.0)) == ""  # type: ignore[arg-type]

@@ -58,7 +58,7 @@ from robot_app.control.cell import StereoCapture
 from robot_app.control.clear_table_records import ClearTableSettings, LostPlace, LostSettings
 from robot_app.control.colour_fit import colour_shares, palette_share, survey_colours
 from robot_app.control.episode import EpisodeResult, Outcome, PhaseRecord
-from robot_app.control.held_look import held_verdict, look_at_held
+from robot_app.control.held_look import HeldColours, held_verdict, look_at_held
 from robot_app.control.pick_checks import (
     DROPPED,
     FELL_INTO_BOX,
@@ -718,7 +718,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             hanging = replace(hanging, fits=fits)
         alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
         seen += "" if hanging is None else f" ({where})"
-        nearer = _weighs_more_like(job, name, match, doubted, attempt.weighed, attempt.box.name)
+        nearer = _weighs_more_like(job, name, match, doubted, attempt.weighed, attempt.box.name, hanging)
         if alone and nearer:
             alone, seen = False, f"{seen}; a guess, and the weight is nearer {nearer}'s (another box)"
         attempt.notes.append(f"looked at against free table (could be {', '.join(doubted)}): {seen}")
@@ -755,21 +755,35 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
 
 
 def _weighs_more_like(
-    job: TableClearer, name: str, match: LostMatch, doubted: Sequence[str], weighed: float | None, box: str
+    job: TableClearer,
+    name: str,
+    match: LostMatch,
+    doubted: Sequence[str],
+    weighed: float | None,
+    box: str,
+    hanging: HeldColours | None = None,
 ) -> str:
     """For a blind lift named `name` only by a guess (`LostMatch.guessed`: a never-seen
     companion of a double pick), the first of the `doubted` cloths of another box whose
-    weight is nearer the load cell's reading `weighed` [kg] than `name`'s ("" if none, or
-    not a guess): a guess is the weakest name, and the look's colour fit alone then does not
-    overrule the scale. Held-out episode 769 (session 33): a blind lift guessed No.6 (white
-    print, whites, 22 g) read 16.7 g and showed 99 % in No.6's colours (fit 0.72 against
-    0.49 for No.19, grey melange, colours, 20 g): it was No.19, and went into whites."""
+    weight is nearer the load cell's reading `weighed` [kg] than `name`'s and whose colour
+    fit to what `hanging` shows comes within twice `held_look.margin` of `name`'s (any, where
+    the fits are not known) ("" if none, or not a guess): a guess is the weakest name, and a
+    colour fit a little ahead does not overrule the scale. Held-out episode 769 (session
+    33): a blind lift guessed No.6 (white print, whites, 22 g) read 16.7 g and showed 99 %
+    in No.6's colours (fit 0.72 against 0.49 for No.19, grey melange, colours, 20 g): it was
+    No.19, and went into whites. Held-out 799 (session 33, before the fit's bound): a lift
+    guessed No.14 (colours) fit 0.97, the white No.17 0.00, weighed nearer No.17 and went
+    back; it was No.15 (colours), never identified, and stayed on the table."""
     expected = job.weights.get(name)
     if name not in match.guessed or weighed is None or expected is None:
         return ""
+    meant_fit = hanging.meant_fit if hanging is not None else None
     for other in doubted:
         weight = job.weights.get(other)
         nearer = weight is not None and abs(weight - weighed) < abs(expected - weighed)
+        fit = hanging.fits.get(other) if hanging is not None else None
+        if meant_fit is not None and fit is not None:
+            nearer &= fit.score >= meant_fit.score - 2 * job.settings.held_look.margin
         if nearer and job.sort.box_for(other) != box:
             return other
     return ""
