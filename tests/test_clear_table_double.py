@@ -458,16 +458,19 @@ def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_memory(
 
 # --------------------------------------- a wrong lift named by its colours seen hanging
 @pytest.mark.parametrize(
-    ("fits", "named"),
+    ("fits", "shade", "toned", "named"),
     [
-        ({"No.11": 0.9, "No.10": 0.3, "No.17": 0.1}, "No.11"),  # one cloth of the box fits
-        ({"No.11": 0.9, "No.10": 0.8, "No.17": 0.1}, "No.11"),  # two of one box: the best
-        ({"No.11": 0.9, "No.10": 0.3, "No.17": 0.75}, ""),  # a white fits nearly as well
-        ({"No.11": 0.4, "No.10": 0.3, "No.17": 0.1}, ""),  # none fits well enough
+        ({"No.11": 0.9, "No.10": 0.3, "No.17": 0.1}, 0.0, False, "No.11"),  # one cloth of the box fits
+        ({"No.11": 0.9, "No.10": 0.8, "No.17": 0.1}, 0.0, False, "No.11"),  # two of one box: the best
+        ({"No.11": 0.9, "No.10": 0.3, "No.17": 0.75}, 0.0, False, ""),  # a white fits nearly as well
+        ({"No.11": 0.4, "No.10": 0.3, "No.17": 0.1}, 0.0, False, ""),  # none fits well enough
+        # the white's shade (DARK) shows: a doubt only where the best is a cloth of tones
+        ({"No.11": 0.9, "No.10": 0.3, "No.17": 0.1}, 0.2, False, "No.11"),
+        ({"No.11": 0.9, "No.10": 0.3, "No.17": 0.1}, 0.2, True, ""),
     ],
 )
 def test_a_wrong_lift_is_placed_as_the_cloth_its_colours_name_when_only_its_box_fits(
-    monkeypatch: pytest.MonkeyPatch, fits: dict[str, float], named: str
+    monkeypatch: pytest.MonkeyPatch, fits: dict[str, float], shade: float, toned: bool, named: str
 ) -> None:
     """Held-out episode 796 (session 33): four grasps meant for No.15, still in its place
     after each lift, held No.13 (same colours, never identified); each was put back."""
@@ -486,9 +489,13 @@ def test_a_wrong_lift_is_placed_as_the_cloth_its_colours_name_when_only_its_box_
     def look(job, meant, others, looks=1, fit=False):
         looked.append(tuple(others))
         scores = {n: ColourFit(fits[n], 1.0) for n in others}
-        return HeldColours(5000, 0.8, dict.fromkeys(others, 0.0), fits=scores), "looked from 12 cm aside"
+        shaded = {n: shade if n == "No.17" else 0.0 for n in others}
+        seen = HeldColours(5000, 0.8, dict.fromkeys(others, 0.0), fits=scores, shaded=shaded)
+        return seen, "looked from 12 cm aside"
 
     monkeypatch.setattr(table_clearer, "look_at_held", look)
+    palette = np.array([table_clearer.DARK if toned else 40])  # grey, or a hue
+    monkeypatch.setattr(table_clearer, "main_codes", lambda model: palette)
     attempt, resumed = _attempt(), []
     loop = SimpleNamespace(arm=SimpleNamespace(resume_at=resumed.append), extra_reach=0.0)
     with contextlib.suppress(EpisodeAbortError):
