@@ -614,9 +614,9 @@ def _heap_top(
         if f.trusted and f.correlation >= s.lost.top_correlation
     ]
     # the point is where the pixel's ray meets the table; the surface seen there lies up the
-    # ray, where the hand must reach and clear the walls too (held-out episodes 776 and 783,
-    # session 33: a region by a box, clear of its walls on the table, had its top moved up
-    # the ray to 3-4 cm from a wall, and a finger touched the wall at 10 blind grasps)
+    # ray, where the hand must reach and clear the walls too (the table point was checked,
+    # the top up the ray can lie nearer a wall: a guard added in session 34 while tracing
+    # held-out 776 and 783's wall contacts, which it turned out not to cause)
     camera = np.asarray(capture.transform_right_camera_to_world, dtype=float)[:3, 3]
     tops = [
         (f, camera[:2] + (camera[2] - f.z) / (camera[2] - table_z) * (np.array(p) - camera[:2]))
