@@ -959,3 +959,44 @@ def test_a_guessed_blind_lift_whose_weight_is_nearer_a_doubted_cloth_of_another_
 
     assert _weighs_more_like(job, "No.6", guess, doubted, 0.0167, "whites", seen(0.72, 0.49)) == "No.19"  # type: ignore[arg-type]
     assert _weighs_more_like(job, "No.6", guess, doubted, 0.0167, "whites", seen(0.97, 0.0)) == ""  # type: ignore[arg-type]
+
+
+def test_after_looks_that_found_nothing_the_lost_cloth_is_sought_from_the_observation_pose(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # held-out 814 (session 34): No.19, dropped in transfer, lay as an unknown region the
+    # observation survey saw; the two looks around saw nothing, and the job stopped
+    from robot_app.control import table_clearer
+    from robot_app.errors import InterruptError
+    from robot_app.vision.identify import Identification
+
+    region = UnknownRegion((100.0, 100.0), 400, np.ones((4, 4), bool))
+    seen_from_above = Identification((), (), (), (region,), {})
+    nothing = Identification((), (), (), (), {})
+    surveys = iter([seen_from_above, nothing, seen_from_above])  # observation, a look, observation
+    calls: list[str] = []
+    match = object()
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job.settings, job.ledger = ClearTableSettings(look_at_boxes=False), TableLedger()
+    job.cell = SimpleNamespace(set_gripper=lambda opening: None, time=0.0)  # type: ignore[assignment]
+    job.loop_settings = LoopSettings()
+    job._start = lambda: None  # type: ignore[method-assign]
+    job._back_to_observation = lambda: calls.append("observation")  # type: ignore[method-assign]
+    job._survey = lambda meanwhile=None, boxed=False: (calls.append("survey"), next(surveys))[1]  # type: ignore[method-assign]
+    job._notice_moved = lambda: None  # type: ignore[method-assign]
+    job._places_to_look = lambda ident: [np.array([0.6, 0.2])] if calls.count("look") == 0 else []  # type: ignore[method-assign]
+    job._look_from = lambda place: (calls.append("look"), True)[1]  # type: ignore[method-assign]
+    job._record_survey = lambda ident, chosen: None  # type: ignore[method-assign]
+    job._lost_to_pick = lambda ident: match if ident is seen_from_above else None  # type: ignore[method-assign]
+    job._result = lambda last, reason, interrupted, start, wall: (last, reason, interrupted)  # type: ignore[method-assign]
+    picked: list[object] = []
+
+    def pick(job, found) -> None:
+        picked.append(found)
+        raise InterruptError("stop here")
+
+    monkeypatch.setattr(table_clearer, "pick_lost", pick)
+    last, reason, interrupted = job.run()  # type: ignore[misc]
+    assert reason == "interrupted"
+    assert calls == ["observation", "survey", "look", "survey", "observation", "survey"]
+    assert picked == [match] and last is seen_from_above and interrupted
