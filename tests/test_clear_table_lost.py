@@ -146,22 +146,35 @@ def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
     assert np.hypot(u - cu, v - cv) < 25
 
 
-def test_a_candidate_the_loop_could_not_confirm_is_left_to_the_lost_cloth_rules(survey) -> None:
-    # held-out episode 730 (session 32): No.11, laid back crumpled, was a weak candidate the
-    # loop's searches never confirmed; the job stopped with it on the table
+def _survey_job(recognizers, capture):
+    """A `TableClearer` with only what its survey rules read: the settings, the models, the
+    survey's capture (no furniture in it) and a fresh ledger."""
     from robot_app.control import table_clearer
 
-    recognizers, _, capture = survey
-    seen = Recognition(True, 0.9, YELLOW, 0, 0, 0.0, confidence=0.95, visible_fraction=1.0)
-    weak = Recognition(False, 0.6, VIOLET, 0, 0, 0.0, confidence=0.3, visible_fraction=0.6)
-    pair = {name: recognizers[name] for name in ("yellow", "violet")}
-    both = resolve(pair, {"yellow": seen, "violet": weak}, capture.right_bgr, IdentifySettings())
-    assert [d.name for d in both.detections] == ["yellow", "violet"] and both.unknown == ()
     job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
     job.settings, job.identify_settings = ClearTableSettings(), IdentifySettings()
     job.recognizers, job.rig, job._survey_capture = recognizers, RIG, capture  # type: ignore[assignment]
     job.ledger = TableLedger()
     job._without_furniture = lambda ident, capture: ident  # type: ignore[method-assign]
+    return job
+
+
+def _with_violet(recognizers, capture, violet: Recognition):
+    """The survey's identification with the yellow cloth seen and the violet one recognised
+    as `violet` says."""
+    seen = Recognition(True, 0.9, YELLOW, 0, 0, 0.0, confidence=0.95, visible_fraction=1.0)
+    pair = {name: recognizers[name] for name in ("yellow", "violet")}
+    return resolve(pair, {"yellow": seen, "violet": violet}, capture.right_bgr, IdentifySettings())
+
+
+def test_a_candidate_the_loop_could_not_confirm_is_left_to_the_lost_cloth_rules(survey) -> None:
+    # held-out episode 730 (session 32): No.11, laid back crumpled, was a weak candidate the
+    # loop's searches never confirmed; the job stopped with it on the table
+    recognizers, _, capture = survey
+    weak = Recognition(False, 0.6, VIOLET, 0, 0, 0.0, confidence=0.3, visible_fraction=0.6)
+    both = _with_violet(recognizers, capture, weak)
+    assert [d.name for d in both.detections] == ["yellow", "violet"] and both.unknown == ()
+    job = _survey_job(recognizers, capture)
     job.ledger.last_seen["violet"], job.ledger.last_survey["violet"] = np.array([0.6, 0.1]), 2
     assert job._unconfirmed_as_unknown(both) is both  # the loop has not looked for it yet
     job.ledger.records["violet"] = {"attempts": 1, "sim_time": 0.0, "notes": [], "unconfirmed": True}
@@ -184,18 +197,10 @@ def test_a_candidate_the_loop_could_not_confirm_is_left_to_the_lost_cloth_rules(
 def test_a_cloth_seen_in_its_box_yet_found_in_an_unknown_region_is_picked_again(survey) -> None:
     # held-out episode 768 (session 33): the grasp meant for No.13 lifted No.14 (same hue),
     # which went in and was seen in the box as No.13; No.13 stayed an unknown region
-    from robot_app.control import table_clearer
-
     recognizers, ident, capture = survey
-    seen = Recognition(True, 0.9, YELLOW, 0, 0, 0.0, confidence=0.95, visible_fraction=1.0)
     strong = Recognition(True, 0.9, VIOLET, 0, 0, 0.0, confidence=0.9, visible_fraction=1.0)
-    pair = {name: recognizers[name] for name in ("yellow", "violet")}
-    both = resolve(pair, {"yellow": seen, "violet": strong}, capture.right_bgr, IdentifySettings())
-    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
-    job.settings, job.identify_settings = ClearTableSettings(), IdentifySettings()
-    job.recognizers, job.rig, job._survey_capture = recognizers, RIG, capture  # type: ignore[assignment]
-    job.ledger = TableLedger()
-    job._without_furniture = lambda ident, capture: ident  # type: ignore[method-assign]
+    both = _with_violet(recognizers, capture, strong)
+    job = _survey_job(recognizers, capture)
     recorded, surveyed = [], []
     job._record_survey = lambda ident, chosen: recorded.append(ident)  # type: ignore[method-assign]
 
