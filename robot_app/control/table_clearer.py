@@ -268,7 +268,7 @@ class TableClearer:
                 boxes_first = None
                 self._notice_moved()
                 target = choose_target(last, self.ledger.records, self._untried)
-                looked = False
+                looked, lost = False, None
                 for place in self._places_to_look(last) if target is None else ():
                     self._record_survey(last, None)
                     if not self._look_from(place):
@@ -276,12 +276,13 @@ class TableClearer:
                     looked = True
                     last = self._survey()
                     target = choose_target(last, self.ledger.records, self._untried)
-                    if target is not None or self._lost_to_pick(last) is not None:
+                    lost = self._lost_to_pick(last) if target is None else None
+                    if target is not None or lost is not None:
                         break
                 else:
                     if looked:  # the looks found nothing: the rules below read the whole table
                         last, target = self._from_observation(last)
-                lost = self._lost_to_pick(last) if target is None else None
+                    lost = self._lost_to_pick(last) if target is None else None
                 if target is None and lost is None:
                     last, target = self._boxed_again(last)
                 if target is None and lost is None:
