@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
+import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
 from robot_app.control.box_check import BoxCheck, BoxCheckSettings, BoxView, box_view, check_box
@@ -64,14 +65,23 @@ class AttemptState:
     doubted: tuple[str, ...] = ()  # lost cloths a blind lift could hold instead (`LostMatch.doubted`)
     guessed: bool = False  # a blind lift named by a guess for a companion nobody named
     held_instead: str = ""  # a wrong lift named by its colours seen hanging, booked in the meant one's stead
-    meant: str = ""  # then the cloth the grasp was meant for
+
+    @property
+    def meant(self) -> str:
+        """The cloth the grasp was meant for."""
+        return self.target.name if self.target is not None else self.lost_name
 
     @property
     def name(self) -> str:
         """The cloth meant; after a wrong lift named by the look, the cloth it holds."""
-        if self.held_instead:
-            return self.held_instead
-        return self.target.name if self.target is not None else self.lost_name
+        return self.held_instead or self.meant
+
+
+def comes_within(footprint_xy: npt.ArrayLike, xy: npt.ArrayLike, reach: float) -> bool:
+    """Does a cloth's footprint (table points (N, 2) [m]) come within `reach` [m] of `xy`?"""
+    points = np.asarray(footprint_xy, dtype=float).reshape(-1, 2)
+    here = np.asarray(xy, dtype=float).reshape(2)
+    return bool(len(points)) and float(np.min(np.hypot(*(points - here).T))) <= reach
 
 
 def weighs_extra(extra: float, weight: float | None, settings: ClearTableSettings) -> bool:
@@ -182,11 +192,9 @@ def remembered_companion(
     s = settings
     if s.remembered_reach <= 0:
         return None
-    grasp = np.asarray(grasp_xy, dtype=float).reshape(2)
     fits = []
     for name, footprint in remembered.items():
-        points = np.asarray(footprint, dtype=float).reshape(-1, 2)
-        if not len(points) or float(np.min(np.hypot(*(points - grasp).T))) > s.remembered_reach:
+        if not comes_within(footprint, grasp_xy, s.remembered_reach):
             continue
         weight = weights.get(name)
         if weighs_extra(extra, weight, s):

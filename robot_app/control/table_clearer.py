@@ -67,6 +67,7 @@ from robot_app.control.pick_checks import (
     PUT_BACK,
     AttemptState,
     check_release,
+    comes_within,
     companion,
     could_be_in,
     fell_on_the_way,
@@ -1069,14 +1070,14 @@ class TableClearer:
         if hl.name_instead is None or weighed is None:
             return False
         grasp = self.motion.tcp_position()[:2]
+        survey = self._survey_capture
+        seen_at = {d.name: to_world(survey, d.transform_model_to_camera) for d in attempt.others}
 
         def apart(name: str) -> bool:  # seen by the pick's survey away from the grasp
-            seen = next((d for d in attempt.others if d.name == name), None)
-            if seen is None:
+            if name not in seen_at:
                 return False
-            pose = to_world(self._survey_capture, seen.transform_model_to_camera)
-            points = transform_points(pose, self.recognizers[name].model.points_in)
-            return float(np.min(np.hypot(*(points[:, :2] - grasp).T))) > s.remembered_reach
+            footprint = transform_points(seen_at[name], self.recognizers[name].model.points_in)[:, :2]
+            return not comes_within(footprint, grasp, s.remembered_reach)
 
         weighing = self._not_placed(attempt, lambda n, w: weighs_extra(weighed, w, s) and not apart(n))
         if not weighing:
@@ -1114,7 +1115,7 @@ class TableClearer:
         also = f" (or {', '.join(alike)}, same box)" if alike else ""
         attempt.notes.append(f"wrong lift ({what}): it holds {best}{also} by its colours ({note})")
         self.ledger.note(meant, f"a grasp meant for it lifted {best} instead, placed as {best}")
-        attempt.meant, attempt.held_instead = meant, best
+        attempt.held_instead = best
         loop.extra_reach = self.hanging_reach(best)  # held anywhere: it may hang below the meant one's reach
         return True
 

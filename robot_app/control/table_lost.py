@@ -64,6 +64,7 @@ from robot_app.control.pick_checks import (
     FELL_INTO_BOX,
     PUT_BACK,
     AttemptState,
+    comes_within,
     could_be_in,
     weighs_extra,
     weight_verdict,
@@ -884,7 +885,7 @@ def weighs_instead(
         if name in ledger.lost or ledger.last_survey.get(name) != surveys:
             return False
         footprint = transform_points(ledger.last_pose[name], job.recognizers[name].model.points_in)
-        return float(np.min(np.hypot(*(footprint[:, :2] - grasp).T))) > s.remembered_reach
+        return not comes_within(footprint[:, :2], grasp, s.remembered_reach)
 
     return tuple(
         sorted(
