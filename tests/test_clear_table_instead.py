@@ -343,3 +343,44 @@ def test_a_never_seen_cloth_must_show_its_own_colours_a_lost_one_only_fit_as_wel
         results[lost] = _carry(job, attempt, LostMatch("No.2", None, 0.9))[0]  # type: ignore[arg-type]
     assert results[("No.2",)] is Outcome.PLACED
     assert results[("No.2", "No.18")] is Outcome.GRASP_FAILED
+
+
+def test_a_guess_s_colours_outweigh_a_never_seen_cloth_s_nearer_weight_only_where_it_fits_far_worse(
+    monkeypatch,
+) -> None:
+    # held-out 862 (session 34): a blind lift guessed No.18 (whites) showed 99 % white, fit
+    # 1.00, and weighed nearer the never-seen red No.1 (colours), whose fit the colour verdict
+    # drops for a never-seen cloth: the scale overruled the guess, and it went back twice
+    from robot_app.control import table_lost
+    from robot_app.control.clear_table_records import BoxPlace, LossKind, LostPlace
+    from robot_app.control.colour_fit import ColourFit
+    from robot_app.control.episode import Outcome
+    from robot_app.control.held_look import HeldColours
+    from robot_app.control.pick_checks import AttemptState
+    from robot_app.control.table_lost import LostMatch, _carry
+
+    other_fit = 0.0
+
+    def look(job, name, doubted, fit=False):
+        fits = {n: ColourFit(other_fit, 1.0) for n in doubted}
+        return HeldColours(9000, 0.99, dict.fromkeys(doubted, 0.0), ColourFit(1.0, 1.0), fits), "here"
+
+    monkeypatch.setattr(table_lost, "look_at_held", look)
+    monkeypatch.setattr(table_lost, "carry_over_box", lambda *a: None)
+    monkeypatch.setattr(table_lost, "release_into_box", lambda *a: None)
+    unlooked = LostPlace(
+        LossKind.PUT_BACK, "came up with No.18, not named", np.array(GRASP), np.array(GRASP), (), True
+    )
+    guess = LostMatch("No.18", None, 0.9, guessed=frozenset({"No.18"}))
+    results = {}
+    for other_fit in (0.0, 0.8):  # No.2 and No.9 (colours, never seen) weigh nearer 17.5 g
+        job, events = _carrying_job(("No.18",), 0.0175)
+        job.box = BoxPlace("whites", np.array([0.3, 0.56, 0.0]), 0.22, 0.1, 0.01)
+        job.ledger.unnamed.append(unlooked)
+        attempt = AttemptState(None, job.box, _at(*GRASP), 0.0, lost_name="No.18")
+        results[other_fit] = (_carry(job, attempt, guess)[0], " ".join(attempt.notes))  # type: ignore[arg-type]
+        results[other_fit] += (events,)
+    assert results[0.0][0] is Outcome.PLACED, results[0.0][1]
+    assert results[0.0][2] == [("placed", "whites")]
+    assert results[0.8][0] is Outcome.GRASP_FAILED
+    assert "the weight is nearer No.2's" in results[0.8][1]

@@ -711,6 +711,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     doubted = (*match.doubted, *(n for n in instead if n not in match.doubted))
     if doubted:
         hanging, where = look_at_held(job, name, doubted, fit=True)
+        looked = hanging  # every fit, for the scale's say (`_weighs_more_like`)
         if hanging is not None and unseen - set(match.doubted):
             # a cloth never seen is held to its own colours showing, not to a fit as close as
             # the meant cloth's (held-out 651 on fe0a83a: No.7, a print with white, fit 0.63,
@@ -719,7 +720,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             hanging = replace(hanging, fits=fits)
         alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
         seen += "" if hanging is None else f" ({where})"
-        nearer = _weighs_more_like(job, name, match, doubted, attempt.weighed, attempt.box.name, hanging)
+        nearer = _weighs_more_like(job, name, match, doubted, attempt.weighed, attempt.box.name, looked)
         if alone and nearer:
             alone, seen = False, f"{seen}; a guess, and the weight is nearer {nearer}'s (another box)"
         attempt.notes.append(f"looked at against free table (could be {', '.join(doubted)}): {seen}")
@@ -769,7 +770,11 @@ def _weighs_more_like(
     weight is nearer the load cell's reading `weighed` [kg] than `name`'s and whose colour
     fit to what `hanging` shows comes within twice `held_look.margin` of `name`'s (any, where
     the fits are not known) ("" if none, or not a guess): a guess is the weakest name, and a
-    colour fit a little ahead does not overrule the scale. Held-out episode 769 (session
+    colour fit a little ahead does not overrule the scale. `hanging` keeps the fits of
+    never-seen cloths too (the colour verdict holds those to their own colours showing):
+    held-out 862 (session 34): a lift guessed No.18 (whites) showed 99 % white, fit 1.00,
+    weighed nearer the never-seen red No.1, whose fit the verdict had dropped, and went back
+    twice (it was No.17, of whites too). Held-out episode 769 (session
     33): a blind lift guessed No.6 (white print, whites, 22 g) read 16.7 g and showed 99 %
     in No.6's colours (fit 0.72 against 0.49 for No.19, grey melange, colours, 20 g): it was
     No.19, and went into whites. Held-out 799 (session 33, before the fit's bound): a lift
