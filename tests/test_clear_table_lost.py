@@ -107,12 +107,20 @@ def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
     # ... and one is, with the other as its alike, when both go into the same box
     same = match(twins, box_for=lambda name: "colours")
     assert same is not None and {same.name, *same.alike} == {"violet", "twin"} and len(same.alike) == 1
+
     # a guess for an unnamed companion is not taken where a cloth lost by name may lie too
-    # (the two laid back together): the violet guessed, its twin lost by name
-    guess = match_lost(
-        capture, ident.unknown, centres, twins, {}, settings, lambda n: "colours", frozenset({"violet"})
-    )
-    assert guess is None
+    # (the two laid back together): the violet guessed, its twin lost by name, fitting as
+    # well: the region is the named twin's, the guess its alike (taken only alone; held-out
+    # 807, session 34: a named lost No.1 was left behind a guess, unpicked) ...
+    def guessing(box_for, recognizers=twins):
+        guessed = frozenset({"violet"})
+        return match_lost(capture, ident.unknown, centres, recognizers, {}, settings, box_for, guessed)
+
+    guess = guessing(lambda n: "colours")
+    assert guess is not None and guess.name == "twin" and guess.alike == ("violet",)
+    assert guess.guessed == {"violet"}
+    # ... and where they belong in different boxes, neither
+    assert guessing({"violet": "colours", "twin": "whites"}.__getitem__) is None
     # ... unless the named one's colours are not the region's (the stripes: under min_share)
     alone_guess = {"violet": recognizers["violet"], "stripes": recognizers["stripes"]}
     taken = match_lost(
@@ -165,6 +173,35 @@ def _with_violet(recognizers, capture, violet: Recognition):
     seen = Recognition(True, 0.9, YELLOW, 0, 0, 0.0, confidence=0.95, visible_fraction=1.0)
     pair = {name: recognizers[name] for name in ("yellow", "violet")}
     return resolve(pair, {"yellow": seen, "violet": violet}, capture.right_bgr, IdentifySettings())
+
+
+def test_a_region_a_guess_fits_far_better_than_a_named_lost_cloth_is_not_taken_for_either(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # the named cloth's colours reach min_share, but its mix fits far worse than the guess's:
+    # likely the two laid back together (bench episode 19), left to the heap rules
+    from robot_app.control import table_lost
+    from robot_app.control.colour_fit import ColourFit
+
+    settings = LostSettings()
+    region = UnknownRegion((100.0, 100.0), 400, np.ones((4, 4), bool))
+    fits = {"guess": ColourFit(0.99, 1.0), "named": ColourFit(0.9, 0.8)}
+    monkeypatch.setattr(table_lost, "colour_shares", lambda capture, mask, lost: fits)
+    lost = dict.fromkeys(fits)
+
+    def match():
+        centres = [np.array([0.6, 0.0])]
+        return match_lost(
+            None, (region,), centres, lost, {}, settings, lambda n: "colours", frozenset({"guess"})
+        )  # type: ignore[arg-type]
+
+    assert 0.99 - fits["named"].score >= settings.margin and match() is None
+    fits["named"] = ColourFit(0.9, 0.95)  # within the margin: the named one, the guess its alike
+    found = match()
+    assert found is not None and (found.name, found.alike, found.guessed) == ("named", ("guess",), {"guess"})
+    fits["named"] = ColourFit(0.5, 1.0)  # under min_share: not its colours, the guess is taken
+    found = match()
+    assert found is not None and found.name == "guess"
 
 
 def test_a_candidate_the_loop_could_not_confirm_is_left_to_the_lost_cloth_rules(survey) -> None:

@@ -218,7 +218,11 @@ def match_lost(
     too, with `min_share` of the region in its colours: the region is then likely the two
     laid back together, which a blind lift weighs as both (bench episode 19 on 0bb8019: the
     heap of No.8 and its unnamed companion, taken for No.16, lifted four cloths, and the heap
-    they were put back as slid off the table).
+    they were put back as slid off the table). Where that named cloth fits within `margin`
+    of the guess, the region is taken for it, the guesses its `alike` (each taken only
+    alone): held-out 807 (session 34), No.1 (red) came up with an unnamed No.15, both went
+    back, No.15 was identified and placed, and No.1's region (0.98) went unpicked behind the
+    guessed No.8 (orange, 0.99) until the job stopped.
 
     `spent`: those of `lost` with no attempts left. They are ranked and rival as the others
     (their colours still explain their region), but a region one of them fits best is not
@@ -239,11 +243,14 @@ def match_lost(
         name, best = ranked[0]
         if name in spent:
             continue  # its colours are a lost cloth's with no attempts left: nobody else's
-        if name in guessed and any(
-            other not in guessed and fit.share >= settings.min_share for other, fit in ranked[1:]
-        ):
-            continue
-        alike = tuple(other for other, fit in ranked[1:] if best.score - fit.score < settings.margin)
+        named = [(o, fit) for o, fit in ranked[1:] if o not in guessed and fit.share >= settings.min_share]
+        if name in guessed and named:
+            if best.score - named[0][1].score >= settings.margin:
+                continue
+            name, best = named[0]
+            if name in spent:
+                continue
+        alike = tuple(o for o, fit in ranked if o != name and best.score - fit.score < settings.margin)
         if alike and (box_for is None or any(box_for(other) != box_for(name) for other in alike)):
             continue  # which cloth it is would change where it goes
         return LostMatch(name, region, best.share, alike, guessed=guessed & {name, *alike})
