@@ -28,6 +28,7 @@ from robot_app.control.trajectory import (
     TrajectorySample,
     plan_point_to_point,
     plan_slowing_down,
+    plan_through,
 )
 from robot_app.geometry import make_transform
 
@@ -182,6 +183,26 @@ class ArmMotion:
             self.command.q,
             q_goal,
             self.limits if speed >= 1.0 else self.limits.scaled(speed),
+            v_start=self.command.v,
+            a_start=self.command.a,
+            dt=self.cell.dt,
+        )
+        self._follow(trajectory)
+
+    def move_through(self, q_via: npt.ArrayLike, q_goal: npt.ArrayLike, via_speed: float) -> None:
+        """Jerk-limited move to rest at `q_goal` [rad] that passes `q_via` without a stop,
+        the TCP then heading for the goal at about `via_speed` [m/s], and goes on along the
+        straight line in joint space (`trajectory.plan_through`; 0: stops at `q_via`)."""
+        via, goal = np.asarray(q_via, dtype=float), np.asarray(q_goal, dtype=float)
+        metres = float(np.linalg.norm(self.tcp_position(goal) - self.tcp_position(via)))
+        radians = float(np.linalg.norm(goal - via))
+        joint_speed = via_speed * radians / metres if metres > 1e-9 else 0.0
+        trajectory = plan_through(
+            self.command.q,
+            via,
+            goal,
+            self.limits,
+            joint_speed,
             v_start=self.command.v,
             a_start=self.command.a,
             dt=self.cell.dt,

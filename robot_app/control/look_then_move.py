@@ -5,11 +5,12 @@ filtered estimate (at its exposure time, not predicted) and waits there at rest 
 in `HOVER_STEP`s, where the arm cannot reach that far out so high, while the cameras stay
 `min_working_distance` + `HOVER_MARGIN` above the cloth: bench_clear_table episode 32,
 session 19, a cloth laid back at x = 0.78 m was out of reach 10 mm at the observation
-height and left on the table); DESCEND
-is two blind moves, to `pregrasp_height` and to the grasp height, on the estimate at the
-end of APPROACH; the fingers close with the hand still and LIFT goes straight up. It
-sees the same camera latency as the servo (the same `VisionPipeline`); on a still cloth
-it is the loop of before, on a moving one it grasps where the cloth was.
+height and left on the table); DESCEND is one blind move through the point
+`pregrasp_height` over the grasp (without a stop: `descend_via_speed`) to the grasp
+height, on the estimate at the end of APPROACH; the fingers close with the hand still and
+LIFT goes straight up. It sees the same camera latency as the servo (the same
+`VisionPipeline`); on a still cloth it is the loop of before, on a moving one it grasps
+where the cloth was.
 """
 
 from __future__ import annotations
@@ -99,13 +100,14 @@ class LookThenMoveStrategy:
                 target[2] -= HOVER_STEP
 
     def descend(self) -> bool:
-        """Two blind moves down onto the estimate's grasp point."""
+        """One blind move down onto the estimate's grasp point, through the pregrasp point
+        without a stop (`loop.descend_via_speed`)."""
         s = self.settings
         self.tracker.stop()
         grasp = self._grasp_position()
         self._grasp_xyz = grasp
-        self.arm.move_to_joints(self.arm.solve_tcp(grasp + np.array([0.0, 0.0, s.pregrasp_height])))
-        self.arm.move_to_joints(self.arm.solve_tcp(grasp))
+        pregrasp = self.arm.solve_tcp(grasp + np.array([0.0, 0.0, s.pregrasp_height]))
+        self.arm.move_through(pregrasp, self.arm.solve_tcp(grasp, seed=pregrasp), s.descend_via_speed)
         return True
 
     def close(self) -> None:

@@ -42,6 +42,17 @@ class LoopSettings(StrictModel):
     pregrasp_height: float = Field(
         0.08, gt=0.0, description="look_then_move: TCP above the cloth before the last move"
     )
+    descend_via_speed: float = Field(
+        0.25,
+        ge=0.0,
+        le=1.0,
+        description="look_then_move: the TCP passes the pregrasp point without a stop, heading "
+        "down at about this speed [m/s], and comes down the last pregrasp_height on a straight "
+        "line in joint space (arm_motion.move_through; 0: stops there, the two moves of before). "
+        "0.25: descend 1.48-1.65 -> about 1.15-1.3 s over the clear-table range (notes s35 "
+        "descend2.py), the last 8 cm within 1.1-2.1 mm of the vertical where the two stops' "
+        "time-synchronised last move strayed 3.8-5.7 mm",
+    )
     track_height: float = Field(
         0.15,
         gt=0.0,

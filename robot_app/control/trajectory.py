@@ -116,10 +116,14 @@ def plan_point_to_point(
     a_start: npt.ArrayLike | None = None,
     v_goal: npt.ArrayLike | None = None,
     a_goal: npt.ArrayLike | None = None,
+    straight: bool = False,
     dt: float,
 ) -> JointTrajectory:
     """Time-optimal jerk-limited trajectory from a state to rest at `q_goal` (or to the
     goal state `v_goal`, `a_goal`: a move that another one continues without a stop).
+    `straight`: ruckig's phase synchronisation, a straight line in joint space where the
+    start and goal states allow it (at rest, or moving along the line); its time
+    synchronisation where not.
 
     Args:
         q_start: start positions (n,) [rad], within the limits.
@@ -140,6 +144,8 @@ def plan_point_to_point(
     planner = ruckig.Ruckig(limits.dof, dt)
     request = make_input(limits)
     request.duration_discretization = ruckig.DurationDiscretization.Discrete
+    if straight:
+        request.synchronization = ruckig.Synchronization.Phase
     set_state(request, limits, q_start, v_start, a_start, "start")
     set_target(request, limits, q_goal, v_goal, a_goal)
     trajectory = ruckig.Trajectory(limits.dof)
@@ -153,10 +159,11 @@ def plan_point_to_point(
 
 
 class JoinedTrajectory(NamedTuple):
-    """A fast move that hands over, without a stop, to the rest of a slow one.
+    """A move that hands over, without a stop, to (the rest of) another one.
 
     `fast` ends in the state `slow` has at `handover` [s] (a multiple of the control
-    period); from there on the joined motion is `slow`'s own. `fast` None: `slow` alone.
+    period; 0: `slow` starts where `fast` ends, `plan_through`); from there on the joined
+    motion is `slow`'s own. `fast` None: `slow` alone.
     """
 
     fast: JointTrajectory | None
@@ -229,6 +236,60 @@ def plan_slowing_down(
     return JoinedTrajectory(fast, slow, handover * dt)
 
 
+def plan_through(
+    q_start: npt.ArrayLike,
+    q_via: npt.ArrayLike,
+    q_goal: npt.ArrayLike,
+    limits: JointLimits,
+    via_speed: float,
+    *,
+    v_start: npt.ArrayLike | None = None,
+    a_start: npt.ArrayLike | None = None,
+    dt: float,
+) -> JoinedTrajectory:
+    """A move to rest at `q_goal` that passes `q_via` without a stop, heading straight for
+    the goal at `via_speed` [rad/s] (joint space; less where a joint's velocity limit is
+    nearer), and from there on along the straight line in joint space to the goal
+    (`straight`, as the last leg of the two stops is too). Where that leg would not keep to the line
+    (ruckig fell back to time synchronisation) or would pass the goal and come back (too
+    fast to stop in the distance), the two stops (`fast` at rest at `q_via`).
+
+    Raises:
+        TrajectoryPlanningError: a leg cannot be planned.
+    """
+    via = np.asarray(q_via, dtype=float)
+    goal = np.asarray(q_goal, dtype=float)
+    leg = goal - via
+    length = float(np.linalg.norm(leg))
+    speeds = [via_speed, via_speed / 2]
+    if length > 0.0 and via_speed > 0.0:
+        direction = leg / length
+        ceiling = float(np.min(limits.velocity / np.maximum(np.abs(direction), 1e-12)))
+        for speed in (min(s, 0.9 * ceiling) for s in speeds):
+            v_via = direction * speed
+            first = plan_point_to_point(
+                q_start, via, limits, v_start=v_start, a_start=a_start, v_goal=v_via, dt=dt
+            )
+            last = plan_point_to_point(via, goal, limits, v_start=v_via, straight=True, dt=dt)
+            if _keeps_to_leg(last, via, direction, length, dt):
+                return JoinedTrajectory(first, last, 0.0)
+    first = plan_point_to_point(q_start, via, limits, v_start=v_start, a_start=a_start, dt=dt)
+    return JoinedTrajectory(first, plan_point_to_point(via, goal, limits, straight=True, dt=dt), 0.0)
+
+
+def _keeps_to_leg(
+    trajectory: JointTrajectory, start: FloatArray, direction: FloatArray, length: float, dt: float
+) -> bool:
+    """Every control sample of `trajectory` on the segment from `start` along `direction`
+    for `length` [rad] (within 1e-6 rad): no detour, no overshoot."""
+    for k in range(round(trajectory.duration / dt) + 1):
+        offset = trajectory.sample(k * dt).q - start
+        along = float(offset @ direction)
+        if along < -1e-6 or along > length + 1e-6 or np.linalg.norm(offset - along * direction) > 1e-6:
+            return False
+    return True
+
+
 __all__ = [
     "JoinedTrajectory",
     "JointTrajectory",
@@ -237,5 +298,6 @@ __all__ = [
     "TrajectorySamples",
     "plan_point_to_point",
     "plan_slowing_down",
+    "plan_through",
     "time_optimal_duration",
 ]
