@@ -189,7 +189,7 @@ def _looking_job(monkeypatch: pytest.MonkeyPatch, put_back: list[str], own: dict
     monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: None)
     looked: list[tuple[str, ...]] = []
 
-    def look(job, meant, others, looks=1):
+    def look(job, meant, others, looks=1, along=()):
         looked.append(tuple(others))
         return HeldColours(4000, 0.7, {n: own.get(n, 0.0) for n in others}), "looked from 12 cm aside"
 
@@ -327,13 +327,15 @@ def _assert_under_named(attempt, put_back: list[str], named: bool, why: str) -> 
         assert any(why in note for note in attempt.notes)
 
 
-def _look_showing(shown: float, looked: list[tuple[str, ...]]):
+def _look_showing(shown: float, looked: list[tuple[str, ...]], alongs: list[tuple[str, ...]] | None = None):
     """A `look_at_held` whose held pixels show `shown` of every asked cloth's own colours;
-    the cloths asked are noted in `looked`."""
+    the cloths asked are noted in `looked`, those taken to hang along in `alongs`."""
     from robot_app.control.held_look import HeldColours
 
-    def look(job, meant, others, looks=1):
+    def look(job, meant, others, looks=1, along=()):
         looked.append(tuple(others))
+        if alongs is not None:
+            alongs.append(tuple(along))
         return HeldColours(5000, 0.8, {n: shown for n in others}), "looked from 20 cm aside"
 
     return look
@@ -347,10 +349,12 @@ def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_under(
         put_back: list[str] = []
         job = _under_job_with_a_white(monkeypatch, put_back)
         looked: list[tuple[str, ...]] = []
-        monkeypatch.setattr(table_clearer, "look_at_held", _look_showing(shown, looked))
+        alongs: list[tuple[str, ...]] = []
+        monkeypatch.setattr(table_clearer, "look_at_held", _look_showing(shown, looked, alongs))
         resumed: list[object] = []
         attempt = _lift_under(monkeypatch, job, ("No.11",), resumed)
         assert looked == [("No.17",)] and resumed, "the loop goes on from where the look left the hand"
+        assert alongs == [("No.11",)]  # the named one's colours are the lift's (rerun of 807)
         _assert_under_named(attempt, put_back, named, "another box")
 
 
@@ -378,7 +382,10 @@ def test_the_cloth_it_lay_on_seen_in_its_place_from_the_look_is_not_named(
         monkeypatch.setattr(
             table_clearer,
             "look_at_held",
-            lambda job, meant, others, looks=1: (HeldColours(5000, 0.8, dict.fromkeys(others, 0.0)), "aside"),
+            lambda job, meant, others, looks=1, along=(): (
+                HeldColours(5000, 0.8, dict.fromkeys(others, 0.0)),
+                "aside",
+            ),
         )
         attempt = _lift_under(monkeypatch, job, ("No.11",))
         assert checks == ["No.11", "No.11"]  # after the lift, and from where the hand looked
@@ -418,7 +425,7 @@ def test_a_white_cloth_of_another_box_that_may_hang_in_its_shade_withdraws_the_n
         job, _ = _looking_job(monkeypatch, put_back, {"No.11": 0.71})
         job.sort = SortSettings(default="colours", boxes={"whites": (10,)})  # No.10 weighs the extra
 
-        def look(job, meant, others, looks=1, shade=shade):
+        def look(job, meant, others, looks=1, along=(), shade=shade):
             own = {n: 0.71 if n == "No.11" else 0.0 for n in others}
             shaded = {**own, "No.10": shade}
             return HeldColours(4000, 0.05, own, shaded=shaded), "looked from 27 cm aside"
@@ -486,7 +493,7 @@ def test_a_wrong_lift_is_placed_as_the_cloth_its_colours_name_when_only_its_box_
     monkeypatch.setattr(table_clearer, "still_there", lambda recognizer, *args: True)  # No.19 stayed
     looked: list[tuple[str, ...]] = []
 
-    def look(job, meant, others, looks=1, fit=False):
+    def look(job, meant, others, looks=1, fit=False, along=()):
         looked.append(tuple(others))
         scores = {n: ColourFit(fits[n], 1.0) for n in others}
         shaded = {n: shade if n == "No.17" else 0.0 for n in others}

@@ -288,7 +288,7 @@ def test_a_blind_lift_of_the_meant_cloth_s_weight_is_looked_at_for_another_box_s
 
     looks: list = []
 
-    def look(job, name, doubted, fit=False):
+    def look(job, name, doubted, fit=False, along=()):
         looks.append((name, doubted))
         return HeldColours(2000, 0.2, dict.fromkeys(doubted, 0.7)), "looked from 20 cm aside"
 
@@ -324,7 +324,7 @@ def test_a_never_seen_cloth_must_show_its_own_colours_a_lost_one_only_fit_as_wel
     from robot_app.control.pick_checks import AttemptState
     from robot_app.control.table_lost import LostMatch, _carry
 
-    def look(job, name, doubted, fit=False):
+    def look(job, name, doubted, fit=False, along=()):
         close = {n: ColourFit(0.75, 1.0) for n in doubted}
         return HeldColours(5000, 0.95, dict.fromkeys(doubted, 0.0), ColourFit(0.63, 1.0), close), "here"
 
@@ -361,7 +361,7 @@ def test_a_guess_s_colours_outweigh_a_never_seen_cloth_s_nearer_weight_only_wher
 
     other_fit = 0.0
 
-    def look(job, name, doubted, fit=False):
+    def look(job, name, doubted, fit=False, along=()):
         fits = {n: ColourFit(other_fit, 1.0) for n in doubted}
         return HeldColours(9000, 0.99, dict.fromkeys(doubted, 0.0), ColourFit(1.0, 1.0), fits), "here"
 

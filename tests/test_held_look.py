@@ -242,3 +242,21 @@ def test_cloths_of_shared_colours_are_told_apart_by_their_mix() -> None:
     alone, what = held_verdict(seen, job.settings.held_look)
     assert alone, what
     assert seen.meant_fit.score - seen.fits["violet"].score >= job.settings.held_look.margin
+
+
+def test_the_colours_of_a_cloth_taken_to_hang_along_are_no_other_cloth_s_own() -> None:
+    # rerun of held-out 807 (session 35): No.10 came up with No.2 (turquoise and white
+    # stripes); the look for whites that could hang instead read No.2's white as theirs, and
+    # the pair went back at every lift. Here the violet cloth hangs, taken to come along with
+    # the yellow one meant; a twin of the violet one's colours is the doubted cloth
+    from robot_app.control.held_look import look_at_held
+
+    cloths = ((1, "yellow"), (9, "violet"), (9, "twin"))
+    job, _ = _look_job(hanging=9, lying=0, cloths=cloths)
+    seen, where = look_at_held(job, "yellow", ("twin",))  # type: ignore[arg-type]
+    assert seen is not None, where
+    assert seen.own["twin"] > 0.5  # the yellow one alone: the violet is the twin's own
+    job, _ = _look_job(hanging=9, lying=0, cloths=cloths)
+    seen, where = look_at_held(job, "yellow", ("twin",), along=("violet",))  # type: ignore[arg-type]
+    assert seen is not None, where
+    assert seen.own["twin"] == 0.0 and seen.meant > 0.9  # the violet one's colours are the lift's

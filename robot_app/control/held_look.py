@@ -350,7 +350,12 @@ def _grown(mask: Mask, px: int) -> Mask:
 
 
 def look_at_held(
-    job: TableClearer, meant: str, others: Sequence[str], looks: int = 1, fit: bool = False
+    job: TableClearer,
+    meant: str,
+    others: Sequence[str],
+    looks: int = 1,
+    fit: bool = False,
+    along: Sequence[str] = (),
 ) -> tuple[HeldColours | None, str]:
     """Moves the lifted cloth over the freest table within reach (`hover_offsets`), looks
     (`looks` = 2: once more from a point `confirm_shift` away, keeping only what both see
@@ -358,7 +363,13 @@ def look_at_held(
     what hangs (`held_colours` for `meant` and `others`) and a note; None where no such
     point is free and reachable. The hand stays at the last look (the transfer or the
     put-back goes on from there); the arm holds for the computation. `fit`: also score what
-    hangs by each cloth's colour fit (`HeldColours.meant_fit`, `fits`; `held_verdict` uses them)."""
+    hangs by each cloth's colour fit (`HeldColours.meant_fit`, `fits`; `held_verdict` uses them).
+    `along`: cloths taken to hang with the meant one (a lift named as several, a double
+    pick's named other cloth): their main colours count as the meant cloth's (`meant`,
+    and never another cloth's own). Rerun of held-out 807 (session 35): No.10 came up with
+    No.2 (turquoise and white stripes, colours); the look for whites that could hang in
+    their stead read No.2's white stripes as the never-seen No.6's and No.17's own (9-11 %),
+    and the pair went back at every lift. (`meant_fit` stays the meant cloth's alone.)"""
     # table_furniture imports clear_table_records, which imports this module's settings
     from robot_app.control.table_furniture import clear_of_walls
 
@@ -389,6 +400,9 @@ def look_at_held(
     job.motion.hold(time.process_time() - cpu)
     palettes = {n: main_codes(job.recognizers[n].model) for n in (meant, *others)}
     wide = main_codes(recognizer.model, ALL_COLOURS)
+    for name in along:
+        palettes[meant] = np.union1d(palettes[meant], main_codes(job.recognizers[name].model))
+        wide = np.union1d(wide, main_codes(job.recognizers[name].model, ALL_COLOURS))
     seen_at: list[FloatArray] = []
     views: list[tuple[Mask, dict[str, Mask], Mask, dict[str, Mask]]] = []
     first: StereoCapture | None = None

@@ -1176,7 +1176,7 @@ class TableClearer:
         if not rivals or not s.held_look.enabled:
             return "", False
         self._phase = "look at lift"
-        seen, where = look_at_held(self, attempt.name, rivals, looks=2)
+        seen, where = look_at_held(self, attempt.name, rivals, looks=2, along=(named,))
         if seen is None:
             return f"no look at what hangs ({where})", bool(where)
         showing = [f"{n}'s own {seen.own[n]:.0%}" for n in rivals if seen.own[n] >= s.held_look.doubt_share]

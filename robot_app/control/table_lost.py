@@ -717,7 +717,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
     doubted = (*match.doubted, *(n for n in instead if n not in match.doubted))
     if doubted:
-        hanging, where = look_at_held(job, name, doubted, fit=True)
+        hanging, where = look_at_held(job, name, doubted, fit=True, along=held[1:])
         looked = hanging  # every fit, for the scale's say (`_weighs_more_like`)
         if hanging is not None and unseen - set(match.doubted):
             # a cloth never seen is held to its own colours showing, not to a fit as close as
