@@ -1042,3 +1042,32 @@ def test_after_looks_that_found_nothing_the_lost_cloth_is_sought_from_the_observ
     assert reason == "interrupted"
     assert calls == ["observation", "survey", "look", "survey", "observation", "survey"]
     assert picked == [match] and last is seen_from_above and interrupted
+
+
+def test_the_regions_left_at_the_end_are_noted_on_the_cloths_whose_colours_they_show(survey) -> None:
+    # the evidence a failed episode needs, as bench reruns take other courses (807, 810)
+    from robot_app.control.table_left import left_notes
+
+    recognizers, ident, capture = survey
+    settings = LostSettings()
+    candidates = {name: recognizers[name] for name in ("violet", "stripes")}
+    centres = [np.array([0.6, 0.1])]
+
+    def notes(lost=None, untried=lambda name: True, empty=lambda centre: False):
+        return left_notes(capture, ident.unknown, centres, candidates, lost or {}, settings, untried, empty)
+
+    never = notes()
+    assert list(never) == ["violet"]  # the stripes' colours are not the region's
+    (text,) = never["violet"]
+    assert "(0.60, 0.10)" in text and "stripes" in text and text.endswith("not booked lost")
+    far = LostPlace(
+        LossKind.DROPPED, "dropped in transfer", np.array([0.5, -0.2]), np.array([0.3, -0.56]), ()
+    )
+    near = LostPlace(
+        LossKind.DROPPED, "dropped in transfer", np.array([0.5, 0.0]), np.array([0.3, -0.56]), ()
+    )
+    assert notes({"violet": far})["violet"][0].endswith("lost far from there (dropped in transfer)")
+    assert ":" not in notes({"violet": near})["violet"][0].split(")")[-1]  # no gate closed
+    spent = notes({"violet": near}, untried=lambda name: False, empty=lambda centre: True)["violet"][0]
+    assert spent.endswith("no attempts left, blind grasps closed on nothing there")
+    assert left_notes(capture, ident.unknown, centres, {}, {}, settings, bool, bool) == {}

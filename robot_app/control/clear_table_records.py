@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
 
@@ -447,6 +448,8 @@ class TableResult:
         interrupted: the user stopped it.
         moved_by: numbers (from 1) of the placed attempts after which the next survey saw
             that the pick had moved a cloth nobody identified (`table_moved`).
+        left: known cloth not placed -> notes on the unknown regions left at the end that
+            show its colours (`table_left.left_notes`; identified or not).
     """
 
     cloths: tuple[ClothRecord, ...]
@@ -462,6 +465,7 @@ class TableResult:
     interrupted: bool = False
     notes: tuple[str, ...] = field(default=())
     moved_by: tuple[int, ...] = ()
+    left: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
 
     @property
     def placed(self) -> tuple[str, ...]:

@@ -88,6 +88,7 @@ from robot_app.control.table_furniture import (
 )
 from robot_app.control.table_layers import layer_map
 from robot_app.control.table_ledger import TableLedger
+from robot_app.control.table_left import left_notes
 from robot_app.control.table_lost import (
     LostMatch,
     colour_patches,
@@ -1465,6 +1466,24 @@ class TableClearer:
         step = self.settings.pile_grasp.obstacle_step_px
         return obstacles_on_table(target, ident, self._survey_capture, self.recognizers, self.table, step)
 
+    def _left(self, last: Identification) -> dict[str, tuple[str, ...]]:
+        """Per known cloth not placed, the unknown regions of the last survey that show its
+        colours and the gates the evidence closes (`table_left.left_notes`)."""
+        placed = set(self.ledger.placed_order)
+        candidates = {n: r for n, r in self.recognizers.items() if n not in placed}
+        centres = [np.array(self.table.point(self._survey_capture, r.centroid)) for r in last.unknown]
+        notes = left_notes(
+            self._survey_capture,
+            last.unknown,
+            centres,
+            candidates,
+            self.ledger.lost,
+            self.settings.lost,
+            self._untried,
+            self._grasped_empty,
+        )
+        return {name: tuple(texts) for name, texts in notes.items()}
+
     def _result(
         self,
         last: Identification | None,
@@ -1473,6 +1492,7 @@ class TableClearer:
         start: float,
         wall_start: float,
     ) -> TableResult:
+        left = self._left(last) if last is not None and last.unknown and not interrupted else {}
         cloths = self.ledger.cloths(last, self.sort.box_for, self.settings.max_attempts)
         unknown = self.ledger.surveys[-1].unknown if self.ledger.surveys else ()
         cleared = self.ledger.cleared(last, interrupted, cloths)
@@ -1489,6 +1509,7 @@ class TableClearer:
             wall_s=time.perf_counter() - wall_start,
             interrupted=interrupted,
             moved_by=tuple(self.ledger.moved_by),
+            left=left,
         )
 
 

@@ -22,6 +22,7 @@ from robot_app.outputs import atomic_write_csv, atomic_write_text, output_folder
 def cloth_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
     """One row per cloth (see the module docstring), in drop order, then the others."""
     records = {r.name: r for r in episode.result.cloths}
+    left = episode.result.left
     rows: list[dict[str, object]] = []
     for v in episode.verdict.cloths:
         r = records.pop(v.name, None)
@@ -37,7 +38,7 @@ def cloth_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 "outcome": r.outcome.value if r is not None else "never identified",
                 "final_place": v.final,
                 "correct": v.correct,
-                "notes": " | ".join(r.notes) if r is not None else "",
+                "notes": " | ".join((*(r.notes if r is not None else ()), *left.get(v.name, ()))),
                 "over_rim": round(v.over_rim, 3),
             }
         )
@@ -54,7 +55,7 @@ def cloth_rows(episode: ClearTableEpisode) -> list[dict[str, object]]:
                 "outcome": r.outcome.value,
                 "final_place": "",
                 "correct": r.order is None,
-                "notes": " | ".join(r.notes),
+                "notes": " | ".join((*r.notes, *left.get(r.name, ()))),
                 "over_rim": 0.0,
             }
         )
@@ -145,6 +146,7 @@ def summary(config: ClearTableConfig, episode: ClearTableEpisode) -> dict[str, A
         "wrong_box": v.wrong_box,
         "unknown_cloths_in_pile": v.unknown_cloths,
         "unknown_regions_reported": [list(xy) for xy in r.unknown],
+        "left_in_their_colours": {name: list(notes) for name, notes in r.left.items()},
         "double_picks": v.double_picks,
         "double_picks_detected": v.double_picks_detected,
         "double_picks_noticed_after": v.double_picks_noticed_after,
