@@ -272,6 +272,7 @@ def _carrying_job(lost: tuple[str, ...], reading: float) -> tuple[SimpleNamespac
     job.check_carried = lambda attempt: None
     job.check_box = lambda attempt: events.append(("placed", attempt.box.name))
     job.hanging_reach = lambda name: 0.1
+    job.box_heap = lambda box: 0.0
     job.on_phase = None
     job.box = BoxPlace("colours", np.array([0.3, -0.56, 0.0]), 0.22, 0.1, 0.01)
     return job, events

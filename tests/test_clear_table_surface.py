@@ -196,3 +196,21 @@ def test_a_blind_grasp_goes_to_the_heaps_top_not_its_innermost_point(pile) -> No
     # and none where the hand does not reach that top, up the ray from the point measured
     job.boxes = {}
     assert _heap_top(job, match, heap, lambda px, py: np.hypot(px - x, py - y) > 0.004) != top
+
+
+def test_the_heap_already_in_a_box_is_measured_from_above_it(pile) -> None:
+    # held-out 876 (session 35): the release went down into the heap of the cloths placed
+    # before and carried two out; the box check's pair measures how high they lie
+    from robot_app.control.box_contents import contents_top
+
+    recognizers, _, capture = pile
+    model, depth = recognizers["upper"].model, recognizers["upper"].settings.depth
+    settings = SurfaceSettings()
+    # a box around the upper cloth (52 mm over the table, on the lower one)
+    over_pile = BoxPlace("colours", np.array([0.55, -0.02, 0.0]), 0.12, 0.1, 0.01)
+    assert contents_top(capture, RIG, over_pile, model, depth, settings) == pytest.approx(0.052, abs=0.004)
+    # over the plain cloth alone (8 mm over the table, little texture) and over bare table
+    beside = BoxPlace("whites", np.array([0.40, 0.12, 0.0]), 0.06, 0.1, 0.01)
+    assert contents_top(capture, RIG, beside, model, depth, settings) < 0.015
+    bare = BoxPlace("whites", np.array([0.35, -0.15, 0.0]), 0.05, 0.1, 0.01)
+    assert contents_top(capture, RIG, bare, model, depth, settings) < 0.015

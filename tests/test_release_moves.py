@@ -225,3 +225,29 @@ def test_camera_noise_alone_is_no_change_and_a_moved_cloth_is() -> None:
     assert image_change(a, moved, 25.0) == pytest.approx(40 * 40 / (240 * 320), rel=0.2)
     with pytest.raises(ValueError, match="sizes"):
         image_change(a, b[:100], 25.0)
+
+
+def test_the_release_takes_the_top_of_what_lies_in_the_box_for_its_floor() -> None:
+    # held-out 876 (session 35): the hand went down to 0.06 m into the heap of two cloths
+    # placed before (0.11 m high) and, rising, carried them out of the box
+    from types import SimpleNamespace
+
+    from robot_app.control.loop_settings import LoopSettings
+    from robot_app.control.pick_place import release_into_box
+
+    def lowest(heap: float) -> tuple[float, float]:
+        moves: list[tuple[float, float]] = []
+        motion = SimpleNamespace(
+            solve_tcp=lambda p: np.asarray(p, dtype=float),
+            move_slowing_down=lambda q, speed, below: moves.append((float(q[2]), below)),
+            hold=lambda seconds: None,
+        )
+        cell = SimpleNamespace(release=lambda: None, set_gripper=lambda opening: None)
+        release_into_box(motion, cell, np.array([0.3, -0.56, 0.0]), 0.0, LoopSettings(), 0.2, heap)  # type: ignore[arg-type]
+        return moves[0]
+
+    empty_low, empty_slow = lowest(0.0)
+    heaped_low, heaped_slow = lowest(0.11)
+    assert empty_low == pytest.approx(LoopSettings().min_release_height)
+    assert heaped_low == pytest.approx(empty_low + 0.11) and heaped_slow == pytest.approx(empty_slow + 0.11)
+    assert lowest(-0.01) == (empty_low, empty_slow)  # nothing measured below the floor counts

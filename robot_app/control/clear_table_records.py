@@ -237,6 +237,11 @@ class ClearTableSettings(StrictModel):
         drop_box_check: when the gripper comes empty over the box, look into the box as
             after a release; a cloth seen there fell into its box on the way (placed, not
             lost).
+        box_heap: measure from the check after every release how high the cloths in the
+            box heap up (`box_contents.contents_top`, with `surface`'s settings: up to
+            `surface.above`); the next release into it takes that top for the floor, so
+            the hand does not go down into them (held-out 876, session 35: rising from a
+            release into the heap it carried two placed cloths out onto the table).
         boxed_again: when a survey leaves nothing to pick and unknown regions, identify
             once more with the models of the cloths confirmed in their box too: one found
             on the table, at least this share of its seen part in those regions, was not
@@ -285,6 +290,7 @@ class ClearTableSettings(StrictModel):
     look_at_boxes: bool = True
     box_view_height: float = Field(0.42, gt=0.1)
     drop_box_check: bool = True
+    box_heap: bool = True
     boxed_again: float | None = Field(0.5, gt=0.0, le=1.0)
     pile_grasp: PileGraspSettings = Field(default_factory=PileGraspSettings)
     surface: SurfaceSettings = Field(default_factory=SurfaceSettings)

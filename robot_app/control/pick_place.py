@@ -126,24 +126,25 @@ def release_into_box(
     table_z: float,
     settings: LoopSettings,
     reach: float,
+    heap: float = 0.0,
 ) -> str:
     """RELEASE: lowers the cloth hanging `reach` [m] below the fingers until its lowest point
-    is `release_clearance` above the box floor, then `release_fold` lower still (folding it
+    is `release_clearance` above the box floor (the top of what lies in the box, `heap` [m]
+    over the floor: `box_contents`), then `release_fold` lower still (folding it
     onto the floor; never below `min_release_height`), slowly (`release_speed`: a soft body
     that hits the floor fast goes through it) from where its lowest point is
     `release_slow_from` above the floor on, at the full limits above that, without a stop;
     lets go, waits until the hand camera sees the cloth at rest (`release_watch`; at most
     `release_wait`) and opens the fingers. Returns a note on the wait."""
     s = settings
+    floor = table_z + max(0.0, float(heap))
     low = np.asarray(place_position, dtype=float).reshape(3).copy()
-    low[2] = table_z + max(
-        s.min_release_height, s.grasp_height + reach + s.release_clearance - s.release_fold
-    )
+    low[2] = floor + max(s.min_release_height, s.grasp_height + reach + s.release_clearance - s.release_fold)
     q_low = motion.solve_tcp(low)
     if s.release_slow_from is None:
         motion.move_to_joints(q_low, speed=s.release_speed)
     else:
-        slow_below = table_z + s.grasp_height + reach + s.release_slow_from
+        slow_below = floor + s.grasp_height + reach + s.release_slow_from
         motion.move_slowing_down(q_low, s.release_speed, slow_below)
     cell.release()
     note = f"waited {s.release_wait:.2f} s after letting go"
@@ -193,6 +194,8 @@ class PickPlaceLoop:
         expected_pose: (4, 4) where the caller's own recognition, from the observation
             pose, found the cloth in Σ_W [m] (the clear-table job's survey): when every
             search fails, the last search's frame is checked there (`_search`).
+        box_heap: how high what already lies in the box heaps over its floor [m] (the
+            clear-table job's `box_contents`): RELEASE takes its top for the floor.
 
     Raises:
         IKError: the observation pose has no IK solution within the joint limits.
@@ -219,8 +222,10 @@ class PickPlaceLoop:
         target_present: bool = True,
         belt_encoder: BeltEncoder | None = None,
         expected_pose: npt.ArrayLike | None = None,
+        box_heap: float = 0.0,
     ) -> None:
         self.cell = cell
+        self.box_heap = max(0.0, float(box_heap))
         self.expected_pose = None if expected_pose is None else np.asarray(expected_pose, dtype=float)
         self.kinematics = kinematics
         self.recognizer = recognizer
@@ -484,7 +489,7 @@ class PickPlaceLoop:
     def _release(self) -> None:
         reach = hanging_reach(self.model.points_in, self.tracker.grasp_point_model) + self.extra_reach
         self._note = release_into_box(
-            self.arm, self.cell, self.place_position, self.table_z, self.settings, reach
+            self.arm, self.cell, self.place_position, self.table_z, self.settings, reach, self.box_heap
         )
 
     def _safe_home(self) -> None:

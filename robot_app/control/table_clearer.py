@@ -41,6 +41,7 @@ import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
 from robot_app.control.box_check import BoxCheckSettings, BoxView, box_view, look_tcp
+from robot_app.control.box_contents import contents_top
 from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import (
     BoxPlace,
@@ -357,6 +358,7 @@ class TableClearer:
         self._collisions = 0
         self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
         self._laid: list[tuple[AttemptState, FloatArray, FloatArray]] = []  # put-backs: (start, let-go)
+        self._box_heaps: dict[str, float] = {}  # box -> its heap's top over the floor [m]
         self._before_pick: _BeforePick | None = None
         self.recovery.forget()
         self._survey_camera_pose = self.observation_camera_pose.copy()
@@ -601,6 +603,7 @@ class TableClearer:
             ground_truth=truth,
             posture_seed=self.motion.q,
             expected_pose=pose,
+            box_heap=self.box_heap(box.name),
         )
         self._before_pick = _BeforePick(
             target.name,
@@ -1383,6 +1386,17 @@ class TableClearer:
         capture = self.cell.capture()
         recognizer = self.recognizers[attempt.name]
         check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings, shadow_proof)
+        if self.settings.box_heap:
+            cpu = time.process_time()
+            model, depth = recognizer.model, recognizer.settings.depth
+            top = contents_top(capture, self.rig, attempt.box, model, depth, self.settings.surface)
+            self._box_heaps[attempt.box.name] = top
+            self._wait(time.process_time() - cpu, 1)
+
+    def box_heap(self, box: str) -> float:
+        """How high the cloths in `box` heap over its floor [m], as its last check measured
+        (`clear.box_heap`; 0 before any, or off)."""
+        return self._box_heaps.get(box, 0.0)
 
     def fell_into_box(self, attempt: AttemptState) -> bool:
         """After the gripper came empty over the box: did the cloth fall into its box on the

@@ -757,7 +757,9 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     start = job.cell.time
     job.set_phase("release", name)
     reach = job.hanging_reach(name) + extra
-    release_into_box(job.motion, job.cell, attempt.box.centre, table_z, loop, reach)
+    release_into_box(
+        job.motion, job.cell, attempt.box.centre, table_z, loop, reach, job.box_heap(attempt.box.name)
+    )
     _phase(job, name, "release", start, "")
     job.check_box(attempt)
     return Outcome.PLACED, f"{name} placed (picked blind, its weight read)"
