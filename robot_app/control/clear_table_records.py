@@ -240,8 +240,9 @@ class ClearTableSettings(StrictModel):
         box_heap: measure from the check after every release how high the cloths in the
             box heap up (`box_contents.contents_top`, with `surface`'s settings: up to
             `surface.above`); the next release into it takes that top for the floor, so
-            the hand does not go down into them (held-out 876, session 35: rising from a
-            release into the heap it carried two placed cloths out onto the table).
+            the hand does not press the released cloth into them (held-out 876, session 35:
+            a release 5 cm into the heap of two placed cloths, and the two rose out of the
+            box a second later, the simulator's contact in a heap pressed across).
         boxed_again: when a survey leaves nothing to pick and unknown regions, identify
             once more with the models of the cloths confirmed in their box too: one found
             on the table, at least this share of its seen part in those regions, was not
