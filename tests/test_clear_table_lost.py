@@ -1031,6 +1031,8 @@ def test_after_looks_that_found_nothing_the_lost_cloth_is_sought_from_the_observ
     job._record_survey = lambda ident, chosen: None  # type: ignore[method-assign]
     job._lost_to_pick = lambda ident: match if ident is seen_from_above else None  # type: ignore[method-assign]
     job._result = lambda last, reason, interrupted, start, wall: (last, reason, interrupted)  # type: ignore[method-assign]
+    job._looked_left = {}
+    job._left = lambda ident, seen_by="": {"No.1": (f"{seen_by}: {len(ident.unknown)} region",)}  # type: ignore[method-assign]
     picked: list[object] = []
 
     def pick(job, found) -> None:
@@ -1041,7 +1043,26 @@ def test_after_looks_that_found_nothing_the_lost_cloth_is_sought_from_the_observ
     last, reason, interrupted = job.run()  # type: ignore[misc]
     assert reason == "interrupted"
     assert calls == ["observation", "survey", "look", "survey", "observation", "survey"]
+    assert job._looked_left == {}  # the look saw no region: nothing kept for the results
     assert picked == [match] and last is seen_from_above and interrupted
+
+
+def test_the_regions_the_last_look_saw_are_kept_for_the_results() -> None:
+    # held-out 890 (session 35): a put-back pair lay where only a look around saw it; the job
+    # stopped after the observation survey, which did not, and the results named no region
+    from robot_app.control import table_clearer
+    from robot_app.vision.identify import Identification
+
+    region = UnknownRegion((100.0, 100.0), 400, np.ones((4, 4), bool))
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job._looked_left = {}
+    job._left = lambda ident, seen_by="": {"No.2": (f"{seen_by}: {len(ident.unknown)} region",)}  # type: ignore[method-assign]
+    job._record_survey = lambda ident, chosen: None  # type: ignore[method-assign]
+    job._back_to_observation = lambda: None  # type: ignore[method-assign]
+    job._survey = lambda meanwhile=None, boxed=False: Identification((), (), (), (), {})  # type: ignore[method-assign]
+    job.ledger = TableLedger()
+    job._from_observation(Identification((), (), (), (region,), {}))
+    assert job._looked_left == {"No.2": ("seen by the last look around: 1 region",)}
 
 
 def test_the_regions_left_at_the_end_are_noted_on_the_cloths_whose_colours_they_show(survey) -> None:

@@ -266,6 +266,7 @@ class TableClearer:
                 self._look_at_boxes if self.settings.look_at_boxes else None
             )
             while True:
+                self._looked_left.clear()  # this round's looks' regions (`_from_observation`)
                 self._back_to_observation()
                 last = self._survey(meanwhile=boxes_first)
                 boxes_first = None
@@ -324,6 +325,8 @@ class TableClearer:
         look may not see the table's regions at all: held-out episode 814 (session 34), No.19
         dropped in transfer lay as an unknown region the observation survey saw; the two
         looks around saw nothing, and the job stopped with it on the table."""
+        if last.unknown:  # what the last look saw, for the results should the job stop
+            self._looked_left.update(self._left(last, "seen by the last look around"))
         self._record_survey(last, None)
         self._back_to_observation()
         again = self._survey()
@@ -359,6 +362,7 @@ class TableClearer:
         self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
         self._laid: list[tuple[AttemptState, FloatArray, FloatArray]] = []  # put-backs: (start, let-go)
         self._box_heaps: dict[str, float] = {}  # box -> its heap's top over the floor [m]
+        self._looked_left: dict[str, tuple[str, ...]] = {}  # regions the last looks saw, per cloth
         self._before_pick: _BeforePick | None = None
         self.recovery.forget()
         self._survey_camera_pose = self.observation_camera_pose.copy()
@@ -1490,7 +1494,7 @@ class TableClearer:
         step = self.settings.pile_grasp.obstacle_step_px
         return obstacles_on_table(target, ident, self._survey_capture, self.recognizers, self.table, step)
 
-    def _left(self, last: Identification) -> dict[str, tuple[str, ...]]:
+    def _left(self, last: Identification, seen_by: str = "left at the end") -> dict[str, tuple[str, ...]]:
         """Per known cloth not placed, the unknown regions of the last survey that show its
         colours and the gates the evidence closes (`table_left.left_notes`)."""
         placed = set(self.ledger.placed_order)
@@ -1505,6 +1509,7 @@ class TableClearer:
             self.settings.lost,
             self._untried,
             self._grasped_empty,
+            seen_by,
         )
         return {name: tuple(texts) for name, texts in notes.items()}
 
@@ -1517,6 +1522,9 @@ class TableClearer:
         wall_start: float,
     ) -> TableResult:
         left = self._left(last) if last is not None and last.unknown and not interrupted else {}
+        if not interrupted:
+            for name, notes in self._looked_left.items():
+                left[name] = (*left.get(name, ()), *notes)
         cloths = self.ledger.cloths(last, self.sort.box_for, self.settings.max_attempts)
         unknown = self.ledger.surveys[-1].unknown if self.ledger.surveys else ()
         cleared = self.ledger.cleared(last, interrupted, cloths)

@@ -36,13 +36,15 @@ def left_notes(
     settings: LostSettings,
     untried: Callable[[str], bool],
     grasped_empty: Callable[[FloatArray], bool],
+    seen_by: str = "left at the end",
 ) -> dict[str, list[str]]:
     """Per known cloth not placed (`candidates`), a note on each unknown region (`regions`
     of the survey taken as `capture`, centred at `centres` on the table [m]) that shows
     `settings.min_share` of its main colours at its lightness, as the lost-cloth rules
     gate a region: where, how large, its colour fit and the best others', and the gates
     the evidence closes (`lost`: where each cloth booked lost was lost; `untried`: it has
-    attempts left; `grasped_empty`: blind grasps closed on nothing at a centre)."""
+    attempts left; `grasped_empty`: blind grasps closed on nothing at a centre); `seen_by`
+    opens each note (which survey saw the region)."""
     notes: dict[str, list[str]] = {}
     if not candidates:
         return notes
@@ -65,7 +67,7 @@ def left_notes(
                 gates.append("blind grasps closed on nothing there")
             others = ", ".join(f"{o} {f.score:.2f}" for o, f in ranked[: RIVALS + 1] if o != name)
             notes.setdefault(name, []).append(
-                f"left at the end: an unknown region at ({x:.2f}, {y:.2f}), {region.area} px, "
+                f"{seen_by}: an unknown region at ({x:.2f}, {y:.2f}), {region.area} px, "
                 f"{fit.share:.0%} in its colours (fit {fit.score:.2f}; {others or 'no other'})"
                 + (f": {', '.join(gates)}" if gates else "")
             )
