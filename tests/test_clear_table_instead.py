@@ -278,6 +278,19 @@ def _carrying_job(lost: tuple[str, ...], reading: float) -> tuple[SimpleNamespac
     return job, events
 
 
+def _carrying_looked(monkeypatch, look, meant: str):
+    """Patches `table_lost` so that a carry looks by `look` and moves nothing; returns the
+    put-back place of a double pick with `meant`, its other cloth unnamed and unlooked."""
+    from robot_app.control import table_lost
+    from robot_app.control.clear_table_records import LossKind, LostPlace
+
+    monkeypatch.setattr(table_lost, "look_at_held", look)
+    monkeypatch.setattr(table_lost, "carry_over_box", lambda *a: None)
+    monkeypatch.setattr(table_lost, "release_into_box", lambda *a: None)
+    how = f"came up with {meant}, not named"
+    return LostPlace(LossKind.PUT_BACK, how, np.array(GRASP), np.array(GRASP), (), True)
+
+
 def test_a_blind_lift_of_the_meant_cloth_s_weight_is_looked_at_for_another_box_s_cloth(monkeypatch) -> None:
     # held-out episode 622 (session 31): a blind lift meant for No.2 (16 g here) read its
     # weight; it held No.18 (whites, 21 g, lost after put-backs of its own) and went into colours
@@ -317,8 +330,6 @@ def test_a_never_seen_cloth_must_show_its_own_colours_a_lost_one_only_fit_as_wel
     # held-out 651 on fe0a83a: No.7 (a print with white) fit 0.63, the never-seen white No.6
     # 0.75 with none of its own colours showing: put back at every lift. A cloth the job knows
     # may lie there (lost) still puts the lift back on a fit as close (episode 315)
-    from robot_app.control import table_lost
-    from robot_app.control.clear_table_records import LossKind, LostPlace
     from robot_app.control.colour_fit import ColourFit
     from robot_app.control.episode import Outcome
     from robot_app.control.held_look import HeldColours
@@ -329,12 +340,7 @@ def test_a_never_seen_cloth_must_show_its_own_colours_a_lost_one_only_fit_as_wel
         close = {n: ColourFit(0.75, 1.0) for n in doubted}
         return HeldColours(5000, 0.95, dict.fromkeys(doubted, 0.0), ColourFit(0.63, 1.0), close), "here"
 
-    monkeypatch.setattr(table_lost, "look_at_held", look)
-    monkeypatch.setattr(table_lost, "carry_over_box", lambda *a: None)
-    monkeypatch.setattr(table_lost, "release_into_box", lambda *a: None)
-    unlooked = LostPlace(
-        LossKind.PUT_BACK, "came up with No.2, not named", np.array(GRASP), np.array(GRASP), (), True
-    )
+    unlooked = _carrying_looked(monkeypatch, look, "No.2")
     results = {}
     for lost in (("No.2",), ("No.2", "No.18")):  # No.18 never seen / lost nearby
         job, _ = _carrying_job(lost, 0.0170)
@@ -352,8 +358,7 @@ def test_a_guess_s_colours_outweigh_a_never_seen_cloth_s_nearer_weight_only_wher
     # held-out 862 (session 34): a blind lift guessed No.18 (whites) showed 99 % white, fit
     # 1.00, and weighed nearer the never-seen red No.1 (colours), whose fit the colour verdict
     # drops for a never-seen cloth: the scale overruled the guess, and it went back twice
-    from robot_app.control import table_lost
-    from robot_app.control.clear_table_records import BoxPlace, LossKind, LostPlace
+    from robot_app.control.clear_table_records import BoxPlace
     from robot_app.control.colour_fit import ColourFit
     from robot_app.control.episode import Outcome
     from robot_app.control.held_look import HeldColours
@@ -366,12 +371,7 @@ def test_a_guess_s_colours_outweigh_a_never_seen_cloth_s_nearer_weight_only_wher
         fits = {n: ColourFit(other_fit, 1.0) for n in doubted}
         return HeldColours(9000, 0.99, dict.fromkeys(doubted, 0.0), ColourFit(1.0, 1.0), fits), "here"
 
-    monkeypatch.setattr(table_lost, "look_at_held", look)
-    monkeypatch.setattr(table_lost, "carry_over_box", lambda *a: None)
-    monkeypatch.setattr(table_lost, "release_into_box", lambda *a: None)
-    unlooked = LostPlace(
-        LossKind.PUT_BACK, "came up with No.18, not named", np.array(GRASP), np.array(GRASP), (), True
-    )
+    unlooked = _carrying_looked(monkeypatch, look, "No.18")
     guess = LostMatch("No.18", None, 0.9, guessed=frozenset({"No.18"}))
     results = {}
     for other_fit in (0.0, 0.8):  # No.2 and No.9 (colours, never seen) weigh nearer 17.5 g

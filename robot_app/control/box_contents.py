@@ -19,14 +19,13 @@ floor.
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 import numpy.typing as npt
 
 from robot_app.control.cell import StereoCapture
 from robot_app.control.clear_table_records import BoxPlace
+from robot_app.control.table_furniture import fill_box_hull
 from robot_app.control.table_surface import SurfaceSettings, surface_heights
-from robot_app.geometry import invert_transform
 from robot_app.vision import ClothModel
 from robot_app.vision.camera import PinholeCamera, StereoRig
 from robot_app.vision.stereo_depth import DepthCheckSettings
@@ -40,17 +39,7 @@ def inside_mask(
     """(H, W) the right image's pixels inside `box`'s walls: the hull of its inner square at
     the floor and at the walls' top (what lies in it, heaped up to the rim)."""
     mask = np.zeros(shape, np.uint8)
-    to_camera = invert_transform(capture.transform_right_camera_to_world)
-    c, half = np.asarray(box.centre, dtype=float), box.inner_size / 2
-    corners = np.array(
-        [[c[0] + sx * half, c[1] + sy * half, c[2] + z]
-         for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, box.wall_height)]
-    )  # fmt: skip
-    pixels = camera.project(corners @ to_camera[:3, :3].T + to_camera[:3, 3])
-    pixels = pixels[np.all(np.isfinite(pixels), axis=1)]
-    if len(pixels) >= 3:
-        hull = cv2.convexHull(np.clip(pixels, -1e5, 1e5).astype(np.float32)).astype(np.int32)
-        cv2.fillConvexPoly(mask, hull, 1)
+    fill_box_hull(mask, capture, camera, box, box.inner_size / 2)
     return mask.astype(bool)
 
 

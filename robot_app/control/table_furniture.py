@@ -23,6 +23,25 @@ from robot_app.vision.identify import UnknownRegion
 from robot_app.vision.regions import undistorted
 
 
+def fill_box_hull(
+    mask: npt.NDArray[np.uint8], capture: StereoCapture, camera: PinholeCamera, box: BoxPlace, half: float
+) -> None:
+    """Sets to 1 the pixels of `mask` (the right image's) inside the hull of the square of
+    half side `half` [m] around `box`'s centre, from its floor to its walls' top, seen from
+    the capture's camera pose (nothing where fewer than three corners lie in front of it)."""
+    to_camera = invert_transform(capture.transform_right_camera_to_world)
+    c = np.asarray(box.centre, dtype=float)
+    corners = np.array(
+        [[c[0] + sx * half, c[1] + sy * half, c[2] + z]
+         for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, box.wall_height)]
+    )  # fmt: skip
+    pixels = camera.project(corners @ to_camera[:3, :3].T + to_camera[:3, 3])
+    pixels = pixels[np.all(np.isfinite(pixels), axis=1)]
+    if len(pixels) >= 3:
+        hull = cv2.convexHull(np.clip(pixels, -1e5, 1e5).astype(np.float32)).astype(np.int32)
+        cv2.fillConvexPoly(mask, hull, 1)
+
+
 def furniture_mask(
     capture: StereoCapture,
     camera: PinholeCamera,
@@ -36,20 +55,8 @@ def furniture_mask(
     the image with the capture's camera pose), grown by `margin_px` for the walls' edges
     and shading. A box wholly behind the camera adds nothing."""
     mask = np.zeros(shape, np.uint8)
-    to_camera = invert_transform(capture.transform_right_camera_to_world)
     for box in boxes:
-        c = np.asarray(box.centre, dtype=float)
-        half = box.outer_half
-        corners = np.array(
-            [[c[0] + sx * half, c[1] + sy * half, c[2] + z]
-             for sx in (-1, 1) for sy in (-1, 1) for z in (0.0, box.wall_height)]
-        )  # fmt: skip
-        pixels = camera.project(corners @ to_camera[:3, :3].T + to_camera[:3, 3])
-        pixels = pixels[np.all(np.isfinite(pixels), axis=1)]
-        if len(pixels) < 3:
-            continue
-        hull = cv2.convexHull(np.clip(pixels, -1e5, 1e5).astype(np.float32)).astype(np.int32)
-        cv2.fillConvexPoly(mask, hull, 1)
+        fill_box_hull(mask, capture, camera, box, box.outer_half)
     if margin_px > 0:
         mask = np.asarray(cv2.dilate(mask, np.ones((2 * margin_px + 1,) * 2, np.uint8)), dtype=np.uint8)
     return mask.astype(bool)
@@ -194,6 +201,7 @@ def table_beyond_sheet(
 
 __all__ = [
     "clear_of_walls",
+    "fill_box_hull",
     "furniture_mask",
     "graspable",
     "off_sheet",
