@@ -90,3 +90,25 @@ def test_a_pass_too_fast_to_stop_in_the_distance_is_slowed_and_at_no_speed_the_h
     assert min(_tcp(q)[2] for q in Q) > 0.03 - 1e-4
     stopped = plan_through(hover, pregrasp, grasp, LIMITS, 0.0, dt=DT)
     np.testing.assert_allclose(stopped.fast.sample(stopped.fast.duration).v, 0.0, atol=1e-9)
+
+
+def test_a_pass_that_cannot_be_planned_within_the_limits_falls_back_to_the_two_stops(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # e.g. a first leg arriving at speed that would overshoot a position limit (ruckig_input's
+    # code -102): the descent still goes, stopping at the pregrasp point
+    from robot_app.control import trajectory
+    from robot_app.control.ruckig_input import TrajectoryPlanningError
+
+    planned = trajectory.plan_point_to_point
+
+    def refusing(q_start, q_goal, limits, *, v_goal=None, **kwargs):  # type: ignore[no-untyped-def]
+        if v_goal is not None:
+            raise TrajectoryPlanningError("overshoot", -102)
+        return planned(q_start, q_goal, limits, **kwargs)
+
+    monkeypatch.setattr(trajectory, "plan_point_to_point", refusing)
+    hover, pregrasp, grasp = _descent(0.56, 0.13)
+    joined = plan_through(hover, pregrasp, grasp, LIMITS, 1.0, dt=DT)
+    np.testing.assert_allclose(joined.fast.sample(joined.fast.duration).v, 0.0, atol=1e-9)
+    np.testing.assert_allclose(joined.sample(joined.duration).q, grasp, atol=1e-9)

@@ -250,12 +250,13 @@ def plan_through(
     """A move to rest at `q_goal` that passes `q_via` without a stop, heading straight for
     the goal at `via_speed` [rad/s] (joint space; less where a joint's velocity limit is
     nearer), and from there on along the straight line in joint space to the goal
-    (`straight`, as the last leg of the two stops is too). Where that leg would not keep to the line
-    (ruckig fell back to time synchronisation) or would pass the goal and come back (too
-    fast to stop in the distance), the two stops (`fast` at rest at `q_via`).
+    (`straight`, as the last leg of the two stops is too). Where that leg would not keep to
+    the line (ruckig fell back to time synchronisation) or would pass the goal and come back
+    (too fast to stop in the distance), or a leg at that speed cannot be planned within the
+    limits, at half the speed; failing that, the two stops (`fast` at rest at `q_via`).
 
     Raises:
-        TrajectoryPlanningError: a leg cannot be planned.
+        TrajectoryPlanningError: the two stops cannot be planned either.
     """
     via = np.asarray(q_via, dtype=float)
     goal = np.asarray(q_goal, dtype=float)
@@ -267,10 +268,13 @@ def plan_through(
         ceiling = float(np.min(limits.velocity / np.maximum(np.abs(direction), 1e-12)))
         for speed in (min(s, 0.9 * ceiling) for s in speeds):
             v_via = direction * speed
-            first = plan_point_to_point(
-                q_start, via, limits, v_start=v_start, a_start=a_start, v_goal=v_via, dt=dt
-            )
-            last = plan_point_to_point(via, goal, limits, v_start=v_via, straight=True, dt=dt)
+            try:
+                first = plan_point_to_point(
+                    q_start, via, limits, v_start=v_start, a_start=a_start, v_goal=v_via, dt=dt
+                )
+                last = plan_point_to_point(via, goal, limits, v_start=v_via, straight=True, dt=dt)
+            except TrajectoryPlanningError:
+                continue  # e.g. an overshoot past a position limit at that speed
             if _keeps_to_leg(last, via, direction, length, dt):
                 return JoinedTrajectory(first, last, 0.0)
     first = plan_point_to_point(q_start, via, limits, v_start=v_start, a_start=a_start, dt=dt)
