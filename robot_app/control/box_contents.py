@@ -11,10 +11,9 @@ of the box at about 0.7 m/s and ended on the table beside it: pybullet's soft-so
 in a heap whose layers were pressed across each other, as in held-out 400 (session 28). A
 real heap does not jump, but a hand pressed into it may snag or push it; the rerun with the
 release above the heap cleared. The box check's stereo pair from above the box measures
-the heap: horizontal planes swept over
-patches of the box's inside (`table_surface.surface_heights`, the grasp's measurement of a
-pile's top), the highest trusted one its top; the release then takes that top for the
-floor.
+the heap: horizontal planes swept over patches of the box's inside
+(`table_surface.surface_heights`, the grasp's measurement of a pile's top), the highest
+trusted one its top; the release then takes that top for the floor.
 """
 
 from __future__ import annotations

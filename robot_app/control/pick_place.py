@@ -225,7 +225,7 @@ class PickPlaceLoop:
         box_heap: float = 0.0,
     ) -> None:
         self.cell = cell
-        self.box_heap = max(0.0, float(box_heap))
+        self.box_heap = float(box_heap)  # release_into_box takes no heap below the floor
         self.expected_pose = None if expected_pose is None else np.asarray(expected_pose, dtype=float)
         self.kinematics = kinematics
         self.recognizer = recognizer
