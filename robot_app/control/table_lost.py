@@ -727,9 +727,9 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             hanging = replace(hanging, fits=fits)
         alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
         seen += "" if hanging is None else f" ({where})"
-        nearer = _weighs_more_like(job, name, match, doubted, attempt.weighed, attempt.box.name, looked)
+        nearer = _weighs_more_like(job, name, doubted, attempt.weighed, attempt.box.name, looked)
         if alone and nearer:
-            alone, seen = False, f"{seen}; a guess, and the weight is nearer {nearer}'s (another box)"
+            alone, seen = False, f"{seen}; the weight is nearer {nearer}'s (another box)"
         attempt.notes.append(f"looked at against free table (could be {', '.join(doubted)}): {seen}")
         if not alone:
             attempt.lift_check = "wrong"
@@ -768,29 +768,32 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
 def _weighs_more_like(
     job: TableClearer,
     name: str,
-    match: LostMatch,
     doubted: Sequence[str],
     weighed: float | None,
     box: str,
     hanging: HeldColours | None = None,
 ) -> str:
-    """For a blind lift named `name` only by a guess (`LostMatch.guessed`: a never-seen
-    companion of a double pick), the first of the `doubted` cloths of another box whose
-    weight is nearer the load cell's reading `weighed` [kg] than `name`'s and whose colour
-    fit to what `hanging` shows comes within twice `held_look.margin` of `name`'s (any, where
-    the fits are not known) ("" if none, or not a guess): a guess is the weakest name, and a
-    colour fit a little ahead does not overrule the scale. `hanging` keeps the fits of
-    never-seen cloths too (the colour verdict holds those to their own colours showing):
-    held-out 862 (session 34): a lift guessed No.18 (whites) showed 99 % white, fit 1.00,
-    weighed nearer the never-seen red No.1, whose fit the verdict had dropped, and went back
-    twice (it was No.17, of whites too). Held-out episode 769 (session
-    33): a blind lift guessed No.6 (white print, whites, 22 g) read 16.7 g and showed 99 %
-    in No.6's colours (fit 0.72 against 0.49 for No.19, grey melange, colours, 20 g): it was
-    No.19, and went into whites. Held-out 799 (session 33, before the fit's bound): a lift
-    guessed No.14 (colours) fit 0.97, the white No.17 0.00, weighed nearer No.17 and went
-    back; it was No.15 (colours), never identified, and stayed on the table."""
+    """For a blind lift named `name` (lost by name or guessed), the first of the `doubted`
+    cloths of another box whose weight is nearer the load cell's reading `weighed` [kg]
+    than `name`'s and whose colour fit to what `hanging` shows comes within twice
+    `held_look.margin` of `name`'s (any, where the fits are not known) ("" if none): a
+    blind grasp takes whatever lies on top of the heap at the region, whatever the region
+    is named after, and a colour fit a little ahead does not overrule the scale. `hanging`
+    keeps the fits of never-seen cloths too (the colour verdict holds those to their own
+    colours showing).
+    Held-out 939 (session 36): a blind lift at the region of No.17 (white towel, whites,
+    24.5 g; lost by name, put back after a double pick) read 21.8 g and showed 95 % in
+    No.17's colours (fit 0.73 against 0.44 for No.19, grey melange, colours, 21.4 g): it
+    was No.19, and went into whites. Until then only guesses were held to the scale;
+    held-out 769 (session 33) was the same pair of colours under a guess: No.6 (white print,
+    22 g) read 16.7 g, fit 0.72 against No.19's 0.49, into whites. Held-out 862 (session 34):
+    a lift guessed No.18 (whites) showed 99 % white, fit 1.00, weighed nearer the never-seen
+    red No.1, whose fit the verdict had dropped, and went back twice (it was No.17, of whites
+    too). Held-out 799 (session 33, before the fit's bound): a lift guessed No.14 (colours)
+    fit 0.97, the white No.17 0.00, weighed nearer No.17 and went back; it was No.15
+    (colours), never identified, and stayed on the table."""
     expected = job.weights.get(name)
-    if name not in match.guessed or weighed is None or expected is None:
+    if weighed is None or expected is None:
         return ""
     meant_fit = hanging.meant_fit if hanging is not None else None
     for other in doubted:
