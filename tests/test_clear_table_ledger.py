@@ -50,17 +50,22 @@ def test_a_cloth_placed_again_after_it_was_found_on_the_table_counts_once() -> N
     assert record.outcome is ClothOutcome.PLACED and record.order == 1
 
 
+def _book(ledger: TableLedger, attempt: AttemptState, outcome: Outcome, reason: str) -> None:
+    """Books a finished loop run of `attempt` that ended `outcome` (`reason`)."""
+    report = LimitReport(0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
+    result = EpisodeResult(
+        outcome, outcome is Outcome.PLACED, reason, None, 1.0, 0.0, (), (), report, 0, 0, 1, 0, 0, 0
+    )
+    ledger.record_attempt(attempt, result, 1.0, 0.024)
+
+
 def _put_back(ledger: TableLedger, name: str, at: tuple[float, float], doubted: tuple[str, ...] = ()) -> None:
     """Books an attempt at `name` that the job laid back onto the table at `at` [m] (a
     blind lift that could have held the `doubted` cloths instead)."""
     box = BoxPlace("colours", np.array([0.3, -0.56, 0.0]), 0.22)
     attempt = AttemptState(None, box, np.eye(4), 0.0, lost_name=name, doubted=doubted)
     attempt.put_back, attempt.put_back_at = True, np.array(at)
-    report = LimitReport(0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
-    result = EpisodeResult(
-        Outcome.GRASP_FAILED, False, "put back: double", None, 1.0, 0.0, (), (), report, 0, 0, 1, 0, 0, 0
-    )
-    ledger.record_attempt(attempt, result, 1.0, 0.024)
+    _book(ledger, attempt, Outcome.GRASP_FAILED, "put back: double")
 
 
 def test_a_cloth_the_job_laid_back_is_not_remembered_where_it_was_seen() -> None:
@@ -281,12 +286,7 @@ def test_a_guessed_blind_lift_laid_back_stays_unnamed_not_lost_by_the_guess() ->
 def _not_present(ledger: TableLedger, name: str) -> None:
     """Books a pick of `name` whose own searches did not find it."""
     box = BoxPlace("whites", np.array([0.3, 0.56, 0.0]), 0.22)
-    attempt = AttemptState(None, box, np.eye(4), 0.0, lost_name=name)
-    report = LimitReport(0, 0, 0, 0, 0, 0.0, 0.0, 0.0, 0.0)
-    result = EpisodeResult(
-        Outcome.NOT_PRESENT, False, "not found", None, 1.0, 0.0, (), (), report, 0, 0, 1, 0, 0, 0
-    )
-    ledger.record_attempt(attempt, result, 1.0, 0.020)
+    _book(ledger, AttemptState(None, box, np.eye(4), 0.0, lost_name=name), Outcome.NOT_PRESENT, "not found")
 
 
 def test_a_lost_cloth_recognised_by_a_survey_but_not_by_its_pick_is_lost_where_it_was_again() -> None:
