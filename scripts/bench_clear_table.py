@@ -124,6 +124,12 @@ def run_one(job: tuple[int, int, tuple[str, ...], str]) -> dict[str, object]:
         "flung": len(v.flung),
         "flung_not_in_box": sum(1 for c in v.cloths if c.number in v.flung and not c.correct),
         **double_pick_counts(episode),
+        # lifts that brought up a cloth not held by the fingers, and of those, the ones whose
+        # meshes crossed the held cloth's after the lift (and already at the grasp): the
+        # simulator lets meshes pass through each other (`sim.mesh_crossing`)
+        "dragged_lifts": sum(1 for lift in episode.lifts if set(lift.lifted) - set(lift.held)),
+        "dragged_crossed": sum(1 for lift in episode.lifts if lift.crossed > 0),
+        "dragged_crossed_at_grasp": sum(1 for lift in episode.lifts if lift.crossed_before > 0),
         "attempts": len(r.attempts),
         "surveys": len(r.surveys),
         "sim_time_s": r.sim_time,
@@ -244,6 +250,9 @@ def _summary(
         "double_named_wrong": total("double_named_wrong"),
         "double_both_placed": total("double_both_placed"),
         "double_put_back": total("double_put_back"),
+        "dragged_lifts": total("dragged_lifts"),
+        "dragged_crossed": total("dragged_crossed"),
+        "dragged_crossed_at_grasp": total("dragged_crossed_at_grasp"),
         "drops": total("drops"),
         "drops_detected": total("drops_detected"),
         "left_on_table": total("left_on_table"),

@@ -26,6 +26,7 @@ from robot_app.sim import ClothBody, SimCell, World, build_cloth_mesh, cloth_spe
 from robot_app.sim.cell import HOLD_HEIGHT
 from robot_app.sim.checks import BLOW_UP_DEPTH, BLOW_UP_SPEED
 from robot_app.sim.cloth_body import NODE_MASS
+from robot_app.sim.mesh_crossing import crossed_edges
 from robot_app.sim.pile import Pile
 
 CATCH_REACH = 0.12  # the other cloth must come this close to the fingers to be caught [m]
@@ -107,6 +108,10 @@ class LiftTruth:
             `lifted` came along lying on or caught in what is held).
         injected_double: a second cloth was caught on purpose.
         dropped: the cloth fell during the transfer (injected).
+        crossed: after the lift, the edges crossed (`sim.mesh_crossing`) between the held
+            cloths and those of `lifted` not held; crossed_before: between the same cloths
+            when the fingers closed. No real cloth goes through another: a dragged cloth
+            crossed with the held one hangs from it in the simulator only.
     """
 
     grasp: int
@@ -116,6 +121,8 @@ class LiftTruth:
     held: tuple[int, ...] = ()
     injected_double: bool = False
     dropped: bool = False
+    crossed: int = 0
+    crossed_before: int = 0
 
 
 @dataclass(frozen=True)
@@ -151,17 +158,34 @@ class PickWitness:
     _transfers: int = 0
     _transfer_start: float | None = None
     _dropped_this_transfer: bool = False
+    _crossed_at_grasp: dict[frozenset[int], int] = field(default_factory=dict)
 
     def on_phase(self, record: PhaseRecord, meant: str) -> None:
         """After each loop phase (the job's `on_phase`)."""
         if record.phase == "grasp":
             self._grasps += 1
             self.lifts.append(LiftTruth(self._grasps, self.world.time, meant))
+            self._crossed_at_grasp = self._crossings()
             if self.faults is not None and self._grasps in self.faults.double_grasps:
                 self.lifts[-1].injected_double = self._catch_another()
         elif record.phase == "lift" and self.lifts:
-            self.lifts[-1].lifted = self._hanging()
-            self.lifts[-1].held = tuple(c.number for c in self.pile.cloths if c.body.is_grasped)
+            lift = self.lifts[-1]
+            lift.lifted = self._hanging()
+            lift.held = tuple(c.number for c in self.pile.cloths if c.body.is_grasped)
+            pairs = [(h, o) for h in lift.held for o in lift.lifted if o not in lift.held]
+            if pairs:
+                after = self._crossings()
+                lift.crossed = sum(after.get(frozenset(pair), 0) for pair in pairs)
+                lift.crossed_before = sum(self._crossed_at_grasp.get(frozenset(pair), 0) for pair in pairs)
+
+    def _crossings(self) -> dict[frozenset[int], int]:
+        """Crossed edges (`mesh_crossing.crossed_edges`) per pair of cloths (catalogue numbers)."""
+        cloths = [(c.number, c.body.nodes(), c.body.mesh) for c in self.pile.cloths]
+        return {
+            frozenset((a, b)): crossed_edges(na, ma.edges, ma.triangles, nb, mb.edges, mb.triangles)
+            for i, (a, na, ma) in enumerate(cloths)
+            for b, nb, mb in cloths[i + 1 :]
+        }
 
     def on_step(self, phase: str, _meant: str | None) -> None:
         """After each control step (the job's `on_step`)."""
