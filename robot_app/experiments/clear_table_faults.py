@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydantic import Field
 
+from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.control.episode import PhaseRecord
 from robot_app.sim import ClothBody, SimCell, World, build_cloth_mesh, cloth_spec
@@ -158,14 +159,14 @@ class PickWitness:
     _transfers: int = 0
     _transfer_start: float | None = None
     _dropped_this_transfer: bool = False
-    _crossed_at_grasp: dict[frozenset[int], int] = field(default_factory=dict)
+    _nodes_at_grasp: dict[int, FloatArray] = field(default_factory=dict)  # number -> nodes [m]
 
     def on_phase(self, record: PhaseRecord, meant: str) -> None:
         """After each loop phase (the job's `on_phase`)."""
         if record.phase == "grasp":
             self._grasps += 1
             self.lifts.append(LiftTruth(self._grasps, self.world.time, meant))
-            self._crossed_at_grasp = self._crossings()
+            self._nodes_at_grasp = {c.number: c.body.nodes().copy() for c in self.pile.cloths}
             if self.faults is not None and self._grasps in self.faults.double_grasps:
                 self.lifts[-1].injected_double = self._catch_another()
         elif record.phase == "lift" and self.lifts:
@@ -173,19 +174,19 @@ class PickWitness:
             lift.lifted = self._hanging()
             lift.held = tuple(c.number for c in self.pile.cloths if c.body.is_grasped)
             pairs = [(h, o) for h in lift.held for o in lift.lifted if o not in lift.held]
-            if pairs:
-                after = self._crossings()
-                lift.crossed = sum(after.get(frozenset(pair), 0) for pair in pairs)
-                lift.crossed_before = sum(self._crossed_at_grasp.get(frozenset(pair), 0) for pair in pairs)
+            now = {c.number: c.body.nodes() for c in self.pile.cloths}
+            lift.crossed = sum(self._crossed(pair, now) for pair in pairs)
+            lift.crossed_before = sum(self._crossed(pair, self._nodes_at_grasp) for pair in pairs)
 
-    def _crossings(self) -> dict[frozenset[int], int]:
-        """Crossed edges (`mesh_crossing.crossed_edges`) per pair of cloths (catalogue numbers)."""
-        cloths = [(c.number, c.body.nodes(), c.body.mesh) for c in self.pile.cloths]
-        return {
-            frozenset((a, b)): crossed_edges(na, ma.edges, ma.triangles, nb, mb.edges, mb.triangles)
-            for i, (a, na, ma) in enumerate(cloths)
-            for b, nb, mb in cloths[i + 1 :]
-        }
+    def _crossed(self, pair: tuple[int, int], nodes: dict[int, FloatArray]) -> int:
+        """Crossed edges (`mesh_crossing.crossed_edges`) between two cloths (catalogue
+        numbers) at `nodes` (number -> (N, 3) [m]; 0 where one is missing)."""
+        meshes = {c.number: c.body.mesh for c in self.pile.cloths}
+        (a, b) = pair
+        if a not in nodes or b not in nodes:
+            return 0
+        ma, mb = meshes[a], meshes[b]
+        return crossed_edges(nodes[a], ma.edges, ma.triangles, nodes[b], mb.edges, mb.triangles)
 
     def on_step(self, phase: str, _meant: str | None) -> None:
         """After each control step (the job's `on_step`)."""
