@@ -30,15 +30,17 @@ from robot_app.config import load_config
 from robot_app.errors import ConfigError
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.sim import World
-from robot_app.sim.checks import PileTrialSettings, pile_trial
+from robot_app.sim.checks import PileTrialResult, PileTrialSettings, pile_trial
 from robot_app.sim.fresh_process import fresh_process_pool
 from robot_app.sim.pile import make_pile
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[1] / "configs" / "clear_table.yaml"
 
 
-def one_seed(job: tuple[int, tuple[int, int], str, tuple[str, ...], float, float]) -> tuple[str, bool]:
-    """The trial of one seed (run in a fresh process): its printed line and whether it blew up."""
+def one_seed(
+    job: tuple[int, tuple[int, int], str, tuple[str, ...], float, float],
+) -> tuple[str, PileTrialResult]:
+    """The trial of one seed (run in a fresh process): its printed line and its result."""
     seed, count, config_path, settings, lay_out, alone_s = job
     overrides = [
         f"seed={seed}",
@@ -66,7 +68,7 @@ def one_seed(job: tuple[int, tuple[int, int], str, tuple[str, ...], float, float
             depth = [(top - float(a[:, 2].min())) * 1000 for a in after]
             shown = f"moved mm {[round(m) for m in moved]}, depth mm {[round(d) for d in depth]}"
             alone = f" | {alone_s:g} s alone: {shown}"
-    return f"seed {seed}: {result.line()}{alone}  [{time.perf_counter() - start:.0f} s wall]", result.blew_up
+    return f"seed {seed}: {result.line()}{alone}  [{time.perf_counter() - start:.0f} s wall]", result
 
 
 def main() -> None:
@@ -74,6 +76,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, nargs="+", default=[3, 12, 13, 14])
     parser.add_argument("--count", type=int, nargs=2, default=(4, 5), metavar=("FEWEST", "MOST"))
     parser.add_argument("--config", default=str(DEFAULT_CONFIG))
+    parser.add_argument("--workers", type=int, default=1, help="processes (each seed in a fresh one)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
     parser.add_argument(
         "--lay-out", type=float, default=0.0, metavar="M", help="put down laid out over M metres (0: slid)"
@@ -86,6 +89,8 @@ def main() -> None:
         help="then leave the pile alone S s, print each cloth's slide",
     )
     args = parser.parse_args()
+    if args.workers < 1:
+        parser.error(f"--workers must be >= 1, got {args.workers}")
     if args.alone < 0:
         parser.error(f"--alone must be >= 0 s, got {args.alone}")
     try:  # bad settings stop here, before any process starts
@@ -98,13 +103,19 @@ def main() -> None:
         (seed, tuple(args.count), args.config, tuple(args.set), args.lay_out, args.alone)
         for seed in args.seeds
     ]
-    blown = 0
-    with fresh_process_pool(1) as pool:  # each seed the first world of its process: repeatable
-        for line, blew_up in pool.imap(one_seed, jobs):
-            blown += blew_up
+    blown = dragged = crossed = 0
+    with fresh_process_pool(args.workers) as pool:  # each seed the first world of its process: repeatable
+        for line, result in pool.imap(one_seed, jobs):
+            blown += result.blew_up
+            dragged += bool(result.dragged)
+            crossed += result.crossed_lifted > 0
             print(line, flush=True)
     shown = " ".join([*args.set, *([f"--lay-out {args.lay_out}"] if args.lay_out else [])]) or "config"
     print(f"blow-ups: {blown} of {len(args.seeds)} (settings: {shown})")
+    print(
+        f"lifts that brought a cloth up unheld: {dragged} of {len(args.seeds)}; "
+        f"lifts with a held cloth's mesh crossed with another's at the top: {crossed} of {len(args.seeds)}"
+    )
 
 
 if __name__ == "__main__":

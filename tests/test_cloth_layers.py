@@ -64,6 +64,27 @@ def test_a_held_cloth_and_far_crossings_are_left_alone() -> None:
     assert over.nodes[12, 2] == 0.004 and np.all(under.nodes[:, 2] == 0.008)
 
 
+def test_with_held_too_the_free_cloths_keep_their_side_of_the_held_one() -> None:
+    """`world.cloth.keep_layers_held`: the held cloth is never moved; the cloth lying on it is
+    carried up as it rises, the cloth under it is held back under it."""
+    under, held = Sheet(1, 0.008), Sheet(2, 0.024)
+    keeper = LayerKeeper()
+    keeper.keep([under, held], TABLE, held_too=True)
+    held.is_grasped = True
+    held.nodes[12, 2] = 0.004  # pressed through the cloth under it
+    assert keeper.keep([under, held], TABLE, held_too=True) >= 1
+    assert held.nodes[12, 2] == 0.004  # the held cloth stays where the hand has it
+    assert under.nodes[12, 2] < 0.004  # the free one is kept under it
+    held, over, keeper = Sheet(1, 0.008), Sheet(2, 0.024), LayerKeeper()
+    keeper.keep([held, over], TABLE, held_too=True)
+    held.is_grasped = True
+    held.nodes[12, 2] = 0.030  # lifted through the cloth lying on it
+    assert keeper.keep([held, over], TABLE, held_too=True) >= 1
+    assert held.nodes[12, 2] == 0.030
+    assert over.nodes[12, 2] > 0.030  # carried up on it
+    assert np.all(over.nodes[np.arange(25) != 12, 2] == 0.024)
+
+
 def test_a_node_that_went_round_the_edge_forgets_its_side() -> None:
     under, over = Sheet(1, 0.008), Sheet(2, 0.024, offset=0.1)  # two columns over the other
     keeper = LayerKeeper()

@@ -30,11 +30,13 @@ from robot_app.sim.cloth_body import ClothBody
 from robot_app.sim.cloth_visual import ClothLook
 from robot_app.sim.cloths import ClothSpec
 from robot_app.sim.config import WorldConfig
+from robot_app.sim.mesh_crossing import crossed_edges
 from robot_app.sim.pile import Pile
 from robot_app.sim.realism import scene_defaults
 from robot_app.sim.station import ModelStation
 from robot_app.sim.world import World
 
+DRAGGED = 0.05  # [m] a cloth not held whose median node rose this far came up with a held one
 TOOL_DOWN = np.diag([1.0, -1.0, -1.0])  # tcp z (tool axis) pointing down
 FINGERTIP_CLEARANCE = 0.012  # tcp height above the cloth so the fingertips clear the table [m]
 
@@ -206,6 +208,12 @@ class PileTrialResult:
         final_stretch: largest edge stretch after the pile settled.
         fell: cloths with a node off the table top's extent or below it by BLOW_UP_DEPTH at the end.
         sim_time: simulated time of the trial [s].
+        crossed_at_grasp: edges of a held cloth through another cloth's triangles or the
+            other's through the held one's, summed over the pairs, as the fingers closed
+            (`sim.mesh_crossing`: no real cloth passes through another).
+        crossed_lifted: the same at the top of the lift.
+        dragged: cloths not held whose median node rose more than DRAGGED above the table
+            by the top of the lift (they hang from a held cloth).
     """
 
     pile: tuple[int, ...]
@@ -220,6 +228,9 @@ class PileTrialResult:
     final_stretch: float
     fell: tuple[int, ...]
     sim_time: float
+    crossed_at_grasp: int = 0
+    crossed_lifted: int = 0
+    dragged: tuple[int, ...] = ()
 
     @property
     def blew_up(self) -> bool:
@@ -238,7 +249,9 @@ class PileTrialResult:
             f"{self.lifted * 1000:.0f} mm): "
             f"max speed {self.max_speed:.1f} m/s ({self.max_speed_phase}), "
             f"stretch {self.max_stretch:.2f} ({self.max_stretch_phase}), final {self.final_stretch:.2f}, "
-            f"depth {self.depth * 1000:+.0f} mm, fell {list(self.fell)}"
+            f"depth {self.depth * 1000:+.0f} mm, fell {list(self.fell)}, "
+            f"crossed {self.crossed_at_grasp} at grasp / {self.crossed_lifted} lifted, "
+            f"dragged {list(self.dragged)}"
             f"{'  BLOW-UP' if self.blew_up else ''}"
         )
 
@@ -334,6 +347,7 @@ def pile_trial(
     cell = SimCell(world, grasp_radius=s.grasp_radius)
     anchored = cell.grasp()
     held = tuple(c.number for c in pile.cloths if c.body.is_grasped)
+    crossed_at_grasp = _crossed_with_held(pile)
     q_lifted = solve([point[0], point[1], top_z + s.lift_height], q_grasp)
     monitor.phase = "lift"
     monitor.move(q_grasp, q_lifted, s.lift_time)
@@ -341,6 +355,12 @@ def pile_trial(
     lifted = min(
         (float(np.median(c.body.nodes()[:, 2])) - top_z for c in pile.cloths if c.body.is_grasped),
         default=0.0,
+    )
+    crossed_lifted = _crossed_with_held(pile)
+    dragged = tuple(
+        c.number
+        for c in pile.cloths
+        if not c.body.is_grasped and float(np.median(c.body.nodes()[:, 2])) - top_z > DRAGGED
     )
     centre = np.asarray(world.config.range.centre_xy, dtype=float)
     outward = point[:2] - centre
@@ -379,7 +399,23 @@ def pile_trial(
         final_stretch=max(c.body.max_edge_stretch() for c in pile.cloths),
         fell=tuple(c.number for c in pile.cloths if _off_table(world, c.body.nodes())),
         sim_time=world.time - start,
+        crossed_at_grasp=crossed_at_grasp,
+        crossed_lifted=crossed_lifted,
+        dragged=dragged,
     )
+
+
+def _crossed_with_held(pile: Pile) -> int:
+    """Crossed edges between each held cloth and each other cloth, summed (`crossed_edges`)."""
+    bodies = [c.body for c in pile.cloths]
+    nodes = [b.nodes() for b in bodies]
+    total = 0
+    for i, a in enumerate(bodies):
+        for j, b in enumerate(bodies):
+            if a.is_grasped and (j > i or not b.is_grasped) and j != i:
+                ma, mb = a.mesh, b.mesh
+                total += crossed_edges(nodes[i], ma.edges, ma.triangles, nodes[j], mb.edges, mb.triangles)
+    return total
 
 
 def _off_table(world: World, nodes: FloatArray) -> bool:

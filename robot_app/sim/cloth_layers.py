@@ -16,8 +16,13 @@ So after every `CHECK_EVERY` physics steps, each free node of a cloth lying low 
 more than `GAP` apart) is remembered, and a node found on the other side a check later
 (less than `JUMP` across) is set back `GAP` on its side. Only heights change, as with the solid table
 (`ClothBody.lift_free_nodes`). A node with no node of that cloth within reach forgets its
-side (it went round the edge, or away); cloths held by the gripper are left out (a lift
-may drag what lies on the held cloth: that is friction and is kept).
+side (it went round the edge, or away). A cloth held by the gripper is never moved; with
+`held_too` (`world.cloth.keep_layers_held`) the free cloths keep their side of it as well: a
+cloth under the lifted one stays under it, one on it is carried up with it until both are
+above `LOW` (it then falls back). Without that, a lift threaded the held cloth's edges
+through a cloth beside it and the two came up together at every lift (session 36: a replay
+of held-out 1017, No.2's lift crossed 2 edges with No.15 as the lift began, 4 at its top;
+No.2 then hung down to the table and swept No.15 and No.17 along into its box).
 """
 
 from __future__ import annotations
@@ -45,9 +50,10 @@ class LayerKeeper:
         # (body id, other body id) -> per node of the first (pybullet's order): +1 above, -1 below, 0 unknown
         self._sides: dict[tuple[int, int], npt.NDArray[np.int8]] = {}
 
-    def keep(self, cloths: Sequence[ClothBody], table_z: float) -> int:
-        """One check of the free cloths' low nodes; returns how many were set back."""
-        lying = [c for c in cloths if not c.is_grasped]
+    def keep(self, cloths: Sequence[ClothBody], table_z: float, held_too: bool = False) -> int:
+        """One check of the free cloths' low nodes; returns how many were set back. With
+        `held_too`, held cloths are sides to keep too (they themselves are never moved)."""
+        lying = list(cloths) if held_too else [c for c in cloths if not c.is_grasped]
         if len(lying) < 2:
             self._sides.clear()
             return 0
@@ -66,6 +72,8 @@ class LayerKeeper:
         neighbour_owner = np.where(found, owner[low[np.where(found, near, 0)]], -1)
         moved = 0
         for k, cloth in enumerate(lying):
+            if cloth.is_grasped:
+                continue
             rows = np.flatnonzero(owner[low] == k)
             index = low[rows] - first[k]  # this cloth's nodes, pybullet's order
             changed = False

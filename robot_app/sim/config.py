@@ -173,6 +173,12 @@ class ClothPhysicsSettings(StrictModel):
         "contact lets resting layers sink through each other within seconds, and a lift brings the "
         "cloths under the lifted one up, hooked into it",
     )
+    keep_layers_held: bool = Field(
+        False,
+        description="with keep_layers, the free cloths also keep their side of a cloth the gripper "
+        "holds (sim/cloth_layers.py): without it, a lift threads the held cloth's edges through a "
+        "cloth beside it (pybullet's soft contact) and the two hang together at every lift",
+    )
     free_slide_speed: float | None = Field(
         None,
         gt=0.0,

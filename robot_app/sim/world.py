@@ -238,7 +238,9 @@ class World:
             return
         self._layer_steps += 1
         if self._layer_steps % CHECK_EVERY == 0:
-            self.layer_corrections += self._layers.keep(self.cloths, self.config.table.top_z)
+            self.layer_corrections += self._layers.keep(
+                self.cloths, self.config.table.top_z, self.config.cloth.keep_layers_held
+            )
 
     def _hold_back_slides(self) -> None:
         """No cloth speeds up by itself (`world.cloth.free_slide_speed`): a cloth the hand
