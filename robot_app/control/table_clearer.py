@@ -72,6 +72,7 @@ from robot_app.control.pick_checks import (
     companion,
     could_be_in,
     fell_on_the_way,
+    names_weight,
     remembered_companion,
     still_there,
     weighs_extra,
@@ -1115,8 +1116,14 @@ class TableClearer:
         ]
         told = ", ".join(f"{n}'s {fits[n]:.2f}" for n in close)
         note = f"{seen.pixels} px seen hanging, colour fit {told}; {where}"
-        if fits[best] < hl.name_instead or doubted:
-            why = f"cloths of another box too ({', '.join(doubted)})" if doubted else "no cloth fits"
+        if fits[best] < hl.name_instead or doubted or not names_weight(weighed, self.weights.get(best), s):
+            why = (
+                f"cloths of another box too ({', '.join(doubted)})"
+                if doubted
+                else "no cloth fits"
+                if fits[best] < hl.name_instead
+                else f"{best} weighs {self.weights[best] * 1000:.0f} g, {weighed * 1000:.0f} g read"
+            )
             attempt.notes.append(f"wrong lift, looked at ({note}): {why}")
             return False
         meant, alike = attempt.name, close[1:]
@@ -1146,7 +1153,7 @@ class TableClearer:
         s = self.settings
         fits = [name for name in attempt.under if weighs_extra(extra, self.weights.get(name), s)]
         gone = [name for name in fits if not self._stayed(name, attempt, capture)]
-        return gone[0] if len(gone) == 1 else None
+        return gone[0] if len(gone) == 1 and names_weight(extra, self.weights.get(gone[0]), s) else None
 
     def _doubted(
         self, attempt: AttemptState, extra: float, named: str, source: str, loop: PickPlaceLoop
@@ -1272,6 +1279,9 @@ class TableClearer:
         ]
         if doubted:
             return None, note + f": cloths of another box show too ({', '.join(doubted)})"
+        if not names_weight(extra, self.weights.get(showing[0]), s):
+            grams = self.weights[showing[0]] * 1000
+            return None, note + f": {showing[0]} weighs {grams:.0f} g, the extra {extra * 1000:.0f} g"
         return showing[0], note
 
     def _shed(self, attempt: AttemptState, expected: float, what: str) -> bool:
