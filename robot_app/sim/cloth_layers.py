@@ -20,7 +20,7 @@ side (it went round the edge, or away). A cloth held by the gripper is never mov
 `held_too` (`world.cloth.keep_layers_held`) the free cloths keep their side of it as well: a
 cloth under the lifted one stays under it, one on it is carried up with it until both are
 above `LOW` (it then falls back). Without that, a lift threaded the held cloth's edges
-through a cloth beside it and the two came up together at every lift (session 36: a replay
+through a cloth beside it and the two came up together at every lift (session 37: a replay
 of held-out 1017, No.2's lift crossed 2 edges with No.15 as the lift began, 4 at its top;
 No.2 then hung down to the table and swept No.15 and No.17 along into its box).
 """
