@@ -39,3 +39,28 @@ def test_a_segment_is_counted_once_per_triangle_it_passes() -> None:
     assert edges_through(*down, tri) == 1  # through the first triangle only
     assert edges_through(np.array([[0.8, 0.2, 1.0]]), np.array([[0.8, 0.2, 0.5]]), tri) == 0  # stops above
     assert edges_through(np.empty((0, 3)), np.empty((0, 3)), tri) == 0
+
+
+def test_the_pile_trial_counts_crossings_only_with_a_held_cloth() -> None:
+    from types import SimpleNamespace
+
+    from robot_app.sim.checks import _crossed_with_held
+
+    mesh = SimpleNamespace(edges=EDGES, triangles=TRIANGLES)
+    standing = np.array([[0.5, 0.5, -0.5], [0.5, 0.5, 0.5], [0.6, 0.5, 0.5], [0.6, 0.5, -0.5]])
+
+    def pile(*held: bool) -> SimpleNamespace:
+        sheets = (NODES, standing, NODES + np.array([3.0, 0.0, 0.0]))  # the third far away
+        bodies = [
+            SimpleNamespace(nodes=lambda n=n: n, mesh=mesh, is_grasped=h)
+            for n, h in zip(sheets, held, strict=False)
+        ]
+        return SimpleNamespace(cloths=[SimpleNamespace(body=b) for b in bodies])
+
+    crossed = _crossed(standing)
+    assert crossed > 0
+    assert _crossed_with_held(pile(True, False, False)) == crossed
+    assert _crossed_with_held(pile(False, True, False)) == crossed
+    assert _crossed_with_held(pile(True, True, False)) == crossed  # a held pair once
+    assert _crossed_with_held(pile(False, False, True)) == 0  # the held one crosses nothing
+    assert _crossed_with_held(pile(False, False, False)) == 0

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from itertools import combinations
 
 import numpy as np
 import numpy.typing as npt
@@ -407,15 +408,12 @@ def pile_trial(
 
 def _crossed_with_held(pile: Pile) -> int:
     """Crossed edges between each held cloth and each other cloth, summed (`crossed_edges`)."""
-    bodies = [c.body for c in pile.cloths]
-    nodes = [b.nodes() for b in bodies]
-    total = 0
-    for i, a in enumerate(bodies):
-        for j, b in enumerate(bodies):
-            if a.is_grasped and (j > i or not b.is_grasped) and j != i:
-                ma, mb = a.mesh, b.mesh
-                total += crossed_edges(nodes[i], ma.edges, ma.triangles, nodes[j], mb.edges, mb.triangles)
-    return total
+    meshes = [(c.body.nodes(), c.body.mesh, c.body.is_grasped) for c in pile.cloths]
+    return sum(
+        crossed_edges(na, ma.edges, ma.triangles, nb, mb.edges, mb.triangles)
+        for (na, ma, held_a), (nb, mb, held_b) in combinations(meshes, 2)
+        if held_a or held_b
+    )
 
 
 def _off_table(world: World, nodes: FloatArray) -> bool:
