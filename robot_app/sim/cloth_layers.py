@@ -53,11 +53,11 @@ class LayerKeeper:
     def keep(self, cloths: Sequence[ClothBody], table_z: float, held_too: bool = False) -> int:
         """One check of the free cloths' low nodes; returns how many were set back. With
         `held_too`, held cloths are sides to keep too (they themselves are never moved)."""
-        lying = list(cloths) if held_too else [c for c in cloths if not c.is_grasped]
-        if len(lying) < 2:
+        compared = list(cloths) if held_too else [c for c in cloths if not c.is_grasped]  # held: sides only
+        if len(compared) < 2:
             self._sides.clear()
             return 0
-        nodes = [c.simulation_nodes() for c in lying]
+        nodes = [c.simulation_nodes() for c in compared]
         points = np.concatenate(nodes)
         owner = np.concatenate([np.full(len(n), k) for k, n in enumerate(nodes)])
         first = np.cumsum([0] + [len(n) for n in nodes])[:-1]
@@ -71,13 +71,13 @@ class LayerKeeper:
         found = np.isfinite(distance)
         neighbour_owner = np.where(found, owner[low[np.where(found, near, 0)]], -1)
         moved = 0
-        for k, cloth in enumerate(lying):
+        for k, cloth in enumerate(compared):
             if cloth.is_grasped:
                 continue
             rows = np.flatnonzero(owner[low] == k)
             index = low[rows] - first[k]  # this cloth's nodes, pybullet's order
             changed = False
-            for j, other in enumerate(lying):
+            for j, other in enumerate(compared):
                 if j == k:
                     continue
                 key = (cloth.body_id, other.body_id)
