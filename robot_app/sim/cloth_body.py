@@ -103,6 +103,7 @@ class ClothBody:
         if self.body_id < 0:
             raise SimulationError(f"pybullet could not load the soft body {obj}")
         self._order = self._node_order(transform_points(T, mesh.vertices))
+        self._simulation_mesh: tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]] | None = None
         kind = "flat" if render_obj is None else ("fabric" if fabric else "flat_atlas")
         texture = pb.loadTexture(str(texture_path(mesh.spec, cache, kind)), physicsClientId=client)
         pb.changeVisualShape(
@@ -322,6 +323,13 @@ class ClothBody:
         """(N, 3) node positions in Σ_W [m], in pybullet's node order (a copy): for the
         per-step corrections of `robot_app.sim` (`cloth_layers`), with `set_free_heights`."""
         return self._simulation_nodes()
+
+    def simulation_mesh(self) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+        """The mesh's edges (E, 2) and triangles (T, 3) as indices into `simulation_nodes`
+        (pybullet's node order), for `sim.mesh_crossing` in the per-step corrections."""
+        if self._simulation_mesh is None:
+            self._simulation_mesh = (self._order[self.mesh.edges], self._order[self.mesh.triangles])
+        return self._simulation_mesh
 
     def set_free_heights(self, heights: npt.ArrayLike) -> int:
         """Sets the heights (Σ_W z [m], pybullet's node order) of the nodes that are not

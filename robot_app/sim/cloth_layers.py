@@ -23,17 +23,31 @@ above `LOW` (it then falls back). Without that, a lift threaded the held cloth's
 through a cloth beside it and the two came up together at every lift (session 37: a replay
 of held-out 1017, No.2's lift crossed 2 edges with No.15 as the lift began, 4 at its top;
 No.2 then hung down to the table and swept No.15 and No.17 along into its box).
+
+Heights compared node by node miss a pair already through each other: two cloths put back
+together, crossed while they hung from the fingers, land crossed, and the sides then learnt
+are the crossed ones (a replay of held-out 1042: No.5 and No.17, put back as a pair, lay with
+23-36 edges of one through the other's triangles from then on, and came up together at every
+later lift). So with `uncross` (`world.cloth.uncross_layers`), every `UNCROSS_EVERY` checks,
+each pair of free cloths whose meshes cross (`sim.mesh_crossing`: an edge of one through a
+triangle of the other) is given one order, the one most of its remembered sides say (the
+cloth above on the larger part of their overlap stays above): every node of the upper cloth
+is to be above the lower one, every node of the lower under it, and the check then sets the
+nodes on the wrong side back as it does any crossed node (within `JUMP`, heights only).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from itertools import combinations
 
 import numpy as np
 import numpy.typing as npt
 from scipy.spatial import cKDTree
 
+from robot_app.arrays import FloatArray
 from robot_app.sim.cloth_body import ClothBody
+from robot_app.sim.mesh_crossing import edges_through
 
 CHECK_EVERY = 2  # physics steps between checks
 REACH = 0.02  # [m] along the table: a node of another cloth this near lies over or under it
@@ -41,6 +55,7 @@ GAP = 0.002  # [m] a side is taken beyond this; a node that crossed is set back 
 JUMP = 0.03  # [m] farther across than this is not a crossing (a cloth falling onto another)
 LOW = 0.06  # [m] above the table top: nodes higher up (a hanging cloth) are not compared
 NEIGHBOURS = 8  # nearest nodes looked at per node
+UNCROSS_EVERY = 6  # checks between two looks for crossed meshes (with `uncross`)
 
 
 class LayerKeeper:
@@ -49,15 +64,24 @@ class LayerKeeper:
     def __init__(self) -> None:
         # (body id, other body id) -> per node of the first (pybullet's order): +1 above, -1 below, 0 unknown
         self._sides: dict[tuple[int, int], npt.NDArray[np.int8]] = {}
+        self._checks = 0
+        self.uncrossed = 0  # crossed pairs given one order (`uncross`)
 
-    def keep(self, cloths: Sequence[ClothBody], table_z: float, held_too: bool = False) -> int:
+    def keep(
+        self, cloths: Sequence[ClothBody], table_z: float, held_too: bool = False, uncross: bool = False
+    ) -> int:
         """One check of the free cloths' low nodes; returns how many were set back. With
-        `held_too`, held cloths are sides to keep too (they themselves are never moved)."""
+        `held_too`, held cloths are sides to keep too (they themselves are never moved); with
+        `uncross`, free cloths whose meshes cross are given one order first (every
+        `UNCROSS_EVERY` checks)."""
         compared = list(cloths) if held_too else [c for c in cloths if not c.is_grasped]  # held: sides only
         if len(compared) < 2:
             self._sides.clear()
             return 0
         nodes = [c.simulation_nodes() for c in compared]
+        self._checks += 1
+        if uncross and self._checks % UNCROSS_EVERY == 0:
+            self._order_crossed(compared, nodes)
         points = np.concatenate(nodes)
         owner = np.concatenate([np.full(len(n), k) for k, n in enumerate(nodes)])
         first = np.cumsum([0] + [len(n) for n in nodes])[:-1]
@@ -108,5 +132,39 @@ class LayerKeeper:
                 cloth.set_free_heights(nodes[k][:, 2])
         return moved
 
+    def _order_crossed(self, cloths: Sequence[ClothBody], nodes: Sequence[FloatArray]) -> None:
+        """Each pair of free cloths whose meshes cross gets the order most of its remembered
+        sides say: the upper one's nodes are to be above the lower one, the lower's under it."""
+        for a, b in combinations(range(len(cloths)), 2):
+            first, second = cloths[a], cloths[b]
+            if first.is_grasped or second.is_grasped or not _boxes_meet(nodes[a], nodes[b]):
+                continue
+            ab, ba = (first.body_id, second.body_id), (second.body_id, first.body_id)
+            if ab not in self._sides or ba not in self._sides:
+                continue  # no sides taken yet: nothing says which lies on which
+            if not _meshes_cross(first, nodes[a], second, nodes[b]):
+                continue
+            votes = int(self._sides[ab].sum()) - int(self._sides[ba].sum())  # > 0: first above
+            if votes == 0:
+                continue
+            self._sides[ab][:] = np.sign(votes)
+            self._sides[ba][:] = -np.sign(votes)
+            self.uncrossed += 1
 
-__all__ = ["CHECK_EVERY", "LayerKeeper"]
+
+def _boxes_meet(a: FloatArray, b: FloatArray) -> bool:
+    """The two node sets' bounding boxes overlap."""
+    return bool(np.all(a.min(axis=0) <= b.max(axis=0)) and np.all(b.min(axis=0) <= a.max(axis=0)))
+
+
+def _meshes_cross(first: ClothBody, a: FloatArray, second: ClothBody, b: FloatArray) -> bool:
+    """An edge of one cloth passes through a triangle of the other (nodes in pybullet's order)."""
+    edges_a, triangles_a = first.simulation_mesh()
+    edges_b, triangles_b = second.simulation_mesh()
+    return (
+        edges_through(a[edges_a[:, 0]], a[edges_a[:, 1]], b[triangles_b]) > 0
+        or edges_through(b[edges_b[:, 0]], b[edges_b[:, 1]], a[triangles_a]) > 0
+    )
+
+
+__all__ = ["CHECK_EVERY", "UNCROSS_EVERY", "LayerKeeper"]

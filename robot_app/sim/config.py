@@ -179,6 +179,13 @@ class ClothPhysicsSettings(StrictModel):
         "holds (sim/cloth_layers.py): without it, a lift threads the held cloth's edges through a "
         "cloth beside it (pybullet's soft contact) and the two hang together at every lift",
     )
+    uncross_layers: bool = Field(
+        False,
+        description="with keep_layers, two free cloths whose meshes pass through each other (an edge "
+        "of one through a triangle of the other) are given one order, the one most of their nodes "
+        "lay in, and the nodes on the wrong side are set back (sim/cloth_layers.py): a pair put back "
+        "together lands crossed and, without it, stays crossed and comes up together at every lift",
+    )
     free_slide_speed: float | None = Field(
         None,
         gt=0.0,

@@ -238,8 +238,9 @@ class World:
             return
         self._layer_steps += 1
         if self._layer_steps % CHECK_EVERY == 0:
+            cloth = self.config.cloth
             self.layer_corrections += self._layers.keep(
-                self.cloths, self.config.table.top_z, self.config.cloth.keep_layers_held
+                self.cloths, self.config.table.top_z, cloth.keep_layers_held, cloth.uncross_layers
             )
 
     def _hold_back_slides(self) -> None:
