@@ -9,8 +9,9 @@ import numpy as np
 from robot_app.config import load_config
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.sim import World
-from robot_app.sim.cloth_layers import GAP, LayerKeeper
+from robot_app.sim.cloth_layers import GAP, UNCROSS_EVERY, LayerKeeper
 from robot_app.sim.fresh_process import run_in_fresh_process
+from robot_app.sim.mesh_crossing import crossed_edges
 from robot_app.sim.pile import make_pile
 from tests.test_pile_physics import CONFIG, STACK, _below
 
@@ -20,15 +21,28 @@ TABLE = 0.0
 class Sheet:
     """A flat square of nodes 35 mm apart, `z` over the table, as the keeper reads a cloth."""
 
-    def __init__(self, body_id: int, z: float, offset: float = 0.0) -> None:
+    def __init__(self, body_id: int, z: float, offset: float = 0.0, shift: float = 0.0) -> None:
         u, v = np.meshgrid(np.arange(5) * 0.035, np.arange(5) * 0.035)
         self.body_id = body_id
-        self.nodes = np.stack([u.ravel() + offset, v.ravel(), np.full(u.size, z)], axis=1)
+        self.nodes = np.stack([u.ravel() + offset, v.ravel() + shift, np.full(u.size, z)], axis=1)
         self.held = np.zeros(len(self.nodes), dtype=bool)
         self.is_grasped = False
+        corner = (np.arange(4)[:, None] * 5 + np.arange(4)[None, :]).ravel()  # node k at row k // 5
+        self.triangles = np.concatenate(
+            [np.stack([corner, corner + 1, corner + 6], 1), np.stack([corner, corner + 6, corner + 5], 1)]
+        )
+        pairs = np.concatenate([self.triangles[:, [i, (i + 1) % 3]] for i in range(3)])
+        self.edges = np.unique(np.sort(pairs, axis=1), axis=0)
 
     def simulation_nodes(self) -> np.ndarray:
         return self.nodes.copy()
+
+    def simulation_mesh(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.edges, self.triangles
+
+    def crossed(self, other: Sheet) -> int:
+        mine, theirs = (self.nodes, self.edges, self.triangles), (other.nodes, other.edges, other.triangles)
+        return crossed_edges(*mine, *theirs)
 
     def set_free_heights(self, heights: np.ndarray) -> int:
         change = (heights != self.nodes[:, 2]) & ~self.held
@@ -94,6 +108,45 @@ def test_a_node_that_went_round_the_edge_forgets_its_side() -> None:
     over.nodes[:, 0] -= 0.2
     over.nodes[:, 2] = 0.004  # back, now under it: a new side, not a crossing
     assert keeper.keep([under, over], TABLE) == 0
+
+
+def _crossed_pair() -> tuple[Sheet, Sheet]:
+    """Two sheets through each other, as a pair put back together lands: the second lies
+    above the first on three of its five columns and under it on two."""
+    under, over = Sheet(1, 0.008), Sheet(2, 0.024, shift=0.01)
+    over.nodes[over.nodes[:, 0] < 0.05, 2] = 0.002  # columns 0 and 1 under the other sheet
+    assert over.crossed(under) > 0
+    return under, over
+
+
+def test_a_crossed_pair_is_given_the_order_most_of_it_lies_in() -> None:
+    """`world.cloth.uncross_layers`: the sides learnt lying crossed say "above" on three
+    columns and "below" on two; the pair is given the order of the three, and the nodes on
+    the wrong side are set back, so no edge of one goes through the other."""
+    under, over = _crossed_pair()
+    keeper = LayerKeeper()
+    for _ in range(UNCROSS_EVERY + 1):
+        keeper.keep([under, over], TABLE, uncross=True)
+    assert keeper.uncrossed == 1
+    assert over.crossed(under) == 0
+    assert np.all(over.nodes[:, 2] > under.nodes[:, 2])  # above it everywhere now
+    assert np.all(over.nodes[over.nodes[:, 0] > 0.05, 2] == 0.024)  # the part that lay right stays
+    # without it the sides learnt crossed are kept: the pair stays through each other
+    under, over = _crossed_pair()
+    keeper = LayerKeeper()
+    for _ in range(UNCROSS_EVERY + 1):
+        keeper.keep([under, over], TABLE)
+    assert over.crossed(under) > 0 and keeper.uncrossed == 0
+
+
+def test_a_pair_not_crossed_keeps_its_layers_as_they_lie() -> None:
+    """A cloth lying on another and under a third: no mesh crosses, no order is forced."""
+    under, over = Sheet(1, 0.008), Sheet(2, 0.024, shift=0.01)
+    keeper = LayerKeeper()
+    for _ in range(2 * UNCROSS_EVERY):
+        assert keeper.keep([under, over], TABLE, uncross=True) == 0
+    assert keeper.uncrossed == 0
+    assert np.all(under.nodes[:, 2] == 0.008) and np.all(over.nodes[:, 2] == 0.024)
 
 
 def _rest_stack() -> tuple[list[tuple[float, int, int]], int]:
