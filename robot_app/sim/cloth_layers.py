@@ -47,7 +47,7 @@ from scipy.spatial import cKDTree
 
 from robot_app.arrays import FloatArray
 from robot_app.sim.cloth_body import ClothBody
-from robot_app.sim.mesh_crossing import edges_through
+from robot_app.sim.mesh_crossing import crossed_edges
 
 CHECK_EVERY = 2  # physics steps between checks
 REACH = 0.02  # [m] along the table: a node of another cloth this near lies over or under it
@@ -159,12 +159,7 @@ def _boxes_meet(a: FloatArray, b: FloatArray) -> bool:
 
 def _meshes_cross(first: ClothBody, a: FloatArray, second: ClothBody, b: FloatArray) -> bool:
     """An edge of one cloth passes through a triangle of the other (nodes in pybullet's order)."""
-    edges_a, triangles_a = first.simulation_mesh()
-    edges_b, triangles_b = second.simulation_mesh()
-    return (
-        edges_through(a[edges_a[:, 0]], a[edges_a[:, 1]], b[triangles_b]) > 0
-        or edges_through(b[edges_b[:, 0]], b[edges_b[:, 1]], a[triangles_a]) > 0
-    )
+    return crossed_edges(a, *first.simulation_mesh(), b, *second.simulation_mesh()) > 0
 
 
 __all__ = ["CHECK_EVERY", "UNCROSS_EVERY", "LayerKeeper"]
