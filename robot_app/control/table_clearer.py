@@ -33,7 +33,8 @@ the way the loop's own aborts do (release, back to the observation pose).
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
+from collections import Counter
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -264,7 +265,7 @@ class TableClearer:
             # the first survey's image is taken before the look into the boxes, which is made
             # while the computer identifies the cloths in it (the arm is free meanwhile)
             boxes_first: Callable[[], None] | None = (
-                self._look_at_boxes if self.settings.look_at_boxes else None
+                (lambda: self._look_at_boxes(self._first_boxes())) if self.settings.look_at_boxes else None
             )
             while True:
                 self._looked_left.clear()  # this round's looks' regions (`_from_observation`)
@@ -363,6 +364,7 @@ class TableClearer:
         self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
         self._laid: list[tuple[AttemptState, FloatArray, FloatArray]] = []  # put-backs: (start, let-go)
         self._box_heaps: dict[str, float] = {}  # box -> its heap's top over the floor [m]
+        self._looked_into: set[str] = set()  # boxes looked into for their reference view
         self._looked_left: dict[str, tuple[str, ...]] = {}  # regions the last looks saw, per cloth
         self._before_pick: _BeforePick | None = None
         self.recovery.forget()
@@ -552,6 +554,7 @@ class TableClearer:
         """One loop run for `target`; True if the user stopped it."""
         capture = self._survey_capture
         box = self.boxes[self.sort.box_for(target.name)]
+        self.look_into_box(box.name)
         pose = to_world(capture, target.transform_model_to_camera)
         others = tuple(d for d in ident.detections if d.name != target.name)
         under = tuple(
@@ -1457,10 +1460,29 @@ class TableClearer:
         attempt.put_back_at = end.copy()
         self._laid.append((attempt, start, end))
 
-    def _look_at_boxes(self) -> None:
-        """Looks into every box once (the reference of the checks after placing)."""
+    def _first_boxes(self) -> tuple[str, ...]:
+        """The boxes the first survey's look goes into: every box, or with
+        `clear.boxes_when_needed` the one the sort rule sends most known cloths to (the
+        first of the cell's boxes among equals)."""
+        if not self.settings.boxes_when_needed:
+            return tuple(self.boxes)
+        counts = Counter(self.sort.box_for(name) for name in self.recognizers)
+        return (max(self.boxes, key=lambda box: counts[box]),)
+
+    def look_into_box(self, box: str) -> None:
+        """Before a pick meant for `box`: with `clear.boxes_when_needed`, looks into it if
+        no look has yet (its reference view), and returns to where the arm was."""
+        s = self.settings
+        if s.look_at_boxes and s.boxes_when_needed and box not in self._looked_into:
+            self._meant = None
+            self._look_at_boxes((box,), back=self.motion.q.copy())
+
+    def _look_at_boxes(self, names: Iterable[str], back: FloatArray | None = None) -> None:
+        """Looks into the boxes `names` once (the reference of the checks after placing),
+        then moves to the joints `back` (None: the observation pose)."""
         camera_offset = self.camera_offset()
-        for box in self.boxes.values():
+        for name in names:
+            box = self.boxes[name]
             self._phase = f"look into {box.name}"
             self.motion.move_tcp(look_tcp(box.centre, self.settings.box_view_height, camera_offset))
             capture = self.cell.capture()
@@ -1468,8 +1490,9 @@ class TableClearer:
             self._views[box.name] = (
                 view if float(np.mean(view.in_view)) >= self.box_settings.min_in_view else None
             )
+            self._looked_into.add(box.name)
         self._phase = "observe"
-        self.motion.move_to_joints(self.observation_joints)
+        self.motion.move_to_joints(self.observation_joints if back is None else back)
 
     # ------------------------------------------------------------------ helpers
     def camera_offset(self) -> FloatArray:

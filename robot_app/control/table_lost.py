@@ -423,6 +423,8 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     how = f"{place.how}; identity from its colours and weight" if unnamed else place.how
     where = np.eye(4)
     where[:3, 3] = (x, y, table_z)
+    if np.any(aims):
+        job.look_into_box(box.name)  # before the attempt's clock starts, as for a surveyed pick
     attempt = AttemptState(
         None, box, where, job.cell.time, lost_name=name, doubted=match.doubted, guessed=unnamed
     )
