@@ -69,6 +69,7 @@ from robot_app.control.pick_checks import (
     PUT_BACK,
     AttemptState,
     check_release,
+    cloths_in_extra,
     comes_within,
     companion,
     could_be_in,
@@ -1053,7 +1054,16 @@ class TableClearer:
                 attempt.notes.append(f"double pick: {other} came along{source}, belongs in another box")
                 attempt.laid_back_too = (other,)
             else:
-                attempt.unnamed_along = True
+                # as many as the extra must be (two or more: each may be found and placed alone)
+                could_be = [self.weights[n] for n in self._not_placed(attempt, lambda _n, _w: True)]
+                attempt.unnamed_along = min(
+                    cloths_in_extra(extra, could_be, self.settings), max(1, len(could_be))
+                )
+                if attempt.unnamed_along > 1:
+                    many = attempt.unnamed_along
+                    attempt.notes.append(
+                        f"double pick: the {extra * 1000:.0f} g extra is {many} cloths at least"
+                    )
             if self.settings.put_back.shed and self._shed(attempt, expected, what):
                 loop.arm.resume_at(self.motion.q)
                 return

@@ -51,7 +51,8 @@ class TableLedger:
             back after a lift), for the cloths no survey recognised since and not placed
             since.
         unnamed: where double picks whose other cloth was not named were laid back (that
-            cloth is one of the known cloths not placed).
+            cloth is one of the known cloths not placed), once per cloth the extra weight
+            held (`AttemptState.unnamed_along`).
         maybe: lost cloth name -> other places it may lie: where blind lifts that could have
             held it (`AttemptState.doubted`) were put back.
         unsure: lost cloth name -> the cloths its last put-back lift could have held instead
@@ -278,18 +279,17 @@ class TableLedger:
                     )
                     self.maybe.setdefault(doubted, []).append(where)
             if attempt.put_back and attempt.unnamed_along:
-                self.unnamed.append(
-                    LostPlace(
-                        put_back,
-                        f"came up with {name}, not named",
-                        start,
-                        end,
-                        before,
-                        laid,
-                        attempt.showed,
-                        attempt.looked,
-                    )
+                place = LostPlace(
+                    put_back,
+                    f"came up with {name}, not named",
+                    start,
+                    end,
+                    before,
+                    laid,
+                    attempt.showed,
+                    attempt.looked,
                 )
+                self.unnamed += [place] * attempt.unnamed_along  # one per cloth the extra weighed
         if attempt.shed_at is not None:  # the other cloth was left lying along the strip
             start, end = attempt.shed_at
             before = self.surveys[-1].unknown if self.surveys else ()
@@ -301,16 +301,10 @@ class TableLedger:
                     ),
                 )
             if attempt.unnamed_along:
-                self.unnamed.append(
-                    LostPlace(
-                        LossKind.LEFT_BY_LIFT,
-                        f"came up with {name}, not named, left on the table",
-                        start,
-                        end,
-                        before,
-                        True,
-                    )
-                )
+                how = f"came up with {name}, not named, left on the table"
+                self.unnamed += [
+                    LostPlace(LossKind.LEFT_BY_LIFT, how, start, end, before, True)
+                ] * attempt.unnamed_along
         for companion in attempt.fell:  # it came up with the lift and was gone over the box
             self.lost[companion] = LostPlace(
                 LossKind.DROPPED,
