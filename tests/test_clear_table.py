@@ -42,6 +42,11 @@ def test_three_separate_cloths_are_sorted_into_two_boxes() -> None:
     assert finals(episode) == {3: "colours", 6: "whites", 12: "colours"}, episode.verdict.cause
     assert episode.verdict.cleared and episode.verdict.wrong_box == 0
     assert episode.result.limit_report.violations == 0 and episode.result.collisions == 0
+    # whites is looked into before No.6's pick (clear.boxes_when_needed), and that look is
+    # the reference its check compares with: without one the check does not confirm
+    assert episode.phase_times.get("look into whites", 0.0) > 0.0
+    (white,) = [a for a in episode.result.attempts if a.name == "No.6"]
+    assert white.box_check is not None and white.box_check.confirmed
 
 
 @pytest.mark.slow
@@ -62,6 +67,7 @@ def test_an_unknown_cloth_is_left_on_the_table_and_reported() -> None:
     x, y = episode.result.unknown[0]
     assert abs(x - 0.6) < 0.06 and abs(y - 0.12) < 0.06  # reported where it lies
     assert all(a.name != "No.12" for a in episode.result.attempts)
+    assert "look into whites" not in episode.phase_times  # no pick was meant for whites
 
 
 def dropped_job() -> ClearTableEpisode:
