@@ -550,6 +550,45 @@ def test_a_dark_region_is_no_white_cloth(monkeypatch: pytest.MonkeyPatch) -> Non
     assert taken is not None and taken.name == "No.17"
 
 
+def test_a_dark_cloth_seen_hanging_is_no_white_print(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Held-out 1108 and 1129 (sessions 38-39): the grey No.19 and the black No.20 seen
+    hanging, nearly all DARK, fitted the white print No.6 (73 % LIGHT, blue and pink motifs,
+    whites) at 0.72 (its LIGHT takes DARK as its folds' shade), and went back at every lift.
+    A cloth whose main colour is white must show white, as an all-white one must."""
+    from robot_app.control import colour_fit
+    from robot_app.vision import FitnessSettings
+    from robot_app.vision.hue import DARK, LIGHT
+
+    blue, pink = 196, 254
+    print_codes = np.array([LIGHT] * 73 + [blue] * 15 + [pink] * 12, dtype=np.uint16)  # No.6's S_in
+
+    def recognizer(codes: np.ndarray) -> SimpleNamespace:
+        model = SimpleNamespace(hues_in=codes, texture_bgr=None, texture_mask=None)
+        return SimpleNamespace(model=model, settings=SimpleNamespace(fitness=FitnessSettings()))
+
+    recognizers = {
+        "print": recognizer(print_codes),
+        "black": recognizer(np.array([DARK] * 100, dtype=np.uint16)),
+    }
+    seen = {"codes": np.zeros((10, 10), np.uint16)}
+    monkeypatch.setattr(
+        colour_fit,
+        "survey_colours",
+        lambda capture, recs: (np.full((10, 10, 3), 60, np.uint8), np.ones(3), seen["codes"]),
+    )
+    mask = np.ones((10, 10), bool)
+    seen["codes"][:] = DARK  # a dark cloth hanging
+    fits = colour_fit.colour_shares(None, mask, recognizers)  # type: ignore[arg-type]
+    assert fits["black"].score == pytest.approx(1.0)
+    assert fits["print"].share == pytest.approx(1.0)  # its white's folds explain the dark ...
+    assert fits["print"].score == 0.0  # ... but none of its white shows
+    seen["codes"][:] = LIGHT
+    seen["codes"][:, 7:] = DARK  # the print hanging: white, a part in its own shade
+    seen["codes"][0, :3] = blue
+    fits = colour_fit.colour_shares(None, mask, recognizers)  # type: ignore[arg-type]
+    assert fits["print"].lightness == 1.0 and fits["print"].score > 0.7
+
+
 def test_a_white_heap_fits_a_white_cloth_better_than_a_print_with_white_in_it() -> None:
     from robot_app.control.colour_fit import palette_proportions, palette_share
     from robot_app.vision.hue import DARK, LIGHT
