@@ -80,7 +80,7 @@ def colour_shares(
         lightness = 1.0
         if model.texture_bgr is not None and np.all(palette >= DARK):  # tones only, no hue
             lightness = not_lighter(seen_light, lit_value(model.texture_bgr[model.texture_mask]))
-        if palette[0] == LIGHT:  # a cloth mostly white shows its white somewhere, folds or not
+        if palette.size and palette[0] == LIGHT:  # a cloth mostly white shows its white, folds or not
             lightness *= shows_light(seen)
         fits[name] = ColourFit(
             palette_share(seen, palette, threshold),
