@@ -219,6 +219,16 @@ class ClearTableSettings(StrictModel):
             finds there; if exactly one weighs what the load cell read too much and it goes
             into the same box, both are placed (its identity then comes from memory, and
             the notes say so); 0: off.
+        drag_extra: when the load cell reads at least this much [kg] over the meant
+            cloth's weight but within `weight_tolerance`, the check after the lift also
+            looks for the cloths the pick's survey saw touching the meant one (within
+            `drag_reach`): one no longer where the survey saw it came along, a double pick
+            (put back, booked as laid back with it). A cloth dragged partly off the table
+            hangs only in part from the held one, and the scale cannot tell its few grams
+            from a lone lift's error (held-out 1124-1173, session 39: three undetected
+            double picks read 4.8-9.2 g over, lone lifts up to 9.4 g); None: off.
+        drag_reach: ... the cloths whose seen footprint comes this close to the meant
+            cloth's [m].
         put_down_height: TCP above the table when a lift that took too much (or the
             wrong cloth) is put back.
         put_down_speed: limit scale of the lowering.
@@ -294,6 +304,8 @@ class ClearTableSettings(StrictModel):
     weight_tolerance: float = Field(0.3, ge=0.0, le=2.0)
     weight_floor: float = Field(0.003, ge=0.0)
     name_weight_margin: float = Field(0.007, ge=0.0)
+    drag_extra: float | None = Field(None, gt=0.0)
+    drag_reach: float = Field(0.02, ge=0.0)
     put_down_height: float = Field(0.05, gt=0.02)
     put_down_speed: float = Field(0.3, gt=0.0, le=1.0)
     put_down_slide: float = Field(0.06, ge=0.0, le=0.2)

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
+from scipy.spatial import cKDTree
 
 from robot_app.arrays import FloatArray
 from robot_app.control.box_check import BoxCheck, BoxCheckSettings, BoxView, box_view, check_box
@@ -82,6 +83,17 @@ def comes_within(footprint_xy: npt.ArrayLike, xy: npt.ArrayLike, reach: float) -
     points = np.asarray(footprint_xy, dtype=float).reshape(-1, 2)
     here = np.asarray(xy, dtype=float).reshape(2)
     return bool(len(points)) and float(np.min(np.hypot(*(points - here).T))) <= reach
+
+
+def footprints_touch(a_xy: npt.ArrayLike, b_xy: npt.ArrayLike, reach: float) -> bool:
+    """Do two cloths' footprints (table points (N, 2) and (M, 2) [m]) come within `reach`
+    [m] of each other (overlapping ones do)?"""
+    a = np.asarray(a_xy, dtype=float).reshape(-1, 2)
+    b = np.asarray(b_xy, dtype=float).reshape(-1, 2)
+    if not len(a) or not len(b):
+        return False
+    distance, _ = cKDTree(a).query(b, k=1, distance_upper_bound=reach + 1e-9)
+    return bool(np.any(np.isfinite(distance)))
 
 
 def weighs_extra(extra: float, weight: float | None, settings: ClearTableSettings) -> bool:
@@ -294,6 +306,7 @@ __all__ = [
     "cloths_in_extra",
     "companion",
     "fell_on_the_way",
+    "footprints_touch",
     "names_weight",
     "remembered_companion",
     "still_there",

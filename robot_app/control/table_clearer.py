@@ -74,6 +74,7 @@ from robot_app.control.pick_checks import (
     companion,
     could_be_in,
     fell_on_the_way,
+    footprints_touch,
     names_weight,
     remembered_companion,
     still_there,
@@ -1016,6 +1017,15 @@ class TableClearer:
             attempt.weighed = float(self.weigh())
             verdict, what = weight_verdict(attempt.weighed, expected, name, self.settings)
         heavier = verdict == "double"  # whatever else: more than the meant cloth came up
+        dragged: tuple[str, ...] = ()
+        if verdict == "ok" and not stayed and attempt.weighed is not None and expected is not None:
+            dragged = self._dragged(attempt, capture, attempt.weighed - expected)
+            if dragged:
+                verdict, heavier = "double", True
+                what = (
+                    f"{attempt.weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g, "
+                    f"and {' and '.join(dragged)} left where the survey saw it beside {name}"
+                )
         if stayed:
             verdict, what = "wrong", f"{name} still in its place" + (f"; {what}" if what else "")
         attempt.lift_check = verdict
@@ -1023,7 +1033,10 @@ class TableClearer:
             return
         if stayed and not heavier and self._held_instead(attempt, what, loop):
             return
-        if verdict == "double" and attempt.weighed is not None and expected is not None:
+        if dragged:
+            # partly lifted, it hangs from the held cloth: back down with it, booked laid back
+            attempt.laid_back_too, attempt.named_by = dragged, "drag"
+        elif verdict == "double" and attempt.weighed is not None and expected is not None:
             grasp = self.motion.tcp_position()
             grasp[2] = self.table_z
             extra = attempt.weighed - expected
@@ -1389,6 +1402,31 @@ class TableClearer:
         attempt.check_wall_s += time.perf_counter() - wall
         self._wait(time.process_time() - cpu, 1)
         return stayed
+
+    def _dragged(self, attempt: AttemptState, capture: StereoCapture, extra: float) -> tuple[str, ...]:
+        """When the load cell read `extra` [kg] over the meant cloth, at least `drag_extra`:
+        the cloths the pick's survey saw touching the meant one (`drag_reach`) that the
+        check after the lift (`capture`) no longer finds where they were."""
+        s = self.settings
+        if attempt.target is None or s.drag_extra is None or extra < s.drag_extra:
+            return ()
+        held = transform_points(
+            attempt.transform_target_to_world, self.recognizers[attempt.name].model.points_in
+        )[:, :2]
+        touching = [
+            d.name
+            for d in attempt.others
+            if d.name in self.recognizers
+            and footprints_touch(
+                held,
+                transform_points(
+                    to_world(self._survey_capture, d.transform_model_to_camera),
+                    self.recognizers[d.name].model.points_in,
+                )[:, :2],
+                s.drag_reach,
+            )
+        ]
+        return tuple(name for name in touching if not self._stayed(name, attempt, capture))
 
     def _remembered_companion(
         self, attempt: AttemptState, capture: StereoCapture, grasp: FloatArray, extra: float
