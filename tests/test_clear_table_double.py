@@ -44,6 +44,7 @@ def _job(monkeypatch: pytest.MonkeyPatch, put_back: list[str]) -> table_clearer.
     job.sort = SortSettings(default="colours", boxes={"whites": (6, 17, 18)})
     job._hidden_spots = {}
     job._laid = []
+    job._before_pick = None  # no unknown region seen
     job.recovery = SimpleNamespace(  # type: ignore[assignment]
         put_back=lambda *args: (put_back.append("No.19"), (np.zeros(2), np.zeros(2)))[1],
         put_back_spots=[np.zeros(2)],
@@ -627,3 +628,62 @@ def test_footprints_touch_within_reach_only() -> None:
     assert table_clearer.footprints_touch(square, square + np.array([0.21, 0.0]), 0.02)
     assert not table_clearer.footprints_touch(square, square + np.array([0.23, 0.0]), 0.02)
     assert not table_clearer.footprints_touch(square, np.zeros((0, 2)), 1.0)
+
+
+def test_an_unknown_region_beside_the_lifted_cloth_bared_makes_a_slightly_heavy_lift_a_double_pick(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # held-out 1108, 1121, 1159 (session 39): what came along was an unknown region, a
+    # put-back heap or a crumpled cloth, touching the lifted one in the pick's survey
+    mask = np.zeros((40, 60), dtype=bool)
+    mask[10:30, 30:50] = True  # at 1 cm per pixel: x 0.30-0.50 m, y 0.10-0.30 m
+    region = table_clearer.UnknownRegion((40.0, 20.0), int(mask.sum()), mask)
+    footprint = np.zeros_like(mask)
+    footprint[10:30, 5:26] = True  # No.19's own pixels
+    shown: list[np.ndarray] = []
+    given = [0.0]  # the share of the region the check after the lift sees bared
+
+    def bared(points, *args):
+        shown.extend(points)
+        return given
+
+    monkeypatch.setattr(table_clearer, "bared_from_elsewhere", bared)
+    for share, double in ((0.6, True), (0.1, False)):
+        given[0] = share
+        put_back: list[str] = []
+        job = _job(monkeypatch, put_back)
+        job.cell = SimpleNamespace(capture=lambda: SimpleNamespace(transform_right_camera_to_world=np.eye(4)))  # type: ignore[assignment]
+        job.settings = ClearTableSettings(
+            survey_latency=0.0, held_look={"name_companion": False}, drag_extra=0.002
+        )
+        job.weigh = lambda: 0.026  # 5 g over No.19's 21 g
+        job.table_z = 0.0
+        job.table = SimpleNamespace(  # type: ignore[assignment]
+            pixels=lambda capture, u, v: np.column_stack([np.asarray(u) * 0.01, np.asarray(v) * 0.01]),
+            point=lambda capture, uv: (uv[0] * 0.01, uv[1] * 0.01),
+        )
+        job._sheet = lambda capture: np.zeros((40, 60), dtype=bool)  # type: ignore[method-assign]
+        job._before_pick = table_clearer._BeforePick(
+            "No.19",
+            (region,),
+            footprint,
+            np.eye(4),
+            np.zeros(2),
+            SimpleNamespace(),  # type: ignore[arg-type]
+        )
+        job.rig = SimpleNamespace(right=SimpleNamespace(camera_matrix=np.eye(3)))  # type: ignore[assignment]
+        attempt = _attempt()
+        attempt.transform_target_to_world = np.eye(4)
+        attempt.transform_target_to_world[:2, 3] = [0.15, 0.20]  # its square reaches x = 0.25... 0.30
+        grid = np.linspace(-0.15, 0.15, 31)
+        job.recognizers["No.19"].model.points_in = np.array([[x, y, 0.0] for x in grid for y in grid])
+        monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: None)
+        monkeypatch.setattr(table_clearer, "still_there", lambda *args: False)
+        with contextlib.suppress(EpisodeAbortError):
+            job._after_lift(attempt, SimpleNamespace(arm=SimpleNamespace(resume_at=lambda q: None)))  # type: ignore[arg-type]
+        assert (attempt.lift_check == "double") is double and (put_back == ["No.19"]) is double
+        assert attempt.unnamed_along == int(double) and attempt.laid_back_too == ()
+        assert any("the unknown region at (0.40, 0.20) beside No.19" in n for n in attempt.notes)
+        # judged only on its inner part, outside No.19's grown footprint (x >= 0.32 m)
+        assert shown and min(float(p[:, 0].min()) for p in shown) >= 0.32 - 1e-9
+        shown.clear()

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from robot_app.control.table_moved import MovedSettings, moved_regions
+from robot_app.control.table_moved import MovedSettings, bared_from_elsewhere, moved_regions
 from robot_app.vision.identify import UnknownRegion
 
 H, W = 120, 160
@@ -31,3 +31,19 @@ def test_a_region_bared_outside_the_picked_cloth_moved_one_still_there_did_not()
     assert moved_regions((dragged,), picked, sheet_after, MovedSettings(min_bared=0.8)) == []
     # nothing bared: nothing moved
     assert moved_regions((dragged, stayed), picked, np.zeros((H, W), bool), settings) == []
+
+
+def test_a_region_seen_from_another_pose_is_bared_where_the_sheet_now_shows() -> None:
+    # a camera 0.4 m over the table looking straight down (z down), 200 x 100 px, f = 200 px
+    K = np.array([[200.0, 0.0, 100.0], [0.0, 200.0, 50.0], [0.0, 0.0, 1.0]])
+    camera_to_world = np.diag([1.0, -1.0, -1.0, 1.0])
+    camera_to_world[:3, 3] = [0.0, 0.0, 0.4]
+    sheet = np.zeros((100, 200), dtype=bool)
+    sheet[:, 100:] = True  # the sheet shows on the right half (x > 0 in the world)
+    grid = np.linspace(0.01, 0.09, 9)
+    gone = np.array([[x, y, 0.0] for x in grid for y in grid - 0.05])  # right of the middle: bared
+    stays = gone * [-1.0, 1.0, 1.0]  # mirrored to the left: still covered
+    half = np.vstack([gone, stays])
+    away = gone + np.array([1.0, 0.0, 0.0])  # out of the image
+    shares = bared_from_elsewhere([gone, stays, half, away], camera_to_world, K, sheet, min_pixels=20)
+    assert shares[0] == 1.0 and shares[1] == 0.0 and shares[2] == 0.5 and shares[3] is None

@@ -223,7 +223,9 @@ class ClearTableSettings(StrictModel):
             cloth's weight but within `weight_tolerance`, the check after the lift also
             looks for the cloths the pick's survey saw touching the meant one (within
             `drag_reach`): one no longer where the survey saw it came along, a double pick
-            (put back, booked as laid back with it). A cloth dragged partly off the table
+            (put back, booked as laid back with it); so did an unknown region of that survey
+            touching it whose place the check sees bared (`moved.min_bared` of it, counted
+            as an unnamed cloth that came along). A cloth dragged partly off the table
             hangs only in part from the held one, and the scale cannot tell its few grams
             from a lone lift's error (held-out 1124-1173, session 39: three undetected
             double picks read 4.8-9.2 g over, lone lifts up to 9.4 g); None: off.

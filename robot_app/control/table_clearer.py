@@ -105,7 +105,7 @@ from robot_app.control.table_lost import (
     off_way,
     pick_lost,
 )
-from robot_app.control.table_moved import moved_regions
+from robot_app.control.table_moved import bared_from_elsewhere, grown, moved_regions
 from robot_app.control.table_recovery import TableRecovery
 from robot_app.control.table_surface import aimed_at, surface_height
 from robot_app.control.table_survey import (
@@ -489,8 +489,12 @@ class TableClearer:
     def _survey_sheet(self) -> Mask:
         """The last survey's right-image pixels of the green sheet (undistorted, as
         `identify` reads them)."""
+        return self._sheet(self._survey_capture)
+
+    def _sheet(self, capture: StereoCapture) -> Mask:
+        """`capture`'s right-image pixels of the green sheet (undistorted)."""
         first = next(iter(self.recognizers.values()))
-        image = undistorted(self._survey_capture.right_bgr, self.rig.right)
+        image = undistorted(capture.right_bgr, self.rig.right)
         i = self.identify_settings
         return sheet_mask(image, first.model.background_hue, i.sheet_tolerance, i.sheet_min_saturation)
 
@@ -1018,13 +1022,16 @@ class TableClearer:
             verdict, what = weight_verdict(attempt.weighed, expected, name, self.settings)
         heavier = verdict == "double"  # whatever else: more than the meant cloth came up
         dragged: tuple[str, ...] = ()
+        regions = 0
         if verdict == "ok" and not stayed and attempt.weighed is not None and expected is not None:
-            dragged = self._dragged(attempt, capture, attempt.weighed - expected)
-            if dragged:
+            dragged, regions = self._dragged(attempt, capture, attempt.weighed - expected)
+            if dragged or regions:
                 verdict, heavier = "double", True
+                gone = [*dragged, *(["an unidentified cloth"] if regions == 1 else [])]
+                gone += [f"{regions} unidentified cloths"] if regions > 1 else []
                 what = (
                     f"{attempt.weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g, "
-                    f"and {' and '.join(dragged)} left where the survey saw it beside {name}"
+                    f"and {' and '.join(gone)} left where the survey saw it beside {name}"
                 )
         if stayed:
             verdict, what = "wrong", f"{name} still in its place" + (f"; {what}" if what else "")
@@ -1033,9 +1040,10 @@ class TableClearer:
             return
         if stayed and not heavier and self._held_instead(attempt, what, loop):
             return
-        if dragged:
+        if dragged or regions:
             # partly lifted, it hangs from the held cloth: back down with it, booked laid back
-            attempt.laid_back_too, attempt.named_by = dragged, "drag"
+            attempt.laid_back_too, attempt.unnamed_along = dragged, regions
+            attempt.named_by = "drag" if dragged else ""
         elif verdict == "double" and attempt.weighed is not None and expected is not None:
             grasp = self.motion.tcp_position()
             grasp[2] = self.table_z
@@ -1403,13 +1411,16 @@ class TableClearer:
         self._wait(time.process_time() - cpu, 1)
         return stayed
 
-    def _dragged(self, attempt: AttemptState, capture: StereoCapture, extra: float) -> tuple[str, ...]:
+    def _dragged(
+        self, attempt: AttemptState, capture: StereoCapture, extra: float
+    ) -> tuple[tuple[str, ...], int]:
         """When the load cell read `extra` [kg] over the meant cloth, at least `drag_extra`:
         the cloths the pick's survey saw touching the meant one (`drag_reach`) that the
-        check after the lift (`capture`) no longer finds where they were."""
+        check after the lift (`capture`) no longer finds where they were, and how many of
+        that survey's unknown regions touching it the check sees bared (`_regions_bared`)."""
         s = self.settings
         if attempt.target is None or s.drag_extra is None or extra < s.drag_extra:
-            return ()
+            return (), 0
         held = transform_points(
             attempt.transform_target_to_world, self.recognizers[attempt.name].model.points_in
         )[:, :2]
@@ -1426,7 +1437,51 @@ class TableClearer:
                 s.drag_reach,
             )
         ]
-        return tuple(name for name in touching if not self._stayed(name, attempt, capture))
+        gone = tuple(name for name in touching if not self._stayed(name, attempt, capture))
+        return gone, self._regions_bared(attempt, capture, held)
+
+    def _regions_bared(self, attempt: AttemptState, capture: StereoCapture, held_xy: FloatArray) -> int:
+        """Of the unknown regions of the survey that chose the pick touching the meant
+        cloth's footprint (`held_xy` (N, 2) [m], within `drag_reach`), how many the check
+        after the lift (`capture`, another camera pose) sees bared: at least
+        `moved.min_bared` of their inner pixels' table points, outside the meant cloth's
+        grown footprint, show the sheet (`table_moved.bared_from_elsewhere`; the pixels
+        shrunk by `moved.grow_px` too, for the parallax of a heap's top). Held-out episodes
+        1108, 1121 and 1159: the cloth dragged along was an unknown region (a put-back heap,
+        a crumpled cloth) beside the one lifted; the notes say what was seen."""
+        before, s, m = self._before_pick, self.settings, self.settings.moved
+        if before is None or before.name != attempt.name or not before.regions:
+            return 0
+        wall, cpu = time.perf_counter(), time.process_time()
+        survey, outside = before.capture, ~grown(before.footprint, m.grow_px)
+        points, centres = [], []
+        for region in before.regions:
+            v, u = np.nonzero(region.mask & outside)
+            inner_v, inner_u = np.nonzero(grown(region.mask, m.grow_px, shrink=True) & outside)
+            step = max(1, len(inner_u) // 1500)
+            inner = self.table.pixels(survey, inner_u[::step], inner_v[::step])
+            edge_step = max(1, len(u) // 1500)
+            if not footprints_touch(
+                held_xy, self.table.pixels(survey, u[::edge_step], v[::edge_step]), s.drag_reach
+            ):
+                continue
+            points.append(np.column_stack([inner, np.full(len(inner), self.table_z)]))
+            centres.append(self.table.point(survey, region.centroid))
+        if not points:
+            self.motion.hold(time.process_time() - cpu)
+            return 0
+        shares = bared_from_elsewhere(
+            points, capture.transform_right_camera_to_world, self.rig.right.camera_matrix,
+            self._sheet(capture), m.min_pixels,
+        )  # fmt: skip
+        attempt.check_wall_s += time.perf_counter() - wall
+        self.motion.hold(time.process_time() - cpu)
+        bared = 0
+        for share, (x, y) in zip(shares, centres, strict=True):
+            seen = "out of view" if share is None else f"the sheet shows at {share:.0%} of it"
+            attempt.notes.append(f"the unknown region at ({x:.2f}, {y:.2f}) beside {attempt.name}: {seen}")
+            bared += int(share is not None and share >= m.min_bared)
+        return bared
 
     def _remembered_companion(
         self, attempt: AttemptState, capture: StereoCapture, grasp: FloatArray, extra: float

@@ -62,6 +62,15 @@ class MovedRegion:
     bared: float
 
 
+def grown(mask: Mask, px: int, shrink: bool = False) -> Mask:
+    """`mask` grown (or, with `shrink`, shrunk) by a disk of radius `px` [px]."""
+    image = np.asarray(mask, dtype=np.uint8)
+    if px > 0:
+        disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * px + 1, 2 * px + 1))
+        image = np.asarray((cv2.erode if shrink else cv2.dilate)(image, disk), dtype=np.uint8)
+    return image.astype(bool)
+
+
 def moved_regions(
     before: tuple[UnknownRegion, ...],
     picked_footprint: Mask,
@@ -71,12 +80,7 @@ def moved_regions(
     """The regions of `before` (the survey before a pick) that the pick moved: at least
     `min_bared` of their pixels outside `picked_footprint` (grown by `grow_px`) show the
     sheet in `sheet_after` (the survey after it, from the same camera pose)."""
-    footprint = np.asarray(picked_footprint, dtype=np.uint8)
-    if settings.grow_px > 0:
-        size = 2 * settings.grow_px + 1
-        disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
-        footprint = np.asarray(cv2.dilate(footprint, disk), dtype=np.uint8)
-    outside = ~footprint.astype(bool)
+    outside = ~grown(picked_footprint, settings.grow_px)
     moved = []
     for region in before:
         judged = region.mask & outside
@@ -89,4 +93,35 @@ def moved_regions(
     return moved
 
 
-__all__ = ["MovedRegion", "MovedSettings", "moved_regions"]
+def bared_from_elsewhere(
+    region_points: list[npt.NDArray[np.float64]],
+    transform_camera_to_world: npt.NDArray[np.float64],
+    camera_matrix: npt.NDArray[np.float64],
+    sheet: Mask,
+    min_pixels: int,
+) -> list[float | None]:
+    """Per region, the share of its table points ((N, 3) [m] each: where a survey saw it)
+    that an image from another camera pose shows as sheet (`sheet`: that image's
+    undistorted sheet pixels; `camera_matrix`, `transform_camera_to_world`); None where
+    fewer than `min_pixels` of them fall inside that image. A cloth seen there by the
+    survey and gone bares the sheet; one still lying there, or hidden from this view (by
+    what the hand holds), does not."""
+    world_to_camera = np.linalg.inv(np.asarray(transform_camera_to_world, dtype=float))
+    K = np.asarray(camera_matrix, dtype=float)
+    height, width = sheet.shape
+    shares: list[float | None] = []
+    for points in region_points:
+        p = (
+            np.asarray(points, dtype=float).reshape(-1, 3) @ world_to_camera[:3, :3].T
+            + world_to_camera[:3, 3]
+        )
+        ahead = p[:, 2] > 1e-6
+        uv = (p[ahead] @ K.T)[:, :2] / p[ahead, 2:3]
+        u, v = np.round(uv[:, 0]).astype(int), np.round(uv[:, 1]).astype(int)
+        inside = (u >= 0) & (u < width) & (v >= 0) & (v < height)
+        count = int(np.count_nonzero(inside))
+        shares.append(float(np.mean(sheet[v[inside], u[inside]])) if count >= min_pixels else None)
+    return shares
+
+
+__all__ = ["MovedRegion", "MovedSettings", "bared_from_elsewhere", "grown", "moved_regions"]
