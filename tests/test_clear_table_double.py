@@ -18,6 +18,7 @@ import pytest
 from robot_app.control import table_clearer
 from robot_app.control.clear_table_records import ClearTableSettings, LossKind, LostPlace
 from robot_app.control.episode import EpisodeAbortError
+from robot_app.control.held_look import HeldColours
 from robot_app.control.sort_rule import SortSettings
 from robot_app.control.table_ledger import TableLedger
 
@@ -565,6 +566,7 @@ def _drag_lift(
     others: dict[str, float],
     stayed: set[str],
     drag_extra: float | None,
+    drag_look: bool = False,
 ) -> tuple[table_clearer.AttemptState, list[str], list[str]]:
     """No.19 (21 g) lifted, the load cell reading `reading` [kg]; the survey saw `others`
     (name -> x offset of its 0.2 m square from No.19's [m]); after the lift those in
@@ -574,7 +576,7 @@ def _drag_lift(
     looked: list[str] = []
     job = _job(monkeypatch, put_back)
     job.settings = ClearTableSettings(
-        survey_latency=0.0, held_look={"name_companion": False}, drag_extra=drag_extra
+        survey_latency=0.0, held_look={"name_companion": False}, drag_extra=drag_extra, drag_look=drag_look
     )
     job.weigh = lambda: reading
     grid = np.linspace(-0.1, 0.1, 21)
@@ -687,3 +689,35 @@ def test_an_unknown_region_beside_the_lifted_cloth_bared_makes_a_slightly_heavy_
         # judged only on its inner part, outside No.19's grown footprint (x >= 0.32 m)
         assert shown and min(float(p[:, 0].min()) for p in shown) >= 0.32 - 1e-9
         shown.clear()
+
+
+def test_a_touching_cloth_seen_in_its_place_but_showing_hanging_makes_the_lift_a_double_pick(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    looks: list[tuple[str, tuple[str, ...]]] = []
+
+    def showing(own: dict[str, float]):
+        def look(job, meant, others, looks_=1, **kwargs):
+            looks.append((meant, tuple(others)))
+            return HeldColours(2000, 0.8, {n: own.get(n, 0.0) for n in others}), "looked from 10 cm aside"
+
+        return look
+
+    monkeypatch.setattr(table_clearer, "look_at_held", showing({"No.11": 0.15}))
+    attempt, put_back, _ = _drag_lift(monkeypatch, 0.026, {"No.11": 0.15}, {"No.11"}, 0.002, drag_look=True)
+    assert attempt.lift_check == "double" and put_back == ["No.19"]
+    assert attempt.laid_back_too == ("No.11",) and attempt.named_by == "look" and attempt.unnamed_along == 0
+    # every cloth not placed that weighs the 5 g extra or more was looked for
+    assert looks == [("No.19", ("No.10", "No.12", "No.11"))]
+    # two showing alike: one unnamed cloth came along
+    monkeypatch.setattr(table_clearer, "look_at_held", showing({"No.11": 0.15, "No.12": 0.12}))
+    attempt, put_back, _ = _drag_lift(monkeypatch, 0.026, {"No.11": 0.15}, {"No.11"}, 0.002, drag_look=True)
+    assert attempt.lift_check == "double" and attempt.laid_back_too == () and attempt.unnamed_along == 1
+    # nothing of another cloth's own colours hanging: the lift goes on
+    monkeypatch.setattr(table_clearer, "look_at_held", showing({"No.11": 0.05}))
+    attempt, put_back, _ = _drag_lift(monkeypatch, 0.026, {"No.11": 0.15}, {"No.11"}, 0.002, drag_look=True)
+    assert attempt.lift_check == "ok" and put_back == [] and attempt.looked
+    # nothing touched the lifted cloth: no look
+    looks.clear()
+    attempt, put_back, _ = _drag_lift(monkeypatch, 0.026, {"No.11": 0.5}, {"No.11"}, 0.002, drag_look=True)
+    assert attempt.lift_check == "ok" and looks == [] and not attempt.looked

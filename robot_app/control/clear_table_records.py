@@ -231,6 +231,11 @@ class ClearTableSettings(StrictModel):
             double picks read 4.8-9.2 g over, lone lifts up to 9.4 g); None: off.
         drag_reach: ... the cloths whose seen footprint comes this close to the meant
             cloth's [m].
+        drag_look: ... and where the check sees none of those gone but some touched it,
+            look at what hangs (`held_look`, as for a double pick's other cloth): a cloth
+            showing `held_look.doubt_share` in its own colours came along. The check's
+            view reaches some 0.15 m around the grasp, and the held cloth hides much of
+            it (held-out 1159's dragged heap was out of view).
         put_down_height: TCP above the table when a lift that took too much (or the
             wrong cloth) is put back.
         put_down_speed: limit scale of the lowering.
@@ -308,6 +313,7 @@ class ClearTableSettings(StrictModel):
     name_weight_margin: float = Field(0.007, ge=0.0)
     drag_extra: float | None = Field(None, gt=0.0)
     drag_reach: float = Field(0.02, ge=0.0)
+    drag_look: bool = False
     put_down_height: float = Field(0.05, gt=0.02)
     put_down_speed: float = Field(0.3, gt=0.0, le=1.0)
     put_down_slide: float = Field(0.06, ge=0.0, le=0.2)

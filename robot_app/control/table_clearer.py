@@ -1024,14 +1024,19 @@ class TableClearer:
         dragged: tuple[str, ...] = ()
         regions = 0
         if verdict == "ok" and not stayed and attempt.weighed is not None and expected is not None:
-            dragged, regions = self._dragged(attempt, capture, attempt.weighed - expected)
+            dragged, regions = self._dragged(attempt, capture, attempt.weighed - expected, loop)
             if dragged or regions:
                 verdict, heavier = "double", True
                 gone = [*dragged, *(["an unidentified cloth"] if regions == 1 else [])]
                 gone += [f"{regions} unidentified cloths"] if regions > 1 else []
+                how = (
+                    "seen hanging with it"
+                    if attempt.looked
+                    else f"left where the survey saw it beside {name}"
+                )
                 what = (
                     f"{attempt.weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g, "
-                    f"and {' and '.join(gone)} left where the survey saw it beside {name}"
+                    f"and {' and '.join(gone)} {how}"
                 )
         if stayed:
             verdict, what = "wrong", f"{name} still in its place" + (f"; {what}" if what else "")
@@ -1043,7 +1048,7 @@ class TableClearer:
         if dragged or regions:
             # partly lifted, it hangs from the held cloth: back down with it, booked laid back
             attempt.laid_back_too, attempt.unnamed_along = dragged, regions
-            attempt.named_by = "drag" if dragged else ""
+            attempt.named_by = ("look" if attempt.looked else "drag") if dragged else ""
         elif verdict == "double" and attempt.weighed is not None and expected is not None:
             grasp = self.motion.tcp_position()
             grasp[2] = self.table_z
@@ -1412,12 +1417,14 @@ class TableClearer:
         return stayed
 
     def _dragged(
-        self, attempt: AttemptState, capture: StereoCapture, extra: float
+        self, attempt: AttemptState, capture: StereoCapture, extra: float, loop: PickPlaceLoop
     ) -> tuple[tuple[str, ...], int]:
         """When the load cell read `extra` [kg] over the meant cloth, at least `drag_extra`:
         the cloths the pick's survey saw touching the meant one (`drag_reach`) that the
         check after the lift (`capture`) no longer finds where they were, and how many of
-        that survey's unknown regions touching it the check sees bared (`_regions_bared`)."""
+        that survey's unknown regions touching it the check sees bared (`_regions_bared`);
+        where it sees none gone but some touched it, with `drag_look`, what the look at the
+        lifted cloth shows hanging with it (`_drag_look`)."""
         s = self.settings
         if attempt.target is None or s.drag_extra is None or extra < s.drag_extra:
             return (), 0
@@ -1438,9 +1445,47 @@ class TableClearer:
             )
         ]
         gone = tuple(name for name in touching if not self._stayed(name, attempt, capture))
-        return gone, self._regions_bared(attempt, capture, held)
+        bared, regions = self._regions_bared(attempt, capture, held)
+        if gone or bared or not (touching or regions) or not s.drag_look:
+            return gone, bared
+        return self._drag_look(attempt, extra, loop)
 
-    def _regions_bared(self, attempt: AttemptState, capture: StereoCapture, held_xy: FloatArray) -> int:
+    def _drag_look(
+        self, attempt: AttemptState, extra: float, loop: PickPlaceLoop
+    ) -> tuple[tuple[str, ...], int]:
+        """A cloth dragged along hangs in part from the lifted one, its part on the scale
+        the `extra` [kg] or less: the look at what hangs (`held_look`, two looks) at the
+        not-placed cloths that could weigh that much, or more; any showing `doubt_share`
+        of the held pixels in its own colours (none of the meant cloth's) came along. That
+        one (named if it alone shows `name_share`, `name_margin` ahead of the rest) and
+        none, or one unnamed cloth: as `_dragged`."""
+        s, hl = self.settings, self.settings.held_look
+        candidates = self._not_placed(attempt, lambda _name, weight: weight + s.weight_floor >= extra)
+        if not candidates:
+            return (), 0
+        self._phase = "look at lift"
+        seen, where = look_at_held(self, attempt.name, candidates, looks=2)
+        loop.arm.resume_at(self.motion.q)
+        if seen is None:
+            attempt.notes.append(f"looked for a cloth dragged along: {where}")
+            return (), 0
+        attempt.looked = True
+        showing = sorted((n for n in candidates if seen.own[n] >= hl.doubt_share), key=lambda n: -seen.own[n])
+        attempt.showed = tuple(showing)
+        shown = "".join(f", {n}'s own {seen.own[n]:.0%}" for n in showing)
+        attempt.notes.append(
+            f"looked for a cloth dragged along: {seen.pixels} px, {seen.meant:.0%} in {attempt.name}'s "
+            f"colours{shown}; {where}"
+        )
+        if seen.pixels < hl.min_pixels or not showing:
+            return (), 0
+        first = seen.own[showing[0]]
+        ahead = len(showing) == 1 or first - seen.own[showing[1]] >= hl.name_margin
+        return ((showing[0],), 0) if first >= hl.name_share and ahead else ((), 1)
+
+    def _regions_bared(
+        self, attempt: AttemptState, capture: StereoCapture, held_xy: FloatArray
+    ) -> tuple[int, int]:
         """Of the unknown regions of the survey that chose the pick touching the meant
         cloth's footprint (`held_xy` (N, 2) [m], within `drag_reach`), how many the check
         after the lift (`capture`, another camera pose) sees bared: at least
@@ -1448,10 +1493,11 @@ class TableClearer:
         grown footprint, show the sheet (`table_moved.bared_from_elsewhere`; the pixels
         shrunk by `moved.grow_px` too, for the parallax of a heap's top). Held-out episodes
         1108, 1121 and 1159: the cloth dragged along was an unknown region (a put-back heap,
-        a crumpled cloth) beside the one lifted; the notes say what was seen."""
+        a crumpled cloth) beside the one lifted; the notes say what was seen. Also: how many
+        touched it."""
         before, s, m = self._before_pick, self.settings, self.settings.moved
         if before is None or before.name != attempt.name or not before.regions:
-            return 0
+            return 0, 0
         wall, cpu = time.perf_counter(), time.process_time()
         survey, outside = before.capture, ~grown(before.footprint, m.grow_px)
         points, centres = [], []
@@ -1469,7 +1515,7 @@ class TableClearer:
             centres.append(self.table.point(survey, region.centroid))
         if not points:
             self.motion.hold(time.process_time() - cpu)
-            return 0
+            return 0, 0
         shares = bared_from_elsewhere(
             points, capture.transform_right_camera_to_world, self.rig.right.camera_matrix,
             self._sheet(capture), m.min_pixels,
@@ -1481,7 +1527,7 @@ class TableClearer:
             seen = "out of view" if share is None else f"the sheet shows at {share:.0%} of it"
             attempt.notes.append(f"the unknown region at ({x:.2f}, {y:.2f}) beside {attempt.name}: {seen}")
             bared += int(share is not None and share >= m.min_bared)
-        return bared
+        return bared, len(points)
 
     def _remembered_companion(
         self, attempt: AttemptState, capture: StereoCapture, grasp: FloatArray, extra: float
