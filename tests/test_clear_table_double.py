@@ -704,11 +704,13 @@ def test_a_touching_cloth_seen_in_its_place_but_showing_hanging_makes_the_lift_a
         return look
 
     monkeypatch.setattr(table_clearer, "look_at_held", showing({"No.11": 0.15}))
-    attempt, put_back, _ = _drag_lift(monkeypatch, 0.026, {"No.11": 0.15}, {"No.11"}, 0.002, drag_look=True)
+    others = {"No.11": 0.15, "No.12": 0.5}
+    attempt, put_back, _ = _drag_lift(monkeypatch, 0.026, others, {"No.11", "No.12"}, 0.002, drag_look=True)
     assert attempt.lift_check == "double" and put_back == ["No.19"]
     assert attempt.laid_back_too == ("No.11",) and attempt.named_by == "look" and attempt.unnamed_along == 0
-    # every cloth not placed that weighs the 5 g extra or more was looked for
-    assert looks == [("No.19", ("No.10", "No.12", "No.11"))]
+    # every cloth not placed that weighs the 5 g extra or more was looked for, but No.12,
+    # which the survey saw apart from No.19
+    assert looks == [("No.19", ("No.10", "No.11"))]
     # two showing alike: one unnamed cloth came along
     monkeypatch.setattr(table_clearer, "look_at_held", showing({"No.11": 0.15, "No.12": 0.12}))
     attempt, put_back, _ = _drag_lift(monkeypatch, 0.026, {"No.11": 0.15}, {"No.11"}, 0.002, drag_look=True)

@@ -1448,19 +1448,23 @@ class TableClearer:
         bared, regions = self._regions_bared(attempt, capture, held)
         if gone or bared or not (touching or regions) or not s.drag_look:
             return gone, bared
-        return self._drag_look(attempt, extra, loop)
+        apart = {d.name for d in attempt.others} - set(touching)
+        return self._drag_look(attempt, extra, apart, loop)
 
     def _drag_look(
-        self, attempt: AttemptState, extra: float, loop: PickPlaceLoop
+        self, attempt: AttemptState, extra: float, apart: set[str], loop: PickPlaceLoop
     ) -> tuple[tuple[str, ...], int]:
         """A cloth dragged along hangs in part from the lifted one, its part on the scale
         the `extra` [kg] or less: the look at what hangs (`held_look`, two looks) at the
-        not-placed cloths that could weigh that much, or more; any showing `doubt_share`
-        of the held pixels in its own colours (none of the meant cloth's) came along. That
-        one (named if it alone shows `name_share`, `name_margin` ahead of the rest) and
-        none, or one unnamed cloth: as `_dragged`."""
+        not-placed cloths that could weigh that much, or more, but those the pick's survey
+        saw `apart` from it; any showing `doubt_share` of the held pixels in its own colours
+        (none of the meant cloth's) came along. That one (named if it alone shows
+        `name_share`, `name_margin` ahead of the rest) and none, or one unnamed cloth: as
+        `_dragged`."""
         s, hl = self.settings, self.settings.held_look
-        candidates = self._not_placed(attempt, lambda _name, weight: weight + s.weight_floor >= extra)
+        candidates = self._not_placed(
+            attempt, lambda name, weight: name not in apart and weight + s.weight_floor >= extra
+        )
         if not candidates:
             return (), 0
         self._phase = "look at lift"
