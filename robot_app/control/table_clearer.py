@@ -1507,14 +1507,14 @@ class TableClearer:
         points, centres = [], []
         for region in before.regions:
             v, u = np.nonzero(region.mask & outside)
-            inner_v, inner_u = np.nonzero(grown(region.mask, m.grow_px, shrink=True) & outside)
-            step = max(1, len(inner_u) // 1500)
-            inner = self.table.pixels(survey, inner_u[::step], inner_v[::step])
             edge_step = max(1, len(u) // 1500)
             if not footprints_touch(
                 held_xy, self.table.pixels(survey, u[::edge_step], v[::edge_step]), s.drag_reach
             ):
                 continue
+            inner_v, inner_u = np.nonzero(grown(region.mask, m.grow_px, shrink=True) & outside)
+            step = max(1, len(inner_u) // 1500)
+            inner = self.table.pixels(survey, inner_u[::step], inner_v[::step])
             points.append(np.column_stack([inner, np.full(len(inner), self.table_z)]))
             centres.append(self.table.point(survey, region.centroid))
         if not points:
