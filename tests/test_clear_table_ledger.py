@@ -350,3 +350,27 @@ def test_a_lost_cloth_recognised_by_a_survey_but_not_by_its_pick_is_lost_where_i
     _survey_at(ledger, No_17=(0.5, 0.0))
     _not_present(ledger, "No.17")
     assert "No.17" not in ledger.lost
+
+
+def test_a_blind_lift_put_back_does_not_count_its_own_region_as_another_cloth_s() -> None:
+    # replay of held-out 1159 (session 40): No.18 lay in a heap with No.20; a blind lift there,
+    # put back, booked that heap's region as one seen before the loss, and No.18, still in it,
+    # was never looked for there: the job stopped with it on the table
+    from robot_app.control.clear_table_records import LossKind
+
+    ledger = TableLedger()
+    capture = SimpleNamespace(time=0.0, transform_right_camera_to_world=np.eye(4))
+    regions = tuple(SimpleNamespace(centroid=c) for c in ((0.64, 0.148), (0.30, 0.30)))
+    ident = SimpleNamespace(detections=(), dropped=(), above=(), unknown=regions)
+    table = SimpleNamespace(point=lambda capture, centroid: centroid)
+    ledger.record_survey(capture, 0.0, ident, None, table)  # type: ignore[arg-type]
+    box = BoxPlace("whites", np.array([0.3, 0.56, 0.0]), 0.22)
+    where = np.eye(4)
+    where[:2, 3] = (0.62, 0.21)  # the heap's top, inside the region
+    for blind, before in ((True, [(0.30, 0.30)]), (False, [(0.64, 0.148), (0.30, 0.30)])):
+        attempt = AttemptState(None, box, where, 0.0, lost_name="No.18")
+        attempt.from_region = np.array([0.64, 0.148]) if blind else None
+        attempt.put_back, attempt.put_back_at = True, np.array([0.51, 0.27])
+        _book(ledger, attempt, Outcome.GRASP_FAILED, "put back: not sure")
+        place = ledger.lost["No.18"]
+        assert place.kind is LossKind.PUT_BACK and np.allclose(place.before, before)

@@ -63,6 +63,7 @@ class AttemptState:
     check_wall_s: float = 0.0
     notes: list[str] = field(default_factory=list)
     lost_name: str = ""  # the cloth meant, without a detection
+    from_region: FloatArray | None = None  # (2,) centre of the unknown region a blind lift was taken from [m]
     doubted: tuple[str, ...] = ()  # lost cloths a blind lift could hold instead (`LostMatch.doubted`)
     guessed: bool = False  # a blind lift named by a guess for a companion nobody named
     held_instead: str = ""  # a wrong lift named by its colours seen hanging, booked in the meant one's stead

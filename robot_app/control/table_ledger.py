@@ -244,6 +244,14 @@ class TableLedger:
                 else attempt.put_back_at
             )
             before = self.surveys[-1].unknown if self.surveys else ()
+            if attempt.from_region is not None:
+                # the region a blind lift was taken from held the cloth itself: no other
+                # cloth lay there for it (replay of held-out 1159, session 40: No.18, in a heap
+                # with No.20, was lifted blind, put back, and its region, where it still lay,
+                # was taken for another cloth's; the job stopped with it on the table)
+                before = tuple(
+                    xy for xy in before if float(np.hypot(*(np.asarray(xy) - attempt.from_region))) > 1e-6
+                )
             kind = LossKind.DROPPED if attempt.dropped else LossKind.PUT_BACK
             how = "dropped in transfer" if attempt.dropped else "put back after the lift"
             laid = attempt.put_back and attempt.put_back_at is not None  # let go where the job chose

@@ -428,6 +428,7 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     attempt = AttemptState(
         None, box, where, job.cell.time, lost_name=name, doubted=match.doubted, guessed=unnamed
     )
+    attempt.from_region = np.array(job.table.point(capture, region.centroid))
     seen = f"an unknown region {share:.0%} in its colours" + (
         f" (as much in {', '.join(match.alike)}'s, same box)" if match.alike else ""
     )
