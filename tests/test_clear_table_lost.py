@@ -1129,3 +1129,25 @@ def test_the_regions_left_at_the_end_are_noted_on_the_cloths_whose_colours_they_
     spent = notes({"violet": near}, untried=lambda name: False, empty=lambda centre: True)["violet"][0]
     assert spent.endswith("no attempts left, blind grasps closed on nothing there")
     assert left_notes(capture, ident.unknown, centres, {}, {}, settings, bool, bool) == {}
+
+
+def test_a_lift_reading_more_than_the_heavy_bound_is_a_double_pick_and_names_no_lone_cloth() -> None:
+    from robot_app.control.clear_table_records import ClearTableSettings
+    from robot_app.control.pick_checks import weight_verdict
+
+    # held-out 1179 (session 40): No.7 (23.1 g) read 29.2 g with No.20 dragged partly along
+    tight = ClearTableSettings(heavy_tolerance=0.15, heavy_floor=0.002)
+    assert weight_verdict(0.0292, 0.0231, "No.7", tight, lift=True)[0] == "double"  # over 28.6 g
+    assert weight_verdict(0.0284, 0.0231, "No.7", tight, lift=True)[0] == "ok"
+    assert (
+        weight_verdict(0.0292, 0.0231, "No.7", tight)[0] == "ok"
+    )  # weights compared, not a lift: 30 % + 3 g
+    assert weight_verdict(0.0292, 0.0231, "No.7", ClearTableSettings(), lift=True)[0] == "ok"  # unset
+    # the light side stays 30 % + 3 g
+    assert weight_verdict(0.0150, 0.0231, "No.7", tight, lift=True)[0] == "ok"
+    assert weight_verdict(0.0130, 0.0231, "No.7", tight, lift=True)[0] == "wrong"
+    # a blind lift so heavy is not that cloth alone, nor a pair it does not weigh
+    weights = {"No.7": 0.0231, "No.2": 0.060}  # No.2: a heavy alike, far from 29 g
+    assert weighed_as(0.0292, "No.7", ("No.2",), weights, tight) == ()
+    assert weighed_as(0.0292, "No.7", ("No.2",), weights, ClearTableSettings()) == ("No.7",)
+    assert weighed_as(0.085, "No.7", ("No.2",), weights, tight) == ("No.7", "No.2")

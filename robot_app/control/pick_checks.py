@@ -140,12 +140,18 @@ def could_be_in(extra: float, weight: float | None, settings: ClearTableSettings
 
 
 def weight_verdict(
-    weighed: float, expected: float, name: str, settings: ClearTableSettings
+    weighed: float, expected: float, name: str, settings: ClearTableSettings, lift: bool = False
 ) -> tuple[str, str]:
     """("ok" | "double" | "wrong", what was read) for `weighed` [kg] lifted where the cloth
-    `name` weighs `expected` [kg] (`weight_tolerance`, `weight_floor`)."""
+    `name` weighs `expected` [kg] (`weight_tolerance`, `weight_floor`; with `lift`, the
+    check of a lift by the wrist's load cell, more than `heavy_tolerance` and `heavy_floor`,
+    where set, is "double")."""
     s = settings
-    if weighed > expected * (1 + s.weight_tolerance) + s.weight_floor:
+    tolerance, floor = s.weight_tolerance, s.weight_floor
+    if lift:
+        tolerance = tolerance if s.heavy_tolerance is None else s.heavy_tolerance
+        floor = floor if s.heavy_floor is None else s.heavy_floor
+    if weighed > expected * (1 + tolerance) + floor:
         return "double", f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g"
     if weighed < expected * (1 - s.weight_tolerance) - s.weight_floor:
         return "wrong", f"{weighed * 1000:.0f} g lifted, {name} weighs {expected * 1000:.0f} g"

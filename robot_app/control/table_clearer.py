@@ -1019,7 +1019,7 @@ class TableClearer:
         verdict, what = "ok", ""
         if self.weigh is not None and expected is not None:
             attempt.weighed = float(self.weigh())
-            verdict, what = weight_verdict(attempt.weighed, expected, name, self.settings)
+            verdict, what = weight_verdict(attempt.weighed, expected, name, self.settings, lift=True)
         heavier = verdict == "double"  # whatever else: more than the meant cloth came up
         dragged: tuple[str, ...] = ()
         regions = 0
@@ -1376,7 +1376,7 @@ class TableClearer:
         up[2] = above[2]
         self.motion.move_tcp(up)
         weighed = float(self.weigh())
-        verdict, again = weight_verdict(weighed, expected, attempt.name, self.settings)
+        verdict, again = weight_verdict(weighed, expected, attempt.name, self.settings, lift=True)
         if verdict != "ok":
             attempt.notes.append(f"double pick ({what}): laid down and lifted again, still {again}")
             return False

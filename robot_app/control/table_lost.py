@@ -317,7 +317,7 @@ def weighed_as(
     together = [n for n in candidates if n not in alone_only]
     for size in range(1, min(most, len(candidates)) + 1):
         for group in combinations(candidates if size == 1 else together, size):
-            verdict, _ = weight_verdict(weighed, sum(weights[n] for n in group), name, settings)
+            verdict, _ = weight_verdict(weighed, sum(weights[n] for n in group), name, settings, lift=True)
             if verdict == "ok":
                 return group
     return ()
@@ -667,7 +667,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         verdict, what = "wrong", f"{name}'s weight unknown: its identity cannot be confirmed"
     else:
         weighed = attempt.weighed = float(job.weigh())
-        verdict, what = weight_verdict(weighed, expected, name, job.settings)
+        verdict, what = weight_verdict(weighed, expected, name, job.settings, lift=True)
         grasp_xy = attempt.transform_target_to_world[:2, 3]
         if verdict == "ok":
             # a cloth of another box of about its weight may hang there instead (held-out
