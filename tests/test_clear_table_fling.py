@@ -57,7 +57,7 @@ def test_the_judge_names_the_fling_in_the_cause_of_a_cloth_not_in_its_box(monkey
     world = SimpleNamespace(boxes=[SimpleNamespace(name="colours"), SimpleNamespace(name="whites")])
     result = SimpleNamespace(cloths=(), attempts=(), unknown=(), interrupted=False)
     where = {"b3": "floor", "b7": "colours"}  # No.3 on the floor, No.7 in its box
-    monkeypatch.setattr(clear_table_judge, "_final_place", lambda w, body: (where[body], 0.0))
+    monkeypatch.setattr(clear_table_judge, "final_place", lambda w, body: (where[body], 0.0))
     flung = {3: Flung(16.1, "put back", 12.0), 7: Flung(20.0, "lift", 6.0)}
     sort, known = SortSettings(default="colours"), {"No.3", "No.7"}
     verdict = clear_table_judge.judge(world, SimpleNamespace(cloths=cloths), result, [], sort, known, flung)  # type: ignore[arg-type]

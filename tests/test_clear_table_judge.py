@@ -4,7 +4,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from robot_app.experiments.clear_table_judge import _final_place
+from robot_app.experiments.clear_table_judge import final_place
 from robot_app.sim.world import BoxGeometry
 
 TOP = 0.70  # table top [m]
@@ -26,7 +26,7 @@ def _grid(centre: np.ndarray, half: float, z: float, n: int = 10) -> np.ndarray:
 def test_a_cloth_heaped_over_the_rim_inside_the_walls_is_in_the_box_and_its_share_over_reported() -> None:
     nodes = _grid(BOX.centre, 0.09, TOP + 0.06)
     nodes[:12, 2] = TOP + 0.12  # a fold standing 2 cm over the 10 cm walls
-    place, over = _final_place(WORLD, _cloth(nodes))  # type: ignore[arg-type]
+    place, over = final_place(WORLD, _cloth(nodes))  # type: ignore[arg-type]
     assert place == "colours"
     assert abs(over - 0.12) < 1e-9
     assert float(np.mean(BOX.contains(nodes))) < 0.9  # what the rim-high rule counted as partly in
@@ -34,17 +34,17 @@ def test_a_cloth_heaped_over_the_rim_inside_the_walls_is_in_the_box_and_its_shar
 
 def test_a_cloth_hanging_over_a_wall_is_partly_in() -> None:
     nodes = _grid(BOX.centre + np.array([0.05, 0.0, 0.0]), 0.09, TOP + 0.05)  # a fifth over the wall
-    place, over = _final_place(WORLD, _cloth(nodes))  # type: ignore[arg-type]
+    place, over = final_place(WORLD, _cloth(nodes))  # type: ignore[arg-type]
     assert place == "partly in colours" and over == 0.0
 
 
 def test_the_other_box_the_table_the_floor_and_the_hand() -> None:
-    assert _final_place(WORLD, _cloth(_grid(OTHER.centre, 0.08, TOP + 0.01)))[0] == "whites"  # type: ignore[arg-type]
+    assert final_place(WORLD, _cloth(_grid(OTHER.centre, 0.08, TOP + 0.01)))[0] == "whites"  # type: ignore[arg-type]
     table = _grid(np.array([0.5, 0.0]), 0.1, TOP + 0.008)
-    assert _final_place(WORLD, _cloth(table))[0] == "table"  # type: ignore[arg-type]
-    assert _final_place(WORLD, _cloth(table - [0, 0, 0.7]))[0] == "floor"  # type: ignore[arg-type]
+    assert final_place(WORLD, _cloth(table))[0] == "table"  # type: ignore[arg-type]
+    assert final_place(WORLD, _cloth(table - [0, 0, 0.7]))[0] == "floor"  # type: ignore[arg-type]
     held = _grid(BOX.centre, 0.05, TOP + 0.3)  # hanging from the fingers over the box
-    assert _final_place(WORLD, _cloth(held, grasped=True)) == ("in the hand", 0.0)  # type: ignore[arg-type]
+    assert final_place(WORLD, _cloth(held, grasped=True)) == ("in the hand", 0.0)  # type: ignore[arg-type]
 
 
 def test_a_drag_noticed_by_the_next_survey_counts_apart_from_the_lift_checks(monkeypatch) -> None:
@@ -53,7 +53,7 @@ def test_a_drag_noticed_by_the_next_survey_counts_apart_from_the_lift_checks(mon
     from robot_app.experiments.clear_table_faults import LiftTruth
 
     cloths = [SimpleNamespace(number=8, body="b8"), SimpleNamespace(number=18, body="b18")]
-    monkeypatch.setattr(clear_table_judge, "_final_place", lambda w, body: ("colours", 0.0))
+    monkeypatch.setattr(clear_table_judge, "final_place", lambda w, body: ("colours", 0.0))
     first = SimpleNamespace(start_time=0.0, end_time=10.0, not_meant_alone=False)
     second = SimpleNamespace(start_time=11.0, end_time=20.0, not_meant_alone=False)
     lifts = [

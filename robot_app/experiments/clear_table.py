@@ -22,7 +22,8 @@ from pydantic import Field, model_validator
 
 from robot_app.arrays import FloatArray
 from robot_app.config import SettingValueError, StrictModel
-from robot_app.control.box_check import BoxCheckSettings
+from robot_app.control.box_check import BoxCheckSettings, look_tcp
+from robot_app.control.box_contents import contents_top
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
@@ -31,9 +32,10 @@ from robot_app.control.clear_table_records import (
     TableResult,
 )
 from robot_app.control.episode import PhaseRecord
+from robot_app.control.intercept import hanging_reach
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits, TrajectorySettings
-from robot_app.control.pick_place import LoopSettings
+from robot_app.control.pick_place import LoopSettings, carry_over_box, release_into_box
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings, cloth_name
 from robot_app.control.table_clearer import TableClearer
@@ -45,7 +47,7 @@ from robot_app.experiments.clear_table_faults import (
     ScaleSettings,
     WristScale,
 )
-from robot_app.experiments.clear_table_judge import TableVerdict, judge
+from robot_app.experiments.clear_table_judge import TableVerdict, final_place, judge
 from robot_app.experiments.clear_table_views import TableViews
 from robot_app.experiments.recording import require_rerun
 from robot_app.geometry import invert_transform, transform_points
@@ -53,7 +55,7 @@ from robot_app.outputs import atomic_path
 from robot_app.sim import ModelStation, SimCell, World, WorldConfig, cloth_spec
 from robot_app.sim.cameras import RIGHT_FRAME, segmentation
 from robot_app.sim.config import CATALOGUE_SIZE
-from robot_app.sim.pile import Pile, PileSettings, make_pile
+from robot_app.sim.pile import Pile, PileCloth, PileSettings, make_pile
 from robot_app.vision import ClothModel, ModelSettings, RecognitionSettings, Recognizer, make_model
 from robot_app.vision.identify import Identification, IdentifySettings
 
@@ -376,6 +378,132 @@ def first_survey(config: ClearTableConfig) -> FirstSurvey:
         )
 
 
+@dataclass(frozen=True)
+class ReleasedCloth:
+    """One cloth of a release trial (`release_trial`).
+
+    Attributes:
+        name: the cloth.
+        reach: how far it hung below the fingers (`intercept.hanging_reach` from where it
+            was held) [m].
+        off_centre: the grasp point's distance from its nodes' centroid on the table [m].
+        heap: the top of what lay in the box before its release, as the box check measured
+            it (`box_contents.contents_top`; the release takes it for the floor) [m].
+        place: where it lay after the last release (`clear_table_judge.final_place`).
+        over_rim: share of its nodes heaped over the box's rim.
+        outside: share of its nodes outside the box's walls (10 % or more: partly in).
+        release_s: simulated time of its release (lowering, letting go, the wait) [s].
+    """
+
+    name: str
+    reach: float
+    off_centre: float
+    heap: float
+    place: str
+    over_rim: float
+    outside: float
+    release_s: float
+
+
+APART = 0.03  # a release trial's grasp point lies this far from every cloth not yet picked [m]
+
+
+def release_trial(config: ClearTableConfig, box: str, edge: float = 1.0) -> tuple[ReleasedCloth, ...]:
+    """Builds the episode's pile and cell as `run_clear_table` does, then picks its cloths
+    one by one (the last dropped first) at a node drawn with `config.seed` and lays each
+    into `box` with the job's own transfer, release and heap measure (`carry_over_box`,
+    `release_into_box`, the box check's `contents_top`); where every cloth lies is judged
+    after the last release (`scripts/bench_release.py`). The node is drawn among the
+    cloth's nodes at least `APART` from every other cloth still on the table (all of them
+    where none is), and of those among the share `edge` farthest from its centroid (1: any;
+    0.1: near its edge, where it hangs longest). No recognition: the grasp point is the
+    simulator's node, so what is measured is the release alone; the robot knows the pile's
+    cloths only.
+
+    Raises:
+        ConfigError: `box` is none of the cell's boxes, or `edge` not in (0, 1].
+    """
+    if not 0.0 < edge <= 1.0:
+        raise ConfigError(f"edge must be in (0, 1], got {edge}")
+    rng = np.random.default_rng((config.seed, 41))
+    with World(config.world) as world:
+        pile = make_pile(world, config.pile, seed=config.seed)
+        numbers = [c.number for c in pile.cloths]
+        config = ClearTableConfig.model_validate({**config.model_dump(), "known": numbers})
+        models = {cloth_name(n): _model(config.world, config.model, n) for n in numbers}
+        cell = SimCell(world, grasp_radius=config.grasp_radius)
+        settings = _recognition_settings(config)
+        recognizers = {name: Recognizer(model, world.stereo.rig, settings) for name, model in models.items()}
+        limits = JointLimits.from_urdf(config.world.robot.urdf, config.trajectory)
+        clearer = _clearer(
+            config, world, cell, recognizers, limits, WristScale(cell, config.scale, config.seed)
+        )
+        if box not in clearer.boxes:
+            raise ConfigError(f"no box {box!r} in the cell (boxes: {', '.join(clearer.boxes)})")
+        place, motion, loop, top = (
+            clearer.boxes[box],
+            clearer.motion,
+            clearer.loop_settings,
+            world.config.table.top_z,
+        )
+        world.robot.reset_joints(clearer.observation_joints)
+        heap, held = 0.0, []
+        for cloth in reversed(pile.cloths):
+            name = cloth_name(cloth.number)
+            point = _trial_grasp(cloth, list(pile.cloths[: cloth.order]), edge, rng)
+            nodes = cloth.body.nodes()
+            grasp_model = transform_points(invert_transform(cloth.body.pose()), point[None])[0]
+            motion.move_tcp([point[0], point[1], point[2] + loop.pregrasp_height])
+            motion.move_tcp([point[0], point[1], point[2] + loop.grasp_height], speed=0.5)
+            clearer.cell.set_gripper(0.0)
+            motion.hold(loop.close_time)
+            clearer.cell.grasp()
+            motion.move_tcp([point[0], point[1], top + loop.lift_height])
+            carry_over_box(motion, place.centre, top, loop)
+            reach = hanging_reach(models[name].points_in, grasp_model)
+            start = world.time
+            release_into_box(motion, clearer.cell, place.centre, top, loop, reach, heap)
+            released = world.time - start
+            motion.move_tcp(look_tcp(place.centre, clearer.settings.box_view_height, clearer.camera_offset()))
+            before = heap
+            capture = clearer.cell.capture()
+            depth = recognizers[name].settings.depth
+            heap = contents_top(capture, clearer.rig, place, models[name], depth, clearer.settings.surface)
+            off = float(np.hypot(*(point[:2] - nodes[:, :2].mean(axis=0))))
+            held.append((cloth, name, reach, off, before, released))
+            motion.move_to_joints(clearer.observation_joints)
+        motion.hold(2.0)
+        walls = next(b for b in world.boxes if b.name == box)
+        return tuple(
+            ReleasedCloth(
+                name,
+                reach,
+                off,
+                before,
+                *final_place(world, cloth.body),
+                1.0 - float(np.mean(walls.over_floor(cloth.body.nodes()))),
+                released,
+            )
+            for cloth, name, reach, off, before, released in held
+        )
+
+
+def _trial_grasp(
+    cloth: PileCloth, others: list[PileCloth], edge: float, rng: np.random.Generator
+) -> FloatArray:
+    """A node of `cloth` for `release_trial`: at least `APART` from `others`' nodes (any,
+    where none is), among the share `edge` of those farthest from its centroid."""
+    nodes = cloth.body.nodes()
+    free = np.ones(len(nodes), dtype=bool)
+    for other in others:
+        near = other.body.nodes()[:, :2]
+        free &= np.min(np.linalg.norm(nodes[:, None, :2] - near[None], axis=2), axis=1) > APART
+    choice = np.flatnonzero(free) if free.any() else np.arange(len(nodes))
+    far = np.linalg.norm(nodes[choice, :2] - nodes[:, :2].mean(axis=0), axis=1)
+    keep = max(1, round(edge * len(choice)))
+    return nodes[choice[np.argsort(-far)[:keep]][int(rng.integers(keep))]].copy()
+
+
 def _visible(world: World, pile: Pile) -> dict[str, float]:
     """Per pile cloth, its truly seen pixels in the right camera over its flat outline's."""
     camera, pose = world.stereo.true_rig.right, world.robot.frame_pose(RIGHT_FRAME)
@@ -422,4 +550,12 @@ def _model(world: WorldConfig, settings: ModelSettings, number: int) -> ClothMod
     return _cached_model(world.model_dump_json(), settings.model_dump_json(), number)
 
 
-__all__ = ["ClearTableConfig", "ClearTableEpisode", "FirstSurvey", "first_survey", "run_clear_table"]
+__all__ = [
+    "ClearTableConfig",
+    "ClearTableEpisode",
+    "FirstSurvey",
+    "ReleasedCloth",
+    "first_survey",
+    "release_trial",
+    "run_clear_table",
+]

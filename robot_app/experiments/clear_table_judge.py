@@ -2,7 +2,7 @@
 
 A known cloth is right when at least `SUCCESS_FRACTION` of its nodes lie inside the walls of
 the box the sort rule gives it (at any height: a heap over the rim is the simulated cloth's
-thickness, `_final_place`); a cloth the robot has no model of is right where it was, on the
+thickness, `final_place`); a cloth the robot has no model of is right where it was, on the
 table. The verdict also holds what the robot should have noticed and did or did not:
 lifts that took two cloths (or the wrong one) and transfers that lost their cloth
 (`PickWitness`), and, for an episode not cleared, its cause in words; a cloth not where it
@@ -108,7 +108,7 @@ def judge(
         name = cloth_name(cloth.number)
         is_known = name in known
         expected = sort.box_for(name) if is_known else TABLE
-        final, over_rim = _final_place(world, cloth.body)
+        final, over_rim = final_place(world, cloth.body)
         problem = (
             "" if final == expected else _problem(name, is_known, expected, final, records.get(name), result)
         )
@@ -167,7 +167,7 @@ def _box_names(world: World) -> set[str]:
     return {box.name for box in world.boxes}
 
 
-def _final_place(world: World, body: ClothBody) -> tuple[str, float]:
+def final_place(world: World, body: ClothBody) -> tuple[str, float]:
     """Where the cloth lies, and the share of its nodes heaped over that box's rim.
 
     A cloth lies in a box when `SUCCESS_FRACTION` of its nodes are inside the box's walls, at
@@ -209,4 +209,4 @@ def _problem(
     return f"{name} ended in {final}, belongs in {expected}{last}"
 
 
-__all__ = ["ClothVerdict", "TableVerdict", "judge"]
+__all__ = ["ClothVerdict", "TableVerdict", "final_place", "judge"]
