@@ -1019,6 +1019,7 @@ def test_a_blind_lift_whose_weight_is_nearer_a_doubted_cloth_of_another_box_is_n
     job = SimpleNamespace(
         weights={"No.6": 0.022, "No.19": 0.020, "No.2": 0.027, "No.18": 0.0205},
         sort=SimpleNamespace(box_for=lambda n: "whites" if n in ("No.6", "No.18") else "colours"),
+        settings=ClearTableSettings(),
     )
     doubted = ("No.2", "No.19", "No.18")
     assert _weighs_more_like(job, "No.6", doubted, 0.0167, "whites") == "No.19"  # type: ignore[arg-type]
@@ -1030,14 +1031,36 @@ def test_a_blind_lift_whose_weight_is_nearer_a_doubted_cloth_of_another_box_is_n
     from robot_app.control.colour_fit import ColourFit
     from robot_app.control.held_look import HeldColours
 
-    job.settings = ClearTableSettings()  # type: ignore[attr-defined]
-
     def seen(meant: float, other: float) -> HeldColours:
         fits = {n: ColourFit(other, 1.0) for n in doubted}
         return HeldColours(9000, 0.9, dict.fromkeys(doubted, 0.0), ColourFit(meant, 1.0), fits)
 
     assert _weighs_more_like(job, "No.6", doubted, 0.0167, "whites", seen(0.72, 0.49)) == "No.19"  # type: ignore[arg-type]
     assert _weighs_more_like(job, "No.6", doubted, 0.0167, "whites", seen(0.97, 0.0)) == ""  # type: ignore[arg-type]
+
+
+def test_the_scale_overrules_a_blind_lifts_colours_only_by_more_than_its_own_error() -> None:
+    # held-out 1244 (session 41): No.18 (whites, 20.8 g) read 19.4 g and showed its colours
+    # (fit 0.99, No.19's 0.70); No.19 (colours, 20.1 g) was nearer by 0.7 g, within the
+    # scale's error (2 g), and No.18 went back at its last attempt
+    from robot_app.control.colour_fit import ColourFit
+    from robot_app.control.held_look import HeldColours
+    from robot_app.control.table_lost import _weighs_more_like
+
+    job = SimpleNamespace(
+        weights={"No.18": 0.0208, "No.19": 0.0201},
+        sort=SimpleNamespace(box_for=lambda n: "whites" if n == "No.18" else "colours"),
+        settings=ClearTableSettings(),
+    )
+    seen = HeldColours(21731, 0.99, {"No.19": 0.0}, ColourFit(0.99, 1.0), {"No.19": ColourFit(0.70, 1.0)})
+    assert _weighs_more_like(job, "No.18", ("No.19",), 0.0194, "whites", seen) == ""  # type: ignore[arg-type]
+    # weights 0.7 g apart: no reading tells them apart
+    assert _weighs_more_like(job, "No.18", ("No.19",), 0.0150, "whites", seen) == ""  # type: ignore[arg-type]
+    job.weights["No.19"] = 0.0170  # a lighter No.19: the 15.0 g reading lies 2.0 g nearer it
+    assert _weighs_more_like(job, "No.18", ("No.19",), 0.0150, "whites", seen) == "No.19"  # type: ignore[arg-type]
+    job.settings = ClearTableSettings(nearer_margin=0.0)  # without the margin, 0.7 g decided
+    job.weights["No.19"] = 0.0201
+    assert _weighs_more_like(job, "No.18", ("No.19",), 0.0194, "whites", seen) == "No.19"  # type: ignore[arg-type]
 
 
 def test_after_looks_that_found_nothing_the_lost_cloth_is_sought_from_the_observation_pose(
