@@ -1,13 +1,14 @@
 """Do released cloths land inside their box? Lays piles and puts all of each into one box.
 
     python scripts/bench_release.py [--seeds 1 2 3] [--count 3 4] [--box colours] [--edge 0.1]
-                                    [--workers 2] [--set key=value ...]
+                                    [--pairs] [--workers 2] [--set key=value ...]
 
 Each seed lays a pile as the clear-table job does (configs/clear_table.yaml's world and pile
 settings, `--count` cloths), then `experiments.clear_table.release_trial` picks its cloths
 one after another at a node drawn anywhere on them clear of the others (`--edge 0.1`: among
 the tenth farthest from the cloth's centre; there a cloth hangs up to twice as long as from
-its middle), and lays each into `--box` with the
+its middle; `--pairs`: where it lies on another, so that the fingers hold both, a double
+pick that goes into the box as one load), and lays each into `--box` with the
 job's own transfer and release, the box check measuring the heap before each next release.
 After the last release every cloth is judged as the bench judges it: in the box (90 % of
 its nodes inside the walls), partly in, table or floor. No recognition and no grasp
@@ -41,12 +42,12 @@ def one_seed(
     job: tuple[int, tuple[int, int], str, str, tuple[str, ...]],
 ) -> tuple[int, str, tuple[ReleasedCloth, ...]]:
     """The trial of one seed (run in a fresh process): the seed, a note, the cloths."""
-    seed, count, config_path, box, edge, settings = job
+    seed, count, config_path, box, edge, pairs, settings = job
     overrides = [f"seed={seed}", f"pile.count=[{count[0]},{count[1]}]", *settings]
     config = load_config(ClearTableConfig, Path(config_path), overrides)
     start = time.perf_counter()
     try:
-        cloths = release_trial(config, box, edge)
+        cloths = release_trial(config, box, edge, pairs)
     except SimulationError as err:
         return seed, f"no trial: {err}", ()
     return seed, f"{time.perf_counter() - start:.0f} s wall", cloths
@@ -59,6 +60,9 @@ def main() -> None:
     parser.add_argument("--box", default="colours", help="the box every cloth goes into")
     parser.add_argument(
         "--edge", type=float, default=1.0, help="grasp among this share of nodes farthest from the centre"
+    )
+    parser.add_argument(
+        "--pairs", action="store_true", help="grasp where a cloth lies on another: both lifted"
     )
     parser.add_argument("--config", default=str(DEFAULT_CONFIG))
     parser.add_argument("--workers", type=int, default=1, help="processes (each seed in a fresh one)")
@@ -83,6 +87,7 @@ def main() -> None:
     by_order: dict[int, list[str]] = {}
     times: list[float] = []
     outside: list[float] = []
+    along: list[bool] = []
     with fresh_process_pool(args.workers) as pool:  # each seed the first world of its process: repeatable
         for seed, note, cloths in pool.imap(one_seed, jobs):
             print(f"seed {seed}: {note}", flush=True)
@@ -90,9 +95,11 @@ def main() -> None:
                 by_order.setdefault(k, []).append(c.place)
                 times.append(c.release_s)
                 outside.append(c.outside)
+                along.append(c.came_along)
                 rim = f" ({c.over_rim:.0%} over the rim)" if c.over_rim > 0 else ""
+                tag = " (came along)" if c.came_along else ""
                 print(
-                    f"  {k + 1}. {c.name}: {c.place}{rim}, {c.outside:.0%} outside the walls; "
+                    f"  {k + 1}. {c.name}{tag}: {c.place}{rim}, {c.outside:.0%} outside the walls; "
                     f"hung {c.reach * 1000:.0f} mm, "
                     f"held {c.off_centre * 1000:.0f} mm off its centre, heap {c.heap * 1000:.0f} mm, "
                     f"release {c.release_s:.2f} s",
@@ -100,7 +107,10 @@ def main() -> None:
                 )
     placed = [p for places in by_order.values() for p in places]
     shown = " ".join(args.set) or "config"
-    print(f"settings: {shown}; box {args.box}; grasps among the {args.edge:.0%} of nodes farthest out")
+    where = "on another cloth" if args.pairs else "clear of the others"
+    print(
+        f"settings: {shown}; box {args.box}; grasps {where}, among the {args.edge:.0%} of nodes farthest out"
+    )
     for k, places in sorted(by_order.items()):
         inside = sum(p == args.box for p in places)
         partly = sum(p.startswith("partly in") for p in places)
@@ -111,7 +121,7 @@ def main() -> None:
     print(
         f"in the box {inside} of {len(placed)}, partly in {partly}, elsewhere {elsewhere}; "
         f"nodes outside the walls: mean {float(np.mean(outside)) if outside else 0.0:.1%}, "
-        f"cloths with any {sum(o > 0 for o in outside)}; "
+        f"cloths with any {sum(o > 0 for o in outside)}; came along {sum(along)}; "
         f"median release {float(np.median(times)) if times else float('nan'):.2f} s"
     )
 

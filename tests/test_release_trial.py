@@ -12,7 +12,7 @@ import pytest
 
 from robot_app.config import load_config
 from robot_app.errors import ConfigError
-from robot_app.experiments.clear_table import APART, ClearTableConfig, _trial_grasp, release_trial
+from robot_app.experiments.clear_table import APART, TOGETHER, ClearTableConfig, _trial_grasp, release_trial
 
 CONFIG = "configs/clear_table.yaml"
 
@@ -47,6 +47,15 @@ def test_grasp_keeps_clear_of_the_cloths_still_on_the_table_and_near_the_edge() 
         assert np.linalg.norm(point[:2] - centre) > 0.8 * radius  # out at the edge
     anywhere = {tuple(_trial_grasp(cloth, [], 1.0, rng)) for _ in range(200)}  # type: ignore[arg-type]
     assert min(p[0] for p in anywhere) < 0.05 and max(p[0] for p in anywhere) > 0.15
+
+
+def test_a_pair_grasp_lies_where_the_cloth_lies_on_another() -> None:
+    cloth = _Cloth(_Body(_grid(0.0, 0.2, 0.0, 0.2)))
+    other = _Cloth(_Body(_grid(0.15, 0.35, 0.0, 0.2)))
+    rng = np.random.default_rng(2)
+    for _ in range(20):
+        point = _trial_grasp(cloth, [other], 1.0, rng, together=True)  # type: ignore[arg-type]
+        assert np.min(np.linalg.norm(other.body.points[:, :2] - point[:2], axis=1)) <= TOGETHER
 
 
 def test_grasp_falls_back_to_any_node_where_every_one_is_covered() -> None:

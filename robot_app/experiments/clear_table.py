@@ -393,6 +393,8 @@ class ReleasedCloth:
         over_rim: share of its nodes heaped over the box's rim.
         outside: share of its nodes outside the box's walls (10 % or more: partly in).
         release_s: simulated time of its release (lowering, letting go, the wait) [s].
+        came_along: it went into the box with another cloth, held with it (`reach`: the
+            extra the job counted for it).
     """
 
     name: str
@@ -403,12 +405,16 @@ class ReleasedCloth:
     over_rim: float
     outside: float
     release_s: float
+    came_along: bool = False
 
 
-APART = 0.03  # a release trial's grasp point lies this far from every cloth not yet picked [m]
+APART = 0.045  # a release trial's grasp lies this far from every cloth still lying (grasp radius + 1 cm) [m]
+TOGETHER = 0.008  # ... or, for a double pick, this near one (the grasp radius holds both) [m]
 
 
-def release_trial(config: ClearTableConfig, box: str, edge: float = 1.0) -> tuple[ReleasedCloth, ...]:
+def release_trial(
+    config: ClearTableConfig, box: str, edge: float = 1.0, pairs: bool = False
+) -> tuple[ReleasedCloth, ...]:
     """Builds the episode's pile and cell as `run_clear_table` does, then picks its cloths
     one by one (the last dropped first) at a node drawn with `config.seed` and lays each
     into `box` with the job's own transfer, release and heap measure (`carry_over_box`,
@@ -416,9 +422,12 @@ def release_trial(config: ClearTableConfig, box: str, edge: float = 1.0) -> tupl
     after the last release (`scripts/bench_release.py`). The node is drawn among the
     cloth's nodes at least `APART` from every other cloth still on the table (all of them
     where none is), and of those among the share `edge` farthest from its centroid (1: any;
-    0.1: near its edge, where it hangs longest). No recognition: the grasp point is the
-    simulator's node, so what is measured is the release alone; the robot knows the pile's
-    cloths only.
+    0.1: near its edge, where it hangs longest). With `pairs`, among its nodes within
+    `TOGETHER` of another cloth still on the table instead, where there are such: the
+    fingers then hold both (a double pick), which go into the box as one load, its other
+    cloths' hanging reach counted as the job counts it (`TableClearer.hanging_reach`, from
+    their photo model's grasp point). No recognition: the grasp point is the simulator's
+    node, so what is measured is the release alone; the robot knows the pile's cloths only.
 
     Raises:
         ConfigError: `box` is none of the cell's boxes, or `edge` not in (0, 1].
@@ -435,22 +444,21 @@ def release_trial(config: ClearTableConfig, box: str, edge: float = 1.0) -> tupl
         settings = _recognition_settings(config)
         recognizers = {name: Recognizer(model, world.stereo.rig, settings) for name, model in models.items()}
         limits = JointLimits.from_urdf(config.world.robot.urdf, config.trajectory)
-        clearer = _clearer(
-            config, world, cell, recognizers, limits, WristScale(cell, config.scale, config.seed)
-        )
+        scale = WristScale(cell, config.scale, config.seed)
+        clearer = _clearer(config, world, cell, recognizers, limits, scale)
         if box not in clearer.boxes:
             raise ConfigError(f"no box {box!r} in the cell (boxes: {', '.join(clearer.boxes)})")
-        place, motion, loop, top = (
-            clearer.boxes[box],
-            clearer.motion,
-            clearer.loop_settings,
-            world.config.table.top_z,
-        )
+        place, motion, loop = clearer.boxes[box], clearer.motion, clearer.loop_settings
+        top = world.config.table.top_z
         world.robot.reset_joints(clearer.observation_joints)
-        heap, held = 0.0, []
+        heap = 0.0
+        held: list[tuple[PileCloth, str, float, float, float, float, bool]] = []
         for cloth in reversed(pile.cloths):
+            if any(cloth is h[0] for h in held):
+                continue  # went into the box with another
             name = cloth_name(cloth.number)
-            point = _trial_grasp(cloth, list(pile.cloths[: cloth.order]), edge, rng)
+            lying = [c for c in pile.cloths[: cloth.order] if not any(c is h[0] for h in held)]
+            point = _trial_grasp(cloth, lying, edge, rng, together=pairs)
             nodes = cloth.body.nodes()
             grasp_model = transform_points(invert_transform(cloth.body.pose()), point[None])[0]
             motion.move_tcp([point[0], point[1], point[2] + loop.pregrasp_height])
@@ -458,11 +466,13 @@ def release_trial(config: ClearTableConfig, box: str, edge: float = 1.0) -> tupl
             clearer.cell.set_gripper(0.0)
             motion.hold(loop.close_time)
             clearer.cell.grasp()
+            along = [c for c in lying if c.body.is_grasped]
+            extra = max((clearer.hanging_reach(cloth_name(c.number)) for c in along), default=0.0)
             motion.move_tcp([point[0], point[1], top + loop.lift_height])
-            carry_over_box(motion, place.centre, top, loop)
+            carry_over_box(motion, place.centre, top, loop, extra, motion.tcp_position())
             reach = hanging_reach(models[name].points_in, grasp_model)
             start = world.time
-            release_into_box(motion, clearer.cell, place.centre, top, loop, reach, heap)
+            release_into_box(motion, clearer.cell, place.centre, top, loop, reach + extra, heap)
             released = world.time - start
             motion.move_tcp(look_tcp(place.centre, clearer.settings.box_view_height, clearer.camera_offset()))
             before = heap
@@ -470,7 +480,8 @@ def release_trial(config: ClearTableConfig, box: str, edge: float = 1.0) -> tupl
             depth = recognizers[name].settings.depth
             heap = contents_top(capture, clearer.rig, place, models[name], depth, clearer.settings.surface)
             off = float(np.hypot(*(point[:2] - nodes[:, :2].mean(axis=0))))
-            held.append((cloth, name, reach, off, before, released))
+            held.append((cloth, name, reach, off, before, released, False))
+            held += [(c, cloth_name(c.number), extra, off, before, released, True) for c in along]
             motion.move_to_joints(clearer.observation_joints)
         motion.hold(2.0)
         walls = next(b for b in world.boxes if b.name == box)
@@ -483,22 +494,25 @@ def release_trial(config: ClearTableConfig, box: str, edge: float = 1.0) -> tupl
                 *final_place(world, cloth.body),
                 1.0 - float(np.mean(walls.over_floor(cloth.body.nodes()))),
                 released,
+                came_along,
             )
-            for cloth, name, reach, off, before, released in held
+            for cloth, name, reach, off, before, released, came_along in held
         )
 
 
 def _trial_grasp(
-    cloth: PileCloth, others: list[PileCloth], edge: float, rng: np.random.Generator
+    cloth: PileCloth, others: list[PileCloth], edge: float, rng: np.random.Generator, together: bool = False
 ) -> FloatArray:
-    """A node of `cloth` for `release_trial`: at least `APART` from `others`' nodes (any,
-    where none is), among the share `edge` of those farthest from its centroid."""
+    """A node of `cloth` for `release_trial`: at least `APART` from `others`' nodes (with
+    `together`: within `TOGETHER` of them), any where none is, among the share `edge` of
+    those farthest from its centroid."""
     nodes = cloth.body.nodes()
-    free = np.ones(len(nodes), dtype=bool)
+    gap = np.full(len(nodes), np.inf)
     for other in others:
         near = other.body.nodes()[:, :2]
-        free &= np.min(np.linalg.norm(nodes[:, None, :2] - near[None], axis=2), axis=1) > APART
-    choice = np.flatnonzero(free) if free.any() else np.arange(len(nodes))
+        gap = np.minimum(gap, np.min(np.linalg.norm(nodes[:, None, :2] - near[None], axis=2), axis=1))
+    wanted = gap <= TOGETHER if together else gap > APART
+    choice = np.flatnonzero(wanted) if wanted.any() else np.arange(len(nodes))
     far = np.linalg.norm(nodes[choice, :2] - nodes[:, :2].mean(axis=0), axis=1)
     keep = max(1, round(edge * len(choice)))
     return nodes[choice[np.argsort(-far)[:keep]][int(rng.integers(keep))]].copy()
