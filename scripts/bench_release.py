@@ -82,7 +82,8 @@ def main() -> None:
     if args.box not in boxes:
         sys.exit(f"bench_release: no box {args.box!r} in the cell (boxes: {', '.join(boxes)})")
     jobs = [
-        (seed, tuple(args.count), args.config, args.box, args.edge, tuple(args.set)) for seed in args.seeds
+        (seed, tuple(args.count), args.config, args.box, args.edge, args.pairs, tuple(args.set))
+        for seed in args.seeds
     ]
     by_order: dict[int, list[str]] = {}
     times: list[float] = []
