@@ -423,10 +423,11 @@ def release_trial(
     cloth's nodes at least `APART` from every other cloth still on the table (all of them
     where none is), and of those among the share `edge` farthest from its centroid (1: any;
     0.1: near its edge, where it hangs longest). With `pairs`, among its nodes within
-    `TOGETHER` of another cloth still on the table instead, where there are such: the
-    fingers then hold both (a double pick), which go into the box as one load, its other
-    cloths' hanging reach counted as the job counts it (`TableClearer.hanging_reach`, from
-    their photo model's grasp point). No recognition: the grasp point is the simulator's
+    `TOGETHER` of another cloth still on the table instead, where there are such, and the
+    nearest such cloth is anchored too where the fingers did not take it (`_catch_nearest`):
+    a double pick, which goes into the box as one load, its other cloths' hanging reach
+    counted as the job counts it (`TableClearer.hanging_reach`, from their photo model's
+    grasp point). No recognition: the grasp point is the simulator's
     node, so what is measured is the release alone; the robot knows the pile's cloths only.
 
     Raises:
@@ -466,6 +467,8 @@ def release_trial(
             clearer.cell.set_gripper(0.0)
             motion.hold(loop.close_time)
             clearer.cell.grasp()
+            if pairs and lying and not any(c.body.is_grasped for c in lying):
+                _catch_nearest(world, lying)
             along = [c for c in lying if c.body.is_grasped]
             extra = max((clearer.hanging_reach(cloth_name(c.number)) for c in along), default=0.0)
             motion.move_tcp([point[0], point[1], top + loop.lift_height])
@@ -498,6 +501,16 @@ def release_trial(
             )
             for cloth, name, reach, off, before, released, came_along in held
         )
+
+
+def _catch_nearest(world: World, lying: list[PileCloth]) -> None:
+    """Anchors the nodes of the cloth of `lying` nearest the fingers, as the bench's injected
+    double pick does (`PickWitness._catch_another`): the fingers' own grasp radius takes a
+    cloth lying a layer under the held one only where the two are pressed together."""
+    tcp = world.robot.frame_pose("tcp")[:3, 3]
+    gaps = [float(np.min(np.linalg.norm(c.body.nodes() - tcp, axis=1))) for c in lying]
+    k = int(np.argmin(gaps))
+    lying[k].body.grasp(world.robot, radius=gaps[k] + 0.02)
 
 
 def _trial_grasp(
