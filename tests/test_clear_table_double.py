@@ -378,6 +378,27 @@ def test_a_cloth_of_another_box_seen_hanging_withdraws_the_name_from_under(
         _assert_under_named(attempt, put_back, named, "another box")
 
 
+def test_a_look_at_what_hangs_that_saw_too_little_withdraws_the_name_from_under(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # held-out 1259 (session 41): a pair named "under" was placed after a look of 270 px
+    from robot_app.control.held_look import HeldColours
+
+    for pixels, named in ((5000, True), (270, False)):
+        put_back: list[str] = []
+        job = _under_job_with_a_white(monkeypatch, put_back)
+        monkeypatch.setattr(
+            table_clearer,
+            "look_at_held",
+            lambda job, meant, others, looks=1, along=(), pixels=pixels: (
+                HeldColours(pixels, 0.8, dict.fromkeys(others, 0.0)),
+                "aside",
+            ),
+        )
+        attempt = _lift_under(monkeypatch, job, ("No.11",))
+        _assert_under_named(attempt, put_back, named, "too little of what hangs seen")
+
+
 def test_the_cloth_it_lay_on_seen_in_its_place_from_the_look_is_not_named(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -1256,7 +1256,9 @@ class TableClearer:
         (`held_look`, two looks): ("" when none could be there or none shows `doubt_share`
         of the held pixels in its own colours and, from where the hand looked, the `named`
         cloth (one the pick's survey saw; not one named from memory) is not found where the
-        survey saw it, else why not; whether the hand moved to look)."""
+        survey saw it, else why not; whether the hand moved to look). A look that saw fewer
+        than `held_look.min_pixels` held pixels rules nothing out (as `held_verdict`): held-out
+        1259 (session 41) placed a pair after a look of 270 px."""
         s = self.settings
         box = attempt.box.name
         rivals = self._not_placed(
@@ -1268,6 +1270,8 @@ class TableClearer:
         seen, where = look_at_held(self, attempt.name, rivals, looks=2, along=(named,))
         if seen is None:
             return f"no look at what hangs ({where})", bool(where)
+        if seen.pixels < s.held_look.min_pixels:  # too little seen to rule a rival out (held-out 1259)
+            return f"too little of what hangs seen against free table ({seen.pixels} px; {where})", True
         showing = [f"{n}'s own {seen.own[n]:.0%}" for n in rivals if seen.own[n] >= s.held_look.doubt_share]
         if showing:
             return (
