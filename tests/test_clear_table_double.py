@@ -399,6 +399,36 @@ def test_a_look_at_what_hangs_that_saw_too_little_withdraws_the_name_from_under(
         _assert_under_named(attempt, put_back, named, "too little of what hangs seen")
 
 
+def test_a_never_seen_cloth_no_look_can_tell_beside_the_lift_withdraws_the_name_from_under(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # held-out 1283 (session 41): No.17 (white towel, whites, never identified) lay beside
+    # No.7 as an unknown region and came up with it; named No.4 "under", into colours
+    for beside, hidden, named in ((True, True, False), (False, True, True), (True, False, True)):
+        put_back: list[str] = []
+        job = _under_job_with_a_white(monkeypatch, put_back)
+        job.ledger.last_seen.pop("No.17", None)  # never seen by a survey
+        monkeypatch.setattr(job, "_regions_touching", lambda attempt, held, b=beside: [object()] if b else [])
+        monkeypatch.setattr(table_clearer, "hidden_in", lambda cloth, holders, h=hidden: h)
+        looked: list[tuple[str, ...]] = []
+        monkeypatch.setattr(table_clearer, "look_at_held", _look_showing(0.0, looked))
+        attempt = _lift_under(monkeypatch, job, ("No.11",))
+        _assert_under_named(attempt, put_back, named, "no look tells its colours")
+        assert looked == ([("No.17",)] if named else [])  # no look where none could tell
+
+
+def test_a_white_cloth_hides_in_a_print_with_white_and_not_in_a_cloth_without() -> None:
+    from robot_app.config import load_config
+    from robot_app.control.held_look import hidden_in
+    from robot_app.experiments.clear_table import ClearTableConfig, _model
+
+    config = load_config(ClearTableConfig, "configs/clear_table.yaml", [])
+    towel, shirt, knit = (_model(config.world, config.model, n) for n in (17, 7, 4))
+    assert hidden_in(towel, [shirt])  # No.7: purple with white
+    assert not hidden_in(towel, [knit])  # No.4: no white among its colours
+    assert not hidden_in(shirt, [towel]) and not hidden_in(towel, [])
+
+
 def test_the_cloth_it_lay_on_seen_in_its_place_from_the_look_is_not_named(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

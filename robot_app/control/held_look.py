@@ -34,6 +34,7 @@ from robot_app.arrays import FloatArray
 from robot_app.config import StrictModel
 from robot_app.control.colour_fit import ColourFit, colour_shares
 from robot_app.errors import IKError
+from robot_app.vision import ClothModel
 from robot_app.vision.identify import codes_and_sheet
 from robot_app.vision.regions import in_palette, main_codes
 
@@ -324,6 +325,19 @@ def palette_masks(
     }
 
 
+def hidden_in(cloth: ClothModel, holders: Sequence[ClothModel]) -> bool:
+    """Is every main colour of `cloth` among the colours of the `holders` (`ALL_COLOURS` of
+    each)? Then a look at what hangs, which counts another cloth only by its own colours
+    (`held_colours`), cannot see it hanging with them: the white towel No.17 and linen
+    No.18 (main colour LIGHT alone) hide in seven prints of colours that have white in
+    them."""
+    mine = main_codes(cloth)
+    if not len(mine) or not holders:
+        return False
+    theirs = np.concatenate([main_codes(model, ALL_COLOURS) for model in holders])
+    return bool(np.all(np.isin(mine, theirs)))
+
+
 def held_verdict(seen: HeldColours, settings: HeldLookSettings) -> tuple[bool, str]:
     """(the lift holds the meant cloth alone as far as its colours tell, what was seen)."""
     if seen.pixels < settings.min_pixels:
@@ -467,6 +481,7 @@ __all__ = [
     "held_colours",
     "held_mask",
     "held_verdict",
+    "hidden_in",
     "hover_offsets",
     "look_at_held",
     "palette_masks",

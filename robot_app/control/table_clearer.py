@@ -56,7 +56,7 @@ from robot_app.control.clear_table_records import (
 from robot_app.control.colour_fit import colour_shares
 from robot_app.control.episode import EpisodeAbortError, EpisodeResult, Outcome, PhaseRecord, VisionCycle
 from robot_app.control.grasp_point import points_in_mask
-from robot_app.control.held_look import look_at_held
+from robot_app.control.held_look import hidden_in, look_at_held
 from robot_app.control.intercept import hanging_reach
 from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
@@ -1258,7 +1258,9 @@ class TableClearer:
         cloth (one the pick's survey saw; not one named from memory) is not found where the
         survey saw it, else why not; whether the hand moved to look). A look that saw fewer
         than `held_look.min_pixels` held pixels rules nothing out (as `held_verdict`): held-out
-        1259 (session 41) placed a pair after a look of 270 px."""
+        1259 (session 41) placed a pair after a look of 270 px. No look is made where it could
+        not tell a never-seen rival beside the lift from the meant and named cloths
+        (`_hidden_beside`)."""
         s = self.settings
         box = attempt.box.name
         rivals = self._not_placed(
@@ -1266,6 +1268,9 @@ class TableClearer:
         )
         if not rivals or not s.held_look.enabled:
             return "", False
+        hidden = self._hidden_beside(attempt, named, rivals)
+        if hidden:
+            return hidden, False
         self._phase = "look at lift"
         seen, where = look_at_held(self, attempt.name, rivals, looks=2, along=(named,))
         if seen is None:
@@ -1282,6 +1287,34 @@ class TableClearer:
             return STILL_IN_PLACE, True  # seen from beside the lift
         attempt.notes.append(f"looked at what hangs: no cloth of another box ({seen.pixels} px; {where})")
         return "", True
+
+    def _hidden_beside(self, attempt: AttemptState, named: str, rivals: list[str]) -> str:
+        """Why no look could rule out the `rivals` (of another box, weighing the extra or
+        less) before `named` goes along with the meant cloth ("" if it could): one of them
+        was never seen by a survey, a cloth nobody identified lay beside the meant one when
+        the pick's survey chose it (`_regions_touching`), and every main colour of that rival
+        is among the meant and named cloths' own (`held_look.hidden_in`): the look counts a
+        cloth only by colours of its own. Held-out 1283 and 1270 (session 41): No.17 (white
+        towel, whites, never identified) came up with No.7 (purple and white), No.2 (white
+        with blue, colours) with No.6 (a white print); each lift was named after the cloth
+        it lay on ("under": No.4, No.18, both still on the table), the looks saw no cloth of
+        another box, and No.17 went into colours, No.2 into whites."""
+        never_seen = [n for n in rivals if n not in self.ledger.last_seen and n not in self.ledger.lost]
+        if not never_seen:
+            return ""
+        held = transform_points(
+            attempt.transform_target_to_world, self.recognizers[attempt.name].model.points_in
+        )[:, :2]
+        if not self._regions_touching(attempt, held):
+            return ""
+        holders = [self.recognizers[n].model for n in (attempt.name, named)]
+        hidden = [n for n in never_seen if hidden_in(self.recognizers[n].model, holders)]
+        if not hidden:
+            return ""
+        return (
+            f"{' or '.join(hidden)} (another box, never seen) may be the unidentified cloth beside "
+            f"{attempt.name}, and no look tells its colours from {attempt.name}'s and {named}'s"
+        )
 
     def _not_placed(self, attempt: AttemptState, keep: Callable[[str, float], bool]) -> list[str]:
         """The cloths other than the meant one, with a model and not placed, that `keep`
@@ -1503,19 +1536,13 @@ class TableClearer:
         1108, 1121 and 1159: the cloth dragged along was an unknown region (a put-back heap,
         a crumpled cloth) beside the one lifted; the notes say what was seen. Also: how many
         touched it."""
-        before, s, m = self._before_pick, self.settings, self.settings.moved
+        before, m = self._before_pick, self.settings.moved
         if before is None or before.name != attempt.name or not before.regions:
             return 0, 0
         wall, cpu = time.perf_counter(), time.process_time()
         survey, outside = before.capture, ~grown(before.footprint, m.grow_px)
         points, centres = [], []
-        for region in before.regions:
-            v, u = np.nonzero(region.mask & outside)
-            edge_step = max(1, len(u) // 1500)
-            if not footprints_touch(
-                held_xy, self.table.pixels(survey, u[::edge_step], v[::edge_step]), s.drag_reach
-            ):
-                continue
+        for region in self._regions_touching(attempt, held_xy):
             inner_v, inner_u = np.nonzero(grown(region.mask, m.grow_px, shrink=True) & outside)
             step = max(1, len(inner_u) // 1500)
             inner = self.table.pixels(survey, inner_u[::step], inner_v[::step])
@@ -1536,6 +1563,24 @@ class TableClearer:
             attempt.notes.append(f"the unknown region at ({x:.2f}, {y:.2f}) beside {attempt.name}: {seen}")
             bared += int(share is not None and share >= m.min_bared)
         return bared, len(points)
+
+    def _regions_touching(self, attempt: AttemptState, held_xy: FloatArray) -> list[UnknownRegion]:
+        """The unknown regions of the survey that chose the pick (`_BeforePick`) whose pixels
+        outside the meant cloth's grown footprint come within `drag_reach` of its footprint
+        on the table (`held_xy` (N, 2) [m]): cloths nobody identified lying beside it."""
+        before, s = self._before_pick, self.settings
+        if before is None or before.name != attempt.name or not before.regions:
+            return []
+        outside = ~grown(before.footprint, s.moved.grow_px)
+        touching = []
+        for region in before.regions:
+            v, u = np.nonzero(region.mask & outside)
+            step = max(1, len(u) // 1500)
+            if footprints_touch(
+                held_xy, self.table.pixels(before.capture, u[::step], v[::step]), s.drag_reach
+            ):
+                touching.append(region)
+        return touching
 
     def _remembered_companion(
         self, attempt: AttemptState, capture: StereoCapture, grasp: FloatArray, extra: float
