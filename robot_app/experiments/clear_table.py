@@ -353,19 +353,25 @@ class FirstSurvey:
     max_overlap: float
 
 
+def _job_in_cell(config: ClearTableConfig, world: World, models: dict[str, ClothModel]) -> TableClearer:
+    """The job for `world`'s cell with `models`, without callbacks, its arm at the
+    observation pose (`first_survey`, `release_trial`)."""
+    cell = SimCell(world, grasp_radius=config.grasp_radius)
+    settings = _recognition_settings(config)
+    recognizers = {name: Recognizer(model, world.stereo.rig, settings) for name, model in models.items()}
+    limits = JointLimits.from_urdf(config.world.robot.urdf, config.trajectory)
+    clearer = _clearer(config, world, cell, recognizers, limits, WristScale(cell, config.scale, config.seed))
+    world.robot.reset_joints(clearer.observation_joints)
+    return clearer
+
+
 def first_survey(config: ClearTableConfig) -> FirstSurvey:
     """Builds the episode's pile and cell as `run_clear_table` does and makes only the job's
     first survey from the observation pose (`scripts/bench_survey.py`)."""
     models = {cloth_name(n): _model(config.world, config.model, n) for n in config.known_numbers}
     with World(config.world) as world:
         pile = make_pile(world, config.pile, seed=config.seed)
-        cell = SimCell(world, grasp_radius=config.grasp_radius)
-        settings = _recognition_settings(config)
-        recognizers = {name: Recognizer(model, world.stereo.rig, settings) for name, model in models.items()}
-        limits = JointLimits.from_urdf(config.world.robot.urdf, config.trajectory)
-        scale = WristScale(cell, config.scale, config.seed)
-        clearer = _clearer(config, world, cell, recognizers, limits, scale)
-        world.robot.reset_joints(clearer.observation_joints)
+        clearer = _job_in_cell(config, world, models)
         found = clearer.first_survey()
         return FirstSurvey(
             found,
@@ -441,17 +447,11 @@ def release_trial(
         numbers = [c.number for c in pile.cloths]
         config = ClearTableConfig.model_validate({**config.model_dump(), "known": numbers})
         models = {cloth_name(n): _model(config.world, config.model, n) for n in numbers}
-        cell = SimCell(world, grasp_radius=config.grasp_radius)
-        settings = _recognition_settings(config)
-        recognizers = {name: Recognizer(model, world.stereo.rig, settings) for name, model in models.items()}
-        limits = JointLimits.from_urdf(config.world.robot.urdf, config.trajectory)
-        scale = WristScale(cell, config.scale, config.seed)
-        clearer = _clearer(config, world, cell, recognizers, limits, scale)
+        clearer = _job_in_cell(config, world, models)
         if box not in clearer.boxes:
             raise ConfigError(f"no box {box!r} in the cell (boxes: {', '.join(clearer.boxes)})")
         place, motion, loop = clearer.boxes[box], clearer.motion, clearer.loop_settings
         top = world.config.table.top_z
-        world.robot.reset_joints(clearer.observation_joints)
         heap = 0.0
         held: list[tuple[PileCloth, str, float, float, float, float, bool]] = []
         for cloth in reversed(pile.cloths):
@@ -480,7 +480,7 @@ def release_trial(
             motion.move_tcp(look_tcp(place.centre, clearer.settings.box_view_height, clearer.camera_offset()))
             before = heap
             capture = clearer.cell.capture()
-            depth = recognizers[name].settings.depth
+            depth = clearer.recognizers[name].settings.depth
             heap = contents_top(capture, clearer.rig, place, models[name], depth, clearer.settings.surface)
             off = float(np.hypot(*(point[:2] - nodes[:, :2].mean(axis=0))))
             held.append((cloth, name, reach, off, before, released, False))
