@@ -1294,11 +1294,12 @@ class TableClearer:
         was never seen by a survey, a cloth nobody identified lay beside the meant one when
         the pick's survey chose it (`_regions_touching`), and every main colour of that rival
         is among the meant and named cloths' own (`held_look.hidden_in`): the look counts a
-        cloth only by colours of its own. Held-out 1283 and 1270 (session 41): No.17 (white
-        towel, whites, never identified) came up with No.7 (purple and white), No.2 (white
-        with blue, colours) with No.6 (a white print); each lift was named after the cloth
-        it lay on ("under": No.4, No.18, both still on the table), the looks saw no cloth of
-        another box, and No.17 went into colours, No.2 into whites."""
+        cloth only by colours of its own. Held-out 1283 (session 41): No.17 (white towel,
+        whites, never identified, an unknown region beside No.7) came up with No.7 (purple
+        and white), was named No.4 "under" (still on the table), the look saw no cloth of
+        another box, and No.17 went into colours; its replay with this rule cleared. Not
+        1270's like case: No.2 (colours) has a blue of its own against No.6 and No.18, and
+        hung with it unseen all the same."""
         never_seen = [n for n in rivals if n not in self.ledger.last_seen and n not in self.ledger.lost]
         if not never_seen:
             return ""

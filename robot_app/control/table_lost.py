@@ -781,9 +781,8 @@ def _weighs_more_like(
     than `name`'s, by `nearer_margin` at least (the scale's own error: held-out 1244,
     session 41, went back for 0.7 g), and whose colour fit to what `hanging` shows comes
     within twice `held_look.margin` of `name`'s (any, where the fits are not known) ("" if
-    none): a
-    blind grasp takes whatever lies on top of the heap at the region, whatever the region
-    is named after, and a colour fit a little ahead does not overrule the scale. `hanging`
+    none): a blind grasp takes whatever lies on top of the heap at the region, whatever the
+    region is named after, and a colour fit a little ahead does not overrule the scale. `hanging`
     keeps the fits of never-seen cloths too (the colour verdict holds those to their own
     colours showing).
     Held-out 939 (session 36): a blind lift at the region of No.17 (white towel, whites,
@@ -801,9 +800,9 @@ def _weighs_more_like(
     if weighed is None or expected is None:
         return ""
     meant_fit = hanging.meant_fit if hanging is not None else None
+    margin = job.settings.nearer_margin
     for other in doubted:
         weight = job.weights.get(other)
-        margin = job.settings.nearer_margin
         nearer = weight is not None and abs(weight - weighed) <= abs(expected - weighed) - margin
         fit = hanging.fits.get(other) if hanging is not None else None
         if meant_fit is not None and fit is not None:
