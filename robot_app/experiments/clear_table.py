@@ -46,6 +46,7 @@ from robot_app.experiments.clear_table_faults import (
     PickWitness,
     ScaleSettings,
     WristScale,
+    catch_nearest,
 )
 from robot_app.experiments.clear_table_judge import TableVerdict, final_place, judge
 from robot_app.experiments.clear_table_views import TableViews
@@ -430,11 +431,12 @@ def release_trial(
     where none is), and of those among the share `edge` farthest from its centroid (1: any;
     0.1: near its edge, where it hangs longest). With `pairs`, among its nodes within
     `TOGETHER` of another cloth still on the table instead, where there are such, and the
-    nearest such cloth is anchored too where the fingers did not take it (`_catch_nearest`):
-    a double pick, which goes into the box as one load, its other cloths' hanging reach
-    counted as the job counts it (`TableClearer.hanging_reach`, from their photo model's
-    grasp point). No recognition: the grasp point is the simulator's
-    node, so what is measured is the release alone; the robot knows the pile's cloths only.
+    nearest such cloth is anchored too where the fingers did not take it (`catch_nearest`,
+    as the bench's injected double pick): a double pick, which goes into the box as one
+    load, its other cloths' hanging reach counted as the job counts it
+    (`TableClearer.hanging_reach`, from their photo model's grasp point). No recognition:
+    the grasp point is the simulator's node, so what is measured is the release alone; the
+    robot knows the pile's cloths only.
 
     Raises:
         ConfigError: `box` is none of the cell's boxes, or `edge` not in (0, 1].
@@ -454,11 +456,12 @@ def release_trial(
         top = world.config.table.top_z
         heap = 0.0
         held: list[tuple[PileCloth, str, float, float, float, float, bool]] = []
+        boxed: set[int] = set()  # catalogue numbers of the cloths laid into the box
         for cloth in reversed(pile.cloths):
-            if any(cloth is h[0] for h in held):
+            if cloth.number in boxed:
                 continue  # went into the box with another
             name = cloth_name(cloth.number)
-            lying = [c for c in pile.cloths[: cloth.order] if not any(c is h[0] for h in held)]
+            lying = [c for c in pile.cloths[: cloth.order] if c.number not in boxed]
             point = _trial_grasp(cloth, lying, edge, rng, together=pairs)
             nodes = cloth.body.nodes()
             grasp_model = transform_points(invert_transform(cloth.body.pose()), point[None])[0]
@@ -467,8 +470,8 @@ def release_trial(
             clearer.cell.set_gripper(0.0)
             motion.hold(loop.close_time)
             clearer.cell.grasp()
-            if pairs and lying and not any(c.body.is_grasped for c in lying):
-                _catch_nearest(world, lying)
+            if pairs and not any(c.body.is_grasped for c in lying):
+                catch_nearest(world, [c.body for c in lying])  # a layer under: out of the grasp radius
             along = [c for c in lying if c.body.is_grasped]
             extra = max((clearer.hanging_reach(cloth_name(c.number)) for c in along), default=0.0)
             motion.move_tcp([point[0], point[1], top + loop.lift_height])
@@ -485,6 +488,7 @@ def release_trial(
             off = float(np.hypot(*(point[:2] - nodes[:, :2].mean(axis=0))))
             held.append((cloth, name, reach, off, before, released, False))
             held += [(c, cloth_name(c.number), extra, off, before, released, True) for c in along]
+            boxed |= {cloth.number, *(c.number for c in along)}
             motion.move_to_joints(clearer.observation_joints)
         motion.hold(2.0)
         walls = next(b for b in world.boxes if b.name == box)
@@ -501,16 +505,6 @@ def release_trial(
             )
             for cloth, name, reach, off, before, released, came_along in held
         )
-
-
-def _catch_nearest(world: World, lying: list[PileCloth]) -> None:
-    """Anchors the nodes of the cloth of `lying` nearest the fingers, as the bench's injected
-    double pick does (`PickWitness._catch_another`): the fingers' own grasp radius takes a
-    cloth lying a layer under the held one only where the two are pressed together."""
-    tcp = world.robot.frame_pose("tcp")[:3, 3]
-    gaps = [float(np.min(np.linalg.norm(c.body.nodes() - tcp, axis=1))) for c in lying]
-    k = int(np.argmin(gaps))
-    lying[k].body.grasp(world.robot, radius=gaps[k] + 0.02)
 
 
 def _trial_grasp(

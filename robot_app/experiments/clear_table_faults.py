@@ -15,6 +15,7 @@ that ends on the floor after one is reported as such. Neither tells the robot an
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -248,20 +249,34 @@ class PickWitness:
 
     def _catch_another(self) -> bool:
         """Anchors the nodes of the nearest cloth not held within reach of the fingers."""
-        tcp = self.world.robot.frame_pose("tcp")[:3, 3]
-        best: tuple[float, ClothBody] | None = None
-        for cloth in self.pile.cloths:
-            if cloth.body.is_grasped or any(
-                box.contains(cloth.body.nodes()).mean() > 0.5 for box in self.world.boxes
-            ):
-                continue
-            distance = float(np.min(np.linalg.norm(cloth.body.nodes() - tcp, axis=1)))
-            if best is None or distance < best[0]:
-                best = (distance, cloth.body)
-        if best is None or best[0] > CATCH_REACH:
-            return False
-        best[1].grasp(self.world.robot, radius=best[0] + 0.02)
-        return True
+        free = [
+            cloth.body
+            for cloth in self.pile.cloths
+            if not cloth.body.is_grasped
+            and not any(box.contains(cloth.body.nodes()).mean() > 0.5 for box in self.world.boxes)
+        ]
+        return catch_nearest(self.world, free, CATCH_REACH)
 
 
-__all__ = ["FaultSettings", "Flung", "LiftTruth", "PickWitness", "ScaleSettings", "WristScale"]
+def catch_nearest(world: World, bodies: Sequence[ClothBody], reach: float = np.inf) -> bool:
+    """Anchors the nodes of the one of `bodies` nearest the fingers, if it comes within
+    `reach` [m] of them, out to its distance plus 2 cm (as if pinched or entangled): the
+    injected double pick (`PickWitness`), and `release_trial`'s pairs. Whether one was."""
+    tcp = world.robot.frame_pose("tcp")[:3, 3]
+    gaps = [float(np.min(np.linalg.norm(body.nodes() - tcp, axis=1))) for body in bodies]
+    if not gaps or min(gaps) > reach:
+        return False
+    k = int(np.argmin(gaps))
+    bodies[k].grasp(world.robot, radius=gaps[k] + 0.02)
+    return True
+
+
+__all__ = [
+    "FaultSettings",
+    "Flung",
+    "LiftTruth",
+    "PickWitness",
+    "ScaleSettings",
+    "WristScale",
+    "catch_nearest",
+]
