@@ -403,18 +403,46 @@ def test_a_never_seen_cloth_no_look_can_tell_beside_the_lift_withdraws_the_name_
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     # held-out 1283 (session 41): No.17 (white towel, whites, never identified) lay beside
-    # No.7 as an unknown region and came up with it; named No.4 "under", into colours
-    for beside, hidden, named in ((True, True, False), (False, True, True), (True, False, True)):
+    # No.7 as an unknown region and came up with it; named No.4 "under", into colours.
+    # Held-out 1270 (session 42): the never-seen rival had a colour of its own, but the
+    # lift bared its place beside the meant cloth
+    cases = (
+        # beside, hidden in the held colours, its place bared by the lift, named
+        (True, True, False, False),
+        (False, True, False, True),
+        (True, False, False, True),
+        (True, False, True, False),
+        (False, False, True, True),  # nothing unidentified beside the lift: no bared place asked
+    )
+    for beside, hidden, bared, named in cases:
         put_back: list[str] = []
         job = _under_job_with_a_white(monkeypatch, put_back)
         job.ledger.last_seen.pop("No.17", None)  # never seen by a survey
         monkeypatch.setattr(job, "_regions_touching", lambda attempt, held, b=beside: [object()] if b else [])
+        asked: list[object] = []
+        monkeypatch.setattr(
+            job,
+            "_regions_bared",
+            lambda attempt, capture, held, b=bared, asked=asked: (asked.append(capture), (int(b), 1))[1],
+        )
         monkeypatch.setattr(table_clearer, "hidden_in", lambda cloth, holders, h=hidden: h)
         looked: list[tuple[str, ...]] = []
         monkeypatch.setattr(table_clearer, "look_at_held", _look_showing(0.0, looked))
         attempt = _lift_under(monkeypatch, job, ("No.11",))
-        _assert_under_named(attempt, put_back, named, "no look tells its colours")
+        why = "no look tells its colours" if hidden else "whose place the lift bared"
+        _assert_under_named(attempt, put_back, named, why)
         assert looked == ([("No.17",)] if named else [])  # no look where none could tell
+        assert len(asked) == int(beside and not hidden)  # the check after the lift's capture
+        # a rival seen by a survey is not hidden beside: the look decides
+        if bared and beside:
+            put_back = []
+            job = _under_job_with_a_white(monkeypatch, put_back)
+            job.ledger.last_seen["No.17"] = np.array([0.2, -0.1])
+            monkeypatch.setattr(job, "_regions_touching", lambda attempt, held: [object()])
+            monkeypatch.setattr(job, "_regions_bared", lambda attempt, capture, held: (1, 1))
+            monkeypatch.setattr(table_clearer, "look_at_held", _look_showing(0.0, []))
+            attempt = _lift_under(monkeypatch, job, ("No.11",))
+            _assert_under_named(attempt, put_back, True, "")
 
 
 def test_a_white_cloth_hides_in_a_print_with_white_and_not_in_a_cloth_without() -> None:

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import time
 from collections import Counter
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -142,6 +142,13 @@ class _BeforePick:
 
 
 STILL_IN_PLACE = "seen from where the hand looked, it still lies where the survey saw it"
+
+
+def _any_of(names: Sequence[str]) -> str:
+    """`names` for a note: "No.2 or No.17", or "one of 17 cloths (No.1, No.2, No.3, ...)"."""
+    if len(names) <= 3:
+        return " or ".join(names)
+    return f"one of {len(names)} cloths ({', '.join(names[:3])}, ...)"
 
 
 class TableClearer:
@@ -1072,7 +1079,7 @@ class TableClearer:
                 if other is not None:
                     attempt.named_by = "under"
                     source = " (identity: the one cloth it lay on that weighs the extra, gone from there)"
-                    if self._doubted(attempt, extra, other, source, loop):
+                    if self._doubted(attempt, capture, extra, other, source, loop):
                         other, source, attempt.named_by = None, "", ""
             if other is None:
                 other = self._remembered_companion(attempt, capture, grasp, extra)
@@ -1082,7 +1089,7 @@ class TableClearer:
                     source = (
                         f" (identity from memory: seen by survey {survey}, hidden since, gone from there)"
                     )
-                    if self._doubted(attempt, extra, other, source, loop):
+                    if self._doubted(attempt, capture, extra, other, source, loop):
                         other, source, attempt.named_by = None, "", ""
             if other is None and self.settings.held_look.name_companion:
                 other, looked = self._companion_seen_hanging(attempt, extra)
@@ -1230,24 +1237,33 @@ class TableClearer:
         return gone[0] if len(gone) == 1 and names_weight(extra, self.weights.get(gone[0]), s) else None
 
     def _doubted(
-        self, attempt: AttemptState, extra: float, named: str, source: str, loop: PickPlaceLoop
+        self,
+        attempt: AttemptState,
+        capture: StereoCapture,
+        extra: float,
+        named: str,
+        source: str,
+        loop: PickPlaceLoop,
     ) -> bool:
         """Is the double pick's other cloth `named` "under" or from memory (`source` says
-        how) of the meant cloth's box doubted by a look at what hangs (`_other_box_hanging`;
-        a cloth of another box is never placed along, so not looked for)? The loop resumes
+        how) of the meant cloth's box doubted by a look at what hangs (`_other_box_hanging`,
+        `capture` the check after the lift; a cloth of another box is never placed along, so
+        not looked for)? The loop resumes
         where a look left the hand. A name from memory is weaker than one from under: held-out
         episode 722 (session 33): No.7, named from memory with No.1, and No.6 of whites,
         dragged along unseen, hung partly into colours."""
         if self.sort.box_for(named) != attempt.box.name:
             return False
-        doubt, moved = self._other_box_hanging(attempt, extra, named)
+        doubt, moved = self._other_box_hanging(attempt, capture, extra, named)
         if moved:  # the look moved the hand
             loop.arm.resume_at(self.motion.q)
         if doubt:
             attempt.notes.append(f"double pick: {named} would be the other cloth{source}, but {doubt}")
         return bool(doubt)
 
-    def _other_box_hanging(self, attempt: AttemptState, extra: float, named: str) -> tuple[str, bool]:
+    def _other_box_hanging(
+        self, attempt: AttemptState, capture: StereoCapture, extra: float, named: str
+    ) -> tuple[str, bool]:
         """Before a double pick named `under` goes into the box with the meant cloth: the
         cloths of another box, not placed, that weigh the `extra` [kg] or less
         (`could_be_in`: one, or two lighter ones, could hang hidden in its place: held-out
@@ -1259,7 +1275,8 @@ class TableClearer:
         survey saw it, else why not; whether the hand moved to look). A look that saw fewer
         than `held_look.min_pixels` held pixels rules nothing out (as `held_verdict`): held-out
         1259 (session 41) placed a pair after a look of 270 px. No look is made where it could
-        not tell a never-seen rival beside the lift from the meant and named cloths
+        not tell a never-seen rival beside the lift from the meant and named cloths, or where
+        the check after the lift (`capture`) saw such a rival's place left bare
         (`_hidden_beside`)."""
         s = self.settings
         box = attempt.box.name
@@ -1268,7 +1285,7 @@ class TableClearer:
         )
         if not rivals or not s.held_look.enabled:
             return "", False
-        hidden = self._hidden_beside(attempt, named, rivals)
+        hidden = self._hidden_beside(attempt, capture, named, rivals)
         if hidden:
             return hidden, False
         self._phase = "look at lift"
@@ -1288,18 +1305,24 @@ class TableClearer:
         attempt.notes.append(f"looked at what hangs: no cloth of another box ({seen.pixels} px; {where})")
         return "", True
 
-    def _hidden_beside(self, attempt: AttemptState, named: str, rivals: list[str]) -> str:
+    def _hidden_beside(
+        self, attempt: AttemptState, capture: StereoCapture, named: str, rivals: list[str]
+    ) -> str:
         """Why no look could rule out the `rivals` (of another box, weighing the extra or
         less) before `named` goes along with the meant cloth ("" if it could): one of them
         was never seen by a survey, a cloth nobody identified lay beside the meant one when
-        the pick's survey chose it (`_regions_touching`), and every main colour of that rival
-        is among the meant and named cloths' own (`held_look.hidden_in`): the look counts a
-        cloth only by colours of its own. Held-out 1283 (session 41): No.17 (white towel,
-        whites, never identified, an unknown region beside No.7) came up with No.7 (purple
-        and white), was named No.4 "under" (still on the table), the look saw no cloth of
-        another box, and No.17 went into colours; its replay with this rule cleared. Not
-        1270's like case: No.2 (colours) has a blue of its own against No.6 and No.18, and
-        hung with it unseen all the same."""
+        the pick's survey chose it (`_regions_touching`), and either every main colour of
+        that rival is among the meant and named cloths' own (`held_look.hidden_in`: the look
+        counts a cloth only by colours of its own), or the check after the lift (`capture`)
+        sees that cloth's place bared (`_regions_bared`): it left with the lift, and the
+        extra weight is one cloth's. Held-out 1283 (session 41): No.17 (white towel, whites,
+        never identified, an unknown region beside No.7) came up with No.7 (purple and
+        white), was named No.4 "under" (still on the table), the look saw no cloth of another
+        box, and No.17 went into colours; its replay with the colour rule cleared. Held-out
+        1270: No.2 (colours, never identified, an unknown region beside No.6) has a blue of
+        its own against No.6 and No.18, hung with No.6 unseen all the same, was named No.18
+        "under" (still on the table) and went into whites; the survey after it found its
+        region bare (session 42)."""
         never_seen = [n for n in rivals if n not in self.ledger.last_seen and n not in self.ledger.lost]
         if not never_seen:
             return ""
@@ -1310,11 +1333,17 @@ class TableClearer:
             return ""
         holders = [self.recognizers[n].model for n in (attempt.name, named)]
         hidden = [n for n in never_seen if hidden_in(self.recognizers[n].model, holders)]
-        if not hidden:
+        if hidden:
+            return (
+                f"{_any_of(hidden)} (another box, never seen) may be the unidentified cloth beside "
+                f"{attempt.name}, and no look tells its colours from {attempt.name}'s and {named}'s"
+            )
+        bared, _ = self._regions_bared(attempt, capture, held)
+        if not bared:
             return ""
         return (
-            f"{' or '.join(hidden)} (another box, never seen) may be the unidentified cloth beside "
-            f"{attempt.name}, and no look tells its colours from {attempt.name}'s and {named}'s"
+            f"{_any_of(never_seen)} (another box, never seen) may be the unidentified cloth "
+            f"beside {attempt.name}, whose place the lift bared"
         )
 
     def _not_placed(self, attempt: AttemptState, keep: Callable[[str, float], bool]) -> list[str]:
