@@ -260,3 +260,14 @@ def test_the_colours_of_a_cloth_taken_to_hang_along_are_no_other_cloth_s_own() -
     seen, where = look_at_held(job, "yellow", ("twin",), along=("violet",))  # type: ignore[arg-type]
     assert seen is not None, where
     assert seen.own["twin"] == 0.0 and seen.meant > 0.9  # the violet one's colours are the lift's
+
+
+def test_a_mask_dilated_by_a_square_grows_by_half_its_side_and_not_at_all_for_one() -> None:
+    from robot_app.vision.regions import dilated
+
+    mask = np.zeros((11, 11), dtype=bool)
+    mask[5, 5] = True
+    grown = dilated(mask, 5)
+    assert grown.dtype == bool and grown.sum() == 25
+    assert grown[3:8, 3:8].all() and not grown[2, 5] and not grown[5, 8]
+    assert np.array_equal(dilated(mask, 1), mask) and np.array_equal(dilated(mask, 0), mask)

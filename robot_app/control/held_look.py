@@ -36,7 +36,7 @@ from robot_app.control.colour_fit import ColourFit, colour_shares
 from robot_app.errors import IKError
 from robot_app.vision import ClothModel
 from robot_app.vision.identify import codes_and_sheet
-from robot_app.vision.regions import in_palette, main_codes
+from robot_app.vision.regions import dilated, in_palette, main_codes
 
 if TYPE_CHECKING:
     from robot_app.control.cell import StereoCapture
@@ -359,10 +359,6 @@ def held_verdict(seen: HeldColours, settings: HeldLookSettings) -> tuple[bool, s
     return True, what
 
 
-def _grown(mask: Mask, px: int) -> Mask:
-    return np.asarray(cv2.dilate(np.asarray(mask, np.uint8), np.ones((px, px), np.uint8)) > 0)
-
-
 def look_at_held(
     job: TableClearer,
     meant: str,
@@ -458,9 +454,9 @@ def look_at_held(
         return None, "no free table within reach to look against"
     held, colours, any_meant, shade = views[0]
     for later_held, later_colours, _, later_shade in views[1:]:
-        held = held & _grown(later_held, s.persist_px)
-        colours = {n: colours[n] & _grown(later_colours[n] & later_held, s.persist_px) for n in colours}
-        shade = {n: shade[n] & _grown(later_shade[n] & later_held, s.persist_px) for n in shade}
+        held = held & dilated(later_held, s.persist_px)
+        colours = {n: colours[n] & dilated(later_colours[n] & later_held, s.persist_px) for n in colours}
+        shade = {n: shade[n] & dilated(later_shade[n] & later_held, s.persist_px) for n in shade}
     seen = held_colours(held, colours[meant], any_meant, {n: colours[n] for n in others})
     shaded = held_colours(held, colours[meant], any_meant, shade).own
     seen = replace(seen, shaded=shaded)

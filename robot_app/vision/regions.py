@@ -159,6 +159,13 @@ def outline_contrast(
     return float(np.median(np.linalg.norm(difference, axis=1)))
 
 
+def dilated(mask: Mask, side: int) -> Mask:
+    """`mask` grown by a `side` x `side` square of pixels (as it is for `side` <= 1)."""
+    if side <= 1:
+        return np.asarray(mask, dtype=bool)
+    return np.asarray(cv2.dilate(np.asarray(mask, np.uint8), np.ones((side, side), np.uint8)) > 0)
+
+
 def model_area(model: ClothModel) -> float:
     """The cloth's area [m²]: its photo's cloth mask (else the area `make_model` recorded)."""
     if model.texture_mask is not None and model.texture_from_model is not None:
@@ -208,6 +215,7 @@ def in_palette(
 
 
 __all__ = [
+    "dilated",
     "explained",
     "footprint",
     "homography_model_to_image",

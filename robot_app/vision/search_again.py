@@ -36,7 +36,7 @@ from robot_app.vision.exposure import sheet_gains
 from robot_app.vision.hue import colour_codes, colours_match, to_hsv
 from robot_app.vision.recognition import Recognition
 from robot_app.vision.recognizer import Recognizer
-from robot_app.vision.regions import Mask, explained, image_codes, undistorted
+from robot_app.vision.regions import Mask, dilated, explained, image_codes, undistorted
 
 # Saturated colours to paint with, in BGR, the first one foreign to the searched model is
 # taken: magenta, blue, orange, red, yellow, cyan (no green: the sheet's).
@@ -82,8 +82,8 @@ def search_again(
         return {}
     first = next(iter(recognizers.values()))
     rig = first.rig
-    right = _grown(_any(m.explained for m in identified), margin)
-    left = _grown(_left_explained(first, identified, image_left_bgr), margin)
+    right = dilated(_any(m.explained for m in identified), 2 * margin + 1)
+    left = dilated(_left_explained(first, identified, image_left_bgr), 2 * margin + 1)
     right_raw = _to_raw(right, rig.right)
     left_raw = _to_raw(left, rig.left)
     results: dict[str, Recognition] = {}
@@ -138,13 +138,6 @@ def _any(masks: Iterable[Mask]) -> Mask:
     if union is None:
         raise ValueError("no mask to join")
     return union
-
-
-def _grown(mask: Mask, pixels: int) -> Mask:
-    if pixels <= 0:
-        return mask
-    size = 2 * pixels + 1
-    return np.asarray(cv2.dilate(mask.astype(np.uint8), np.ones((size, size), np.uint8)) > 0)
 
 
 def _to_raw(mask: Mask, camera: PinholeCamera) -> Mask:
