@@ -385,3 +385,34 @@ def test_a_guess_s_colours_outweigh_a_never_seen_cloth_s_nearer_weight_only_wher
     assert results[0.0][2] == [("placed", "whites")]
     assert results[0.8][0] is Outcome.GRASP_FAILED
     assert "the weight is nearer No.2's" in results[0.8][1]
+
+
+def test_a_blind_lift_heavier_than_its_cloth_goes_back_with_its_extra_booked_unnamed(monkeypatch) -> None:
+    # held-out 1339 (session 42): a blind lift guessed No.18 (19 g) read 53 g, held the
+    # never-seen No.14 too and went back; the guess was placed later, no unnamed place was
+    # left, and No.14's region (in its colours) was never taken
+    from robot_app.control import table_lost
+    from robot_app.control.clear_table_records import LossKind, LostPlace
+    from robot_app.control.episode import Outcome
+    from robot_app.control.pick_checks import AttemptState
+    from robot_app.control.table_clearer import TableClearer
+    from robot_app.control.table_lost import LostMatch, _carry
+
+    monkeypatch.setattr(table_lost, "carry_over_box", lambda *a: None)
+    monkeypatch.setattr(table_lost, "release_into_box", lambda *a: None)
+    for extra, count in ((0.0201, 1), (0.25, 3), (0.0, 0)):
+        job, events = _carrying_job(("No.2",), WEIGHTS["No.2"] + extra)
+        job.ledger.placed_order.append("No.18")  # nothing of whites to look for in a lift read right
+        at = np.array(GRASP)
+        job.ledger.lost["No.2"] = LostPlace(LossKind.PUT_BACK, "put back", at, at, (), True)
+        job._not_placed = lambda attempt, keep, job=job: TableClearer._not_placed(job, attempt, keep)
+        job.count_unnamed = lambda attempt, extra, job=job: TableClearer.count_unnamed(job, attempt, extra)
+        attempt = AttemptState(None, job.box, _at(*GRASP), 0.0, lost_name="No.2")
+        outcome, why = _carry(job, attempt, LostMatch("No.2", None, 0.9))  # type: ignore[arg-type]
+        assert attempt.unnamed_along == count
+        if count:
+            assert outcome is Outcome.GRASP_FAILED and "put back" in why
+            assert events == [("put back", "No.2")] and attempt.lift_check == "double"
+            assert any(f"is {count} cloths at least" in n for n in attempt.notes) == (count > 1)
+        else:  # its own weight: placed, nothing booked
+            assert outcome is Outcome.PLACED and events == [("placed", "colours")]

@@ -1122,16 +1122,7 @@ class TableClearer:
                 attempt.notes.append(f"double pick: {other} came along{source}, belongs in another box")
                 attempt.laid_back_too = (other,)
             else:
-                # as many as the extra must be (two or more: each may be found and placed alone)
-                could_be = [self.weights[n] for n in self._not_placed(attempt, lambda _n, _w: True)]
-                attempt.unnamed_along = min(
-                    cloths_in_extra(extra, could_be, self.settings), max(1, len(could_be))
-                )
-                if attempt.unnamed_along > 1:
-                    many = attempt.unnamed_along
-                    attempt.notes.append(
-                        f"double pick: the {extra * 1000:.0f} g extra is {many} cloths at least"
-                    )
+                attempt.unnamed_along = self.count_unnamed(attempt, extra)
             if self.settings.put_back.shed and self._shed(attempt, expected, what):
                 loop.arm.resume_at(self.motion.q)
                 return
@@ -1143,6 +1134,17 @@ class TableClearer:
             # where no survey may see it (the meant cloth covers it again)
             self._hidden_spots[name] = self.recovery.put_back_spots[-1].copy()
         raise EpisodeAbortError(Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}")
+
+    def count_unnamed(self, attempt: AttemptState, extra: float) -> int:
+        """How many cloths at least a double pick's `extra` [kg], put back with no name, holds
+        (`cloths_in_extra` among the cloths not placed; two or more: each may be found and
+        placed alone), noted when more than one. The ledger books an unnamed place for each
+        (`TableLedger.unnamed`), where a later survey's guesses look for them."""
+        could_be = [self.weights[n] for n in self._not_placed(attempt, lambda _n, _w: True)]
+        count = min(cloths_in_extra(extra, could_be, self.settings), max(1, len(could_be)))
+        if count > 1:
+            attempt.notes.append(f"double pick: the {extra * 1000:.0f} g extra is {count} cloths at least")
+        return count
 
     def _held_instead(self, attempt: AttemptState, what: str, loop: PickPlaceLoop) -> bool:
         """A wrong lift (the meant cloth still in its place, `what`) named by its colours

