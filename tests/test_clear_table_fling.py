@@ -67,3 +67,27 @@ def test_the_judge_names_the_fling_in_the_cause_of_a_cloth_not_in_its_box(monkey
     assert "No.7" not in verdict.cause  # in its box: no problem, whatever the simulator did
     unflung = clear_table_judge.judge(world, SimpleNamespace(cloths=cloths), result, [], sort, known)  # type: ignore[arg-type]
     assert unflung.flung == () and unflung.cause is not None and "flung" not in unflung.cause
+
+
+def test_a_lift_counts_the_cloths_that_rose_by_the_hand_not_those_lying_as_high_in_a_box() -> None:
+    # held-out 1350 (session 42): blind grasps by the colours box's wall closed on nothing,
+    # and the cloths heaped in the box beside them were counted as lifted (a double pick)
+    world = SimpleNamespace(
+        time=0.0,
+        config=SimpleNamespace(table=SimpleNamespace(top_z=0.0)),
+        robot=SimpleNamespace(frame_pose=lambda name: np.eye(4)),  # the TCP over the origin
+    )
+    held, dragged, boxed, apart = _Cloth(3), _Cloth(7), _Cloth(12), _Cloth(15)
+    for cloth in (held, dragged, boxed):
+        cloth.points[:, :2] = 0.1  # within reach of the TCP
+    boxed.points[:, 2] = 0.08  # heaped over the box's rim, above HOLD_HEIGHT
+    apart.points[:, :2] = 1.0
+    witness = PickWitness(world, SimpleNamespace(cloths=[held, dragged, boxed, apart]))  # type: ignore[arg-type]
+    witness.on_phase(SimpleNamespace(phase="grasp"), "No.3")  # type: ignore[arg-type]
+    held.points[:, 2] = 0.20
+    dragged.points[:2, 2] = 0.15  # half of it hangs from the held one
+    apart.points[:, 2] = 0.30
+    boxed.points[:, 2] += 0.005  # settles, does not rise
+    assert witness._hanging() == (3, 7)
+    boxed.points[:, 2] += 0.05  # raised with the hand after all
+    assert witness._hanging() == (3, 7, 12)
