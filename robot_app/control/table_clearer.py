@@ -1250,10 +1250,9 @@ class TableClearer:
         """Is the double pick's other cloth `named` "under" or from memory (`source` says
         how) of the meant cloth's box doubted by a look at what hangs (`_other_box_hanging`,
         `capture` the check after the lift; a cloth of another box is never placed along, so
-        not looked for)? The loop resumes
-        where a look left the hand. A name from memory is weaker than one from under: held-out
-        episode 722 (session 33): No.7, named from memory with No.1, and No.6 of whites,
-        dragged along unseen, hung partly into colours."""
+        not looked for)? The loop resumes where a look left the hand. A name from memory is
+        weaker than one from under: held-out episode 722 (session 33): No.7, named from memory
+        with No.1, and No.6 of whites, dragged along unseen, hung partly into colours."""
         if self.sort.box_for(named) != attempt.box.name:
             return False
         doubt, moved = self._other_box_hanging(attempt, capture, extra, named)
