@@ -423,7 +423,10 @@ def test_a_never_seen_cloth_no_look_can_tell_beside_the_lift_withdraws_the_name_
         monkeypatch.setattr(
             job,
             "_regions_bared",
-            lambda attempt, capture, held, b=bared, asked=asked: (asked.append(capture), (int(b), 1))[1],
+            lambda attempt, capture, held, touching=None, b=bared, asked=asked: (
+                asked.append(capture),
+                (int(b), 1),
+            )[1],
         )
         monkeypatch.setattr(table_clearer, "hidden_in", lambda cloth, holders, h=hidden: h)
         looked: list[tuple[str, ...]] = []
@@ -439,7 +442,7 @@ def test_a_never_seen_cloth_no_look_can_tell_beside_the_lift_withdraws_the_name_
             job = _under_job_with_a_white(monkeypatch, put_back)
             job.ledger.last_seen["No.17"] = np.array([0.2, -0.1])
             monkeypatch.setattr(job, "_regions_touching", lambda attempt, held: [object()])
-            monkeypatch.setattr(job, "_regions_bared", lambda attempt, capture, held: (1, 1))
+            monkeypatch.setattr(job, "_regions_bared", lambda attempt, capture, held, touching=None: (1, 1))
             monkeypatch.setattr(table_clearer, "look_at_held", _look_showing(0.0, []))
             attempt = _lift_under(monkeypatch, job, ("No.11",))
             _assert_under_named(attempt, put_back, True, "")

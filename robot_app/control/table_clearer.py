@@ -1330,7 +1330,8 @@ class TableClearer:
         held = transform_points(
             attempt.transform_target_to_world, self.recognizers[attempt.name].model.points_in
         )[:, :2]
-        if not self._regions_touching(attempt, held):
+        touching = self._regions_touching(attempt, held)
+        if not touching:
             return ""
         holders = [self.recognizers[n].model for n in (attempt.name, named)]
         hidden = [n for n in never_seen if hidden_in(self.recognizers[n].model, holders)]
@@ -1339,7 +1340,7 @@ class TableClearer:
                 f"{_any_of(hidden)} (another box, never seen) may be the unidentified cloth beside "
                 f"{attempt.name}, and no look tells its colours from {attempt.name}'s and {named}'s"
             )
-        bared, _ = self._regions_bared(attempt, capture, held)
+        bared, _ = self._regions_bared(attempt, capture, held, touching)
         if not bared:
             return ""
         return (
@@ -1556,7 +1557,11 @@ class TableClearer:
         return ((showing[0],), 0) if first >= hl.name_share and ahead else ((), 1)
 
     def _regions_bared(
-        self, attempt: AttemptState, capture: StereoCapture, held_xy: FloatArray
+        self,
+        attempt: AttemptState,
+        capture: StereoCapture,
+        held_xy: FloatArray,
+        touching: list[UnknownRegion] | None = None,
     ) -> tuple[int, int]:
         """Of the unknown regions of the survey that chose the pick touching the meant
         cloth's footprint (`held_xy` (N, 2) [m], within `drag_reach`), how many the check
@@ -1566,14 +1571,15 @@ class TableClearer:
         shrunk by `moved.grow_px` too, for the parallax of a heap's top). Held-out episodes
         1108, 1121 and 1159: the cloth dragged along was an unknown region (a put-back heap,
         a crumpled cloth) beside the one lifted; the notes say what was seen. Also: how many
-        touched it."""
+        touched it. `touching`: those regions where the caller found them already
+        (`_regions_touching`)."""
         before, m = self._before_pick, self.settings.moved
         if before is None or before.name != attempt.name or not before.regions:
             return 0, 0
         wall, cpu = time.perf_counter(), time.process_time()
         survey, outside = before.capture, ~grown(before.footprint, m.grow_px)
         points, centres = [], []
-        for region in self._regions_touching(attempt, held_xy):
+        for region in self._regions_touching(attempt, held_xy) if touching is None else touching:
             inner_v, inner_u = np.nonzero(grown(region.mask, m.grow_px, shrink=True) & outside)
             step = max(1, len(inner_u) // 1500)
             inner = self.table.pixels(survey, inner_u[::step], inner_v[::step])
