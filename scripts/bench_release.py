@@ -9,7 +9,9 @@ one after another at a node drawn anywhere on them clear of the others (`--edge 
 the tenth farthest from the cloth's centre; there a cloth hangs up to twice as long as from
 its middle; `--pairs`: where it lies on another, so that the fingers hold both, a double
 pick that goes into the box as one load), and lays each into `--box` with the
-job's own transfer and release, the box check measuring the heap before each next release.
+job's own transfer and release and the job's check after it (`TableClearer.check_box`: the
+heap measured for the next release; a cloth seen over a wall's rim laid again,
+`clear.rim_tries`; `--set clear.rim_tries=0` measures the release alone).
 After the last release every cloth is judged as the bench judges it: in the box (90 % of
 its nodes inside the walls), partly in, table or floor. No recognition and no grasp
 planning: the release alone is measured, and compared between settings with `--set
@@ -18,7 +20,7 @@ lines do not depend on the seeds before it.
 
 Prints one line per cloth and a summary: cloths wholly in the box, partly in, elsewhere, by
 their place in the box's order (the first into an empty box, the second onto one cloth, ...),
-the median release time.
+the median release time, how often a cloth was seen over a wall and laid again.
 """
 
 from __future__ import annotations
@@ -89,6 +91,7 @@ def main() -> None:
     times: list[float] = []
     outside: list[float] = []
     along: list[bool] = []
+    laid: list[str] = []
     with fresh_process_pool(args.workers) as pool:  # each seed the first world of its process: repeatable
         for seed, note, cloths in pool.imap(one_seed, jobs):
             print(f"seed {seed}: {note}", flush=True)
@@ -97,13 +100,15 @@ def main() -> None:
                 times.append(c.release_s)
                 outside.append(c.outside)
                 along.append(c.came_along)
+                if c.laid_again and not c.came_along:
+                    laid.append(c.laid_again)
                 rim = f" ({c.over_rim:.0%} over the rim)" if c.over_rim > 0 else ""
                 tag = " (came along)" if c.came_along else ""
                 print(
                     f"  {k + 1}. {c.name}{tag}: {c.place}{rim}, {c.outside:.0%} outside the walls; "
                     f"hung {c.reach * 1000:.0f} mm, "
                     f"held {c.off_centre * 1000:.0f} mm off its centre, heap {c.heap * 1000:.0f} mm, "
-                    f"release {c.release_s:.2f} s",
+                    f"release {c.release_s:.2f} s" + (f"; {c.laid_again}" if c.laid_again else ""),
                     flush=True,
                 )
     placed = [p for places in by_order.values() for p in places]
@@ -123,6 +128,8 @@ def main() -> None:
         f"in the box {inside} of {len(placed)}, partly in {partly}, elsewhere {elsewhere}; "
         f"nodes outside the walls: mean {float(np.mean(outside)) if outside else 0.0:.1%}, "
         f"cloths with any {sum(o > 0 for o in outside)}; came along {sum(along)}; "
+        f"a cloth seen over a wall after {len(laid)} releases, laid again after "
+        f"{sum('laid again' in n for n in laid)}; "
         f"median release {float(np.median(times)) if times else float('nan'):.2f} s"
     )
 

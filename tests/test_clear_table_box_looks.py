@@ -38,6 +38,7 @@ def _job(models: list[str], monkeypatch: pytest.MonkeyPatch, **settings: bool) -
         return BoxView(np.zeros((8, 8, 3), np.uint8), np.ones((8, 8), bool))
 
     monkeypatch.setattr(table_clearer, "box_view", seen)
+    monkeypatch.setattr(table_clearer, "rim_view", lambda *args: None)
     job = TableClearer.__new__(TableClearer)
     job.settings = ClearTableSettings(**settings)
     job.sort = SortSettings(default="colours", boxes={"whites": (6, 17, 18)})
@@ -52,7 +53,7 @@ def _job(models: list[str], monkeypatch: pytest.MonkeyPatch, **settings: bool) -
     job.motion = _Motion(np.full(7, -1.0))  # type: ignore[assignment]
     job.camera_offset = lambda: np.zeros(3)  # type: ignore[method-assign]
     job.rig = None  # type: ignore[assignment]
-    job._views, job._looked_into = dict.fromkeys(job.boxes), set()
+    job._views, job._looked_into, job._rims = dict.fromkeys(job.boxes), set(), {}
     return job
 
 

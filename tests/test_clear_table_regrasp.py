@@ -1,5 +1,5 @@
 """A blind grasp whose fingers close on nothing goes lower and closes again
-(`table_lost._close_lowering`), down to `clear.lost.grasp_height` and at most
+(`table_lost.close_lowering`), down to `clear.lost.grasp_height` and at most
 `clear.lost.regrasps` times."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import pytest
 
 from robot_app.control.clear_table_records import ClearTableSettings
 from robot_app.control.loop_settings import LoopSettings
-from robot_app.control.table_lost import _close_lowering
+from robot_app.control.table_lost import close_lowering
 
 
 class _Hand:
@@ -49,7 +49,7 @@ def test_fingers_closing_on_nothing_go_lower_until_they_hold() -> None:
     hand = _Hand(cloth_z=0.040)  # the heap's top measured at 76 mm, the cloth at 40 mm
     hand.z = 0.098
     notes: list[str] = []
-    held, closings = _close_lowering(_job(hand), (0.4, 0.0), 0.098, notes)
+    held, closings = close_lowering(_job(hand), (0.4, 0.0), 0.098, notes)
     assert held > 0 and closings == 3
     assert hand.closings == pytest.approx([0.098, 0.086, 0.074])  # 12 mm lower each time
     assert hand.released == 2
@@ -60,16 +60,16 @@ def test_lowering_stops_at_the_blind_grasp_height_and_after_the_configured_closi
     hand = _Hand(cloth_z=-0.1)  # nothing there at all
     hand.z = 0.040
     notes: list[str] = []
-    assert _close_lowering(_job(hand), (0.4, 0.0), 0.040, notes) == (0, 3)
+    assert close_lowering(_job(hand), (0.4, 0.0), 0.040, notes) == (0, 3)
     assert hand.closings == pytest.approx([0.040, 0.028, 0.025])  # never under grasp_height
     assert "still nothing" in notes[0]
     hand = _Hand(cloth_z=-0.1)
     hand.z = 0.2
-    _close_lowering(_job(hand, regrasps=1), (0.4, 0.0), 0.2, [])
+    close_lowering(_job(hand, regrasps=1), (0.4, 0.0), 0.2, [])
     assert hand.closings == pytest.approx([0.2, 0.188])
     # fingers that hold at once close once, and nothing is noted
     hand = _Hand(cloth_z=0.05)
     hand.z = 0.07
     notes = []
-    assert _close_lowering(_job(hand), (0.4, 0.0), 0.07, notes) == (3, 1)
+    assert close_lowering(_job(hand), (0.4, 0.0), 0.07, notes) == (3, 1)
     assert hand.closings == [0.07] and not notes

@@ -53,6 +53,11 @@ class BoxCheckSettings(StrictModel):
             colour is read, as a share of the inner side [-].
         shadow_hue_step: in a shadow-proof check (`check_box`), a pixel whose hue moved
             less than this (or whose tone stayed) did not change [HSV_FULL steps].
+        rim_samples: points along the middle of each wall's top where the look reads the
+            rim (`rim_view`) [-].
+        rim_change: a rim point changed when its colour moved by more than this factor
+            (log scale, after the whole rim's common change of exposure) [-].
+        rim_run: a cloth lies over a wall when this long a run of its rim changed [m].
     """
 
     view_px: int = Field(96, ge=16, le=512)
@@ -63,6 +68,9 @@ class BoxCheckSettings(StrictModel):
     min_in_view: float = Field(0.5, gt=0.0, le=1.0)
     surround: float = Field(0.75, gt=0.55, le=2.0)
     shadow_hue_step: int = Field(8, ge=0, le=64)
+    rim_samples: int = Field(40, ge=4, le=400)
+    rim_change: float = Field(0.3, gt=0.0)
+    rim_run: float = Field(0.03, gt=0.0)
 
 
 @dataclass(frozen=True)
@@ -159,6 +167,104 @@ def _surround(
     return np.median(image[pixels[inside, 1], pixels[inside, 0]].astype(float), axis=0)
 
 
+WALL_NORMALS = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])  # outward, Σ_W xy
+RIM_FLOOR = 8.0  # grey levels added before the log ratio: dark rim points do not flicker to "changed"
+
+
+@dataclass(frozen=True)
+class RimView:
+    """What a look saw of a box's rim: the walls' tops, where a cloth that hangs out of the
+    box lies over them.
+
+    Attributes:
+        bgr: (2, 4, n, 3) colour at `n` points along the middle of each wall's top
+            (`WALL_NORMALS` order), in the right image and in the left.
+        seen: (2, 4, n) the point lies in that image.
+        spacing: distance between neighbouring points [m].
+    """
+
+    bgr: FloatArray
+    seen: npt.NDArray[np.bool_]
+    spacing: float
+
+
+def rim_points(
+    centre: npt.ArrayLike, inner_size: float, wall_height: float, wall_thickness: float, n: int
+) -> FloatArray:
+    """(4, n, 3) points [m] in Σ_W along the middle of each wall's top (`WALL_NORMALS`
+    order), corner to corner."""
+    c = np.asarray(centre, dtype=float)
+    half = inner_size / 2 + wall_thickness / 2
+    along = np.linspace(-half, half, n)
+    walls = np.empty((4, n, 3))
+    for k, (nx, ny) in enumerate(WALL_NORMALS):
+        walls[k, :, 0] = c[0] + (nx * half if nx else along)
+        walls[k, :, 1] = c[1] + (ny * half if ny else along)
+        walls[k, :, 2] = c[2] + wall_height
+    return walls
+
+
+def rim_view(
+    capture: StereoCapture,
+    rig: StereoRig,
+    centre: npt.ArrayLike,
+    inner_size: float,
+    wall_height: float,
+    wall_thickness: float,
+    settings: BoxCheckSettings,
+) -> RimView:
+    """Reads the box's rim (`rim_points`) in both images of `capture`."""
+    n = settings.rim_samples
+    points = rim_points(centre, inner_size, wall_height, wall_thickness, n).reshape(-1, 3)
+    right_from_world = invert_transform(capture.transform_right_camera_to_world)
+    left_from_world = invert_transform(rig.transform_left_to_right) @ right_from_world
+    colours, seen = np.zeros((2, 4 * n, 3)), np.zeros((2, 4 * n), bool)
+    for k, (camera, image, to_camera) in enumerate(
+        ((rig.right, capture.right_bgr, right_from_world), (rig.left, capture.left_bgr, left_from_world))
+    ):
+        local = points @ to_camera[:3, :3].T + to_camera[:3, 3]
+        pixels = camera.project(local)
+        height, width = image.shape[:2]
+        ok = (local[:, 2] > 0) & np.all(np.isfinite(pixels), axis=1)
+        ok &= (
+            (pixels[:, 0] >= 1)
+            & (pixels[:, 0] <= width - 2)
+            & (pixels[:, 1] >= 1)
+            & (pixels[:, 1] <= height - 2)
+        )
+        at = np.rint(pixels[ok]).astype(int)
+        patch = [image[at[:, 1] + dv, at[:, 0] + du].astype(float) for dv in (-1, 0, 1) for du in (-1, 0, 1)]
+        colours[k, ok] = np.median(np.stack(patch), axis=0)
+        seen[k] = ok
+    spacing = (inner_size + wall_thickness) / (n - 1)
+    return RimView(colours.reshape(2, 4, n, 3), seen.reshape(2, 4, n), spacing)
+
+
+def rim_covered(before: RimView, after: RimView, settings: BoxCheckSettings) -> FloatArray:
+    """(4,) how long [m] the longest run of each wall's rim (`WALL_NORMALS` order) is that
+    changed between the looks `before` and `after` in either image: a cloth lying over
+    it. The exposure may differ between looks: each image's common change of the rim's
+    colour (the median over its points seen in both) is taken out first."""
+    changed = np.zeros(after.seen.shape[1:], bool)
+    for k in range(after.seen.shape[0]):
+        both = before.seen[k] & after.seen[k]
+        if np.count_nonzero(both) < 8:
+            continue
+        ratio = np.log((after.bgr[k] + RIM_FLOOR) / (before.bgr[k] + RIM_FLOOR))
+        ratio -= np.median(ratio[both], axis=0)
+        changed |= both & (np.abs(ratio).max(axis=-1) > np.log1p(settings.rim_change))
+    return np.array([_longest_run(row) * after.spacing for row in changed])
+
+
+def _longest_run(flags: npt.NDArray[np.bool_]) -> int:
+    """The longest run of True in `flags`."""
+    best = run = 0
+    for flag in flags:
+        run = run + 1 if flag else 0
+        best = max(best, run)
+    return best
+
+
 def check_box(
     before: BoxView | None,
     after: BoxView,
@@ -214,4 +320,16 @@ def check_box(
     return BoxCheck(bool(confirmed), changed_share, model_share, in_view)
 
 
-__all__ = ["BoxCheck", "BoxCheckSettings", "BoxView", "box_view", "check_box", "look_tcp"]
+__all__ = [
+    "WALL_NORMALS",
+    "BoxCheck",
+    "BoxCheckSettings",
+    "BoxView",
+    "RimView",
+    "box_view",
+    "check_box",
+    "look_tcp",
+    "rim_covered",
+    "rim_points",
+    "rim_view",
+]

@@ -282,7 +282,16 @@ class ClearTableSettings(StrictModel):
             episodes 1074-1123 half had no white cloth, yet each job spent ~2.4 s of sim
             looking into whites and 1.4 s coming back from there.
         box_view_height: camera above the box floor for that look and for the check
-            after every release (the hand rises out of the box to it) [m].
+            after every release (the hand rises out of the box to it) [m]. At 0.48 the
+            right image holds all four walls' tops of a 0.22 m box with 0.01 m walls 0.10
+            m high (`box_check.rim_view`); at 0.42 (before session 43) the two walls across
+            the image's height lay just outside it.
+        rim_tries: after a release whose check sees a run of a wall's rim changed
+            (`box_check.rim_covered` over `box_check.rim_run`: a cloth hangs over it), lay
+            what lies on top in the box's middle again this often (`box_rim.lay_again`);
+            0: off.
+        rim_shift: ... releasing it this far from the middle away from that wall [m] (the
+            open hand's half span, 5.1 cm, stays 3 cm off the walls at 0.03).
         drop_box_check: when the gripper comes empty over the box, look into the box as
             after a release; a cloth seen there fell into its box on the way (placed, not
             lost).
@@ -346,7 +355,9 @@ class ClearTableSettings(StrictModel):
     survey_latency: float | None = Field(None, ge=0.0)
     look_at_boxes: bool = True
     boxes_when_needed: bool = False
-    box_view_height: float = Field(0.42, gt=0.1)
+    box_view_height: float = Field(0.48, gt=0.1)
+    rim_tries: int = Field(1, ge=0, le=5)
+    rim_shift: float = Field(0.03, ge=0.0, le=0.05)
     drop_box_check: bool = True
     box_heap: bool = True
     boxed_again: float | None = Field(0.5, gt=0.0, le=1.0)

@@ -41,8 +41,17 @@ import numpy as np
 import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
-from robot_app.control.box_check import BoxCheckSettings, BoxView, box_view, look_tcp
+from robot_app.control.box_check import (
+    BoxCheckSettings,
+    BoxView,
+    RimView,
+    box_view,
+    look_tcp,
+    rim_covered,
+    rim_view,
+)
 from robot_app.control.box_contents import contents_top
+from robot_app.control.box_rim import lay_again, over_wall_note
 from robot_app.control.cell import Cell, StereoCapture
 from robot_app.control.clear_table_records import (
     BoxPlace,
@@ -268,7 +277,7 @@ class TableClearer:
         """Clears the table; never raises for a failed pick. A stop the user asked for
         (`InterruptError` from `on_step`) ends the job where it is, `interrupted`."""
         wall_start, start = time.perf_counter(), self.cell.time
-        self._start()
+        self.start()
         interrupted, stop_reason = False, ""
         last: Identification | None = None
         try:
@@ -367,10 +376,11 @@ class TableClearer:
         """Has `name` attempts left (`TableLedger.untried`)?"""
         return self.ledger.untried(name, self.settings.max_attempts)
 
-    def _start(self) -> None:
+    def start(self) -> None:
         """A fresh job's books: nothing picked, laid back or looked at yet."""
         self.ledger = TableLedger()
         self._views: dict[str, BoxView | None] = dict.fromkeys(self.boxes)
+        self._rims: dict[str, RimView] = {}  # box -> its rim at the last look from the check's pose
         self._collisions = 0
         self._hidden_spots: dict[str, FloatArray] = {}  # cloth -> (x, y) an unseen cloth lies at [m]
         self._laid: list[tuple[AttemptState, FloatArray, FloatArray]] = []  # put-backs: (start, let-go)
@@ -385,7 +395,7 @@ class TableClearer:
     def first_survey(self) -> Identification:
         """A fresh job's first survey from the observation pose, and nothing else
         (`experiments.first_survey`, `scripts/bench_survey.py`)."""
-        self._start()
+        self.start()
         self._back_to_observation()
         return self._survey()
 
@@ -1677,22 +1687,78 @@ class TableClearer:
     def check_box(self, attempt: AttemptState, shadow_proof: bool = False) -> None:
         """After a release: looks into the box from above it (`box_check.look_tcp`, as
         `_look_at_boxes`: the release pose's camera saw a quarter of the floor; out of
-        reach: from the release pose, noted) and checks it (`check_release`)."""
+        reach: from the release pose, noted) and checks it (`check_release`). Not
+        `shadow_proof` (a release, not a drop): where the look sees a cloth over a wall's
+        rim, lays it again (`_check_rim`)."""
         self._phase = "box check"
         height = self.settings.box_view_height
+        at_look = True
         try:
             self.motion.move_tcp(look_tcp(attempt.box.centre, height, self.camera_offset()))
         except IKError:
+            at_look = False
             attempt.notes.append("box looked into from the release pose: the look above it is out of reach")
         capture = self.cell.capture()
         recognizer = self.recognizers[attempt.name]
         check_release(attempt, capture, self.rig, recognizer, self._views, self.box_settings, shadow_proof)
+        self._measure_heap(attempt, capture)
+        if at_look and not shadow_proof:
+            self._check_rim(attempt, capture)
+
+    def _measure_heap(self, attempt: AttemptState, capture: StereoCapture) -> None:
+        """How high the box's cloths heap up, from the check's pair (`clear.box_heap`)."""
         if self.settings.box_heap:
             cpu = time.process_time()
+            recognizer = self.recognizers[attempt.name]
             model, depth = recognizer.model, recognizer.settings.depth
             top = contents_top(capture, self.rig, attempt.box, model, depth, self.settings.surface)
             self._box_heaps[attempt.box.name] = top
             self._wait(time.process_time() - cpu, 1)
+
+    def _rim_view(self, box: BoxPlace, capture: StereoCapture) -> RimView:
+        return rim_view(
+            capture,
+            self.rig,
+            box.centre,
+            box.inner_size,
+            box.wall_height,
+            box.wall_thickness,
+            self.box_settings,
+        )
+
+    def _check_rim(self, attempt: AttemptState, capture: StereoCapture) -> None:
+        """Compares the box's rim in the check's look with the look before the release
+        (`box_check.rim_covered`); while a run of a wall's rim changed by `rim_run` or more
+        (a cloth hangs over it), lays the box's top cloth again (`box_rim.lay_again`, at most
+        `clear.rim_tries` times) and looks again; notes each. The last look's rim is the
+        next check's reference, so a cloth left over a wall is not blamed on the next."""
+        box = attempt.box
+        rim = self._rim_view(box, capture)
+        before = self._rims.get(box.name)
+        tries = 0
+        while before is not None:
+            covered = rim_covered(before, rim, self.box_settings)
+            if float(covered.max()) < self.box_settings.rim_run:
+                if tries:
+                    attempt.notes.append(f"laid again {tries} time(s): the rim is clear")
+                break
+            note = over_wall_note(covered, box.name)
+            if tries >= self.settings.rim_tries:
+                attempt.notes.append(
+                    note + (": left so" if tries else ": not laid again (clear.rim_tries 0)")
+                )
+                break
+            attempt.notes.append(note + ": laid again")
+            tries += 1
+            again = lay_again(self, attempt, int(np.argmax(covered)))
+            if again is None:
+                break
+            rim = self._rim_view(box, again)
+            view = box_view(again, self.rig, box.centre, box.inner_size, self.box_settings)
+            if float(np.mean(view.in_view)) >= self.box_settings.min_in_view:
+                self._views[box.name] = view
+            self._measure_heap(attempt, again)
+        self._rims[box.name] = rim
 
     def box_heap(self, box: str) -> float:
         """How high the cloths in `box` heap over its floor [m], as its last check measured
@@ -1764,6 +1830,7 @@ class TableClearer:
             self._views[box.name] = (
                 view if float(np.mean(view.in_view)) >= self.box_settings.min_in_view else None
             )
+            self._rims[box.name] = self._rim_view(box, capture)
             self._looked_into.add(box.name)
         self._phase = "observe"
         self.motion.move_to_joints(self.observation_joints if back is None else back)

@@ -461,7 +461,7 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
         ):
             job.motion.move_tcp(point)
         job.motion.move_tcp([x, y, grasp_z], speed=job.settings.put_down_speed)
-        held, grasps = _close_lowering(job, (x, y), grasp_z, attempt.notes)
+        held, grasps = close_lowering(job, (x, y), grasp_z, attempt.notes)
         _phase(job, name, "grasp", start, f"blind: {held} hold points")
         start = job.cell.time
         job.set_phase("lift", name)
@@ -509,7 +509,7 @@ def _approach(
     return [*points, [x, y, pregrasp]]
 
 
-def _close_lowering(
+def close_lowering(
     job: TableClearer, xy: tuple[float, float], grasp_z: float, notes: list[str]
 ) -> tuple[int, int]:
     """Closes the fingers at `grasp_z` [m] over `xy`; while they close on nothing (the
@@ -995,6 +995,7 @@ def _result(
 
 __all__ = [
     "LostMatch",
+    "close_lowering",
     "colour_patches",
     "inner_pixel",
     "inner_pixels",

@@ -22,8 +22,7 @@ from pydantic import Field, model_validator
 
 from robot_app.arrays import FloatArray
 from robot_app.config import SettingValueError, StrictModel
-from robot_app.control.box_check import BoxCheckSettings, look_tcp
-from robot_app.control.box_contents import contents_top
+from robot_app.control.box_check import BoxCheckSettings
 from robot_app.control.clear_table_records import (
     BoxPlace,
     ClearTableSettings,
@@ -35,6 +34,7 @@ from robot_app.control.episode import PhaseRecord
 from robot_app.control.intercept import hanging_reach
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits, TrajectorySettings
+from robot_app.control.pick_checks import AttemptState
 from robot_app.control.pick_place import LoopSettings, carry_over_box, release_into_box
 from robot_app.control.pose_filter import PoseFilterSettings
 from robot_app.control.sort_rule import SortSettings, cloth_name
@@ -402,6 +402,8 @@ class ReleasedCloth:
         release_s: simulated time of its release (lowering, letting go, the wait) [s].
         came_along: it went into the box with another cloth, held with it (`reach`: the
             extra the job counted for it).
+        laid_again: the check's notes on a cloth over a wall and laying it again
+            (`TableClearer.check_box`), "" where the rim stayed clear.
     """
 
     name: str
@@ -413,6 +415,7 @@ class ReleasedCloth:
     outside: float
     release_s: float
     came_along: bool = False
+    laid_again: str = ""
 
 
 APART = 0.045  # a release trial's grasp lies this far from every cloth still lying (grasp radius + 1 cm) [m]
@@ -453,9 +456,10 @@ def release_trial(
         if box not in clearer.boxes:
             raise ConfigError(f"no box {box!r} in the cell (boxes: {', '.join(clearer.boxes)})")
         place, motion, loop = clearer.boxes[box], clearer.motion, clearer.loop_settings
+        clearer.start()
+        clearer.look_into_box(box)  # the reference of the checks after placing
         top = world.config.table.top_z
-        heap = 0.0
-        held: list[tuple[PileCloth, str, float, float, float, float, bool]] = []
+        held: list[tuple[PileCloth, str, float, float, float, float, bool, str]] = []
         boxed: set[int] = set()  # catalogue numbers of the cloths laid into the box
         for cloth in reversed(pile.cloths):
             if cloth.number in boxed:
@@ -477,17 +481,15 @@ def release_trial(
             motion.move_tcp([point[0], point[1], top + loop.lift_height])
             carry_over_box(motion, place.centre, top, loop, extra, motion.tcp_position())
             reach = hanging_reach(models[name].points_in, grasp_model)
-            start = world.time
-            release_into_box(motion, clearer.cell, place.centre, top, loop, reach + extra, heap)
+            start, before = world.time, clearer.box_heap(box)
+            release_into_box(motion, clearer.cell, place.centre, top, loop, reach + extra, before)
             released = world.time - start
-            motion.move_tcp(look_tcp(place.centre, clearer.settings.box_view_height, clearer.camera_offset()))
-            before = heap
-            capture = clearer.cell.capture()
-            depth = clearer.recognizers[name].settings.depth
-            heap = contents_top(capture, clearer.rig, place, models[name], depth, clearer.settings.surface)
+            attempt = AttemptState(None, place, np.eye(4), start, lost_name=name)
+            clearer.check_box(attempt)  # the job's look: heap, rim, laid again where over a wall
+            note = "; ".join(n for n in attempt.notes if "over the" in n or "laid again" in n)
             off = float(np.hypot(*(point[:2] - nodes[:, :2].mean(axis=0))))
-            held.append((cloth, name, reach, off, before, released, False))
-            held += [(c, cloth_name(c.number), extra, off, before, released, True) for c in along]
+            held.append((cloth, name, reach, off, before, released, False, note))
+            held += [(c, cloth_name(c.number), extra, off, before, released, True, note) for c in along]
             boxed |= {cloth.number, *(c.number for c in along)}
             motion.move_to_joints(clearer.observation_joints)
         motion.hold(2.0)
@@ -502,8 +504,9 @@ def release_trial(
                 1.0 - float(np.mean(walls.over_floor(cloth.body.nodes()))),
                 released,
                 came_along,
+                note,
             )
-            for cloth, name, reach, off, before, released, came_along in held
+            for cloth, name, reach, off, before, released, came_along, note in held
         )
 
 

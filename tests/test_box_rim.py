@@ -1,0 +1,121 @@
+"""The box's rim in the check's look: read where the walls' tops lie in the images, and a
+run of it changed between two looks (a cloth over the wall), whatever the exposure did."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+
+from robot_app.arrays import FloatArray
+from robot_app.config import load_config
+from robot_app.control.box_check import (
+    WALL_NORMALS,
+    BoxCheckSettings,
+    RimView,
+    rim_covered,
+    rim_points,
+    rim_view,
+)
+from robot_app.control.box_rim import over_wall_note
+from robot_app.experiments.clear_table import ClearTableConfig
+from robot_app.geometry import invert_transform, make_transform
+from robot_app.vision.camera import PinholeCamera, StereoRig
+
+CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48.0))  # the cell's hand camera
+RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
+DOWN = np.column_stack([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])  # camera looking down
+WALL_BGR, CLOTH_BGR = (60, 140, 220), (200, 90, 40)
+
+
+@dataclass(frozen=True)
+class _Capture:
+    right_bgr: npt.NDArray[np.uint8]
+    left_bgr: npt.NDArray[np.uint8]
+    transform_right_camera_to_world: FloatArray
+    time: float = 0.0
+    available_time: float = 0.0
+    dropped: bool = False
+
+
+def _box() -> tuple[FloatArray, float, float, float]:
+    """The clear-table cell's colours box: floor centre [m], inner side, wall height and thickness."""
+    world = load_config(ClearTableConfig, "configs/clear_table.yaml").world
+    box = world.all_boxes[0]
+    return np.array([*box.centre_xy, world.table.top_z]), box.inner_size, box.wall_height, box.wall_thickness
+
+
+def _paint(camera_height: float, gain: float, cloth: tuple[int, slice] | None) -> _Capture:
+    """Both images of a look from `camera_height` over the box floor: grey, the rim's
+    points painted the wall's colour times `gain` (exposure), `cloth` = (wall, points) of
+    it painted a cloth's colour instead."""
+    centre, inner, height, thickness = _box()
+    pose = make_transform(DOWN, centre + np.array([0.0, 0.0, camera_height]))
+    points = rim_points(centre, inner, height, thickness, BoxCheckSettings().rim_samples)
+    colours = np.empty(points.shape)
+    colours[:] = WALL_BGR
+    if cloth is not None:
+        colours[cloth[0], cloth[1]] = CLOTH_BGR
+    images = []
+    for to_camera in (
+        invert_transform(pose),
+        invert_transform(RIG.transform_left_to_right) @ invert_transform(pose),
+    ):
+        image = np.full((240, 320, 3), 128.0)
+        local = points.reshape(-1, 3) @ to_camera[:3, :3].T + to_camera[:3, 3]
+        for (u, v), bgr in zip(CAMERA.project(local), colours.reshape(-1, 3), strict=True):
+            if 0 <= u < 320 and 0 <= v < 240:
+                image[max(0, int(v) - 2) : int(v) + 3, max(0, int(u) - 2) : int(u) + 3] = bgr
+        images.append(np.clip(image * gain, 0, 255).astype(np.uint8))
+    return _Capture(images[0], images[1], pose)
+
+
+def _rim(capture: _Capture) -> RimView:
+    centre, inner, height, thickness = _box()
+    return rim_view(capture, RIG, centre, inner, height, thickness, BoxCheckSettings())
+
+
+def test_rim_points_lie_on_the_middle_of_each_walls_top() -> None:
+    centre, inner, height, thickness = _box()
+    points = rim_points(centre, inner, height, thickness, 11)
+    for wall, normal in enumerate(WALL_NORMALS):
+        out = (points[wall, :, :2] - centre[:2]) @ normal
+        np.testing.assert_allclose(out, inner / 2 + thickness / 2)
+        np.testing.assert_allclose(points[wall, :, 2], centre[2] + height)
+        along = (points[wall, :, :2] - centre[:2]) @ normal[::-1]
+        assert along.min() == pytest.approx(-(inner / 2 + thickness / 2))
+
+
+def test_the_checks_look_sees_every_walls_rim_the_old_one_did_not() -> None:
+    height = ClearTableConfig().clear.box_view_height
+    assert _rim(_paint(height, 1.0, None)).seen[0].all()
+    assert not _rim(_paint(0.42, 1.0, None)).seen[0].all()  # the look before session 43
+
+
+def test_a_brighter_look_alone_covers_no_rim() -> None:
+    height = ClearTableConfig().clear.box_view_height
+    before, after = _rim(_paint(height, 1.0, None)), _rim(_paint(height, 1.3, None))
+    np.testing.assert_allclose(after.bgr[0, 0, 0], np.minimum(np.array(WALL_BGR) * 1.3, 255), atol=1.0)
+    assert rim_covered(before, after, BoxCheckSettings()).max() == 0.0
+
+
+def test_a_cloth_over_a_wall_is_the_run_of_its_rim_that_changed() -> None:
+    height, settings = ClearTableConfig().clear.box_view_height, BoxCheckSettings()
+    before = _rim(_paint(height, 1.0, None))
+    after = _rim(_paint(height, 0.8, (2, slice(10, 22))))
+    covered = rim_covered(before, after, settings)
+    assert covered[2] == pytest.approx(12 * after.spacing)
+    assert covered[[0, 1, 3]].max() == 0.0
+    assert covered[2] >= settings.rim_run
+    assert over_wall_note(covered, "colours").startswith("a cloth over the +y wall of colours (")
+    short = rim_covered(before, _rim(_paint(height, 1.0, (0, slice(3, 5)))), settings)
+    assert 0.0 < short[0] < settings.rim_run  # a corner touching it: not over the wall
+
+
+def test_no_reference_look_in_view_covers_nothing() -> None:
+    height = ClearTableConfig().clear.box_view_height
+    unseen = RimView(np.zeros((2, 4, 40, 3)), np.zeros((2, 4, 40), bool), 0.006)
+    after = _rim(_paint(height, 1.0, (1, slice(0, 40))))
+    assert rim_covered(unseen, after, BoxCheckSettings()).max() == 0.0
