@@ -1082,7 +1082,7 @@ def test_after_looks_that_found_nothing_the_lost_cloth_is_sought_from_the_observ
     job.settings, job.ledger = ClearTableSettings(look_at_boxes=False), TableLedger()
     job.cell = SimpleNamespace(set_gripper=lambda opening: None, time=0.0)  # type: ignore[assignment]
     job.loop_settings = LoopSettings()
-    job._start = lambda: None  # type: ignore[method-assign]
+    job.start = lambda: None  # type: ignore[method-assign]
     job._back_to_observation = lambda: calls.append("observation")  # type: ignore[method-assign]
     job._survey = lambda meanwhile=None, boxed=False: (calls.append("survey"), next(surveys))[1]  # type: ignore[method-assign]
     job._notice_moved = lambda: None  # type: ignore[method-assign]
