@@ -1,9 +1,12 @@
-"""The small synthetic stereo rig and model station the clear-table unit tests share, and a
-recogniser of a catalogue cloth photographed at that station."""
+"""The small synthetic stereo rig and model station the clear-table unit tests share, a
+recogniser of a catalogue cloth photographed at that station, and a capture of set images."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
+import numpy.typing as npt
 
 from robot_app.geometry import make_transform
 from robot_app.vision import ModelCamera, PinholeCamera, Recognizer, StereoRig, make_model
@@ -13,6 +16,18 @@ from robot_app.vision.synthetic_catalogue import synthetic_cloth
 CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48))
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
 STATION = ModelCamera(PinholeCamera.from_fov((480, 360), np.deg2rad(48)), 0.40)
+
+
+@dataclass(frozen=True)
+class Capture:
+    """A `StereoCapture` of set images, taken with the right camera at a set pose."""
+
+    right_bgr: npt.NDArray[np.uint8]
+    left_bgr: npt.NDArray[np.uint8]
+    transform_right_camera_to_world: np.ndarray
+    time: float = 0.0
+    available_time: float = 0.0
+    dropped: bool = False
 
 
 def recognizer(index: int, name: str) -> Recognizer:

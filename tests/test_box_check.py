@@ -7,10 +7,7 @@ let go lands anywhere in the box)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
-import numpy.typing as npt
 import pytest
 
 from robot_app.arrays import FloatArray
@@ -25,22 +22,13 @@ from robot_app.geometry import make_transform
 from robot_app.sim.world import World, observation_camera_pose
 from robot_app.vision import ClothModel, FitnessSettings
 from robot_app.vision.camera import PinholeCamera, StereoRig
+from tests.table_scene import Capture
 
 CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48.0))
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
 DOWN = np.column_stack([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])  # camera looking down
 Cell = tuple[ClearTableConfig, FloatArray]  # the config, the right camera minus the TCP [m]
 TABLE_BGR, CLOTH_BGR = (150, 170, 185), (40, 30, 200)
-
-
-@dataclass(frozen=True)
-class _Capture:
-    right_bgr: npt.NDArray[np.uint8]
-    left_bgr: npt.NDArray[np.uint8]
-    transform_right_camera_to_world: FloatArray
-    time: float = 0.0
-    available_time: float = 0.0
-    dropped: bool = False
 
 
 @pytest.fixture(scope="module")
@@ -55,7 +43,7 @@ def cell() -> Cell:
     return config, offset
 
 
-def _render(camera_position: FloatArray, cloth: tuple[float, float, float, float] | None) -> _Capture:
+def _render(camera_position: FloatArray, cloth: tuple[float, float, float, float] | None) -> Capture:
     """The table plane (z = 0) seen straight down from `camera_position` [m]; `cloth`: (x0,
     x1, y0, y1) [m] of a red rectangle on it. The walls hide nothing inside the box: the
     camera is over its inside."""
@@ -72,7 +60,7 @@ def _render(camera_position: FloatArray, cloth: tuple[float, float, float, float
         inside = (points[0] >= x0) & (points[0] <= x1) & (points[1] >= y0) & (points[1] <= y1)
         image[inside] = CLOTH_BGR
     bgr = image.reshape(height, width, 3)
-    return _Capture(bgr, bgr, pose)
+    return Capture(bgr, bgr, pose)
 
 
 def _red_model() -> ClothModel:

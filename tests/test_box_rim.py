@@ -3,10 +3,7 @@ run of it changed between two looks (a cloth over the wall), whatever the exposu
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
-import numpy.typing as npt
 import pytest
 
 from robot_app.arrays import FloatArray
@@ -23,21 +20,12 @@ from robot_app.control.box_rim import over_wall_note
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.geometry import invert_transform, make_transform
 from robot_app.vision.camera import PinholeCamera, StereoRig
+from tests.table_scene import Capture
 
 CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48.0))  # the cell's hand camera
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
 DOWN = np.column_stack([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])  # camera looking down
 WALL_BGR, CLOTH_BGR = (60, 140, 220), (200, 90, 40)
-
-
-@dataclass(frozen=True)
-class _Capture:
-    right_bgr: npt.NDArray[np.uint8]
-    left_bgr: npt.NDArray[np.uint8]
-    transform_right_camera_to_world: FloatArray
-    time: float = 0.0
-    available_time: float = 0.0
-    dropped: bool = False
 
 
 def _box() -> tuple[FloatArray, float, float, float]:
@@ -47,7 +35,7 @@ def _box() -> tuple[FloatArray, float, float, float]:
     return np.array([*box.centre_xy, world.table.top_z]), box.inner_size, box.wall_height, box.wall_thickness
 
 
-def _paint(camera_height: float, gain: float, cloth: tuple[int, slice] | None) -> _Capture:
+def _paint(camera_height: float, gain: float, cloth: tuple[int, slice] | None) -> Capture:
     """Both images of a look from `camera_height` over the box floor: grey, the rim's
     points painted the wall's colour times `gain` (exposure), `cloth` = (wall, points) of
     it painted a cloth's colour instead."""
@@ -69,10 +57,10 @@ def _paint(camera_height: float, gain: float, cloth: tuple[int, slice] | None) -
             if 0 <= u < 320 and 0 <= v < 240:
                 image[max(0, int(v) - 2) : int(v) + 3, max(0, int(u) - 2) : int(u) + 3] = bgr
         images.append(np.clip(image * gain, 0, 255).astype(np.uint8))
-    return _Capture(images[0], images[1], pose)
+    return Capture(images[0], images[1], pose)
 
 
-def _rim(capture: _Capture) -> RimView:
+def _rim(capture: Capture) -> RimView:
     centre, inner, height, thickness = _box()
     return rim_view(capture, RIG, centre, inner, height, thickness, BoxCheckSettings())
 
