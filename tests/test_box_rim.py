@@ -26,6 +26,7 @@ CAMERA = PinholeCamera.from_fov((320, 240), np.deg2rad(48.0))  # the cell's hand
 RIG = StereoRig(CAMERA, CAMERA, make_transform(np.eye(3), [-0.1, 0.0, 0.0]))
 DOWN = np.column_stack([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])  # camera looking down
 WALL_BGR, CLOTH_BGR = (60, 140, 220), (200, 90, 40)
+OVER = "a cloth over the +y wall of colours"  # the check's note
 
 
 def _box() -> tuple[FloatArray, float, float, float]:
@@ -97,7 +98,7 @@ def test_a_cloth_over_a_wall_is_the_run_of_its_rim_that_changed() -> None:
     assert covered[2] == pytest.approx(12 * after.spacing)
     assert covered[[0, 1, 3]].max() == 0.0
     assert covered[2] >= settings.rim_run
-    assert over_wall_note(covered, "colours").startswith("a cloth over the +y wall of colours (")
+    assert over_wall_note(covered, "colours").startswith(OVER + " (")
     short = rim_covered(before, _rim(_paint(height, 1.0, (0, slice(3, 5)))), settings)
     assert 0.0 < short[0] < settings.rim_run  # a corner touching it: not over the wall
 
@@ -107,3 +108,69 @@ def test_no_reference_look_in_view_covers_nothing() -> None:
     unseen = RimView(np.zeros((2, 4, 40, 3)), np.zeros((2, 4, 40), bool), 0.006)
     after = _rim(_paint(height, 1.0, (1, slice(0, 40))))
     assert rim_covered(unseen, after, BoxCheckSettings()).max() == 0.0
+
+
+def _rim_job(monkeypatch: pytest.MonkeyPatch, looks: list[float], tries: int, reach: bool = True):
+    """A job whose check sees a cloth over the +y wall `looks[k]` [m] of rim at its k-th look
+    (the reference look first), and whose laying again reaches (`reach`) or not."""
+    from types import SimpleNamespace
+
+    from robot_app.control import table_clearer
+    from robot_app.control.clear_table_records import BoxPlace, ClearTableSettings
+
+    centre, inner, height, thickness = _box()
+    box = BoxPlace("colours", centre, inner, height, thickness)
+    seen = iter(looks)
+    laid: list[int] = []
+
+    def rim_of(*args: object) -> RimView:
+        run = round(next(seen) / 0.01)
+        bgr = np.zeros((2, 4, 40, 3))
+        bgr[:, 2, :run] = 200.0
+        return RimView(bgr, np.ones((2, 4, 40), bool), 0.01)
+
+    def again(job: object, attempt: object, wall: int) -> object:
+        laid.append(wall)
+        return object() if reach else None
+
+    monkeypatch.setattr(table_clearer, "rim_view", rim_of)
+    monkeypatch.setattr(table_clearer, "lay_again", again)
+    monkeypatch.setattr(table_clearer, "box_view", lambda *args: SimpleNamespace(in_view=np.zeros(1)))
+    job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
+    job.settings = ClearTableSettings(rim_tries=tries, box_heap=False)
+    job.box_settings, job.rig = BoxCheckSettings(), None  # type: ignore[assignment]
+    job._rims = {"colours": job._rim_view(box, None)}  # type: ignore[arg-type]
+    attempt = SimpleNamespace(box=box, notes=[])
+    return job, attempt, laid
+
+
+def test_a_cloth_seen_over_a_wall_is_laid_again_until_the_rim_is_clear(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    job, attempt, laid = _rim_job(monkeypatch, [0.0, 0.12, 0.0], tries=1)
+    job._check_rim(attempt, None)
+    assert laid == [2]  # the +y wall
+    assert attempt.notes == [
+        OVER + " (12 cm of its rim): laid again",
+        "laid again 1 time(s): the rim is clear",
+    ]
+    assert job._rims["colours"].bgr[0, 2].max() == 0.0  # the clear look is the next reference
+
+
+def test_a_rim_touched_less_than_the_run_is_left_alone(monkeypatch: pytest.MonkeyPatch) -> None:
+    job, attempt, laid = _rim_job(monkeypatch, [0.0, 0.02], tries=1)
+    job._check_rim(attempt, None)
+    assert laid == [] and attempt.notes == []
+
+
+def test_laying_again_stops_after_its_tries_or_when_it_cannot(monkeypatch: pytest.MonkeyPatch) -> None:
+    job, attempt, laid = _rim_job(monkeypatch, [0.0, 0.12, 0.10], tries=1)
+    job._check_rim(attempt, None)
+    assert laid == [2] and attempt.notes[-1] == OVER + " (10 cm of its rim): left so"
+    assert job._rims["colours"].bgr[0, 2, :10].min() == 200.0  # left over the wall: not blamed on the next
+    job, attempt, laid = _rim_job(monkeypatch, [0.0, 0.12], tries=0)
+    job._check_rim(attempt, None)
+    assert laid == [] and attempt.notes == [OVER + " (12 cm of its rim): not laid again (clear.rim_tries 0)"]
+    job, attempt, laid = _rim_job(monkeypatch, [0.0, 0.12], tries=2, reach=False)
+    job._check_rim(attempt, None)
+    assert laid == [2] and attempt.notes == [OVER + " (12 cm of its rim): laid again"]

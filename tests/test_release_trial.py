@@ -82,22 +82,3 @@ def test_script_refuses_an_unknown_box_without_running() -> None:
     assert run.returncode != 0
     assert "no box 'socks'" in run.stderr and "colours" in run.stderr
     assert "Traceback" not in run.stderr
-
-
-@pytest.mark.slow
-def test_a_cloth_slid_over_a_wall_is_seen_on_the_rim_and_laid_again() -> None:
-    # five cloths into one box (scripts/bench_release.py --seeds 13 --count 5 5, session 42):
-    # the fifth, No.9, slid off the 0.10 m heap and hung 12 % of its nodes over a wall
-    config = load_config(ClearTableConfig, CONFIG, ["seed=13", "pile.count=[5,5]"])
-    alone = release_trial(
-        ClearTableConfig.model_validate(
-            {**config.model_dump(), "clear": {**config.clear.model_dump(), "rim_tries": 0}}
-        ),
-        "colours",
-    )
-    assert alone[-1].place == "partly in colours" and alone[-1].outside >= 0.1
-    assert "not laid again" in alone[-1].laid_again
-    checked = release_trial(config, "colours")
-    assert [c.place for c in checked] == ["colours"] * 5
-    assert "laid again" in checked[-1].laid_again and "the rim is clear" in checked[-1].laid_again
-    assert all(c.laid_again == "" for c in checked[:2])  # the first into the box touch no rim
