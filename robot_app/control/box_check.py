@@ -12,8 +12,12 @@ compares with a look into it before the first pick, from the same pose (the job'
 it (`BoxView.surround_bgr`, a ring `surround` outside), a poor stand-in where the box's
 floor differs from the table or lies in the walls' shadow.
 
+The same look reads the box's rim (`rim_view`: points along the middle of each wall's top,
+in both images) and compares it with the look before (`rim_covered`): a run of it that
+changed is a cloth lying over that wall, partly out of the box (`box_rim`).
+
 Where to look from (`look_tcp`): straight above the floor's middle, high enough that the
-image holds the whole floor. Not from the release pose: there the fingers are 6-8 cm
+image holds the whole floor and the walls' tops. Not from the release pose: there the fingers are 6-8 cm
 over the floor (a cloth is let go low, to fold onto the floor), the hand camera 10 cm
 above them and 7 cm and 5 cm beside them, so its 14 x 11 cm field covered a quarter of
 the 22 cm box's floor, under `min_in_view`, and no check after placing ever confirmed.
