@@ -129,7 +129,7 @@ def _rim_job(monkeypatch: pytest.MonkeyPatch, looks: list[float], tries: int, re
         bgr[:, 2, :run] = 200.0
         return RimView(bgr, np.ones((2, 4, 40), bool), 0.01)
 
-    def again(job: object, attempt: object, wall: int) -> object:
+    def again(job: object, attempt: object, wall: int, capture: object) -> object:
         laid.append(wall)
         return object() if reach else None
 

@@ -9,25 +9,31 @@ the fifth; 1340: the second into whites), the commonest failure of sessions 37-4
 
 Then the job lays the cloth again (`lay_again`): the released cloth's grasped part landed
 last, on top, under where the hand let go (the box's middle); the hand goes down there to
-the heap's top as the check measured it, closes (lower again while it closes on nothing,
-as a blind grasp: `table_lost.close_lowering`), lifts straight up to the transfer height,
-which draws the hanging part back over the rim, and releases it again `clear.rim_shift`
-away from that wall. What it takes is whatever lies on top there: the cloth just released
-or one under it, all of that box (the rim decides, not the name)."""
+the top the check's pair measures at that point (`middle_top`; the heap's highest point,
+`box_contents.contents_top`, where it measures none: in the first held-out run with the
+check, 1405, one cloth over an empty box's wall, the heap's top was read at the draped wall,
+0.10 m, and the fingers closed four times on nothing over it), closes (lower again while it
+closes on nothing, as a blind grasp: `table_lost.close_lowering`), lifts straight up to the
+transfer height, which draws the hanging part back over the rim, and releases it again
+`clear.rim_shift` away from that wall. What it takes is whatever lies on top there: the
+cloth just released or one under it, all of that box (the rim decides, not the name)."""
 
 from __future__ import annotations
 
+import time
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from robot_app.arrays import FloatArray
 from robot_app.control.box_check import WALL_NORMALS, look_tcp
+from robot_app.control.box_contents import inside_mask
 from robot_app.control.cell import StereoCapture
 from robot_app.control.intercept import hanging_reach
 from robot_app.control.pick_checks import AttemptState
 from robot_app.control.pick_place import carry_over_box, release_into_box
 from robot_app.control.table_lost import close_lowering
+from robot_app.control.table_surface import surface_height
 from robot_app.errors import IKError
 
 if TYPE_CHECKING:
@@ -36,15 +42,21 @@ if TYPE_CHECKING:
 WALL_NAMES = ("+x", "-x", "+y", "-y")  # `WALL_NORMALS` order: the wall's outward side in Σ_W
 
 
-def lay_again(job: TableClearer, attempt: AttemptState, wall: int) -> StereoCapture | None:
-    """Takes what lies on top in the middle of `attempt.box` and releases it again
-    `clear.rim_shift` away from its wall `wall` (`WALL_NORMALS` index), then looks into the
-    box from the check's pose: that look's capture, or None where the hand closed on
-    nothing or the arm could not reach (noted; the arm is back at the look)."""
+def lay_again(
+    job: TableClearer, attempt: AttemptState, wall: int, capture: StereoCapture
+) -> StereoCapture | None:
+    """Takes what lies on top in the middle of `attempt.box` (its height measured on the
+    check's `capture`, `middle_top`) and releases it again `clear.rim_shift` away from its
+    wall `wall` (`WALL_NORMALS` index), then looks into the box from the check's pose: that
+    look's capture, or None where the hand closed on nothing or the arm could not reach
+    (noted; the arm is back at the look)."""
     s, loop, table_z = job.settings, job.loop_settings, job.table_z
     box = attempt.box
     middle = np.asarray(box.centre, dtype=float)
-    heap = job.box_heap(box.name)
+    top = middle_top(job, attempt, capture)
+    heap = job.box_heap(box.name) if top is None else top
+    source = "its heap's top" if top is None else "the top measured in its middle"
+    attempt.notes.append(f"laid again from {heap * 1000:.0f} mm over the box's floor ({source})")
     grasp_z = table_z + max(s.lost.grasp_height, heap + loop.grasp_height)
     job.set_phase("lay again", attempt.name)
     look = look_tcp(box.centre, s.box_view_height, job.camera_offset())
@@ -76,10 +88,34 @@ def lay_again(job: TableClearer, attempt: AttemptState, wall: int) -> StereoCapt
     return job.cell.capture()
 
 
+def middle_top(job: TableClearer, attempt: AttemptState, capture: StereoCapture) -> float | None:
+    """How high [m] over its floor the top of what lies in the middle of `attempt.box`
+    lies, measured on the pair of `capture` (`table_surface.surface_height` inside the box's
+    walls, with the cloth's model's sweep settings); None where not trusted. The arm holds
+    for the computation time."""
+    cpu = time.process_time()
+    box, recognizer = attempt.box, job.recognizers[attempt.name]
+    shape = (capture.right_bgr.shape[0], capture.right_bgr.shape[1])
+    inside = inside_mask(capture, job.rig.right, box, shape)
+    floor = float(box.centre[2])
+    found = surface_height(
+        capture,
+        job.rig,
+        recognizer.model,
+        recognizer.settings.depth,
+        inside,
+        box.centre,
+        floor,
+        job.settings.surface,
+    )
+    job.motion.hold(time.process_time() - cpu)
+    return found.z - floor if found.trusted else None
+
+
 def over_wall_note(covered: FloatArray, box: str) -> str:
     """Names the wall of `box` whose rim the longest changed run `covered` ((4,) [m]) crosses."""
     wall = int(np.argmax(covered))
     return f"a cloth over the {WALL_NAMES[wall]} wall of {box} ({covered[wall] * 100:.0f} cm of its rim)"
 
 
-__all__ = ["WALL_NAMES", "lay_again", "over_wall_note"]
+__all__ = ["WALL_NAMES", "lay_again", "middle_top", "over_wall_note"]

@@ -1750,9 +1750,10 @@ class TableClearer:
                 break
             attempt.notes.append(note + ": laid again")
             tries += 1
-            again = lay_again(self, attempt, int(np.argmax(covered)))
+            again = lay_again(self, attempt, int(np.argmax(covered)), capture)
             if again is None:
                 break
+            capture = again
             rim = self._rim_view(box, again)
             view = box_view(again, self.rig, box.centre, box.inner_size, self.box_settings)
             if float(np.mean(view.in_view)) >= self.box_settings.min_in_view:
