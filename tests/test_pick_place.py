@@ -43,6 +43,9 @@ def test_plain_pick_and_place_puts_the_cloth_in_the_box() -> None:
     assert max(abs(r.error_y_mm) for r in tracked) < 10
     # the fingers closed where the loop meant them to, on the true cloth
     assert len(result.grasp_offsets) == 1 and np.hypot(*result.grasp_offsets[0]) < 0.005
+    # the transfer arrived over the box moving down into the lowering (`loop.transfer_via_drop`)
+    (transfer,) = [p for p in result.phases if p.phase == "transfer"]
+    assert transfer.note.startswith("over the box moving down"), transfer.note
 
 
 def test_pick_and_place_with_the_calibrated_rig_file() -> None:

@@ -9,10 +9,12 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from robot_app.control.arm_motion import ArmMotion
 from robot_app.control.job_motion import JobMotion
 from robot_app.control.kinematics import Kinematics
 from robot_app.control.limits import JointLimits, TrajectorySettings, check_limits
 from robot_app.control.logged_cell import LoggedCell
+from robot_app.control.loop_settings import LoopSettings
 from robot_app.control.release_watch import image_change, wait_until_settled
 from robot_app.control.trajectory import plan_point_to_point, plan_slowing_down
 from robot_app.sim.config import DEFAULT_URDF, RobotSettings
@@ -251,3 +253,83 @@ def test_the_release_takes_the_top_of_what_lies_in_the_box_for_its_floor() -> No
     assert empty_low == pytest.approx(LoopSettings().min_release_height)
     assert heaped_low == pytest.approx(empty_low + 0.11) and heaped_slow == pytest.approx(empty_slow + 0.11)
     assert lowest(-0.01) == (empty_low, empty_slow)  # nothing measured below the floor counts
+
+
+# --- the transfer that arrives moving down into the lowering (`ArmMotion.arrive_lowering`) --
+
+
+def _arm() -> tuple[ArmMotion, Kinematics]:
+    kinematics = Kinematics.from_urdf(DEFAULT_URDF, "base_link", "tcp")
+    home = np.array(RobotSettings().home_joints)
+    rotation = kinematics.frame_pose(home, "tcp")[:3, :3]
+    arm = ArmMotion(_StillCell(home), kinematics, _limits(), LoopSettings(), rotation, home)  # type: ignore[arg-type]
+    return arm, kinematics
+
+
+def _carry(join: bool, drop: float = 0.02) -> tuple[ArmMotion, bool, int, np.ndarray]:
+    """Lifted over the table at (0.55, 0.0), 0.40 m, carried over the colours box and lowered
+    to 0.07 m (slow below 0.30 m), joined or with the stop over the box; the arm, whether it
+    joined, the sample where the transfer ended, and every TCP position (K, 3)."""
+    arm, kinematics = _arm()
+    arm.move_to_joints(arm.solve_tcp([0.55, 0.0, 0.40]))
+    start = arm.samples
+    q_over, q_low = arm.solve_tcp([0.30, -0.56, 0.40]), arm.solve_tcp([0.30, -0.56, 0.07])
+    joined = join and arm.arrive_lowering(q_over, q_low, SLOW, 0.30, drop, 0.05, 0.003)
+    if not joined:
+        arm.move_to_joints(q_over)
+    transfer_end = arm.samples
+    arm.move_slowing_down(q_low, SLOW, 0.30)
+    Q = np.array(arm._Q[start:])
+    tcp = np.array([kinematics.frame_pose(q, "tcp")[:3, 3] for q in Q])
+    return arm, joined, transfer_end - start, tcp
+
+
+def test_the_transfer_arrives_moving_into_the_lowering_and_saves_the_stop() -> None:
+    arm_stop, _, _, tcp_stop = _carry(join=False)
+    arm, joined, transfer, tcp = _carry(join=True)
+    assert joined
+    assert len(tcp) < len(tcp_stop) - 0.15 / DT  # at least 0.15 s shorter
+    np.testing.assert_allclose(tcp[-1], tcp_stop[-1], atol=1e-6)
+    assert arm.limit_report().ok and arm_stop.limit_report().ok
+    V = np.array(arm._V)
+    assert np.max(np.abs(np.diff(V, axis=0))) <= np.max(arm.limits.acceleration) * DT * 1.01  # no jump
+    # the transfer ends moving down, 20 mm below the transfer height, over the box's middle
+    end = tcp[transfer - 1]
+    assert end[2] == pytest.approx(0.38, abs=0.003)
+    assert np.hypot(end[0] - 0.30, end[1] + 0.56) < 0.05
+    assert np.linalg.norm(arm._V[arm.samples - len(tcp) + transfer - 1]) > 0.05
+    # a hanging cloth crosses the box's wall as high as after a stop: more than 3 mm below
+    # the transfer height only within 5 cm of the box's middle
+    far = np.hypot(tcp[:transfer, 0] - 0.30, tcp[:transfer, 1] + 0.56) > 0.05
+    assert tcp[:transfer][far, 2].min() >= 0.40 - 0.003
+    # below the slow height the joined move is the lowering's own: within the slow limits
+    slow = tcp[1:, 2] <= 0.30
+    assert np.all(np.abs(V[-len(tcp) + 1 :][slow]) <= arm.limits.scaled(SLOW).velocity + 1e-9)
+
+
+def test_a_move_after_the_arrival_that_is_not_the_lowering_starts_from_the_moving_state() -> None:
+    arm, _ = _arm()
+    arm.move_to_joints(arm.solve_tcp([0.55, 0.0, 0.40]))
+    q_over, q_low = arm.solve_tcp([0.30, -0.56, 0.40]), arm.solve_tcp([0.30, -0.56, 0.07])
+    assert arm.arrive_lowering(q_over, q_low, SLOW, 0.30, 0.02, 0.05, 0.003)
+    assert np.linalg.norm(arm.command.v) > 0.0
+    arm.move_to_joints(q_over)  # e.g. the hand came empty: brought to rest over the box
+    assert arm.limit_report().ok
+    V = np.array(arm._V)
+    assert np.max(np.abs(np.diff(V, axis=0))) <= np.max(arm.limits.acceleration) * DT * 1.01
+    np.testing.assert_allclose(arm.command.q, q_over, atol=1e-9)
+    # and the lowering after it is planned afresh from rest (the arrival's is dropped)
+    arm.move_slowing_down(q_low, SLOW, 0.30)
+    np.testing.assert_allclose(arm.command.q, q_low, atol=1e-9)
+    assert arm.limit_report().ok
+
+
+def test_no_arrival_where_it_would_not_hand_over_in_the_fast_part() -> None:
+    arm, _ = _arm()
+    arm.move_to_joints(arm.solve_tcp([0.55, 0.0, 0.40]))
+    before = arm.samples
+    q_over, q_low = arm.solve_tcp([0.30, -0.56, 0.40]), arm.solve_tcp([0.30, -0.56, 0.07])
+    assert not arm.arrive_lowering(q_over, q_low, SLOW, 0.30, 0.0, 0.05, 0.003)  # no drop asked
+    assert not arm.arrive_lowering(q_over, q_low, SLOW, 0.30, 0.2, 0.05, 0.003)  # past the slow height
+    assert not arm.arrive_lowering(q_over, q_low, SLOW, 0.45, 0.02, 0.05, 0.003)  # all of it slow
+    assert arm.samples == before  # nothing moved

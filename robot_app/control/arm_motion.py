@@ -25,7 +25,9 @@ from robot_app.control.online_trajectory import OnlineTrajectory
 from robot_app.control.trajectory import (
     JoinedTrajectory,
     JointTrajectory,
+    TrajectoryPlanningError,
     TrajectorySample,
+    TrajectoryTail,
     plan_point_to_point,
     plan_slowing_down,
     plan_through,
@@ -81,6 +83,7 @@ class ArmMotion:
         q0 = np.asarray(self.cell.joint_positions(), dtype=float)
         q0 = np.clip(q0, self.limits.lower, self.limits.upper)
         self.command = Command(q0, np.zeros(len(q0)), np.zeros(len(q0)))
+        self._lowering: tuple[TrajectoryTail, FloatArray] | None = None
         self.start_time = self.cell.time
         self._next_collision_check = self.cell.time
         self.collisions = 0
@@ -96,6 +99,7 @@ class ArmMotion:
         (its samples are in its own log, not in this one)."""
         q_rest = np.array(q, dtype=float)
         self.command = Command(q_rest, np.zeros(len(q_rest)), np.zeros(len(q_rest)))
+        self._lowering = None
 
     # ------------------------------------------------------------------ kinematics
     def tcp_position(self, q: npt.ArrayLike | None = None) -> FloatArray:
@@ -163,6 +167,7 @@ class ArmMotion:
 
     def hold(self, duration: float) -> None:
         """Holds the commanded joints still for `duration` [s]."""
+        self._lowering = None
         for _ in range(round(duration / self.cell.dt)):
             self._send_still()
 
@@ -212,7 +217,14 @@ class ArmMotion:
     def move_slowing_down(self, q_goal: npt.ArrayLike, speed: float, below: float) -> None:
         """Jerk-limited move to rest at `q_goal` [rad] with the limits scaled by `speed` once
         the TCP is at or below the height `below` [m] (Σ_W z), at full limits above it,
-        without a stop in between (`trajectory.plan_slowing_down`)."""
+        without a stop in between (`trajectory.plan_slowing_down`); after `arrive_lowering`
+        into such a move to `q_goal`, the rest of that one."""
+        if self._lowering is not None:
+            tail, goal = self._lowering
+            self._lowering = None
+            if np.allclose(goal, np.asarray(q_goal, dtype=float), atol=1e-9):
+                self._follow(tail)
+                return
         trajectory = plan_slowing_down(
             self.command.q,
             q_goal,
@@ -225,15 +237,86 @@ class ArmMotion:
         )
         self._follow(trajectory)
 
-    def _follow(self, trajectory: JointTrajectory | JoinedTrajectory) -> None:
-        """Send every control sample of `trajectory`, then hold the goal at rest."""
+    def arrive_lowering(
+        self,
+        q_over: npt.ArrayLike,
+        q_low: npt.ArrayLike,
+        speed: float,
+        below: float,
+        drop: float,
+        radius: float,
+        dip: float,
+    ) -> bool:
+        """Moves toward `q_over` [rad] without a stop there: arrives, moving, where the
+        lowering from rest at `q_over` to `q_low` (`move_slowing_down(q_low, speed, below)`)
+        has come `drop` [m] down, in that lowering's state; the next `move_slowing_down` to
+        `q_low` goes on with the rest of it (any other move plans from the moving state).
+
+        Only where the hand-over lies in the lowering's fast part and the arrival keeps the
+        TCP no more than `dip` [m] below `q_over`'s height wherever it is more than `radius`
+        [m] from `q_over`'s TCP horizontally (a hanging cloth crosses a box's wall about as
+        high as after a stop: a move between two points at one height bows 1-2 mm down in
+        joint space too); else nothing moves and it returns False.
+        """
+        dt = self.cell.dt
+        over = self.tcp_position(q_over)
+        lowering = plan_slowing_down(
+            q_over,
+            q_low,
+            self.limits,
+            self.limits.scaled(speed),
+            lambda q: bool(self.tcp_position(q)[2] <= below),
+            dt=dt,
+        )
+        if lowering.fast is None or drop <= 0.0:
+            return False
+        fast_steps = round(lowering.fast.duration / dt)
+        handover = next(
+            (
+                k
+                for k in range(1, fast_steps + 1)
+                if self.tcp_position(lowering.sample(k * dt).q)[2] <= over[2] - drop
+            ),
+            None,
+        )
+        if handover is None:
+            return False
+        state = lowering.sample(handover * dt)
+        try:
+            arrival = plan_point_to_point(
+                self.command.q,
+                state.q,
+                self.limits,
+                v_start=self.command.v,
+                a_start=self.command.a,
+                v_goal=state.v,
+                a_goal=state.a,
+                dt=dt,
+            )
+        except TrajectoryPlanningError:
+            return False
+        for k in range(round(arrival.duration / dt) + 1):
+            tcp = self.tcp_position(arrival.sample(k * dt).q)
+            if float(np.hypot(*(tcp[:2] - over[:2]))) > radius and tcp[2] < over[2] - dip:
+                return False
+        self._follow(arrival, to_rest=False)
+        self._lowering = (TrajectoryTail(lowering, handover * dt), np.array(q_low, dtype=float))
+        return True
+
+    def _follow(
+        self, trajectory: JointTrajectory | JoinedTrajectory | TrajectoryTail, to_rest: bool = True
+    ) -> None:
+        """Send every control sample of `trajectory`, then hold the goal at rest (not
+        `to_rest`: the last sample's state is where the next move starts)."""
+        self._lowering = None
         self.ruckig_times_us.append(trajectory.calculation_time_s * 1e6)
         steps = round(trajectory.duration / self.cell.dt)
         for k in range(1, steps + 1):
             sample = trajectory.sample(k * self.cell.dt)
             self.send(sample.q, sample.v, sample.a)
-        self.command.v[:] = 0.0
-        self.command.a[:] = 0.0
+        if to_rest:
+            self.command.v[:] = 0.0
+            self.command.a[:] = 0.0
 
     def start_online(self) -> OnlineTrajectory:
         """An online (replanning) trajectory from the commanded state."""

@@ -81,6 +81,9 @@ class HandMotion(Protocol):
         ...
 
 
+# [m] a TRANSFER that arrives moving down goes below its height only this near the box's middle,
+# and elsewhere no more than VIA_DIP below it (a stop-over transfer bows 1-2 mm down in joint space)
+VIA_RADIUS, VIA_DIP = 0.05, 0.003
 HEAP_STEP = 0.05  # [m] a heap's carrying height is lowered in these steps to the reachable
 
 
@@ -119,6 +122,27 @@ def carry_over_box(
     motion.move_to_joints(q_over)
 
 
+def release_lowering(
+    motion: HandMotion,
+    place_position: FloatArray,
+    table_z: float,
+    settings: LoopSettings,
+    reach: float,
+    heap: float = 0.0,
+) -> tuple[FloatArray, float | None]:
+    """Where RELEASE lowers the hand (`release_into_box`): the joints [rad] with the hanging
+    cloth's lowest point `release_clearance` above the box floor (the top of what lies in
+    the box, `heap` [m] over the floor), then `release_fold` lower (never below
+    `min_release_height`), and the TCP height [m] (Σ_W z) from which on the lowering is
+    slow (None: all of it)."""
+    s = settings
+    floor = table_z + max(0.0, float(heap))
+    low = np.asarray(place_position, dtype=float).reshape(3).copy()
+    low[2] = floor + max(s.min_release_height, s.grasp_height + reach + s.release_clearance - s.release_fold)
+    below = None if s.release_slow_from is None else floor + s.grasp_height + reach + s.release_slow_from
+    return motion.solve_tcp(low), below
+
+
 def release_into_box(
     motion: HandMotion,
     cell: Cell,
@@ -127,24 +151,26 @@ def release_into_box(
     settings: LoopSettings,
     reach: float,
     heap: float = 0.0,
+    lowering: tuple[FloatArray, float | None] | None = None,
 ) -> str:
     """RELEASE: lowers the cloth hanging `reach` [m] below the fingers until its lowest point
     is `release_clearance` above the box floor (the top of what lies in the box, `heap` [m]
     over the floor: `box_contents`), then `release_fold` lower still (folding it
     onto the floor; never below `min_release_height`), slowly (`release_speed`: a soft body
     that hits the floor fast goes through it) from where its lowest point is
-    `release_slow_from` above the floor on, at the full limits above that, without a stop;
-    lets go, waits until the hand camera sees the cloth at rest (`release_watch`; at most
-    `release_wait`) and opens the fingers. Returns a note on the wait."""
+    `release_slow_from` above the floor on, at the full limits above that, without a stop
+    (`release_lowering`; `lowering`: that one, as the TRANSFER planned it); lets go, waits
+    until the hand camera sees the cloth at rest (`release_watch`; at most `release_wait`)
+    and opens the fingers. Returns a note on the wait."""
     s = settings
-    floor = table_z + max(0.0, float(heap))
-    low = np.asarray(place_position, dtype=float).reshape(3).copy()
-    low[2] = floor + max(s.min_release_height, s.grasp_height + reach + s.release_clearance - s.release_fold)
-    q_low = motion.solve_tcp(low)
-    if s.release_slow_from is None:
+    q_low, slow_below = (
+        lowering
+        if lowering is not None
+        else release_lowering(motion, place_position, table_z, s, reach, heap)
+    )
+    if slow_below is None:
         motion.move_to_joints(q_low, speed=s.release_speed)
     else:
-        slow_below = floor + s.grasp_height + reach + s.release_slow_from
         motion.move_slowing_down(q_low, s.release_speed, slow_below)
     cell.release()
     note = f"waited {s.release_wait:.2f} s after letting go"
@@ -280,6 +306,8 @@ class PickPlaceLoop:
         # how much lower than the cloth alone what it lifted hangs [m] (`carry_over_box`);
         # a job that places a double pick together sets it after the lift
         self.extra_reach = 0.0
+        # RELEASE's lowering (joints, slow-from height) where TRANSFER arrived into it moving
+        self._lowering: tuple[FloatArray, float | None] | None = None
 
     @property
     def current_phase(self) -> Phase:
@@ -300,6 +328,7 @@ class PickPlaceLoop:
         self.phases, self.grasps = [], []
         self.grasp_attempts = self.observe_returns = 0
         self.extra_reach = 0.0
+        self._lowering = None
         self._current = Phase.OBSERVE
         outcome, reason = Outcome.PLACED, "cloth released over the box"
         try:
@@ -483,13 +512,51 @@ class PickPlaceLoop:
         return holding
 
     def _transfer(self) -> None:
-        tcp = self.arm.tcp_position()
-        carry_over_box(self.arm, self.place_position, self.table_z, self.settings, self.extra_reach, tcp)
+        """Over the box; where `loop.transfer_via_drop` is set (and the load is the meant
+        cloth alone), arriving there moving down into RELEASE's lowering (`arrive_lowering`);
+        a hand that came empty is brought to rest over the box first."""
+        s = self.settings
+        self._lowering = None
+        if self.extra_reach > 0.0 or s.transfer_via_drop <= 0.0 or s.release_slow_from is None:
+            tcp = self.arm.tcp_position()
+            carry_over_box(self.arm, self.place_position, self.table_z, s, self.extra_reach, tcp)
+            return
+        over = np.asarray(self.place_position, dtype=float).reshape(3).copy()
+        over[2] = self.table_z + s.transfer_height
+        q_over = self.arm.solve_tcp(over)
+        lowering = release_lowering(
+            self.arm, self.place_position, self.table_z, s, self._reach(), self.box_heap
+        )
+        q_low, below = lowering
+        assert below is not None  # release_slow_from is set
+        drops = (s.transfer_via_drop, s.transfer_via_drop / 2)
+        arrive = self.arm.arrive_lowering
+        drop = next(
+            (d for d in drops if arrive(q_over, q_low, s.release_speed, below, d, VIA_RADIUS, VIA_DIP)), None
+        )
+        if drop is None:
+            self.arm.move_to_joints(q_over)
+        elif self.cell.holding():
+            self._lowering = lowering
+            self._note = f"over the box moving down ({drop * 1e3:.0f} mm into the lowering)"
+        else:
+            self.arm.move_to_joints(q_over)  # came empty: at rest for what follows
+
+    def _reach(self) -> float:
+        """How far below the fingers the load hangs [m]."""
+        return hanging_reach(self.model.points_in, self.tracker.grasp_point_model) + self.extra_reach
 
     def _release(self) -> None:
-        reach = hanging_reach(self.model.points_in, self.tracker.grasp_point_model) + self.extra_reach
+        lowering, self._lowering = self._lowering, None
         self._note = release_into_box(
-            self.arm, self.cell, self.place_position, self.table_z, self.settings, reach, self.box_heap
+            self.arm,
+            self.cell,
+            self.place_position,
+            self.table_z,
+            self.settings,
+            self._reach(),
+            self.box_heap,
+            lowering,
         )
 
     def _safe_home(self) -> None:
@@ -583,4 +650,5 @@ __all__ = [
     "carry_over_box",
     "observation_posture",
     "release_into_box",
+    "release_lowering",
 ]

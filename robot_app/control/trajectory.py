@@ -192,6 +192,29 @@ class JoinedTrajectory(NamedTuple):
         return state._replace(time=min(t, self.duration))
 
 
+class TrajectoryTail(NamedTuple):
+    """The rest of `trajectory` from `start` [s] on (a multiple of the control period): a
+    move that another one arrived into midway, in its state there (`ArmMotion.arrive_lowering`)."""
+
+    trajectory: JointTrajectory | JoinedTrajectory
+    start: float
+
+    @property
+    def duration(self) -> float:
+        """Time left to the goal [s]."""
+        return max(0.0, self.trajectory.duration - self.start)
+
+    @property
+    def calculation_time_s(self) -> float:
+        """Nothing more to plan: the whole move was timed when it was planned [s]."""
+        return 0.0
+
+    def sample(self, t: float) -> TrajectorySample:
+        """State at time `t` [s] after `start`, clamped into [0, duration]."""
+        t = float(min(max(t, 0.0), self.duration))
+        return self.trajectory.sample(self.start + t)._replace(time=t)
+
+
 def plan_slowing_down(
     q_start: npt.ArrayLike,
     q_goal: npt.ArrayLike,
@@ -300,6 +323,7 @@ __all__ = [
     "TrajectoryPlanningError",
     "TrajectorySample",
     "TrajectorySamples",
+    "TrajectoryTail",
     "plan_point_to_point",
     "plan_slowing_down",
     "plan_through",
