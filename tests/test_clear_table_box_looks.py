@@ -92,3 +92,32 @@ def test_without_the_option_no_look_is_made_before_a_pick(
     job = _job(["No.3", "No.6"], monkeypatch, **settings)
     job.look_into_box("whites")
     assert job.motion.looked_at == []
+
+
+def _seen(*names: str) -> SimpleNamespace:
+    """A survey's identification, as far as `_boxes_ahead` reads it."""
+    return SimpleNamespace(detections=[SimpleNamespace(name=n) for n in names])
+
+
+def test_the_boxes_the_seen_cloths_need_are_looked_into_while_the_next_survey_computes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    job = _job(["No.3", "No.6", "No.12"], monkeypatch, boxes_when_needed=True)
+    job._look_at_boxes(job._first_boxes())  # the first survey's look: colours
+    assert job._boxes_ahead(_seen("No.3", "No.12")) is None  # colours looked into already
+    ahead = job._boxes_ahead(_seen("No.3", "No.6"))  # No.6 goes to whites: not looked into yet
+    assert ahead is not None
+    job.motion.q = OBSERVATION.copy()  # the survey is taken at the observation pose
+    ahead()
+    assert job.motion.looked_at == [(0.30, -0.56), (0.30, 0.56)]
+    assert np.array_equal(job.motion.q, OBSERVATION)  # back for the pick
+    assert job._views["whites"] is not None
+    assert job._boxes_ahead(_seen("No.6")) is None  # once
+    job.look_into_box("whites")  # and the pick's own look is not made again
+    assert len(job.motion.looked_at) == 2
+
+
+def test_no_look_ahead_without_the_option(monkeypatch: pytest.MonkeyPatch) -> None:
+    assert _job(["No.3", "No.6"], monkeypatch)._boxes_ahead(_seen("No.6")) is None
+    job = _job(["No.3", "No.6"], monkeypatch, boxes_when_needed=True, look_at_boxes=False)
+    assert job._boxes_ahead(_seen("No.6")) is None

@@ -290,8 +290,7 @@ class TableClearer:
             while True:
                 self._looked_left.clear()  # this round's looks' regions (`_from_observation`)
                 self._back_to_observation()
-                last = self._survey(meanwhile=boxes_first)
-                boxes_first = None
+                last = self._survey(meanwhile=boxes_first if last is None else self._boxes_ahead(last))
                 self._notice_moved()
                 target = choose_target(last, self.ledger.records, self._untried)
                 looked, lost = False, None
@@ -1809,6 +1808,18 @@ class TableClearer:
             return tuple(self.boxes)
         counts = Counter(self.sort.box_for(name) for name in self.recognizers)
         return (max(self.boxes, key=lambda box: counts[box]),)
+
+    def _boxes_ahead(self, last: Identification) -> Callable[[], None] | None:
+        """With `clear.boxes_when_needed`, the look into the boxes not looked into yet that
+        cloths `last` saw go to (their reference views, as `look_into_box` makes them before
+        such a pick), to make while the computer identifies the next survey's cloths: the
+        arm is free then, and a look before a pick is time the arm does nothing else in."""
+        s = self.settings
+        if not (s.look_at_boxes and s.boxes_when_needed):
+            return None
+        boxes = tuple(dict.fromkeys(self.sort.box_for(d.name) for d in last.detections))
+        ahead = tuple(box for box in boxes if box not in self._looked_into)
+        return (lambda: self._look_at_boxes(ahead)) if ahead else None
 
     def look_into_box(self, box: str) -> None:
         """Before a pick meant for `box`: with `clear.boxes_when_needed`, looks into it if
