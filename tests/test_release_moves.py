@@ -333,3 +333,15 @@ def test_no_arrival_where_it_would_not_hand_over_in_the_fast_part() -> None:
     assert not arm.arrive_lowering(q_over, q_low, SLOW, 0.30, 0.2, 0.05, 0.003)  # past the slow height
     assert not arm.arrive_lowering(q_over, q_low, SLOW, 0.45, 0.02, 0.05, 0.003)  # all of it slow
     assert arm.samples == before  # nothing moved
+
+
+def test_a_hold_after_the_arrival_brings_the_arm_to_rest_first() -> None:
+    arm, _ = _arm()
+    arm.move_to_joints(arm.solve_tcp([0.55, 0.0, 0.40]))
+    q_over, q_low = arm.solve_tcp([0.30, -0.56, 0.40]), arm.solve_tcp([0.30, -0.56, 0.07])
+    assert arm.arrive_lowering(q_over, q_low, SLOW, 0.30, 0.02, 0.05, 0.003)
+    arm.hold(0.1)
+    assert arm.limit_report().ok
+    V = np.array(arm._V)
+    assert np.max(np.abs(np.diff(V, axis=0))) <= np.max(arm.limits.acceleration) * DT * 1.01
+    np.testing.assert_allclose(V[-1], 0.0, atol=1e-12)

@@ -166,7 +166,10 @@ class ArmMotion:
             self.after_step()
 
     def hold(self, duration: float) -> None:
-        """Holds the commanded joints still for `duration` [s]."""
+        """Holds the commanded joints still for `duration` [s] (an arm still moving, after
+        `arrive_lowering`, is brought to rest first)."""
+        if np.any(self.command.v) or np.any(self.command.a):
+            self.move_to_joints(self.command.q)
         self._lowering = None
         for _ in range(round(duration / self.cell.dt)):
             self._send_still()

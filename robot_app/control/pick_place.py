@@ -517,20 +517,21 @@ class PickPlaceLoop:
         a hand that came empty is brought to rest over the box first."""
         s = self.settings
         self._lowering = None
-        if self.extra_reach > 0.0 or s.transfer_via_drop <= 0.0 or s.release_slow_from is None:
+        lowering = None
+        if self.extra_reach <= 0.0 and s.transfer_via_drop > 0.0:
+            lowering = release_lowering(
+                self.arm, self.place_position, self.table_z, s, self._reach(), self.box_heap
+            )
+        q_low, below = lowering if lowering is not None else (None, None)
+        if q_low is None or below is None:  # a double pick carried along, or all of it slow
             tcp = self.arm.tcp_position()
             carry_over_box(self.arm, self.place_position, self.table_z, s, self.extra_reach, tcp)
             return
         over = np.asarray(self.place_position, dtype=float).reshape(3).copy()
         over[2] = self.table_z + s.transfer_height
         q_over = self.arm.solve_tcp(over)
-        lowering = release_lowering(
-            self.arm, self.place_position, self.table_z, s, self._reach(), self.box_heap
-        )
-        q_low, below = lowering
-        assert below is not None  # release_slow_from is set
-        drops = (s.transfer_via_drop, s.transfer_via_drop / 2)
         arrive = self.arm.arrive_lowering
+        drops = (s.transfer_via_drop, s.transfer_via_drop / 2)
         drop = next(
             (d for d in drops if arrive(q_over, q_low, s.release_speed, below, d, VIA_RADIUS, VIA_DIP)), None
         )

@@ -206,8 +206,8 @@ class TrajectoryTail(NamedTuple):
 
     @property
     def calculation_time_s(self) -> float:
-        """Nothing more to plan: the whole move was timed when it was planned [s]."""
-        return 0.0
+        """Ruckig's wall time for the whole move [s] (counted once: the part arrived into is not)."""
+        return self.trajectory.calculation_time_s
 
     def sample(self, t: float) -> TrajectorySample:
         """State at time `t` [s] after `start`, clamped into [0, duration]."""
