@@ -43,7 +43,12 @@ def test_plain_pick_and_place_puts_the_cloth_in_the_box() -> None:
     assert max(abs(r.error_y_mm) for r in tracked) < 10
     # the fingers closed where the loop meant them to, on the true cloth
     assert len(result.grasp_offsets) == 1 and np.hypot(*result.grasp_offsets[0]) < 0.005
-    # the transfer arrived over the box moving down into the lowering (`loop.transfer_via_drop`)
+
+
+def test_a_transfer_that_arrives_moving_into_the_lowering_places_the_cloth() -> None:
+    # `loop.transfer_via_drop` (off by default: more cloths over a box's wall, session 44)
+    result = episode("seed=1", "scene.target=3", "loop.transfer_via_drop=0.02")
+    assert_placed(result)
     (transfer,) = [p for p in result.phases if p.phase == "transfer"]
     assert transfer.note.startswith("over the box moving down"), transfer.note
 
