@@ -274,7 +274,7 @@ def _carry(join: bool, drop: float = 0.02) -> tuple[ArmMotion, bool, int, np.nda
     arm.move_to_joints(arm.solve_tcp([0.55, 0.0, 0.40]))
     start = arm.samples
     q_over, q_low = arm.solve_tcp([0.30, -0.56, 0.40]), arm.solve_tcp([0.30, -0.56, 0.07])
-    joined = join and arm.arrive_lowering(q_over, q_low, SLOW, 0.30, drop, 0.05, 0.003)
+    joined = join and arm.arrive_lowering(q_over, q_low, SLOW, 0.30, (drop,), 0.05, 0.003) == drop
     if not joined:
         arm.move_to_joints(q_over)
     transfer_end = arm.samples
@@ -311,7 +311,7 @@ def test_a_move_after_the_arrival_that_is_not_the_lowering_starts_from_the_movin
     arm, _ = _arm()
     arm.move_to_joints(arm.solve_tcp([0.55, 0.0, 0.40]))
     q_over, q_low = arm.solve_tcp([0.30, -0.56, 0.40]), arm.solve_tcp([0.30, -0.56, 0.07])
-    assert arm.arrive_lowering(q_over, q_low, SLOW, 0.30, 0.02, 0.05, 0.003)
+    assert arm.arrive_lowering(q_over, q_low, SLOW, 0.30, (0.02,), 0.05, 0.003)
     assert np.linalg.norm(arm.command.v) > 0.0
     arm.move_to_joints(q_over)  # e.g. the hand came empty: brought to rest over the box
     assert arm.limit_report().ok
@@ -329,9 +329,9 @@ def test_no_arrival_where_it_would_not_hand_over_in_the_fast_part() -> None:
     arm.move_to_joints(arm.solve_tcp([0.55, 0.0, 0.40]))
     before = arm.samples
     q_over, q_low = arm.solve_tcp([0.30, -0.56, 0.40]), arm.solve_tcp([0.30, -0.56, 0.07])
-    assert not arm.arrive_lowering(q_over, q_low, SLOW, 0.30, 0.0, 0.05, 0.003)  # no drop asked
-    assert not arm.arrive_lowering(q_over, q_low, SLOW, 0.30, 0.2, 0.05, 0.003)  # past the slow height
-    assert not arm.arrive_lowering(q_over, q_low, SLOW, 0.45, 0.02, 0.05, 0.003)  # all of it slow
+    assert arm.arrive_lowering(q_over, q_low, SLOW, 0.30, (0.0,), 0.05, 0.003) is None  # no drop asked
+    assert arm.arrive_lowering(q_over, q_low, SLOW, 0.30, (0.2,), 0.05, 0.003) is None  # past the slow height
+    assert arm.arrive_lowering(q_over, q_low, SLOW, 0.45, (0.02,), 0.05, 0.003) is None  # all of it slow
     assert arm.samples == before  # nothing moved
 
 
@@ -339,7 +339,7 @@ def test_a_hold_after_the_arrival_brings_the_arm_to_rest_first() -> None:
     arm, _ = _arm()
     arm.move_to_joints(arm.solve_tcp([0.55, 0.0, 0.40]))
     q_over, q_low = arm.solve_tcp([0.30, -0.56, 0.40]), arm.solve_tcp([0.30, -0.56, 0.07])
-    assert arm.arrive_lowering(q_over, q_low, SLOW, 0.30, 0.02, 0.05, 0.003)
+    assert arm.arrive_lowering(q_over, q_low, SLOW, 0.30, (0.02,), 0.05, 0.003)
     arm.hold(0.1)
     assert arm.limit_report().ok
     V = np.array(arm._V)

@@ -246,20 +246,21 @@ class ArmMotion:
         q_low: npt.ArrayLike,
         speed: float,
         below: float,
-        drop: float,
+        drops: tuple[float, ...],
         radius: float,
         dip: float,
-    ) -> bool:
+    ) -> float | None:
         """Moves toward `q_over` [rad] without a stop there: arrives, moving, where the
         lowering from rest at `q_over` to `q_low` (`move_slowing_down(q_low, speed, below)`)
-        has come `drop` [m] down, in that lowering's state; the next `move_slowing_down` to
+        has come down the first of `drops` [m] that allows it, in that lowering's state (the
+        lowering is planned once for all); returns that drop; the next `move_slowing_down` to
         `q_low` goes on with the rest of it (any other move plans from the moving state).
 
         Only where the hand-over lies in the lowering's fast part and the arrival keeps the
         TCP no more than `dip` [m] below `q_over`'s height wherever it is more than `radius`
         [m] from `q_over`'s TCP horizontally (a hanging cloth crosses a box's wall about as
         high as after a stop: a move between two points at one height bows 1-2 mm down in
-        joint space too); else nothing moves and it returns False.
+        joint space too); else nothing moves and it returns None.
         """
         dt = self.cell.dt
         over = self.tcp_position(q_over)
@@ -271,22 +272,24 @@ class ArmMotion:
             lambda q: bool(self.tcp_position(q)[2] <= below),
             dt=dt,
         )
-        if lowering.fast is None or drop <= 0.0:
-            return False
+        if lowering.fast is None:
+            return None
         fast_steps = round(lowering.fast.duration / dt)
-        handover = next(
-            (
-                k
-                for k in range(1, fast_steps + 1)
-                if self.tcp_position(lowering.sample(k * dt).q)[2] <= over[2] - drop
-            ),
-            None,
-        )
-        if handover is None:
-            return False
-        state = lowering.sample(handover * dt)
+        heights = [self.tcp_position(lowering.sample(k * dt).q)[2] for k in range(1, fast_steps + 1)]
+        for drop in (d for d in drops if d > 0.0):
+            handover = next((k for k, z in enumerate(heights, start=1) if z <= over[2] - drop), None)
+            arrival = None if handover is None else self._arrival(lowering.sample(handover * dt))
+            if handover is None or arrival is None or not self._keeps_height(arrival, over, radius, dip):
+                continue
+            self._follow(arrival, to_rest=False)
+            self._lowering = (TrajectoryTail(lowering, handover * dt), np.array(q_low, dtype=float))
+            return drop
+        return None
+
+    def _arrival(self, state: TrajectorySample) -> JointTrajectory | None:
+        """The move from the commanded state into `state` (None: ruckig cannot plan it)."""
         try:
-            arrival = plan_point_to_point(
+            return plan_point_to_point(
                 self.command.q,
                 state.q,
                 self.limits,
@@ -294,16 +297,18 @@ class ArmMotion:
                 a_start=self.command.a,
                 v_goal=state.v,
                 a_goal=state.a,
-                dt=dt,
+                dt=self.cell.dt,
             )
         except TrajectoryPlanningError:
-            return False
-        for k in range(round(arrival.duration / dt) + 1):
-            tcp = self.tcp_position(arrival.sample(k * dt).q)
+            return None
+
+    def _keeps_height(self, move: JointTrajectory, over: FloatArray, radius: float, dip: float) -> bool:
+        """Is the TCP along `move` no more than `dip` [m] below `over`'s height wherever it
+        is more than `radius` [m] from `over` horizontally?"""
+        for k in range(round(move.duration / self.cell.dt) + 1):
+            tcp = self.tcp_position(move.sample(k * self.cell.dt).q)
             if float(np.hypot(*(tcp[:2] - over[:2]))) > radius and tcp[2] < over[2] - dip:
                 return False
-        self._follow(arrival, to_rest=False)
-        self._lowering = (TrajectoryTail(lowering, handover * dt), np.array(q_low, dtype=float))
         return True
 
     def _follow(

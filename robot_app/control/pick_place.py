@@ -530,11 +530,8 @@ class PickPlaceLoop:
         over = np.asarray(self.place_position, dtype=float).reshape(3).copy()
         over[2] = self.table_z + s.transfer_height
         q_over = self.arm.solve_tcp(over)
-        arrive = self.arm.arrive_lowering
         drops = (s.transfer_via_drop, s.transfer_via_drop / 2)
-        drop = next(
-            (d for d in drops if arrive(q_over, q_low, s.release_speed, below, d, VIA_RADIUS, VIA_DIP)), None
-        )
+        drop = self.arm.arrive_lowering(q_over, q_low, s.release_speed, below, drops, VIA_RADIUS, VIA_DIP)
         if drop is None:
             self.arm.move_to_joints(q_over)
         elif self.cell.holding():
