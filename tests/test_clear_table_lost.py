@@ -1010,6 +1010,11 @@ def test_a_blind_grasp_aims_away_from_where_blind_grasps_closed_on_nothing() -> 
     assert not np.any(away_from(aims, None, table, [np.array([0.1, 0.1])], 0.2))
 
 
+# the catalogue's cloths whose main colours are all tones (`TableClearer.tones_only`): the
+# white towel and linen (whites), the grey melange and the black tee (colours)
+TONES_ONLY = ("No.17", "No.18", "No.19", "No.20")
+
+
 def test_a_blind_lift_whose_weight_is_nearer_a_doubted_cloth_of_another_box_is_not_taken() -> None:
     # held-out episode 769 (session 33): guessed No.6 (whites, 22 g), read 16.7 g, looked like
     # No.6 by its colours; it was No.19 (colours, 20 g), and went into whites. Held-out 939
@@ -1020,6 +1025,7 @@ def test_a_blind_lift_whose_weight_is_nearer_a_doubted_cloth_of_another_box_is_n
         weights={"No.6": 0.022, "No.19": 0.020, "No.2": 0.027, "No.18": 0.0205},
         sort=SimpleNamespace(box_for=lambda n: "whites" if n in ("No.6", "No.18") else "colours"),
         settings=ClearTableSettings(),
+        tones_only=lambda n: n in TONES_ONLY,
     )
     doubted = ("No.2", "No.19", "No.18")
     assert _weighs_more_like(job, "No.6", doubted, 0.0167, "whites") == "No.19"  # type: ignore[arg-type]
@@ -1051,6 +1057,7 @@ def test_the_scale_overrules_a_blind_lifts_colours_only_by_more_than_its_own_err
         weights={"No.18": 0.0208, "No.19": 0.0201},
         sort=SimpleNamespace(box_for=lambda n: "whites" if n == "No.18" else "colours"),
         settings=ClearTableSettings(),
+        tones_only=lambda n: n in TONES_ONLY,
     )
     seen = HeldColours(21731, 0.99, {"No.19": 0.0}, ColourFit(0.99, 1.0), {"No.19": ColourFit(0.70, 1.0)})
     assert _weighs_more_like(job, "No.18", ("No.19",), 0.0194, "whites", seen) == ""  # type: ignore[arg-type]
@@ -1174,3 +1181,26 @@ def test_a_lift_reading_more_than_the_heavy_bound_is_a_double_pick_and_names_no_
     assert weighed_as(0.0292, "No.7", ("No.2",), weights, tight) == ()
     assert weighed_as(0.0292, "No.7", ("No.2",), weights, ClearTableSettings()) == ("No.7",)
     assert weighed_as(0.085, "No.7", ("No.2",), weights, tight) == ("No.7", "No.2")
+
+
+def test_between_two_cloths_of_tones_only_the_scale_decides_whatever_the_colour_fit() -> None:
+    # held-out 1535 (session 45): a blind lift meant for No.17 (white towel, whites, 23.5 g)
+    # read 19.1 g and fit No.17 at 0.99, No.19 at 0.49; it held No.19 (grey melange, colours,
+    # 21.3 g), lit white, and went into whites
+    from robot_app.control.colour_fit import ColourFit
+    from robot_app.control.held_look import HeldColours
+    from robot_app.control.table_lost import _weighs_more_like
+
+    job = SimpleNamespace(
+        weights={"No.17": 0.0235, "No.19": 0.0213, "No.14": 0.0235},
+        sort=SimpleNamespace(box_for=lambda n: "whites" if n == "No.17" else "colours"),
+        settings=ClearTableSettings(),
+        tones_only=lambda n: n in TONES_ONLY,
+    )
+    seen = HeldColours(3978, 0.99, {"No.19": 0.0}, ColourFit(0.99, 1.0), {"No.19": ColourFit(0.49, 1.0)})
+    assert _weighs_more_like(job, "No.17", ("No.19",), 0.0191, "whites", seen) == "No.19"  # type: ignore[arg-type]
+    # the reading as near No.17's weight: the scale does not overrule
+    assert _weighs_more_like(job, "No.17", ("No.19",), 0.0230, "whites", seen) == ""  # type: ignore[arg-type]
+    # a cloth with a hue meant (as heavy as No.17): its colours seen hanging still keep it
+    job.sort = SimpleNamespace(box_for=lambda n: "whites" if n == "No.14" else "colours")
+    assert _weighs_more_like(job, "No.14", ("No.19",), 0.0191, "whites", seen) == ""  # type: ignore[arg-type]

@@ -365,6 +365,12 @@ class TableClearer:
         seen = {d.name for d in last.detections}
         return bool(self.ledger.hide(lambda name: name not in seen and self._untried(name)))
 
+    def tones_only(self, name: str) -> bool:
+        """Are all of cloth `name`'s main colours tones (white, grey, black: no hue)? Such
+        a cloth's tone moves with the light and the exposure, so a colour fit cannot tell two
+        of them apart."""
+        return bool(np.all(main_codes(self.recognizers[name].model) >= DARK))
+
     def hanging_reach(self, name: str) -> float:
         """How far cloth `name` hangs below where it is held [m] (`intercept.hanging_reach`
         from its grasp point), the reach a cloth hanging from a held one adds to it."""
@@ -1195,7 +1201,7 @@ class TableClearer:
         box = attempt.box.name
         # a white cloth hanging in shade reads DARK, as a cloth of tones does; never as a hue
         # (held-out 796's rerun: No.13, violet, its shaded side DARK, doubted for two whites)
-        toned = bool(np.all(main_codes(self.recognizers[best].model) >= DARK))
+        toned = self.tones_only(best)
         doubted = [
             n
             for n in weighing
