@@ -1015,18 +1015,24 @@ def test_a_blind_grasp_aims_away_from_where_blind_grasps_closed_on_nothing() -> 
 TONES_ONLY = ("No.17", "No.18", "No.19", "No.20")
 
 
+def scale_job(weights: dict[str, float], whites: tuple[str, ...]) -> SimpleNamespace:
+    """What `_weighs_more_like` asks of the job: the cloths' weights [kg], the sort rule
+    (`whites` go there, the rest into colours), the settings, which cloths are of tones only."""
+    return SimpleNamespace(
+        weights=dict(weights),
+        sort=SimpleNamespace(box_for=lambda n: "whites" if n in whites else "colours"),
+        settings=ClearTableSettings(),
+        tones_only=lambda n: n in TONES_ONLY,
+    )
+
+
 def test_a_blind_lift_whose_weight_is_nearer_a_doubted_cloth_of_another_box_is_not_taken() -> None:
     # held-out episode 769 (session 33): guessed No.6 (whites, 22 g), read 16.7 g, looked like
     # No.6 by its colours; it was No.19 (colours, 20 g), and went into whites. Held-out 939
     # (session 36): the same pair of colours under a name (lost No.17), into whites too
     from robot_app.control.table_lost import _weighs_more_like
 
-    job = SimpleNamespace(
-        weights={"No.6": 0.022, "No.19": 0.020, "No.2": 0.027, "No.18": 0.0205},
-        sort=SimpleNamespace(box_for=lambda n: "whites" if n in ("No.6", "No.18") else "colours"),
-        settings=ClearTableSettings(),
-        tones_only=lambda n: n in TONES_ONLY,
-    )
+    job = scale_job({"No.6": 0.022, "No.19": 0.020, "No.2": 0.027, "No.18": 0.0205}, ("No.6", "No.18"))
     doubted = ("No.2", "No.19", "No.18")
     assert _weighs_more_like(job, "No.6", doubted, 0.0167, "whites") == "No.19"  # type: ignore[arg-type]
     assert _weighs_more_like(job, "No.6", doubted, 0.0215, "whites") == ""  # type: ignore[arg-type]
@@ -1053,12 +1059,7 @@ def test_the_scale_overrules_a_blind_lifts_colours_only_by_more_than_its_own_err
     from robot_app.control.held_look import HeldColours
     from robot_app.control.table_lost import _weighs_more_like
 
-    job = SimpleNamespace(
-        weights={"No.18": 0.0208, "No.19": 0.0201},
-        sort=SimpleNamespace(box_for=lambda n: "whites" if n == "No.18" else "colours"),
-        settings=ClearTableSettings(),
-        tones_only=lambda n: n in TONES_ONLY,
-    )
+    job = scale_job({"No.18": 0.0208, "No.19": 0.0201}, ("No.18",))
     seen = HeldColours(21731, 0.99, {"No.19": 0.0}, ColourFit(0.99, 1.0), {"No.19": ColourFit(0.70, 1.0)})
     assert _weighs_more_like(job, "No.18", ("No.19",), 0.0194, "whites", seen) == ""  # type: ignore[arg-type]
     # weights 0.7 g apart: no reading tells them apart
@@ -1191,16 +1192,11 @@ def test_between_two_cloths_of_tones_only_the_scale_decides_whatever_the_colour_
     from robot_app.control.held_look import HeldColours
     from robot_app.control.table_lost import _weighs_more_like
 
-    job = SimpleNamespace(
-        weights={"No.17": 0.0235, "No.19": 0.0213, "No.14": 0.0235},
-        sort=SimpleNamespace(box_for=lambda n: "whites" if n == "No.17" else "colours"),
-        settings=ClearTableSettings(),
-        tones_only=lambda n: n in TONES_ONLY,
-    )
+    job = scale_job({"No.17": 0.0235, "No.19": 0.0213, "No.14": 0.0235}, ("No.17",))
     seen = HeldColours(3978, 0.99, {"No.19": 0.0}, ColourFit(0.99, 1.0), {"No.19": ColourFit(0.49, 1.0)})
     assert _weighs_more_like(job, "No.17", ("No.19",), 0.0191, "whites", seen) == "No.19"  # type: ignore[arg-type]
     # the reading as near No.17's weight: the scale does not overrule
     assert _weighs_more_like(job, "No.17", ("No.19",), 0.0230, "whites", seen) == ""  # type: ignore[arg-type]
     # a cloth with a hue meant (as heavy as No.17): its colours seen hanging still keep it
-    job.sort = SimpleNamespace(box_for=lambda n: "whites" if n == "No.14" else "colours")
+    job = scale_job(job.weights, ("No.14",))
     assert _weighs_more_like(job, "No.14", ("No.19",), 0.0191, "whites", seen) == ""  # type: ignore[arg-type]
