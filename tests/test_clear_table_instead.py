@@ -43,6 +43,7 @@ def _job(lost=(), seen=None, placed=(), surveys=7) -> SimpleNamespace:
         recognizers={name: SimpleNamespace(model=SimpleNamespace(points_in=SQUARE)) for name in WEIGHTS},
         sort=SimpleNamespace(box_for=BOXES.__getitem__),
         settings=ClearTableSettings(),
+        tones_only=lambda name: name in ("No.17", "No.18", "No.19", "No.20"),  # the catalogue's
     )
 
 
