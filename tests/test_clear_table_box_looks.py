@@ -121,3 +121,29 @@ def test_no_look_ahead_without_the_option(monkeypatch: pytest.MonkeyPatch) -> No
     assert _job(["No.3", "No.6"], monkeypatch)._boxes_ahead(_seen("No.6")) is None
     job = _job(["No.3", "No.6"], monkeypatch, boxes_when_needed=True, look_at_boxes=False)
     assert job._boxes_ahead(_seen("No.6")) is None
+
+
+def test_with_straight_from_box_the_looks_stay_over_the_last_box(monkeypatch: pytest.MonkeyPatch) -> None:
+    """`clear.straight_from_box`: the reference looks end over the box (the pick goes on
+    from there), while without it they come back; once per box either way."""
+    job = _job(["No.3", "No.6"], monkeypatch, boxes_when_needed=True, straight_from_box=True)
+    job._look_at_boxes(job._first_boxes(), stay=True)  # the first survey's look: colours
+    assert job.motion.looked_at == [(0.30, -0.56)]
+    over_colours = job.motion.q.copy()
+    assert not np.array_equal(over_colours, OBSERVATION)
+    job.look_into_box("colours", stay=True)  # looked into already: no move
+    assert np.array_equal(job.motion.q, over_colours)
+    job.look_into_box("whites", stay=True)  # straight on from colours
+    assert job.motion.looked_at == [(0.30, -0.56), (0.30, 0.56)]
+    assert not np.array_equal(job.motion.q, over_colours)
+    assert job._views["whites"] is not None
+    ahead = job._boxes_ahead(_seen("No.6"))
+    assert ahead is None  # whites looked into already
+    job = _job(["No.3", "No.6"], monkeypatch, boxes_when_needed=True, straight_from_box=True)
+    job._looked_into.add("colours")
+    ahead = job._boxes_ahead(_seen("No.6"))
+    assert ahead is not None
+    job.motion.q = OBSERVATION.copy()
+    ahead()
+    assert job.motion.looked_at == [(0.30, 0.56)]
+    assert not np.array_equal(job.motion.q, OBSERVATION)  # stays over whites for the pick

@@ -282,8 +282,8 @@ def _searches_miss(monkeypatch: pytest.MonkeyPatch, shift_m: float) -> EpisodeRe
 
     search = vision_pipeline.VisionPipeline.search
 
-    def missing(self, seed):
-        result = search(self, seed)
+    def missing(self, seed, capture=None):
+        result = search(self, seed, capture)
         return replace(result, recognition=replace(result.recognition, found=False, confidence=0.0))
 
     monkeypatch.setattr(vision_pipeline.VisionPipeline, "search", missing)
@@ -308,3 +308,40 @@ def test_a_cloth_every_search_misses_is_checked_where_the_caller_found_it(
     assert_placed(_searches_miss(monkeypatch, 0.0))
     absent = _searches_miss(monkeypatch, 0.25)
     assert absent.outcome is Outcome.NOT_PRESENT and absent.grasp_attempts == 0
+
+
+def test_a_search_on_the_callers_frame_goes_straight_from_elsewhere_to_the_cloth(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The clear-table job's look into a box (`clear.straight_from_box`): the frame was taken
+    at the observation pose, the arm went over the box since; the loop does not go back to
+    look again but recognises that frame and moves straight over the cloth. A frame of the
+    wrong scene would not be found (the check on the table below)."""
+    from robot_app.control import pick_place
+
+    run = pick_place.PickPlaceLoop.run
+    taken: dict[str, float] = {}
+
+    def from_the_box(self):
+        self.arm.reset()
+        self.arm.move_to_joints(self.observation_joints)
+        self.first_look = self.cell.capture()
+        taken["time"] = self.first_look.time
+        self.arm.move_to_joints(self.arm.solve_tcp(self.place_position + np.array([0.0, 0.0, 0.45])))
+        taken["left"] = self.cell.time
+        return run(self)
+
+    monkeypatch.setattr(pick_place.PickPlaceLoop, "run", from_the_box)
+    result = episode("seed=1", "scene.target=3", "loop.strategy=look_then_move")
+    assert_placed(result)
+    assert np.hypot(*result.grasp_offsets[0]) < 0.005
+    first = result.recognitions[0]
+    assert first.mode == "search" and first.found and first.time == taken["time"]
+    observe, search, approach = result.phases[:3]
+    assert (observe.phase, search.phase, approach.phase) == ("observe", "search", "approach")
+    assert observe.duration < 1e-9  # no move back to the observation pose
+    assert search.duration < 1e-9  # the frame's result had long arrived
+    assert approach.start_time == pytest.approx(taken["left"])
+    # the approach's tracking frames saw the cloth: it came over it before tracking
+    tracked = [r for r in result.recognitions if r.mode == "track"]
+    assert tracked and all(r.found for r in tracked[:3])

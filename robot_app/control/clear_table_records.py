@@ -281,6 +281,13 @@ class ClearTableSettings(StrictModel):
             to. A box no pick is meant for is never looked into: in the 50 held-out
             episodes 1074-1123 half had no white cloth, yet each job spent ~2.4 s of sim
             looking into whites and 1.4 s coming back from there.
+        straight_from_box: a look into a box made for its reference (while a survey
+            computes, or before a pick) stays over the box, and the pick goes straight from
+            there over its cloth: the loop's search takes the survey's frame
+            (`PickPlaceLoop.first_look`; nothing on the table moved since), instead of
+            going back to the observation pose to look again. Episode 1516's first pick
+            started 6.25 s into the job, after 1.5 s into colours and 1.5 s back, and 1.4 s
+            into whites and 1.4 s back. Any other course (no cloth chosen) goes back first.
         box_view_height: camera above the box floor for that look and for the check
             after every release (the hand rises out of the box to it) [m]. At 0.48 the
             right image holds all four walls' tops of a 0.22 m box with 0.01 m walls 0.10
@@ -355,6 +362,7 @@ class ClearTableSettings(StrictModel):
     survey_latency: float | None = Field(None, ge=0.0)
     look_at_boxes: bool = True
     boxes_when_needed: bool = False
+    straight_from_box: bool = False
     box_view_height: float = Field(0.48, gt=0.1)
     rim_tries: int = Field(1, ge=0, le=5)
     rim_shift: float = Field(0.03, ge=0.0, le=0.05)

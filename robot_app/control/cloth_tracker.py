@@ -117,9 +117,10 @@ class ClothTracker:
         self.pipeline.stop()
 
     # ------------------------------------------------------------------ search
-    def search(self, seed: int) -> VisionResult:
-        """A one-shot recognition of a frame triggered now (available later: wait for it)."""
-        result = self.pipeline.search(seed)
+    def search(self, seed: int, capture: StereoCapture | None = None) -> VisionResult:
+        """A one-shot recognition of a frame triggered now, or of `capture`, one taken
+        before of a still scene (available later: wait for it)."""
+        result = self.pipeline.search(seed, capture)
         self.last_capture = result.capture
         return result
 

@@ -81,9 +81,18 @@ class LookThenMoveStrategy:
                 self.arm.end_online(online, to_rest=True)
                 return False
 
-    def _hover(self, grasp: FloatArray) -> tuple[FloatArray, FloatArray]:
+    def come_over(self) -> None:
+        """Straight to the hover over the estimate's grasp point, without tracking: the
+        search used a frame taken before the arm went elsewhere (the clear-table job's look
+        into a box), from where the cameras need not see the cloth. The IK starts from the
+        observation posture, which the loop's IK keeps near."""
+        _, joints = self._hover(self._grasp_position(), seed=self.arm.preferred_posture)
+        self.arm.move_to_joints(joints)
+
+    def _hover(self, grasp: FloatArray, seed: FloatArray | None = None) -> tuple[FloatArray, FloatArray]:
         """The TCP position over `grasp` at the observation height, or lower by `HOVER_STEP`s
-        where the arm cannot reach it, and its joints.
+        where the arm cannot reach it, and its joints (the IK from `seed`, default the
+        commanded joints).
 
         Raises:
             EpisodeAbortError: IK_UNREACHABLE, not even with the cameras
@@ -93,7 +102,7 @@ class LookThenMoveStrategy:
         target = np.array([grasp[0], grasp[1], self.hover_z])
         while True:
             try:
-                return target, self.arm.solve_tcp(target)
+                return target, self.arm.solve_tcp(target, seed=seed)
             except EpisodeAbortError as err:
                 if err.outcome is not Outcome.IK_UNREACHABLE or target[2] - HOVER_STEP < lowest:
                     raise

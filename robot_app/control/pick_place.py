@@ -222,6 +222,11 @@ class PickPlaceLoop:
             search fails, the last search's frame is checked there (`_search`).
         box_heap: how high what already lies in the box heaps over its floor [m] (the
             clear-table job's `box_contents`): RELEASE takes its top for the floor.
+        first_look: a frame the caller took at the observation pose of a scene that has
+            not moved since (the clear-table job's survey), with the arm gone elsewhere
+            meanwhile (a look into a box): OBSERVE does not go back, the first search
+            recognises this frame, and APPROACH first moves straight over the cloth
+            (`LookThenMoveStrategy.come_over`); look-then-move only.
 
     Raises:
         IKError: the observation pose has no IK solution within the joint limits.
@@ -249,8 +254,10 @@ class PickPlaceLoop:
         belt_encoder: BeltEncoder | None = None,
         expected_pose: npt.ArrayLike | None = None,
         box_heap: float = 0.0,
+        first_look: StereoCapture | None = None,
     ) -> None:
         self.cell = cell
+        self.first_look = first_look
         self.box_heap = float(box_heap)  # release_into_box takes no heap below the floor
         self.expected_pose = None if expected_pose is None else np.asarray(expected_pose, dtype=float)
         self.kinematics = kinematics
@@ -299,6 +306,8 @@ class PickPlaceLoop:
             if s.strategy is Strategy.SERVO
             else LookThenMoveStrategy(self.arm, self.tracker, s, self.table_z)
         )
+        if first_look is not None and s.strategy is Strategy.SERVO:
+            raise ValueError("first_look needs loop.strategy look_then_move: the servo's search looks twice")
         self._current = Phase.OBSERVE
         self._note = ""
         self.phases: list[PhaseRecord] = []
@@ -329,6 +338,8 @@ class PickPlaceLoop:
         self.grasp_attempts = self.observe_returns = 0
         self.extra_reach = 0.0
         self._lowering = None
+        # the caller's frame for the first search, and whether APPROACH starts from elsewhere
+        self._first_look, self._come_over = self.first_look, False
         self._current = Phase.OBSERVE
         outcome, reason = Outcome.PLACED, "cloth released over the box"
         try:
@@ -352,7 +363,7 @@ class PickPlaceLoop:
                 raise EpisodeAbortError(
                     Outcome.NOT_PRESENT, f"the target was not found in {s.search_attempts} searches"
                 )
-            reached = self._phase(Phase.APPROACH, self.strategy.approach)
+            reached = self._phase(Phase.APPROACH, self._approach)
             if reached:
                 reached = self._phase(Phase.DESCEND, self.strategy.descend)
             if not reached:
@@ -396,6 +407,9 @@ class PickPlaceLoop:
     def _observe(self) -> None:
         self.tracker.stop()
         self.cell.set_gripper(self.settings.gripper_open)
+        if self._first_look is not None:
+            self._note = "the search takes the caller's frame: no move"
+            return
         if np.allclose(self.arm.command.q, self.observation_joints, atol=1e-4) and not np.any(
             self.arm.command.v
         ):
@@ -423,6 +437,7 @@ class PickPlaceLoop:
                 self.arm.hold(s.settle_time)
                 result = self._searched(seed=attempt + s.search_attempts)
             if self.tracker.take_search(result):
+                self._come_over = result.capture is self.first_look and not self._at_observation()
                 self._note = (
                     f"found with confidence {result.recognition.confidence:.3f}, "
                     f"fitness {result.recognition.fitness:.3f} (attempt {attempt + 1}), "
@@ -454,9 +469,21 @@ class PickPlaceLoop:
         return False
 
     def _searched(self, seed: int) -> VisionResult:
-        result = self.tracker.search(seed)
+        capture, self._first_look = self._first_look, None  # the caller's frame, once
+        result = self.tracker.search(seed, capture)
         self.arm.hold_until(result.available_time)
         return result
+
+    def _at_observation(self) -> bool:
+        return bool(np.allclose(self.arm.command.q, self.observation_joints, atol=1e-4))
+
+    def _approach(self) -> bool:
+        """APPROACH, first straight over the cloth where the search took the caller's frame
+        and the arm is still elsewhere (its cameras need not see the cloth there)."""
+        if self._come_over and isinstance(self.strategy, LookThenMoveStrategy):
+            self._come_over = False
+            self.strategy.come_over()
+        return self.strategy.approach()
 
     def _centring_joints(self, point: FloatArray) -> FloatArray:
         """Joints (at the observation height) that put the right camera above `point`, or

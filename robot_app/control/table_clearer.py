@@ -285,7 +285,9 @@ class TableClearer:
             # the first survey's image is taken before the look into the boxes, which is made
             # while the computer identifies the cloths in it (the arm is free meanwhile)
             boxes_first: Callable[[], None] | None = (
-                (lambda: self._look_at_boxes(self._first_boxes())) if self.settings.look_at_boxes else None
+                (lambda: self._look_at_boxes(self._first_boxes(), stay=self.settings.straight_from_box))
+                if self.settings.look_at_boxes
+                else None
             )
             while True:
                 self._looked_left.clear()  # this round's looks' regions (`_from_observation`)
@@ -293,6 +295,8 @@ class TableClearer:
                 last = self._survey(meanwhile=boxes_first if last is None else self._boxes_ahead(last))
                 self._notice_moved()
                 target = choose_target(last, self.ledger.records, self._untried)
+                if target is None:  # the rules below look and survey from the observation pose
+                    self._back_to_observation()
                 looked, lost = False, None
                 for place in self._places_to_look(last) if target is None else ():
                     self._record_survey(last, None)
@@ -395,6 +399,7 @@ class TableClearer:
         self._before_pick: _BeforePick | None = None
         self.recovery.forget()
         self._survey_camera_pose = self.observation_camera_pose.copy()
+        self._survey_joints = self.observation_joints.copy()  # where the last survey was taken
 
     # ------------------------------------------------------------------ survey
     def first_survey(self) -> Identification:
@@ -410,6 +415,7 @@ class TableClearer:
         with the models of the cloths seen in their box too."""
         self._phase, self._meant = "survey", None
         capture = self.cell.capture()
+        self._survey_joints = self.motion.q.copy()
         at_observation = np.allclose(self.motion.q, self.observation_joints, atol=1e-6)
         self._survey_camera_pose = (
             self.observation_camera_pose
@@ -584,7 +590,10 @@ class TableClearer:
         """One loop run for `target`; True if the user stopped it."""
         capture = self._survey_capture
         box = self.boxes[self.sort.box_for(target.name)]
-        self.look_into_box(box.name)
+        self.look_into_box(box.name, stay=self.settings.straight_from_box)
+        # away from where the survey was taken (a look into a box): the loop's search takes
+        # the survey's frame (nothing on the table moved since) and goes straight to the cloth
+        away = not np.allclose(self.motion.q, self._survey_joints, atol=1e-6)
         pose = to_world(capture, target.transform_model_to_camera)
         others = tuple(d for d in ident.detections if d.name != target.name)
         under = tuple(
@@ -639,9 +648,10 @@ class TableClearer:
             on_step=lambda _cell, _capture: self._loop_step(loop, target.name),
             on_recognition=lambda cycle: self._loop_vision(cycle, attempt, loop),
             ground_truth=truth,
-            posture_seed=self.motion.q,
+            posture_seed=self._survey_joints,
             expected_pose=pose,
             box_heap=self.box_heap(box.name),
+            first_look=capture if away else None,
         )
         self._before_pick = _BeforePick(
             target.name,
@@ -1825,19 +1835,23 @@ class TableClearer:
             return None
         boxes = tuple(dict.fromkeys(self.sort.box_for(d.name) for d in last.detections))
         ahead = tuple(box for box in boxes if box not in self._looked_into)
-        return (lambda: self._look_at_boxes(ahead)) if ahead else None
+        return (lambda: self._look_at_boxes(ahead, stay=s.straight_from_box)) if ahead else None
 
-    def look_into_box(self, box: str) -> None:
+    def look_into_box(self, box: str, stay: bool = False) -> None:
         """Before a pick meant for `box`: with `clear.boxes_when_needed`, looks into it if
-        no look has yet (its reference view), and returns to where the arm was."""
+        no look has yet (its reference view), and returns to where the arm was (`stay`:
+        stays there; the pick goes straight on from the box)."""
         s = self.settings
         if s.look_at_boxes and s.boxes_when_needed and box not in self._looked_into:
             self._meant = None
-            self._look_at_boxes((box,), back=self.motion.q.copy())
+            self._look_at_boxes((box,), back=self.motion.q.copy(), stay=stay)
 
-    def _look_at_boxes(self, names: Iterable[str], back: FloatArray | None = None) -> None:
+    def _look_at_boxes(
+        self, names: Iterable[str], back: FloatArray | None = None, stay: bool = False
+    ) -> None:
         """Looks into the boxes `names` once (the reference of the checks after placing),
-        then moves to the joints `back` (None: the observation pose)."""
+        then moves to the joints `back` (None: the observation pose), or with `stay` stays
+        over the last box (`clear.straight_from_box`)."""
         camera_offset = self.camera_offset()
         for name in names:
             box = self.boxes[name]
@@ -1850,6 +1864,8 @@ class TableClearer:
             )
             self._rims[box.name] = self._rim_view(box, capture)
             self._looked_into.add(box.name)
+        if stay:
+            return
         self._phase = "observe"
         self.motion.move_to_joints(self.observation_joints if back is None else back)
 

@@ -136,14 +136,17 @@ class VisionPipeline:
         self.on_capture: Callable[[StereoCapture], None] | None = None  # e.g. ground truth at the exposure
 
     # ------------------------------------------------------------------ one-shot
-    def search(self, seed: int) -> VisionResult:
-        """Triggers the camera now and recognises the frame one-shot (GA search).
+    def search(self, seed: int, capture: StereoCapture | None = None) -> VisionResult:
+        """Triggers the camera now and recognises the frame one-shot (GA search); or, given
+        `capture`, a frame taken before (of a scene that has not moved since: the clear-table
+        job's survey), without triggering.
 
         The result is stamped with the time it becomes available; the caller waits for it.
         Tracking frames in flight are dropped: the search starts a new track.
         """
         self.stop()
-        capture = self._trigger()
+        if capture is None:
+            capture = self._trigger()
         start = max(capture.available_time, self.busy_until)
         wall = time.perf_counter()
         recognition = self.recognizer.recognize(capture.left_bgr, capture.right_bgr, seed=seed)
