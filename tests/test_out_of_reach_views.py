@@ -38,7 +38,7 @@ class SphereArm:
     def frame_position(self, frame: str, q=None) -> np.ndarray:
         return np.array([0.55 + CAMERA_AHEAD, 0.0, HOVER_TCP_Z + CAMERA_ABOVE_TCP])
 
-    def solve_tcp(self, position) -> np.ndarray:
+    def solve_tcp(self, position, seed=None) -> np.ndarray:
         p = np.asarray(position, dtype=float)
         self.asked.append(float(p[2]))
         if np.linalg.norm(p - SHOULDER) > REACH:
@@ -49,7 +49,7 @@ class SphereArm:
 class OutOfReachArm(SphereArm):
     """An arm that reaches nothing."""
 
-    def solve_tcp(self, position) -> np.ndarray:
+    def solve_tcp(self, position, seed=None) -> np.ndarray:
         raise EpisodeAbortError(Outcome.IK_UNREACHABLE, f"no IK solution for {position}")
 
 
