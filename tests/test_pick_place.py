@@ -345,3 +345,26 @@ def test_a_search_on_the_callers_frame_goes_straight_from_elsewhere_to_the_cloth
     # the approach's tracking frames saw the cloth: it came over it before tracking
     tracked = [r for r in result.recognitions if r.mode == "track"]
     assert tracked and all(r.found for r in tracked[:3])
+
+
+def test_an_approach_blended_into_the_descent_grasps_as_surely_and_sooner() -> None:
+    """`loop.approach_blend` (look-then-move): APPROACH ends while still moving, that far from
+    the hover, once enough recognitions are fused; DESCEND goes on from that state."""
+
+    def approach_to_grasp(result: EpisodeResult) -> float:
+        approach = next(p for p in result.phases if p.phase == "approach")
+        grasp = next(p for p in result.phases if p.phase == "grasp")
+        return grasp.start_time - approach.start_time
+
+    runs = {
+        blend: episode(
+            "seed=1", "scene.target=3", "loop.strategy=look_then_move", f"loop.approach_blend={blend}"
+        )
+        for blend in (0.0, 0.1)
+    }
+    for result in runs.values():
+        assert_placed(result)
+        assert np.hypot(*result.grasp_offsets[0]) < 0.005
+    blended = next(p for p in runs[0.1].phases if p.phase == "approach")
+    assert "on into DESCEND" in blended.note, blended.note
+    assert approach_to_grasp(runs[0.1]) < approach_to_grasp(runs[0.0]) - 0.1

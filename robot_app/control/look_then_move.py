@@ -67,6 +67,14 @@ class LookThenMoveStrategy:
                 target, joints = self._hover(self._grasp_position())
                 online.set_target(joints)
             self.arm.step_online(online)
+            if target is not None and fused >= s.min_accepted_updates and s.approach_blend > 0:
+                off = float(np.linalg.norm(self.arm.tcp_position() - target))
+                if off <= s.approach_blend:
+                    self.note = (
+                        f"{fused} fused recognitions; on into DESCEND {off * 1e3:.0f} mm before the hover"
+                    )
+                    self.arm.end_online(online, to_rest=False)
+                    return True
             settled = fused >= s.min_accepted_updates and online.finished
             if (
                 target is not None

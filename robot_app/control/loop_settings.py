@@ -38,6 +38,14 @@ class LoopSettings(StrictModel):
     min_accepted_updates: int = Field(3, ge=1, description="fused recognitions before descending")
     approach_tolerance: float = Field(0.004, gt=0.0, description="TCP to target to end APPROACH [m]")
     approach_timeout: float = Field(6.0, gt=0.0)
+    approach_blend: float = Field(
+        0.0,
+        ge=0.0,
+        le=0.3,
+        description="look_then_move: with min_accepted_updates fused, APPROACH ends this far [m] "
+        "from the hover while still moving, and DESCEND goes on from that state without a stop "
+        "(0: it ends at rest within approach_tolerance)",
+    )
     settle_time: float = Field(0.3, ge=0.0, description="wait after arriving at the observation pose")
     pregrasp_height: float = Field(
         0.08, gt=0.0, description="look_then_move: TCP above the cloth before the last move"
