@@ -63,7 +63,14 @@ from robot_app.control.clear_table_records import (
     TableResult,
 )
 from robot_app.control.colour_fit import colour_shares
-from robot_app.control.episode import EpisodeAbortError, EpisodeResult, Outcome, PhaseRecord, VisionCycle
+from robot_app.control.episode import (
+    EpisodeAbortError,
+    EpisodeResult,
+    Outcome,
+    PhaseRecord,
+    Strategy,
+    VisionCycle,
+)
 from robot_app.control.grasp_point import points_in_mask
 from robot_app.control.held_look import hidden_in, look_at_held
 from robot_app.control.intercept import hanging_reach
@@ -594,6 +601,9 @@ class TableClearer:
         # away from where the survey was taken (a look into a box): the loop's search takes
         # the survey's frame (nothing on the table moved since) and goes straight to the cloth
         away = not np.allclose(self.motion.q, self._survey_joints, atol=1e-6)
+        if away and self.loop_settings.strategy is Strategy.SERVO:
+            self.motion.move_to_joints(self._survey_joints)  # the servo's search looks twice, anew
+            away = False
         pose = to_world(capture, target.transform_model_to_camera)
         others = tuple(d for d in ident.detections if d.name != target.name)
         under = tuple(
