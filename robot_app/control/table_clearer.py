@@ -418,7 +418,8 @@ class TableClearer:
 
     def _survey(self, meanwhile: Callable[[], None] | None = None, boxed: bool = False) -> Identification:
         """Surveys from where the arm is; `meanwhile` moves the arm while the computer
-        identifies (it must bring it back: the job goes on from where it ends); `boxed`:
+        identifies (the job goes on from where it ends: over a box with
+        `clear.straight_from_box`, and `run` brings it back unless a pick follows); `boxed`:
         with the models of the cloths seen in their box too."""
         self._phase, self._meant = "survey", None
         capture = self.cell.capture()
