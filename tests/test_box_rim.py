@@ -14,9 +14,10 @@ from robot_app.control.box_check import (
     RimView,
     rim_covered,
     rim_points,
+    rim_runs,
     rim_view,
 )
-from robot_app.control.box_rim import over_wall_note
+from robot_app.control.box_rim import lay_again_point, over_wall_note
 from robot_app.experiments.clear_table import ClearTableConfig
 from robot_app.geometry import invert_transform, make_transform
 from robot_app.vision.camera import PinholeCamera, StereoRig
@@ -103,6 +104,34 @@ def test_a_cloth_over_a_wall_is_the_run_of_its_rim_that_changed() -> None:
     assert 0.0 < short[0] < settings.rim_run  # a corner touching it: not over the wall
 
 
+def test_the_run_says_where_along_its_wall_the_cloth_crosses() -> None:
+    height, settings = ClearTableConfig().clear.box_view_height, BoxCheckSettings()
+    centre, inner, wall_height, thickness = _box()
+    points = rim_points(centre, inner, wall_height, thickness, settings.rim_samples)
+    before = _rim(_paint(height, 1.0, None))
+    for wall, run in ((2, slice(4, 12)), (1, slice(25, 37))):
+        lengths, middles = rim_runs(before, _rim(_paint(height, 0.9, (wall, run))), settings)
+        crossing = points[wall, run, :2].mean(axis=0) - centre[:2]  # the painted run's middle, Σ_W
+        tangent = np.abs(WALL_NORMALS[wall][::-1])
+        assert middles[wall] == pytest.approx(crossing @ tangent, abs=1e-9)
+        assert lengths[wall] == pytest.approx((run.stop - run.start) * before.spacing)
+        others = [k for k in range(4) if k != wall]
+        assert lengths[others].max() == 0.0 and middles[others].max() == 0.0
+
+
+def test_laying_again_takes_the_cloth_inside_the_wall_where_it_crosses() -> None:
+    centre, inner = np.array([0.3, -0.56, 0.72]), 0.22
+    np.testing.assert_array_equal(lay_again_point(centre, inner, 2, 0.05, None), centre)  # the middle
+    at = lay_again_point(centre, inner, 2, 0.02, 0.07)  # +y wall, 2 cm towards +x
+    np.testing.assert_allclose(at, centre + np.array([0.02, 0.04, 0.0]))
+    at = lay_again_point(centre, inner, 1, -0.09, 0.07)  # -x wall, near its -y corner
+    np.testing.assert_allclose(at, centre + np.array([-0.04, -0.04, 0.0]))  # kept the inset off both walls
+    for wall in range(4):
+        for along in (-0.2, 0.0, 0.2):
+            off = lay_again_point(centre, inner, wall, along, 0.07)[:2] - centre[:2]
+            assert np.abs(off).max() <= inner / 2 - 0.07 + 1e-12
+
+
 def test_no_reference_look_in_view_covers_nothing() -> None:
     height = ClearTableConfig().clear.box_view_height
     unseen = RimView(np.zeros((2, 4, 40, 3)), np.zeros((2, 4, 40), bool), 0.006)
@@ -121,7 +150,7 @@ def _rim_job(monkeypatch: pytest.MonkeyPatch, looks: list[float], tries: int, re
     centre, inner, height, thickness = _box()
     box = BoxPlace("colours", centre, inner, height, thickness)
     seen = iter(looks)
-    laid: list[int] = []
+    laid: list[tuple[int, float, float | None]] = []
 
     def rim_of(*args: object) -> RimView:
         run = round(next(seen) / 0.01)
@@ -129,15 +158,15 @@ def _rim_job(monkeypatch: pytest.MonkeyPatch, looks: list[float], tries: int, re
         bgr[:, 2, :run] = 200.0
         return RimView(bgr, np.ones((2, 4, 40), bool), 0.01)
 
-    def again(job: object, attempt: object, wall: int, capture: object) -> object:
-        laid.append(wall)
+    def again(job: object, attempt: object, wall: int, capture: object, along: float, inset: float) -> object:
+        laid.append((wall, along, inset))
         return object() if reach else None
 
     monkeypatch.setattr(table_clearer, "rim_view", rim_of)
     monkeypatch.setattr(table_clearer, "lay_again", again)
     monkeypatch.setattr(table_clearer, "box_view", lambda *args: SimpleNamespace(in_view=np.zeros(1)))
     job = table_clearer.TableClearer.__new__(table_clearer.TableClearer)
-    job.settings = ClearTableSettings(rim_tries=tries, box_heap=False)
+    job.settings = ClearTableSettings(rim_tries=tries, box_heap=False, rim_grasp_inset=0.07)
     job.box_settings, job.rig = BoxCheckSettings(), None  # type: ignore[assignment]
     job._rims = {"colours": job._rim_view(box, None)}  # type: ignore[arg-type]
     attempt = SimpleNamespace(box=box, notes=[])
@@ -149,7 +178,7 @@ def test_a_cloth_seen_over_a_wall_is_laid_again_until_the_rim_is_clear(
 ) -> None:
     job, attempt, laid = _rim_job(monkeypatch, [0.0, 0.12, 0.0], tries=1)
     job._check_rim(attempt, None)
-    assert laid == [2]  # the +y wall
+    assert laid == [(2, pytest.approx((5.5 - 19.5) * 0.01), None)]  # the +y wall, from the middle
     assert attempt.notes == [
         OVER + " (12 cm of its rim): laid again",
         "laid again 1 time(s): the rim is clear",
@@ -166,11 +195,15 @@ def test_a_rim_touched_less_than_the_run_is_left_alone(monkeypatch: pytest.Monke
 def test_laying_again_stops_after_its_tries_or_when_it_cannot(monkeypatch: pytest.MonkeyPatch) -> None:
     job, attempt, laid = _rim_job(monkeypatch, [0.0, 0.12, 0.10], tries=1)
     job._check_rim(attempt, None)
-    assert laid == [2] and attempt.notes[-1] == OVER + " (10 cm of its rim): left so"
+    assert [wall for wall, *_ in laid] == [2] and attempt.notes[-1] == OVER + " (10 cm of its rim): left so"
     assert job._rims["colours"].bgr[0, 2, :10].min() == 200.0  # left over the wall: not blamed on the next
     job, attempt, laid = _rim_job(monkeypatch, [0.0, 0.12], tries=0)
     job._check_rim(attempt, None)
     assert laid == [] and attempt.notes == [OVER + " (12 cm of its rim): not laid again (clear.rim_tries 0)"]
+    job, attempt, laid = _rim_job(monkeypatch, [0.0, 0.12, 0.10, 0.02], tries=2)
+    job._check_rim(attempt, None)  # the second try takes it inside the wall where it crosses
+    assert laid == [(2, pytest.approx(-0.14), None), (2, pytest.approx(-0.15), 0.07)]
+    assert attempt.notes[-1] == "laid again 2 time(s): the rim is clear"
     job, attempt, laid = _rim_job(monkeypatch, [0.0, 0.12], tries=2, reach=False)
     job._check_rim(attempt, None)
-    assert laid == [2] and attempt.notes == [OVER + " (12 cm of its rim): laid again"]
+    assert [wall for wall, *_ in laid] == [2] and attempt.notes == [OVER + " (12 cm of its rim): laid again"]

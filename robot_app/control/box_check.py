@@ -247,26 +247,43 @@ def rim_view(
 def rim_covered(before: RimView, after: RimView, settings: BoxCheckSettings) -> FloatArray:
     """(4,) how long [m] the longest run of each wall's rim (`WALL_NORMALS` order) is that
     changed between the looks `before` and `after` in either image: a cloth lying over
-    it. The exposure may differ between looks: each image's common change of the rim's
-    colour (the median over its points seen in both) is taken out first."""
-    changed = np.zeros(after.seen.shape[1:], bool)
-    for k in range(after.seen.shape[0]):
+    it (`rim_runs`)."""
+    return rim_runs(before, after, settings)[0]
+
+
+def rim_runs(before: RimView, after: RimView, settings: BoxCheckSettings) -> tuple[FloatArray, FloatArray]:
+    """For each wall's rim (`WALL_NORMALS` order), the longest run that changed between the
+    looks `before` and `after` in either image: its length [m] and where its middle lies
+    along the wall from the wall's middle [m] (towards +y on the x walls, +x on the y
+    walls, as `rim_points` runs; 0 where none changed). The exposure may differ between
+    looks: each image's common change of the rim's colour (the median over its points seen
+    in both) is taken out first."""
+    images, walls, n = after.seen.shape
+    changed = np.zeros((walls, n), bool)
+    for k in range(images):
         both = before.seen[k] & after.seen[k]
         if np.count_nonzero(both) < 8:
             continue
         ratio = np.log((after.bgr[k] + RIM_FLOOR) / (before.bgr[k] + RIM_FLOOR))
         ratio -= np.median(ratio[both], axis=0)
         changed |= both & (np.abs(ratio).max(axis=-1) > np.log1p(settings.rim_change))
-    return np.array([_longest_run(row) * after.spacing for row in changed])
+    lengths, middles = np.zeros(len(changed)), np.zeros(len(changed))
+    for wall, row in enumerate(changed):
+        start, run = _longest_run(row)
+        lengths[wall] = run * after.spacing
+        if run:
+            middles[wall] = (start + (run - 1) / 2 - (n - 1) / 2) * after.spacing
+    return lengths, middles
 
 
-def _longest_run(flags: npt.NDArray[np.bool_]) -> int:
-    """The longest run of True in `flags`."""
-    best = run = 0
-    for flag in flags:
+def _longest_run(flags: npt.NDArray[np.bool_]) -> tuple[int, int]:
+    """Where the longest run of True in `flags` starts, and how long it is."""
+    best_start = best = run = 0
+    for index, flag in enumerate(flags):
         run = run + 1 if flag else 0
-        best = max(best, run)
-    return best
+        if run > best:
+            best, best_start = run, index - run + 1
+    return best_start, best
 
 
 def check_box(
@@ -335,5 +352,6 @@ __all__ = [
     "look_tcp",
     "rim_covered",
     "rim_points",
+    "rim_runs",
     "rim_view",
 ]

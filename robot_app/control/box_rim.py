@@ -24,6 +24,7 @@ import time
 from typing import TYPE_CHECKING
 
 import numpy as np
+import numpy.typing as npt
 
 from robot_app.arrays import FloatArray
 from robot_app.control.box_check import WALL_NORMALS, look_tcp
@@ -43,36 +44,46 @@ WALL_NAMES = ("+x", "-x", "+y", "-y")  # `WALL_NORMALS` order: the wall's outwar
 
 
 def lay_again(
-    job: TableClearer, attempt: AttemptState, wall: int, capture: StereoCapture
+    job: TableClearer,
+    attempt: AttemptState,
+    wall: int,
+    capture: StereoCapture,
+    along: float = 0.0,
+    inset: float | None = None,
 ) -> StereoCapture | None:
-    """Takes what lies on top in the middle of `attempt.box` (its height measured on the
-    check's `capture`, `middle_top`) and releases it again `clear.rim_shift` away from its
-    wall `wall` (`WALL_NORMALS` index), then looks into the box from the check's pose: that
-    look's capture, or None where the hand closed on nothing or the arm could not reach
-    (noted; the arm is back at the look)."""
+    """Takes what lies on top at the grasp point of `attempt.box` (`lay_again_point`: its
+    middle, or with `inset` [m] that far inside the wall where the cloth crosses it,
+    `along` [m] from the wall's middle as `box_check.rim_runs` measures; its height
+    measured on the check's `capture`, `middle_top`) and releases it again
+    `clear.rim_shift` from the box's middle away from its wall `wall` (`WALL_NORMALS`
+    index), then looks into the box from the check's pose: that look's capture, or None
+    where the hand closed on nothing or the arm could not reach (noted; the arm is back at
+    the look)."""
     s, loop, table_z = job.settings, job.loop_settings, job.table_z
     box = attempt.box
     middle = np.asarray(box.centre, dtype=float)
-    top = middle_top(job, attempt, capture)
+    at = lay_again_point(box.centre, box.inner_size, wall, along, inset)
+    top = middle_top(job, attempt, capture, at)
     heap = job.box_heap(box.name) if top is None else top
-    source = "its heap's top" if top is None else "the top measured in its middle"
+    where = "in its middle" if inset is None else "inside the wall where it crosses"
+    source = "its heap's top" if top is None else f"the top measured {where}"
     attempt.notes.append(f"laid again from {heap * 1000:.0f} mm over the box's floor ({source})")
     grasp_z = table_z + max(s.lost.grasp_height, heap + loop.grasp_height)
     job.set_phase("lay again", attempt.name)
     look = look_tcp(box.centre, s.box_view_height, job.camera_offset())
     try:
         here = job.motion.tcp_position()
-        job.motion.move_tcp([middle[0], middle[1], here[2]])
-        job.motion.move_tcp([middle[0], middle[1], grasp_z + loop.pregrasp_height])
-        job.motion.move_tcp([middle[0], middle[1], grasp_z], speed=s.put_down_speed)
-        held, _ = close_lowering(job, (float(middle[0]), float(middle[1])), grasp_z, attempt.notes)
+        job.motion.move_tcp([at[0], at[1], here[2]])
+        job.motion.move_tcp([at[0], at[1], grasp_z + loop.pregrasp_height])
+        job.motion.move_tcp([at[0], at[1], grasp_z], speed=s.put_down_speed)
+        held, _ = close_lowering(job, (float(at[0]), float(at[1])), grasp_z, attempt.notes)
         if not held:
             job.cell.release()
             job.cell.set_gripper(loop.gripper_open)
-            attempt.notes.append("laid again: the fingers closed on nothing in the box's middle")
+            attempt.notes.append("laid again: the fingers closed on nothing in the box")
             job.motion.move_tcp(look)
             return None
-        job.motion.move_tcp([middle[0], middle[1], table_z + loop.transfer_height])
+        job.motion.move_tcp([at[0], at[1], table_z + loop.transfer_height])
         to = middle.copy()
         to[:2] -= s.rim_shift * WALL_NORMALS[wall]
         carry_over_box(job.motion, to, table_z, loop)
@@ -88,11 +99,30 @@ def lay_again(
     return job.cell.capture()
 
 
-def middle_top(job: TableClearer, attempt: AttemptState, capture: StereoCapture) -> float | None:
-    """How high [m] over its floor the top of what lies in the middle of `attempt.box`
-    lies, measured on the pair of `capture` (`table_surface.surface_height` inside the box's
-    walls, with the cloth's model's sweep settings); None where not trusted. The arm holds
-    for the computation time."""
+def lay_again_point(
+    centre: npt.ArrayLike, inner_size: float, wall: int, along: float, inset: float | None
+) -> FloatArray:
+    """Where `lay_again` grasps in the box of `centre` ((3,) its floor's middle, Σ_W) and
+    `inner_size` [m]: the middle where `inset` is None; else `inset` [m] inside the wall
+    `wall` (`WALL_NORMALS` index), at `along` [m] from its middle (kept as far inside the
+    two walls across), where a cloth that crossed that wall's rim lies inside. (3,) [m]."""
+    point = np.array(centre, dtype=float)
+    if inset is None:
+        return point
+    reach = max(inner_size / 2 - inset, 0.0)
+    normal = WALL_NORMALS[wall]
+    tangent = np.array([abs(normal[1]), abs(normal[0])])
+    point[:2] += reach * normal + float(np.clip(along, -reach, reach)) * tangent
+    return point
+
+
+def middle_top(
+    job: TableClearer, attempt: AttemptState, capture: StereoCapture, at: FloatArray | None = None
+) -> float | None:
+    """How high [m] over its floor the top of what lies at `at` ((3,) Σ_W; None: the
+    middle) of `attempt.box` lies, measured on the pair of `capture`
+    (`table_surface.surface_height` inside the box's walls, with the cloth's model's sweep
+    settings); None where not trusted. The arm holds for the computation time."""
     cpu = time.process_time()
     box, recognizer = attempt.box, job.recognizers[attempt.name]
     shape = (capture.right_bgr.shape[0], capture.right_bgr.shape[1])
@@ -104,7 +134,7 @@ def middle_top(job: TableClearer, attempt: AttemptState, capture: StereoCapture)
         recognizer.model,
         recognizer.settings.depth,
         inside,
-        box.centre,
+        box.centre if at is None else at,
         floor,
         job.settings.surface,
     )
@@ -118,4 +148,4 @@ def over_wall_note(covered: FloatArray, box: str) -> str:
     return f"a cloth over the {WALL_NAMES[wall]} wall of {box} ({covered[wall] * 100:.0f} cm of its rim)"
 
 
-__all__ = ["WALL_NAMES", "lay_again", "middle_top", "over_wall_note"]
+__all__ = ["WALL_NAMES", "lay_again", "lay_again_point", "middle_top", "over_wall_note"]

@@ -295,10 +295,13 @@ class ClearTableSettings(StrictModel):
             the image's height lay just outside it.
         rim_tries: after a release whose check sees a run of a wall's rim changed
             (`box_check.rim_covered` over `box_check.rim_run`: a cloth hangs over it), lay
-            what lies on top in the box's middle again this often (`box_rim.lay_again`);
-            0: off.
+            what lies on top in the box's middle (the first try) again this often
+            (`box_rim.lay_again`); 0: off.
         rim_shift: ... releasing it this far from the middle away from that wall [m] (the
             open hand's half span, 5.1 cm, stays 3 cm off the walls at 0.03).
+        rim_grasp_inset: the second and later tries take what lies this far inside that
+            wall where the cloth crosses its rim (`box_rim.lay_again_point`) [m]; None:
+            the box's middle, as the first.
         drop_box_check: when the gripper comes empty over the box, look into the box as
             after a release; a cloth seen there fell into its box on the way (placed, not
             lost).
@@ -366,6 +369,7 @@ class ClearTableSettings(StrictModel):
     box_view_height: float = Field(0.48, gt=0.1)
     rim_tries: int = Field(1, ge=0, le=5)
     rim_shift: float = Field(0.03, ge=0.0, le=0.05)
+    rim_grasp_inset: float | None = Field(None, ge=0.0, le=0.11)
     drop_box_check: bool = True
     box_heap: bool = True
     boxed_again: float | None = Field(0.5, gt=0.0, le=1.0)

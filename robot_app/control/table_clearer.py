@@ -47,7 +47,7 @@ from robot_app.control.box_check import (
     RimView,
     box_view,
     look_tcp,
-    rim_covered,
+    rim_runs,
     rim_view,
 )
 from robot_app.control.box_contents import contents_top
@@ -1754,16 +1754,18 @@ class TableClearer:
 
     def _check_rim(self, attempt: AttemptState, capture: StereoCapture) -> None:
         """Compares the box's rim in the check's look with the look before the release
-        (`box_check.rim_covered`); while a run of a wall's rim changed by `rim_run` or more
+        (`box_check.rim_runs`); while a run of a wall's rim changed by `rim_run` or more
         (a cloth hangs over it), lays the box's top cloth again (`box_rim.lay_again`, at most
-        `clear.rim_tries` times) and looks again; notes each. The last look's rim is the
-        next check's reference, so a cloth left over a wall is not blamed on the next."""
+        `clear.rim_tries` times: first from the box's middle, then from inside that wall
+        where the cloth crosses it, `clear.rim_grasp_inset`) and looks again; notes each.
+        The last look's rim is the next check's reference, so a cloth left over a wall is
+        not blamed on the next."""
         box = attempt.box
         rim = self._rim_view(box, capture)
         before = self._rims.get(box.name)
         tries = 0
         while before is not None:
-            covered = rim_covered(before, rim, self.box_settings)
+            covered, along = rim_runs(before, rim, self.box_settings)
             if float(covered.max()) < self.box_settings.rim_run:
                 if tries:
                     attempt.notes.append(f"laid again {tries} time(s): the rim is clear")
@@ -1776,7 +1778,9 @@ class TableClearer:
                 break
             attempt.notes.append(note + ": laid again")
             tries += 1
-            again = lay_again(self, attempt, int(np.argmax(covered)), capture)
+            wall = int(np.argmax(covered))
+            inset = self.settings.rim_grasp_inset if tries > 1 else None  # the middle first
+            again = lay_again(self, attempt, wall, capture, float(along[wall]), inset)
             if again is None:
                 break
             capture = again
