@@ -302,6 +302,11 @@ class ClearTableSettings(StrictModel):
         rim_grasp_inset: the second and later tries take what lies this far inside that
             wall where the cloth crosses its rim (`box_rim.lay_again_point`) [m]; None:
             the box's middle, as the first.
+        unnamed_wrong_lift: a wrong lift (the meant cloth still in its place) of a cloth
+            that weighs as one not placed and that no look named is laid back booked
+            unnamed (`TableLedger.unnamed`), as a double pick's unnamed other cloth: later
+            surveys guess it among the cloths not placed and not seen at an unknown region
+            there, picked blind and kept if it weighs right (`table_lost`).
         drop_box_check: when the gripper comes empty over the box, look into the box as
             after a release; a cloth seen there fell into its box on the way (placed, not
             lost).
@@ -370,6 +375,7 @@ class ClearTableSettings(StrictModel):
     rim_tries: int = Field(1, ge=0, le=5)
     rim_shift: float = Field(0.03, ge=0.0, le=0.05)
     rim_grasp_inset: float | None = Field(None, ge=0.0, le=0.11)
+    unnamed_wrong_lift: bool = False
     drop_box_check: bool = True
     box_heap: bool = True
     boxed_again: float | None = Field(0.5, gt=0.0, le=1.0)

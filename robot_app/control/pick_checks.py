@@ -51,7 +51,7 @@ class AttemptState:
     put_back_at: FloatArray | None = None  # (2,) where a put-back let go [m]
     lifted_at: FloatArray | None = None  # (3,) the TCP right after the lift, before any look [m]
     shed_at: tuple[FloatArray, FloatArray] | None = None  # a shed double pick's laid strip [m]
-    unnamed_along: int = 0  # a double pick's other cloths no survey identified: at least this many
+    unnamed_along: int = 0  # a double pick's other cloths no survey named (at least), or a wrong lift's
     showed: tuple[str, ...] = ()  # cloths whose own colours the look at such a pick showed
     looked: bool = False  # that look was taken
     named_by: str = ""  # how a double pick's other cloth was named: "grasp", "under", "memory", "look"

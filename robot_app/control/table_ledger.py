@@ -52,7 +52,8 @@ class TableLedger:
             since.
         unnamed: where double picks whose other cloth was not named were laid back (that
             cloth is one of the known cloths not placed), once per cloth the extra weight
-            held (`AttemptState.unnamed_along`).
+            held (`AttemptState.unnamed_along`), and wrong lifts no look named
+            (`clear.unnamed_wrong_lift`).
         maybe: lost cloth name -> other places it may lie: where blind lifts that could have
             held it (`AttemptState.doubted`) were put back.
         unsure: lost cloth name -> the cloths its last put-back lift could have held instead
@@ -287,9 +288,10 @@ class TableLedger:
                     )
                     self.maybe.setdefault(doubted, []).append(where)
             if attempt.put_back and attempt.unnamed_along:
+                lifted = "lifted instead of" if attempt.lift_check == "wrong" else "came up with"
                 place = LostPlace(
                     put_back,
-                    f"came up with {name}, not named",
+                    f"{lifted} {name}, not named",
                     start,
                     end,
                     before,
