@@ -9,7 +9,7 @@ the fifth; 1340: the second into whites), the commonest failure of sessions 37-4
 
 Then the job lays the cloth again (`lay_again`): the released cloth's grasped part landed
 last, on top, under where the hand let go (the box's middle); the hand goes down there to
-the top the check's pair measures at that point (`middle_top`; the heap's highest point,
+the top the check's pair measures at that point (`top_at`; the heap's highest point,
 `box_contents.contents_top`, where it measures none: in the first held-out run with the
 check, 1405, one cloth over an empty box's wall, the heap's top was read at the draped wall,
 0.10 m, and the fingers closed four times on nothing over it), closes (lower again while it
@@ -54,7 +54,7 @@ def lay_again(
     """Takes what lies on top at the grasp point of `attempt.box` (`lay_again_point`: its
     middle, or with `inset` [m] that far inside the wall where the cloth crosses it,
     `along` [m] from the wall's middle as `box_check.rim_runs` measures; its height
-    measured on the check's `capture`, `middle_top`) and releases it again
+    measured on the check's `capture`, `top_at`) and releases it again
     `clear.rim_shift` from the box's middle away from its wall `wall` (`WALL_NORMALS`
     index), then looks into the box from the check's pose: that look's capture, or None
     where the hand closed on nothing or the arm could not reach (noted; the arm is back at
@@ -63,7 +63,7 @@ def lay_again(
     box = attempt.box
     middle = np.asarray(box.centre, dtype=float)
     at = lay_again_point(box.centre, box.inner_size, wall, along, inset)
-    top = middle_top(job, attempt, capture, at)
+    top = top_at(job, attempt, capture, at)
     heap = job.box_heap(box.name) if top is None else top
     where = "in its middle" if inset is None else "inside the wall where it crosses"
     source = "its heap's top" if top is None else f"the top measured {where}"
@@ -116,7 +116,7 @@ def lay_again_point(
     return point
 
 
-def middle_top(
+def top_at(
     job: TableClearer, attempt: AttemptState, capture: StereoCapture, at: FloatArray | None = None
 ) -> float | None:
     """How high [m] over its floor the top of what lies at `at` ((3,) Σ_W; None: the
@@ -148,4 +148,4 @@ def over_wall_note(covered: FloatArray, box: str) -> str:
     return f"a cloth over the {WALL_NAMES[wall]} wall of {box} ({covered[wall] * 100:.0f} cm of its rim)"
 
 
-__all__ = ["WALL_NAMES", "lay_again", "lay_again_point", "middle_top", "over_wall_note"]
+__all__ = ["WALL_NAMES", "lay_again", "lay_again_point", "over_wall_note", "top_at"]
