@@ -178,3 +178,37 @@ def test_a_moved_shadow_is_no_cloth_when_the_check_is_shadow_proof() -> None:
     red[60:90, 60:90] = CLOTH_BGR  # a red cloth fell in
     landed = check_box(before, BoxView(red, seen, None), _red_model(), fitness, settings, shadow_proof=True)
     assert landed.confirmed and landed.model_share > 0.9
+
+
+def test_a_change_of_exposure_is_no_cloth_when_the_check_is_shadow_proof() -> None:
+    """Held-out episode 1704 (session 48): the box's pale floor (the views' numbers), its red
+    channel clipped at the reference look, came out darker after a drop, auto-exposure not yet
+    settled. Its saturation rose across `min_saturation`: a tone before, a hue of the dropped
+    cloth's palette after, and the check confirmed a cloth that lay on the table. The colour
+    did not move: the chroma rule leaves it unchanged, and a cloth of that hue that did fall
+    in is still seen."""
+    from robot_app.control.box_check import BoxView
+    from robot_app.vision import colour_codes, to_hsv
+
+    fitness = FitnessSettings(min_saturation=40, min_value=40)
+    pale, darker = (218, 230, 255), (178, 188, 215)
+    codes = colour_codes(to_hsv(np.array([[pale, darker]], np.uint8)), 40, 40, 128)[0]
+    assert codes[0] >= 256 > codes[1]  # a tone before, a hue after
+    points = np.zeros((50, 3))
+    floor_hued = ClothModel(
+        "peach", points, np.full(50, codes[1], np.uint16), points, 85.0, np.zeros(3), (0.1, 0.1)
+    )
+    seen = np.ones((96, 96), bool)
+    before = BoxView(np.full((96, 96, 3), pale, np.uint8), seen, None)
+    after = BoxView(np.full((96, 96, 3), darker, np.uint8), seen, None)
+    off = BoxCheckSettings(shadow_chroma_step=0.0)
+    assert check_box(before, after, floor_hued, fitness, off, shadow_proof=True).confirmed  # fooled
+    settings = BoxCheckSettings()
+    check = check_box(before, after, floor_hued, fitness, settings, shadow_proof=True)
+    assert not check.confirmed and check.changed == 0.0
+    fell = after.image.copy()
+    fell[50:90, 10:70] = (110, 140, 230)  # a saturated cloth of the floor's hue fell in
+    hue = colour_codes(to_hsv(np.array([[(110, 140, 230)]], np.uint8)), 40, 40, 128)[0, 0]
+    assert abs(int(hue) - int(codes[1])) <= fitness.hue_threshold_in
+    landed = check_box(before, BoxView(fell, seen, None), floor_hued, fitness, settings, shadow_proof=True)
+    assert landed.confirmed and landed.changed > 0.2
