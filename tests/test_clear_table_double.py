@@ -448,6 +448,49 @@ def test_a_never_seen_cloth_no_look_can_tell_beside_the_lift_withdraws_the_name_
             _assert_under_named(attempt, put_back, True, "")
 
 
+def test_a_cloth_of_another_box_last_seen_where_the_fingers_closed_withdraws_the_name_from_under(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # held-out 1722 (session 48): No.18 (white, whites), seen under No.8 by the first survey
+    # and not since, came up with No.8 inside it; No.14, still in its place, was named
+    # "under", the look at what hangs saw no cloth of another box, and No.18 went into
+    # colours. The footprints here are a 0.2 m square's corners
+    cases = (
+        # remembered_rival on, No.17 last seen at (x, y), named
+        (True, (0.58, 0.08), False),  # a corner of its footprint there 28 mm from the grasp
+        (True, (0.80, 0.30), True),  # seen far from the grasp: the look decides
+        (False, (0.58, 0.08), True),  # off: the look decides
+    )
+    for on, xy, named in cases:
+        put_back: list[str] = []
+        job = _under_job_with_a_white(monkeypatch, put_back)
+        job.settings = ClearTableSettings(
+            survey_latency=0.0, held_look={"name_companion": False}, remembered_rival=on
+        )
+        job.ledger.last_pose["No.17"] = np.array(
+            [[1.0, 0.0, 0.0, xy[0]], [0.0, 1.0, 0.0, xy[1]], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+        )
+        job.ledger.last_seen["No.17"], job.ledger.last_survey["No.17"] = np.array(xy), 1
+        looked: list[tuple[str, ...]] = []
+        monkeypatch.setattr(table_clearer, "look_at_held", _look_showing(0.0, looked))
+        attempt = _lift_under(monkeypatch, job, ("No.11",))
+        _assert_under_named(attempt, put_back, named, "No.17 (another box) lay where the fingers closed")
+        assert looked == ([("No.17",)] if named else [])  # no look where none could tell
+        if not named:
+            assert any("by survey 1" in note for note in attempt.notes)
+    # seen by the pick's own survey (elsewhere, then): not hidden under the lift
+    put_back = []
+    job = _under_job_with_a_white(monkeypatch, put_back)
+    job.settings = ClearTableSettings(
+        survey_latency=0.0, held_look={"name_companion": False}, remembered_rival=True
+    )
+    job.ledger.last_pose["No.17"] = np.eye(4)
+    job.ledger.last_pose["No.17"][:2, 3] = (0.58, 0.08)
+    monkeypatch.setattr(table_clearer, "look_at_held", _look_showing(0.0, []))
+    attempt = _lift_under(monkeypatch, job, ("No.11", "No.17"))
+    assert "lay where the fingers closed" not in " ".join(attempt.notes)
+
+
 def test_a_white_cloth_hides_in_a_print_with_white_and_not_in_a_cloth_without() -> None:
     from robot_app.config import load_config
     from robot_app.control.held_look import hidden_in

@@ -307,6 +307,12 @@ class ClearTableSettings(StrictModel):
             unnamed (`TableLedger.unnamed`), as a double pick's unnamed other cloth: later
             surveys guess it among the cloths not placed and not seen at an unknown region
             there, picked blind and kept if it weighs right (`table_lost`).
+        remembered_rival: a double pick's other cloth of the meant cloth's box is not named
+            "under" or from memory while a cloth of another box that weighs the extra or less lay where
+            the fingers closed when an earlier survey saw it (its footprint there within
+            `remembered_reach` of the grasp) and the pick's survey did not see it: it may
+            hang inside the held cloth, where no look sees it
+            (`TableClearer._remembered_under_lift`).
         drop_box_check: when the gripper comes empty over the box, look into the box as
             after a release; a cloth seen there fell into its box on the way (placed, not
             lost).
@@ -376,6 +382,7 @@ class ClearTableSettings(StrictModel):
     rim_shift: float = Field(0.03, ge=0.0, le=0.05)
     rim_grasp_inset: float | None = Field(None, ge=0.0, le=0.11)
     unnamed_wrong_lift: bool = False
+    remembered_rival: bool = False
     drop_box_check: bool = True
     box_heap: bool = True
     boxed_again: float | None = Field(0.5, gt=0.0, le=1.0)

@@ -1351,7 +1351,9 @@ class TableClearer:
         )
         if not rivals or not s.held_look.enabled:
             return "", False
-        hidden = self._hidden_beside(attempt, capture, named, rivals)
+        hidden = self._remembered_under_lift(attempt, rivals) or self._hidden_beside(
+            attempt, capture, named, rivals
+        )
         if hidden:
             return hidden, False
         self._phase = "look at lift"
@@ -1370,6 +1372,40 @@ class TableClearer:
             return STILL_IN_PLACE, True  # seen from beside the lift
         attempt.notes.append(f"looked at what hangs: no cloth of another box ({seen.pixels} px; {where})")
         return "", True
+
+    def _remembered_under_lift(self, attempt: AttemptState, rivals: list[str]) -> str:
+        """Why no look can rule out the `rivals` (of another box, weighing the extra or
+        less) before a name goes along with the meant cloth ("" if it can): with
+        `clear.remembered_rival`, one of them lay where the fingers closed (the hand is still
+        over the grasp) when an earlier survey saw it, its footprint there within
+        `remembered_reach` of the grasp, and the pick's survey did not see it
+        (`TableLedger.remembered_poses`): it may hang inside the held cloth, where no look
+        sees it. Held-out 1722 (session 48): No.18 (white, whites), seen under No.8 by the
+        first survey and not since, came up with No.8; No.14, 17 cm away and still there,
+        was named "under" (the check after the lift missed it), the look at what hangs saw
+        no cloth of another box, and No.18 went into colours."""
+        s = self.settings
+        if not s.remembered_rival or s.remembered_reach <= 0:
+            return ""
+        poses = self.ledger.remembered_poses({attempt.name, *(d.name for d in attempt.others)})
+        grasp = self.motion.tcp_position()[:2]
+        under = [
+            name
+            for name in rivals
+            if name in poses
+            and comes_within(
+                transform_points(poses[name], self.recognizers[name].model.points_in)[:, :2],
+                grasp,
+                s.remembered_reach,
+            )
+        ]
+        if not under:
+            return ""
+        seen = ", ".join(f"{name} by survey {self.ledger.last_survey[name]}" for name in under)
+        return (
+            f"{_any_of(under)} (another box) lay where the fingers closed when last seen ({seen}), "
+            "not seen since: it may hang inside the held cloth, where no look sees it"
+        )
 
     def _hidden_beside(
         self, attempt: AttemptState, capture: StereoCapture, named: str, rivals: list[str]
