@@ -262,3 +262,41 @@ def test_a_laid_cloth_must_be_graspable_across_the_strip_s_end() -> None:
     path = LayOutPath(direction, np.array([[*start, 0.2], [*(start + end) / 2, 0.1], [*end, 0.05]]), 0.1)
     assert recovery._graspable_along(path, 0.0)  # the strip and past its end: in reach
     assert not recovery._graspable_along(path, 0.08)  # its inner side lies 0.29 m out
+
+
+def test_a_put_back_is_laid_out_on_the_green_sheet_where_it_fits_there() -> None:
+    # held-out 1703 (session 48): a put-back from a look around's view laid No.9 out beyond the
+    # sheet's edge, towards the box; no rule took it again and the job stopped with it there.
+    # Here the free way leads off the sheet, towards the arm's base (other cloths all round)
+    from robot_app.control.clear_table_records import ClearTableSettings, TableArea
+    from robot_app.control.job_motion import PutBackSettings
+
+    sheet = TableArea((0.33, 1.0), (-0.5, 0.5))
+
+    def laid(on: bool, known: TableArea | None) -> np.ndarray:
+        arm = RingArm(np.array([0.5, 0.0, 0.4]), inner=0.0)
+        recovery, survey, model, others = _recovery_scene(arm, 0.5)
+        recovery.sheet = known
+        recovery.settings = ClearTableSettings(put_back=PutBackSettings(on_sheet=on))
+        assert recovery.lay_down(survey, model, None, others, [])
+        return np.asarray(arm.sent[-1][:2])
+
+    freest = laid(False, sheet)
+    half_width = 0.08  # the square cloth's
+    assert not sheet.contains(freest, half_width)[0]  # the freest way: the laid cloth over the edge
+    on_sheet = laid(True, sheet)
+    assert sheet.contains(on_sheet, half_width + 0.04)[0]  # wholly on it, the margin inside the edge
+    assert np.allclose(laid(True, None), freest)  # no sheet known: the freest way
+    # the lift at the survey view's edge (1703's first put-back): no laid cloth fits in the
+    # view, and the sheet beyond it comes before a heap lowered on the spot
+    from robot_app.geometry import make_transform
+
+    for on, lays in ((False, False), (True, True)):
+        arm = RingArm(np.array([0.5, 0.0, 0.4]), inner=0.0)
+        recovery, survey, model, others = _recovery_scene(arm, 0.5)
+        survey.transform_right_camera_to_world = make_transform(np.diag([1.0, -1.0, -1.0]), [0.83, 0.0, 0.6])
+        recovery.sheet = sheet
+        recovery.settings = ClearTableSettings(put_back=PutBackSettings(on_sheet=on))
+        assert recovery.lay_down(survey, model, None, others, []) is lays
+        if lays:
+            assert sheet.contains(arm.sent[-1][:2], half_width + 0.04)[0]

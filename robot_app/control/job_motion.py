@@ -214,6 +214,12 @@ class PutBackSettings(StrictModel):
             it. Replay of held-out episode 519 (session 30): four cloths laid out 207 mm
             towards the arm's base from a lift at x = 0.47 m, the strip's end graspable at
             x = 0.29 m; the heap lay to x = 0.18 m and its blind grasps had no IK solution.
+        on_sheet: lay the cloth out on the green sheet (`view_margin` inside its edge) where
+            a path's laid cloth fits there, before anywhere else in the view
+            (`TableRecovery._lay_out_joints`): a survey reads cloths against the sheet, and
+            one laid on the bare table beside it may not be found again. Held-out 1703
+            (session 48): a put-back from a look around's view laid No.9 out towards the
+            box, off the sheet; no rule took it again and the job stopped with it there.
     """
 
     lay_out: bool = True
@@ -224,6 +230,7 @@ class PutBackSettings(StrictModel):
     waypoints: int = Field(3, ge=1, le=10)
     free_distance: float = Field(0.1, gt=0.0, le=0.5)
     reach_margin: float = Field(0.1, ge=0.0, le=0.5)
+    on_sheet: bool = False
 
 
 @dataclass(frozen=True)

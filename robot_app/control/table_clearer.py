@@ -277,6 +277,7 @@ class TableClearer:
             self.loop_settings,
             table_top=table_top,
             boxes=boxes,
+            sheet=sheet,
         )
 
     # ------------------------------------------------------------------ job

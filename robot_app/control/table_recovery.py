@@ -51,9 +51,11 @@ class TableRecovery:
         loop_settings: LoopSettings,
         table_top: TableArea | None = None,
         boxes: Sequence[BoxPlace] = (),
+        sheet: TableArea | None = None,
     ) -> None:
         self.motion = motion
         self.table_top = table_top
+        self.sheet = sheet
         self.boxes = tuple(boxes)
         self.cell = cell
         self.table = table
@@ -227,7 +229,7 @@ class TableRecovery:
         walls = [(b.centre[:2], b.outer_half) for b in self.boxes]
         half_width = cloth_half_width(model.points_in)
 
-        def paths_within(room: FloatArray) -> tuple[LayOutPath, ...]:
+        def paths_within(room: FloatArray, area: FloatArray | None = table) -> tuple[LayOutPath, ...]:
             return lay_out_paths(
                 above[:2],
                 reach,
@@ -237,15 +239,30 @@ class TableRecovery:
                 room,
                 self.settings.put_back,
                 half_width=half_width,
-                table_xy=table,
+                table_xy=area,
                 keep_out=walls,
             )
 
+        def fitting(paths: tuple[LayOutPath, ...]) -> tuple[LayOutPath, ...]:
+            return tuple(p for p in paths if p.fits)
+
+        # with `put_back.on_sheet`, first where the laid cloth fits on the green sheet
+        sheet = self.sheet.corners() if self.sheet is not None and self.settings.put_back.on_sheet else None
+        on_sheet = () if sheet is None else fitting(paths_within(view, sheet))
         in_view = paths_within(view)
-        # where no laid cloth fits in the view (the lift was at its edge), the table beyond
-        # it before a laid cloth half outside the view or a heap lowered on the spot
-        beyond = () if table is None or any(p.fits for p in in_view) else paths_within(table)
-        ordered = [p for p in (*in_view, *beyond) if p.fits] + [p for p in (*in_view, *beyond) if not p.fits]
+        # where no laid cloth fits in the view (the lift was at its edge), the sheet and then
+        # the table beyond it before a laid cloth half outside the view or a heap lowered on
+        # the spot
+        inside = bool(fitting(in_view))
+        beyond_sheet = () if sheet is None or inside else fitting(paths_within(sheet, sheet))
+        beyond = () if table is None or inside else paths_within(table)
+        ordered = [
+            *on_sheet,
+            *fitting(in_view),
+            *beyond_sheet,
+            *fitting(beyond),
+            *(p for p in (*in_view, *beyond) if not p.fits),
+        ]
         for path in ordered:
             joints: list[FloatArray] = []
             try:
