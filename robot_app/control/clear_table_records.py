@@ -308,10 +308,10 @@ class ClearTableSettings(StrictModel):
             surveys guess it among the cloths not placed and not seen at an unknown region
             there, picked blind and kept if it weighs right (`table_lost`).
         remembered_rival: a double pick's other cloth of the meant cloth's box is not named
-            "under" or from memory while a cloth of another box that weighs the extra or less lay where
-            the fingers closed when an earlier survey saw it (its footprint there within
-            `remembered_reach` of the grasp) and the pick's survey did not see it: it may
-            hang inside the held cloth, where no look sees it
+            "under" or from memory while a cloth of another box that weighs the extra or
+            less lay where the fingers closed when an earlier survey saw it (its footprint
+            there within `remembered_reach` of the grasp) and the pick's survey did not see
+            it: it may hang inside the held cloth, where no look sees it
             (`TableClearer._remembered_under_lift`).
         drop_box_check: when the gripper comes empty over the box, look into the box as
             after a release; a cloth seen there fell into its box on the way (placed, not

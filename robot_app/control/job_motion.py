@@ -215,11 +215,12 @@ class PutBackSettings(StrictModel):
             towards the arm's base from a lift at x = 0.47 m, the strip's end graspable at
             x = 0.29 m; the heap lay to x = 0.18 m and its blind grasps had no IK solution.
         on_sheet: lay the cloth out on the green sheet (`view_margin` inside its edge) where
-            a path's laid cloth fits there, before anywhere else in the view
+            a path's laid cloth fits there in the view, before anywhere else in it; where
+            none fits in the view, on the sheet beyond it before the bare table
             (`TableRecovery._lay_out_joints`): a survey reads cloths against the sheet, and
             one laid on the bare table beside it may not be found again. Held-out 1703
-            (session 48): a put-back from a look around's view laid No.9 out towards the
-            box, off the sheet; no rule took it again and the job stopped with it there.
+            (session 48): a lift at the view's edge laid No.9 out towards the box, to the
+            sheet's edge, the next put-back off it; no rule took it again.
     """
 
     lay_out: bool = True

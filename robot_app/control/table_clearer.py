@@ -528,8 +528,9 @@ class TableClearer:
 
     def _weak_lost_to_pick(self, ident: Identification) -> tuple[Identification, LostMatch | None]:
         """After a look around chose nothing: its weak candidates the loop could not confirm
-        taken as unknown regions (`_unconfirmed_as_unknown`), for the lost-cloth rules; that
-        look's survey with them so if a lost cloth is picked there, else `ident` as it was.
+        taken as unknown regions (`_unconfirmed_as_unknown`) for the lost-cloth rules; returns
+        the look's survey so changed and the lost cloth to pick there, or `ident` unchanged
+        and None.
         A weak detection is no sighting: taken as one, it kept the cloth from the rules
         (`_lost_to_pick` passes over the cloths a survey sees) and, booked, from being lost
         (`TableLedger.record_survey`). Held-out episode 1704 (session 48): No.8, dropped off
