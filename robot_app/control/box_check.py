@@ -333,15 +333,17 @@ def check_box(
         changed = seen & (difference >= settings.change_threshold)
     changed_share = float(np.count_nonzero(changed) / max(int(np.count_nonzero(seen)), 1))
 
-    def codes_of(image: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint16]:
-        return colour_codes(to_hsv(image), fitness.min_saturation, fitness.min_value, fitness.value_split)
+    def codes_of(hsv: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint16]:
+        return colour_codes(hsv, fitness.min_saturation, fitness.min_value, fitness.value_split)
 
-    codes = codes_of(after.image)
+    hsv_after = to_hsv(after.image)
+    codes = codes_of(hsv_after)
     palette = main_codes(model, 0.9)
     if shadow_proof and before is not None:
-        changed &= ~colours_match(codes, codes_of(before.image), settings.shadow_hue_step)
+        hsv_before = to_hsv(before.image)
+        changed &= ~colours_match(codes, codes_of(hsv_before), settings.shadow_hue_step)
         if settings.shadow_chroma_step > 0:
-            changed &= _chroma_moved(after.image, before.image, settings.shadow_chroma_step)
+            changed &= _chroma_moved(hsv_after, hsv_before, settings.shadow_chroma_step)
         changed_share = float(np.count_nonzero(changed) / max(int(np.count_nonzero(seen)), 1))
         palette = palette[palette < HUE_RANGE]
     matches = np.zeros(codes.shape, bool)
@@ -352,12 +354,14 @@ def check_box(
     return BoxCheck(bool(confirmed), changed_share, model_share, in_view)
 
 
-def _chroma_moved(after: ImageBGR, before: ImageBGR, step: float) -> npt.NDArray[np.bool_]:
-    """Where the chroma (HSV_FULL saturation as a vector at the hue's angle) moved by `step`
-    or more between two views: a measure of colour that a change of exposure leaves alone."""
+def _chroma_moved(
+    after: npt.NDArray[np.uint8], before: npt.NDArray[np.uint8], step: float
+) -> npt.NDArray[np.bool_]:
+    """Where the chroma (saturation as a vector at the hue's angle) moved by `step` or more
+    between two views, HSV_FULL images: a measure of colour that exposure leaves alone."""
 
-    def chroma(image: ImageBGR) -> npt.NDArray[np.float64]:
-        hsv = to_hsv(image).astype(np.float64)
+    def chroma(hsv_image: npt.NDArray[np.uint8]) -> npt.NDArray[np.float64]:
+        hsv = hsv_image.astype(np.float64)
         angle = hsv[..., 0] * (2.0 * np.pi / HUE_RANGE)
         return hsv[..., 1:2] * np.stack([np.cos(angle), np.sin(angle)], axis=-1)
 
