@@ -36,9 +36,12 @@ def _job(lost=(), seen=None, placed=(), surveys=7) -> SimpleNamespace:
         last_pose={name: pose for name, (_, pose) in seen.items()},
         lost=dict.fromkeys(lost),
         unnamed=[],
+        placed_unsure={},  # no blind lift booked unsure
+        records={},  # no attempts spent
     )
     return SimpleNamespace(
         ledger=ledger,
+        untried=lambda name: True,
         weights=WEIGHTS,
         recognizers={name: SimpleNamespace(model=SimpleNamespace(points_in=SQUARE)) for name in WEIGHTS},
         sort=SimpleNamespace(box_for=BOXES.__getitem__),

@@ -374,3 +374,15 @@ def test_a_blind_lift_put_back_does_not_count_its_own_region_as_another_cloth_s(
         _book(ledger, attempt, Outcome.GRASP_FAILED, "put back: not sure")
         place = ledger.lost["No.18"]
         assert place.kind is LossKind.PUT_BACK and np.allclose(place.before, before)
+
+
+def test_a_blind_lift_placed_where_its_region_fit_others_of_its_box_books_them_unsure() -> None:
+    ledger = TableLedger()
+    box = BoxPlace("whites", np.array([0.3, 0.56, 0.0]), 0.22)
+    attempt = AttemptState(None, box, np.eye(4), 0.0, lost_name="No.6", taken_for=("No.6", "No.17", "No.18"))
+    ledger.placed("No.18", confirmed=True)
+    _book(ledger, attempt, Outcome.PLACED, "No.6 placed")
+    assert ledger.placed_unsure == {"No.6": ("No.17",)}
+    sure = AttemptState(None, box, np.eye(4), 0.0, lost_name="No.17", taken_for=("No.17",))
+    _book(ledger, sure, Outcome.PLACED, "No.17 placed")
+    assert "No.17" not in ledger.placed_unsure

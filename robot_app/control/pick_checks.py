@@ -67,6 +67,7 @@ class AttemptState:
     doubted: tuple[str, ...] = ()  # lost cloths a blind lift could hold instead (`LostMatch.doubted`)
     guessed: bool = False  # a blind lift named by a guess for a companion nobody named
     held_instead: str = ""  # a wrong lift named by its colours seen hanging, booked in the meant one's stead
+    taken_for: tuple[str, ...] = ()  # a blind lift's region: the lost cloths its colours fit (`LostMatch`)
 
     @property
     def meant(self) -> str:

@@ -302,7 +302,7 @@ class TableClearer:
                 self._back_to_observation()
                 last = self._survey(meanwhile=boxes_first if last is None else self._boxes_ahead(last))
                 self._notice_moved()
-                target = choose_target(last, self.ledger.records, self._untried)
+                target = choose_target(last, self.ledger.records, self.untried)
                 if target is None:  # the rules below look and survey from the observation pose
                     self._back_to_observation()
                 looked, lost = False, None
@@ -312,7 +312,7 @@ class TableClearer:
                         continue
                     looked = True
                     last = self._survey()
-                    target = choose_target(last, self.ledger.records, self._untried)
+                    target = choose_target(last, self.ledger.records, self.untried)
                     lost = self._lost_to_pick(last) if target is None else None
                     if target is None and lost is None:
                         last, lost = self._weak_lost_to_pick(last)
@@ -366,7 +366,7 @@ class TableClearer:
         self._record_survey(last, None)
         self._back_to_observation()
         again = self._survey()
-        return again, choose_target(again, self.ledger.records, self._untried)
+        return again, choose_target(again, self.ledger.records, self.untried)
 
     def _book_hidden(self, last: Identification) -> bool:
         """With no cloth to pick and unknown regions left, the cloths a survey saw that none
@@ -378,7 +378,7 @@ class TableClearer:
         if not last.unknown or not self.settings.lost.enabled:
             return False
         seen = {d.name for d in last.detections}
-        return bool(self.ledger.hide(lambda name: name not in seen and self._untried(name)))
+        return bool(self.ledger.hide(lambda name: name not in seen and self.untried(name)))
 
     def tones_only(self, name: str) -> bool:
         """Are all of cloth `name`'s main colours tones (white, grey, black: no hue)? Such
@@ -392,7 +392,7 @@ class TableClearer:
         model = self.recognizers[name].model
         return hanging_reach(model.points_in, model.grasp_point)
 
-    def _untried(self, name: str) -> bool:
+    def untried(self, name: str) -> bool:
         """Has `name` attempts left (`TableLedger.untried`)?"""
         return self.ledger.untried(name, self.settings.max_attempts)
 
@@ -503,7 +503,7 @@ class TableClearer:
         how = f"seen in its box, yet found on the table by survey {len(self.ledger.surveys) + 1}"
         for name in back:
             self.ledger.reopen(name, f"{how}: another cloth of its colours went in")
-        return again, choose_target(again, self.ledger.records, self._untried)
+        return again, choose_target(again, self.ledger.records, self.untried)
 
     def _unconfirmed_as_unknown(self, ident: Identification) -> Identification:
         """With nothing left to pick: `ident` with the candidates the loop's search could not
@@ -519,7 +519,7 @@ class TableClearer:
         names = [
             d.name
             for d in ident.detections
-            if not d.found and records.get(d.name, {}).get("unconfirmed") and self._untried(d.name)
+            if not d.found and records.get(d.name, {}).get("unconfirmed") and self.untried(d.name)
         ]
         if not names:
             return ident
@@ -759,7 +759,7 @@ class TableClearer:
         lost = {
             name: self.recognizers[name]
             for name in self.ledger.lost
-            if name not in seen and self._untried(name)
+            if name not in seen and self.untried(name)
         }
         # lost cloths with no attempts left still explain their regions (`match_lost`'s `spent`)
         spent = {
@@ -780,7 +780,7 @@ class TableClearer:
             guesses = tuple(
                 name
                 for name in self.recognizers
-                if name not in lost and name not in placed and name not in seen and self._untried(name)
+                if name not in lost and name not in placed and name not in seen and self.untried(name)
             )
             suspects = tuple(name for name in guesses if name in self.ledger.last_seen)
             rounds = [suspects, guesses] if suspects and len(suspects) < len(guesses) else [guesses]
@@ -980,7 +980,7 @@ class TableClearer:
             self._survey_capture,
             ident,
             self.ledger.last_seen,
-            lambda name: name not in placed and self._untried(name),
+            lambda name: name not in placed and self.untried(name),
             dropped_on,
             len(self.ledger.attempts),
         )
@@ -1997,7 +1997,7 @@ class TableClearer:
             candidates,
             self.ledger.lost,
             self.settings.lost,
-            self._untried,
+            self.untried,
             self._grasped_empty,
             seen_by,
         )

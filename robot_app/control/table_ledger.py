@@ -63,6 +63,9 @@ class TableLedger:
             find it (`not_present`) books it lost there again (`record_attempt`).
         moved_by: numbers (from 1) of the placed attempts that moved a cloth nobody
             identified (`TableClearer._notice_moved`).
+        placed_unsure: cloth name -> the other cloths of its box, not placed then, that the
+            blind lift which placed it could have been (its region's colours fit them as
+            well: `AttemptState.taken_for`); `table_lost.booked_in_stead` may find it later.
     """
 
     def __init__(self) -> None:
@@ -81,6 +84,7 @@ class TableLedger:
         self.seen_again: dict[str, LostPlace] = {}
         self.empty_grasps: list[FloatArray] = []  # (2,) where blind grasps closed on nothing [m]
         self.moved_by: list[int] = []
+        self.placed_unsure: dict[str, tuple[str, ...]] = {}
         self.placements = 0  # placed attempts so far
 
     def untried(self, name: str, max_attempts: int) -> bool:
@@ -326,6 +330,13 @@ class TableLedger:
         if result.outcome is Outcome.PLACED:
             confirmed = attempt.box_check is not None and attempt.box_check.confirmed
             self.placed(name, confirmed)
+            unsure = tuple(
+                other
+                for other in attempt.taken_for
+                if other != name and other not in attempt.came_along and other not in self.placed_order
+            )
+            if unsure:
+                self.placed_unsure[name] = unsure
             for companion in attempt.came_along:  # placed too, but looked for again until seen gone
                 self.placed(companion, False)
                 other: list[str] = self.records[companion]["notes"]  # type: ignore[assignment]
@@ -345,6 +356,15 @@ class TableLedger:
             self.placed_order.append(name)
         if confirmed:
             self.seen_in_box.add(name)
+
+    def swap_placed(self, placed: str, instead: str, how: str) -> None:
+        """`placed`, booked placed by a blind lift that could have been `instead`
+        (`placed_unsure`), is on the table (`how`): that lift was `instead`."""
+        confirmed = bool(self.records.get(placed, {}).get("confirmed", False))
+        self.placed_unsure.pop(placed, None)
+        self.reopen(placed, how)
+        self.placed(instead, confirmed)
+        self.note(instead, f"placed earlier by a blind lift booked as {placed} ({how})")
 
     def note(self, name: str, text: str) -> None:
         """Adds `text` to `name`'s notes."""

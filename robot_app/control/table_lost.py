@@ -426,7 +426,14 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     if np.any(aims):
         job.look_into_box(box.name)  # before the attempt's clock starts, as for a surveyed pick
     attempt = AttemptState(
-        None, box, where, job.cell.time, lost_name=name, doubted=match.doubted, guessed=unnamed
+        None,
+        box,
+        where,
+        job.cell.time,
+        lost_name=name,
+        doubted=match.doubted,
+        guessed=unnamed,
+        taken_for=(name, *match.alike),
     )
     attempt.from_region = np.array(job.table.point(capture, region.centroid))
     seen = f"an unknown region {share:.0%} in its colours" + (
@@ -739,6 +746,13 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         if alone and nearer:
             alone, seen = False, f"{seen}; the weight is nearer {nearer}'s (another box)"
         attempt.notes.append(f"looked at against free table (could be {', '.join(doubted)}): {seen}")
+        booked = "" if alone or held[1:] else booked_in_stead(job, attempt, doubted)
+        if booked in job.ledger.placed_unsure and booked in job.ledger.placed_order:
+            earlier = _the_earlier_lift(job, booked, attempt.meant)
+            number = len(job.ledger.attempts) + 1
+            job.ledger.swap_placed(booked, earlier, f"lifted blind again at attempt {number}, seen hanging")
+        if booked:
+            alone, attempt.held_instead, name = True, booked, booked
         if not alone:
             attempt.lift_check = "wrong"
             attempt.notes.append(f"not sure it is {name} alone: put back")
@@ -771,6 +785,62 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     _phase(job, name, "release", start, "")
     job.check_box(attempt)
     return Outcome.PLACED, f"{name} placed (picked blind, its weight read)"
+
+
+def booked_in_stead(job: TableClearer, attempt: AttemptState, doubted: Sequence[str]) -> str:
+    """A blind lift whose look did not show the meant cloth alone: a cloth of its box that
+    no blind lift is taken for, whose weight the load cell reads and whose colours a look
+    for it shows hanging (`held_verdict` against the same `doubted` cloths of other boxes,
+    and no nearer weight among them); "" if none. The lift then goes into the box as that
+    cloth. Such cloths: one booked placed by an earlier blind lift that could have been
+    another cloth of the box not placed since (`TableLedger.placed_unsure`: that lift held
+    the other one), and one not placed whose attempts are spent. Held-out episode 1739
+    (session 48): a blind lift named No.6 (white print, whites), its region as much in
+    No.17's colours (whites), held No.17 and was placed as No.6; the real No.6, crumpled,
+    was then lifted ten times under guesses (No.17, No.18, of whites; No.20, No.7, of
+    colours), each look fit none of them, and it went back every time. Held-out 1664
+    (session 47): No.15 (colours), its attempts spent, was lifted four times under the
+    guess No.13 (colours) and went back, the look showing 5-14 % in No.13's colours."""
+    ledger, weighed, box = job.ledger, attempt.weighed, attempt.box.name
+    if weighed is None:
+        return ""
+    unsure = [
+        (booked, f"placed by a blind lift that could have been {' or '.join(others)}")
+        for booked, others in ledger.placed_unsure.items()
+        if booked in ledger.placed_order and any(o not in ledger.placed_order for o in others)
+    ]
+    spent = [
+        (name, "its attempts spent")
+        for name in job.recognizers
+        if name not in ledger.placed_order and name in ledger.records and not job.untried(name)
+    ]
+    for name, why in (*unsure, *spent):
+        weight = job.weights.get(name)
+        if (
+            name == attempt.meant
+            or job.sort.box_for(name) != box
+            or weight is None
+            or weight_verdict(weighed, weight, name, job.settings, lift=True)[0] != "ok"
+        ):
+            continue
+        hanging, where = look_at_held(job, name, doubted, fit=True)
+        alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
+        seen += "" if hanging is None else f" ({where})"
+        nearer = _weighs_more_like(job, name, doubted, weighed, box, hanging)
+        if alone and nearer:
+            alone, seen = False, f"{seen}; the weight is nearer {nearer}'s (another box)"
+        attempt.notes.append(f"looked at for {name} ({why}): {seen}")
+        if alone:
+            return name
+    return ""
+
+
+def _the_earlier_lift(job: TableClearer, booked: str, meant: str) -> str:
+    """Which of the cloths a blind lift booked as `booked` could have been
+    (`TableLedger.placed_unsure`) it was, now `booked` is seen held again: `meant` (the
+    current lift was taken for it by its colours) if among them, else the first not placed."""
+    others = [o for o in job.ledger.placed_unsure[booked] if o not in job.ledger.placed_order]
+    return meant if meant in others else others[0]
 
 
 def _weighs_more_like(
