@@ -740,11 +740,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             # the never-seen white No.6 0.75 with none of its own showing: put back at every lift)
             fits = {n: f for n, f in hanging.fits.items() if n not in unseen or n in match.doubted}
             hanging = replace(hanging, fits=fits)
-        alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
-        seen += "" if hanging is None else f" ({where})"
-        nearer = _weighs_more_like(job, name, doubted, attempt.weighed, attempt.box.name, looked)
-        if alone and nearer:
-            alone, seen = False, f"{seen}; the weight is nearer {nearer}'s (another box)"
+        alone, seen = _alone(job, name, doubted, attempt, hanging, where, looked)
         attempt.notes.append(f"looked at against free table (could be {', '.join(doubted)}): {seen}")
         booked = "" if alone or held[1:] else booked_in_stead(job, attempt, doubted)
         if booked in job.ledger.placed_unsure and booked in job.ledger.placed_order:
@@ -788,8 +784,8 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
 
 
 def booked_in_stead(job: TableClearer, attempt: AttemptState, doubted: Sequence[str]) -> str:
-    """A blind lift whose look did not show the meant cloth alone: a cloth of its box that
-    no blind lift is taken for, whose weight the load cell reads and whose colours a look
+    """A blind lift whose look did not show the meant cloth alone: a cloth of its box other
+    than the meant one, whose weight the load cell reads and whose colours a look
     for it shows hanging (`held_verdict` against the same `doubted` cloths of other boxes,
     and no nearer weight among them); "" if none. The lift then goes into the box as that
     cloth. Such cloths: one booked placed by an earlier blind lift that could have been
@@ -824,15 +820,32 @@ def booked_in_stead(job: TableClearer, attempt: AttemptState, doubted: Sequence[
         ):
             continue
         hanging, where = look_at_held(job, name, doubted, fit=True)
-        alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
-        seen += "" if hanging is None else f" ({where})"
-        nearer = _weighs_more_like(job, name, doubted, weighed, box, hanging)
-        if alone and nearer:
-            alone, seen = False, f"{seen}; the weight is nearer {nearer}'s (another box)"
+        alone, seen = _alone(job, name, doubted, attempt, hanging, where, hanging)
         attempt.notes.append(f"looked at for {name} ({why}): {seen}")
         if alone:
             return name
     return ""
+
+
+def _alone(
+    job: TableClearer,
+    name: str,
+    doubted: Sequence[str],
+    attempt: AttemptState,
+    hanging: HeldColours | None,
+    where: str,
+    looked: HeldColours | None,
+) -> tuple[bool, str]:
+    """(does the blind lift hold `name` alone, what was seen): the `held_verdict` on what
+    a look for it saw hang (`hanging`, None: no look, `where` says why), withdrawn where one
+    of the `doubted` cloths of another box weighs nearer the reading (`_weighs_more_like`
+    on the fits of `looked`)."""
+    alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
+    seen += "" if hanging is None else f" ({where})"
+    nearer = _weighs_more_like(job, name, doubted, attempt.weighed, attempt.box.name, looked)
+    if alone and nearer:
+        alone, seen = False, f"{seen}; the weight is nearer {nearer}'s (another box)"
+    return alone, seen
 
 
 def _the_earlier_lift(job: TableClearer, booked: str, meant: str) -> str:
