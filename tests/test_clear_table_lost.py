@@ -294,6 +294,48 @@ def test_a_cloth_seen_in_its_box_yet_found_in_an_unknown_region_is_picked_again(
     assert job._boxed_again(ident) == (ident, None)
 
 
+def test_a_region_in_the_colours_of_a_cloth_booked_placed_by_an_unsure_lift_is_that_cloth(survey) -> None:
+    # replay of held-out 1438 (session 49): a blind lift meant for No.14, named No.2 by its
+    # weight, held No.15 and went in as No.2; No.2 stayed an unknown region in its colours,
+    # which no lost cloth's fit, and the job stopped with it on the table
+    recognizers, ident, capture = survey
+    job = _survey_job(recognizers, capture)
+    job.sort = SimpleNamespace(box_for=lambda name: "colours")  # type: ignore[assignment]
+    job.table = SimpleNamespace(point=lambda capture, pixel: (0.6, 0.1))  # type: ignore[assignment]
+    job.weights = {"yellow": 0.02, "violet": 0.02, "stripes": 0.03}  # type: ignore[assignment]
+    seen = replace(ident, detections=())  # the yellow one placed too: only the violet region
+
+    def booked(unsure: dict[str, tuple[str, ...]], placed: tuple[str, ...]) -> None:
+        job.ledger = TableLedger()
+        for name in placed:
+            job.ledger.placed(name, confirmed=True)
+        job.ledger.placed_unsure = dict(unsure)
+
+    booked({"violet": ("stripes",)}, ("yellow", "violet"))
+    found = job._lost_to_pick(seen)
+    assert found is not None and found.name == "violet"
+    ledger = job.ledger
+    assert "violet" not in ledger.placed_order and ledger.lost["violet"].kind is LossKind.HIDDEN
+    assert "stripes" in ledger.placed_order and "violet" not in ledger.placed_unsure  # that lift held it
+    # a booking that was sure, or whose other cloth is placed since: the region stays unknown
+    booked({}, ("yellow", "violet"))
+    assert job._lost_to_pick(seen) is None
+    booked({"violet": ("stripes",)}, ("yellow", "violet", "stripes"))
+    assert job._lost_to_pick(seen) is None
+    # a region not in the unsure cloth's colours: nothing picked, nothing re-booked
+    booked({"stripes": ("violet",)}, ("yellow", "stripes"))
+    assert job._lost_to_pick(seen) is None
+    assert job.ledger.placed_order == ["yellow", "stripes"] and not job.ledger.lost
+    # lost cloths whose colours the region does not show leave it to the unsure one; its
+    # other cloth, lost too, is booked for the earlier lift
+    booked({"violet": ("stripes",)}, ("yellow", "violet"))
+    laid = LostPlace(LossKind.PUT_BACK, "put back", np.array([0.6, 0.1]), np.array([0.6, 0.1]), ())
+    job.ledger.lost["stripes"] = laid
+    found = job._lost_to_pick(seen)
+    assert found is not None and found.name == "violet"
+    assert "stripes" in job.ledger.placed_order and "stripes" not in job.ledger.lost
+
+
 def elsewhere_region(ident):
     """An unknown region of the same size as `ident`'s, mirrored to the image's other side."""
     region = ident.unknown[0]

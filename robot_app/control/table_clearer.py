@@ -788,22 +788,14 @@ class TableClearer:
             candidates = {**lost, **spent, **{name: self.recognizers[name] for name in guessed}}
             where = {**places, **{name: self.ledger.unnamed[-1] for name in guessed}}
             found = self._lost_among(ident, candidates, where, frozenset(guessed), frozenset(spent))
-            if found is None:
-                continue
-            unseen = tuple(n for n in self.recognizers if n not in seen and n not in self.ledger.lost)
-            doubted = self._suspects_under(
-                found, (*suspects, *self._unseen_under(found, unseen)), self._lost_near(found, places)
-            )
-            if not doubted:
-                return found
-            if self.settings.held_look.enabled:
-                # the lifted cloth is looked at before it goes anywhere (`table_lost._carry`)
+            doubted = None if found is None else self._doubts(found, seen, suspects, places)
+            if found is not None and doubted is not None:
                 return replace(found, doubted=doubted)
         # none alone: a heap of several of them (`table_lost.match_heap`)
         regions, centres = self._regions_to_try(ident.unknown)
         suspected = {name: self.recognizers[name] for name in suspects}
         where = {**places, **{name: self.ledger.unnamed[-1] for name in suspects}}
-        return match_heap(
+        heap = match_heap(
             self._survey_capture,
             regions,
             centres,
@@ -813,6 +805,66 @@ class TableClearer:
             self.settings.lost,
             self.sort.box_for,
         )
+        if heap is not None:
+            return heap
+        found = self._placed_unsure_to_pick(ident, seen, {**lost, **spent}, places)
+        doubted = None if found is None else self._doubts(found, seen, suspects, places)
+        return None if found is None or doubted is None else replace(found, doubted=doubted)
+
+    def _doubts(
+        self, found: LostMatch, seen: set[str], suspects: tuple[str, ...], places: Mapping[str, LostPlace]
+    ) -> tuple[str, ...] | None:
+        """The cloths of another box a blind lift at `found` may hold instead
+        (`_suspects_under`: the `suspects`, the cloths not `seen` and not lost that may lie
+        under it, the lost ones near it); None where there are some and no look at the lift
+        may tell (`held_look.enabled` off): the region is not picked."""
+        unseen = tuple(n for n in self.recognizers if n not in seen and n not in self.ledger.lost)
+        doubted = self._suspects_under(
+            found, (*suspects, *self._unseen_under(found, unseen)), self._lost_near(found, places)
+        )
+        # the lifted cloth is looked at before it goes anywhere (`table_lost._carry`)
+        return doubted if not doubted or self.settings.held_look.enabled else None
+
+    def _placed_unsure_to_pick(
+        self,
+        ident: Identification,
+        seen: set[str],
+        lost: Mapping[str, Recognizer],
+        places: Mapping[str, LostPlace],
+    ) -> LostMatch | None:
+        """The last resort of `_lost_to_pick`: a cloth booked placed by a blind lift that
+        could have been another cloth of its box not placed since
+        (`TableLedger.placed_unsure`), whose colours an unknown region shows ahead of every
+        lost cloth's (`match_lost`, anywhere on the table): that lift held the other cloth,
+        and this one lies there. The booking is swapped (`TableLedger.swap_placed`) and the
+        cloth booked lost there (`LossKind.HIDDEN`), picked blind as every lost cloth.
+        Replay of held-out 1438 (session 49): a blind lift meant for No.14, named No.2 by
+        its weight, held No.15 and went in as No.2; No.2, crumpled, stayed an unknown region
+        in its colours that no lost cloth's fit, and the job stopped."""
+        placed = set(self.ledger.placed_order)
+        unsure = {
+            name: self.recognizers[name]
+            for name, others in self.ledger.placed_unsure.items()
+            if name in placed
+            and name not in seen
+            and name in self.recognizers
+            and self.untried(name)
+            and any(other not in placed for other in others)
+        }
+        if not unsure or not ident.unknown:
+            return None
+        found = self._lost_among(ident, {**lost, **unsure}, places, frozenset())
+        if found is None or found.name not in unsure:
+            return None
+        name = found.name
+        others = [o for o in self.ledger.placed_unsure[name] if o not in placed]
+        earlier = next((o for o in (*found.alike, *others) if o in others), others[0])
+        how = f"its colours seen on the table by survey {len(self.ledger.surveys) + 1}"
+        self.ledger.swap_placed(name, earlier, how)
+        xy = np.array(self.table.point(self._survey_capture, found.region.centroid))
+        booked = f"booked placed by a blind lift, {how}"
+        self.ledger.lost[name] = LostPlace(LossKind.HIDDEN, booked, xy, xy.copy(), ())
+        return replace(found, alike=tuple(a for a in found.alike if a not in placed and a != earlier))
 
     def _suspects_under(
         self, found: LostMatch, suspects: tuple[str, ...], lost_near: tuple[str, ...] = ()
