@@ -858,7 +858,7 @@ class TableClearer:
             return None
         name = found.name
         others = [o for o in self.ledger.placed_unsure[name] if o not in placed]
-        earlier = next((o for o in (*found.alike, *others) if o in others), others[0])
+        earlier = next((o for o in found.alike if o in others), others[0])  # one it fits as well, first
         how = f"its colours seen on the table by survey {len(self.ledger.surveys) + 1}"
         self.ledger.swap_placed(name, earlier, how)
         xy = np.array(self.table.point(self._survey_capture, found.region.centroid))
