@@ -37,6 +37,7 @@ def _job(lost=(), seen=None, placed=(), surveys=7) -> SimpleNamespace:
         lost=dict.fromkeys(lost),
         unnamed=[],
         placed_unsure={},  # no blind lift booked unsure
+        still_unsure=dict,
         records={},  # no attempts spent
     )
     return SimpleNamespace(

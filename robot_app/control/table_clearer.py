@@ -842,14 +842,11 @@ class TableClearer:
         its weight, held No.15 and went in as No.2; No.2, crumpled, stayed an unknown region
         in its colours that no lost cloth's fit, and the job stopped."""
         placed = set(self.ledger.placed_order)
+        still = self.ledger.still_unsure()
         unsure = {
             name: self.recognizers[name]
-            for name, others in self.ledger.placed_unsure.items()
-            if name in placed
-            and name not in seen
-            and name in self.recognizers
-            and self.untried(name)
-            and any(other not in placed for other in others)
+            for name in still
+            if name not in seen and name in self.recognizers and self.untried(name)
         }
         if not unsure or not ident.unknown:
             return None
@@ -857,7 +854,7 @@ class TableClearer:
         if found is None or found.name not in unsure:
             return None
         name = found.name
-        others = [o for o in self.ledger.placed_unsure[name] if o not in placed]
+        others = still[name]
         earlier = next((o for o in found.alike if o in others), others[0])  # one it fits as well, first
         how = f"its colours seen on the table by survey {len(self.ledger.surveys) + 1}"
         self.ledger.swap_placed(name, earlier, how)

@@ -357,6 +357,17 @@ class TableLedger:
         if confirmed:
             self.seen_in_box.add(name)
 
+    def still_unsure(self) -> dict[str, tuple[str, ...]]:
+        """Cloth name -> the cloths not placed yet that the blind lift which placed it could
+        have been (`placed_unsure`), for the cloths still booked placed with one at least."""
+        placed = set(self.placed_order)
+        unsure = {
+            name: tuple(other for other in others if other not in placed)
+            for name, others in self.placed_unsure.items()
+            if name in placed
+        }
+        return {name: others for name, others in unsure.items() if others}
+
     def swap_placed(self, placed: str, instead: str, how: str) -> None:
         """`placed`, booked placed by a blind lift that could have been `instead`
         (`placed_unsure`), is on the table (`how`): that lift was `instead`."""

@@ -743,7 +743,7 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
         alone, seen = _alone(job, name, doubted, attempt, hanging, where, looked)
         attempt.notes.append(f"looked at against free table (could be {', '.join(doubted)}): {seen}")
         booked = "" if alone or held[1:] else booked_in_stead(job, attempt, doubted)
-        if booked in job.ledger.placed_unsure and booked in job.ledger.placed_order:
+        if booked in job.ledger.still_unsure():
             earlier = _the_earlier_lift(job, booked, attempt.meant)
             number = len(job.ledger.attempts) + 1
             job.ledger.swap_placed(booked, earlier, f"lifted blind again at attempt {number}, seen hanging")
@@ -802,8 +802,7 @@ def booked_in_stead(job: TableClearer, attempt: AttemptState, doubted: Sequence[
         return ""
     unsure = [
         (booked, f"placed by a blind lift that could have been {' or '.join(others)}")
-        for booked, others in ledger.placed_unsure.items()
-        if booked in ledger.placed_order and any(o not in ledger.placed_order for o in others)
+        for booked, others in ledger.still_unsure().items()
     ]
     spent = [
         (name, "its attempts spent")
@@ -849,10 +848,10 @@ def _alone(
 
 
 def _the_earlier_lift(job: TableClearer, booked: str, meant: str) -> str:
-    """Which of the cloths a blind lift booked as `booked` could have been
-    (`TableLedger.placed_unsure`) it was, now `booked` is seen held again: `meant` (the
-    current lift was taken for it by its colours) if among them, else the first not placed."""
-    others = [o for o in job.ledger.placed_unsure[booked] if o not in job.ledger.placed_order]
+    """Which of the cloths a blind lift booked as `booked` could have been, not placed yet
+    (`TableLedger.still_unsure`), it was, now `booked` is seen held again: `meant` (the
+    current lift was taken for it by its colours) if among them, else the first."""
+    others = job.ledger.still_unsure()[booked]
     return meant if meant in others else others[0]
 
 
