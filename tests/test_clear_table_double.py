@@ -189,6 +189,7 @@ def _looking_job(monkeypatch: pytest.MonkeyPatch, put_back: list[str], own: dict
     job.weights["No.7"] = 0.027  # weighs the extra too; no survey has seen it (it may lie hidden)
     job.recognizers["No.7"] = job.recognizers["No.10"]
     monkeypatch.setattr(table_clearer, "remembered_companion", lambda *args: None)
+    monkeypatch.setattr(table_clearer, "hidden_in", lambda cloth, holders: False)  # models without colours
     looked: list[tuple[str, ...]] = []
 
     def look(job, meant, others, looks=1, along=()):
@@ -232,6 +233,31 @@ def test_a_cloth_never_seen_is_named_by_its_colours_seen_hanging(monkeypatch: py
     placed.ledger.placed_order.append("No.7")  # once placed, it is no one's companion any more
     _lift(placed)
     assert looked == [("No.10", "No.11", "No.12")]
+
+
+def test_a_never_seen_cloth_of_another_box_hidden_in_the_held_colours_is_booked_as_unseen_hanging(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Held-out 1819 and 1820 (session 49): a white cloth never identified came up with a
+    print with white, the look saw only the print's colours, and the pair went back unnamed
+    with no cloth booked as showing; the white, lifted blind alone under the print's name,
+    went into colours unlooked. Such a cloth is booked with the put-back (`LostPlace.hid`)."""
+    for hidden, seen_before in ((True, False), (False, False), (True, True)):
+        put_back: list[str] = []
+        job, _ = _looking_job(monkeypatch, put_back, {})  # nothing of its own shows
+        job.sort = SortSettings(default="colours", boxes={"whites": (7, 12)})  # No.7: 27 g, never seen
+        if seen_before:
+            job.ledger.last_seen["No.7"] = np.array([0.2, 0.3])
+        monkeypatch.setattr(table_clearer, "hidden_in", lambda cloth, holders, h=hidden: h)
+        attempt = _lift(job)
+        assert put_back == ["No.19"] and attempt.unnamed_along and attempt.showed == ()
+        # No.12 (whites, 11 g, a part of the extra) never seen too; No.10, No.11 of colours
+        hid = ("No.7", "No.12") if not seen_before else ("No.12",)
+        assert attempt.hid == (hid if hidden else ())
+        job.ledger.record_attempt(
+            attempt, SimpleNamespace(outcome=table_clearer.Outcome.GRASP_FAILED, reason="put back"), 9.0, None
+        )
+        assert job.ledger.unnamed[-1].hid == attempt.hid and job.ledger.unnamed[-1].looked
 
 
 def test_the_other_cloth_seen_hanging_from_the_other_box_is_put_back_named(

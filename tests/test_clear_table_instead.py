@@ -258,6 +258,10 @@ def test_never_seen_cloths_may_be_in_a_blind_lift_where_a_double_pick_was_put_ba
     assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP, unlooked=True) == ()
     job.ledger.unnamed[:] = [replace(looked, showed=("No.18",))]
     assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP) == ("No.18",)
+    # a never-seen cloth that look could not show (`hid`, session 49): to be looked for only
+    job.ledger.unnamed[:] = [replace(looked, hid=("No.18",))]
+    assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP, unlooked=True) == ("No.18",)
+    assert weighs_instead(job, "colours", ("No.2",), 0.0210, GRASP) == ()
 
 
 def _carrying_job(lost: tuple[str, ...], reading: float) -> tuple[SimpleNamespace, list]:
@@ -355,6 +359,49 @@ def test_a_never_seen_cloth_must_show_its_own_colours_a_lost_one_only_fit_as_wel
         results[lost] = _carry(job, attempt, LostMatch("No.2", None, 0.9))[0]  # type: ignore[arg-type]
     assert results[("No.2",)] is Outcome.PLACED
     assert results[("No.2", "No.18")] is Outcome.GRASP_FAILED
+
+
+def test_a_never_seen_cloth_the_look_could_not_show_is_looked_for_and_weighed(monkeypatch) -> None:
+    # held-out 1819 (session 49): No.17 (white towel, whites, 24 g, never identified) came up
+    # with No.16 (a print with white, colours, 31.9 g); the look saw 98 % in No.16's colours
+    # and the pair went back unnamed, no cloth booked as showing. A blind lift there named
+    # No.16 read 24.5 g, held No.17 alone, and went into colours unlooked
+    from robot_app.control.colour_fit import ColourFit
+    from robot_app.control.episode import Outcome
+    from robot_app.control.held_look import HeldColours
+    from robot_app.control.pick_checks import AttemptState
+    from robot_app.control.table_lost import LostMatch, _carry
+
+    looks: list = []
+
+    def look(job, name, doubted, fit=False, along=()):
+        looks.append(tuple(doubted))
+        fits = {n: ColourFit(0.9, 1.0) for n in doubted}  # the white fits white better
+        return HeldColours(5000, 0.98, dict.fromkeys(doubted, 0.0), ColourFit(0.6, 1.0), fits), "here"
+
+    looked = replace(_carrying_looked(monkeypatch, look, "No.16"), looked=True)
+    weights = {"No.16": 0.0319, "No.17": 0.0240, "No.4": 0.0600}
+    results = {}
+    for hid, reading in (((), 0.0245), (("No.17",), 0.0245), (("No.17",), 0.0315)):
+        job, events = _carrying_job(("No.16",), reading)
+        job.weights = weights
+        job.recognizers = {n: SimpleNamespace(model=SimpleNamespace(points_in=SQUARE)) for n in weights}
+        job.sort = SimpleNamespace(box_for=lambda name: "whites" if name == "No.17" else "colours")
+        job.ledger.unnamed.append(replace(looked, hid=hid))
+        attempt = AttemptState(None, job.box, _at(*GRASP), 0.0, lost_name="No.16")
+        looks.clear()
+        outcome = _carry(job, attempt, LostMatch("No.16", None, 0.9))[0]  # type: ignore[arg-type]
+        results[(hid, reading)] = (outcome, tuple(looks), " ".join(attempt.notes), tuple(events))
+    # booked as showing nothing: no look, into colours (the case)
+    assert results[((), 0.0245)][0] is Outcome.PLACED and results[((), 0.0245)][1] == ()
+    # booked as hidden there: looked for, and the scale reads No.17's weight: put back
+    outcome, looked_for, notes, events = results[(("No.17",), 0.0245)]
+    assert outcome is Outcome.GRASP_FAILED and looked_for == (("No.17",),), notes
+    assert "the weight is nearer No.17's" in notes and events == (("put back", "No.16"),)
+    # the print alone reads its own weight: its colours hold, into colours
+    outcome, looked_for, notes, events = results[(("No.17",), 0.0315)]
+    assert outcome is Outcome.PLACED and looked_for == (("No.17",),), notes
+    assert events == (("placed", "colours"),)
 
 
 def test_a_guess_s_colours_outweigh_a_never_seen_cloth_s_nearer_weight_only_where_it_fits_far_worse(

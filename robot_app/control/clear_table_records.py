@@ -172,6 +172,9 @@ class LostPlace:
             own colours the look at what hung showed (`TableClearer._companion_seen_hanging`,
             at least `held_look.doubt_share`): one of them may be that cloth, seen or not.
         looked: that look was taken (without it, any cloth never seen may be that cloth).
+        hid: the cloths of another box, never seen, that such a look could not show, their
+            main colours all among the held cloth's (`held_look.hidden_in`): one of them
+            may be that cloth, though none of its own colours showed.
         companion_of: for a cloth named as a double pick's other cloth and put back with it,
             the cloth that pick was meant for ("" otherwise).
     """
@@ -184,6 +187,7 @@ class LostPlace:
     laid: bool = False
     showed: tuple[str, ...] = ()
     looked: bool = False
+    hid: tuple[str, ...] = ()
     companion_of: str = ""
 
 

@@ -54,6 +54,7 @@ class AttemptState:
     unnamed_along: int = 0  # a double pick's other cloths no survey named (at least), or a wrong lift's
     showed: tuple[str, ...] = ()  # cloths whose own colours the look at such a pick showed
     looked: bool = False  # that look was taken
+    hid: tuple[str, ...] = ()  # never-seen cloths of another box that look could not show (`hidden_in`)
     named_by: str = ""  # how a double pick's other cloth was named: "grasp", "under", "memory", "look"
     lift_check: str = ""
     weighed: float | None = None

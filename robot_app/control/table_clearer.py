@@ -1500,6 +1500,22 @@ class TableClearer:
             f"beside {attempt.name}, whose place the lift bared"
         )
 
+    def _hid_from_look(self, attempt: AttemptState, looked_for: Sequence[str]) -> tuple[str, ...]:
+        """Of the cloths a look at what hangs was `looked_for`, those of another box than the
+        meant cloth's, never seen by a survey, whose main colours are all among the held
+        cloth's own (`hidden_in`): the look counts a cloth only by colours of its own, so it
+        could not show them (`AttemptState.hid`). Held-out 1819 and 1820 (session 49)."""
+        box, ledger = attempt.box.name, self.ledger
+        holder = [self.recognizers[attempt.name].model]
+        return tuple(
+            n
+            for n in looked_for
+            if self.sort.box_for(n) != box
+            and n not in ledger.last_seen
+            and n not in ledger.lost
+            and hidden_in(self.recognizers[n].model, holder)
+        )
+
     def _not_placed(self, attempt: AttemptState, keep: Callable[[str, float], bool]) -> list[str]:
         """The cloths other than the meant one, with a model and not placed, that `keep`
         (name, weight [kg]) takes, in the catalogue's order."""
@@ -1542,6 +1558,7 @@ class TableClearer:
             return None, where
         attempt.looked = True
         attempt.showed = tuple(n for n in (*weighing, *parts) if seen.own[n] >= hl.doubt_share)
+        attempt.hid = self._hid_from_look(attempt, (*weighing, *parts))
         showing = sorted((n for n in weighing if seen.own[n] >= hl.name_share), key=lambda n: -seen.own[n])
         note = (
             f"{seen.pixels} px, {seen.meant:.0%} in {attempt.name}'s colours"
@@ -1697,6 +1714,7 @@ class TableClearer:
         attempt.looked = True
         showing = sorted((n for n in candidates if seen.own[n] >= hl.doubt_share), key=lambda n: -seen.own[n])
         attempt.showed = tuple(showing)
+        attempt.hid = self._hid_from_look(attempt, candidates)
         shown = "".join(f", {n}'s own {seen.own[n]:.0%}" for n in showing)
         attempt.notes.append(
             f"looked for a cloth dragged along: {seen.pixels} px, {seen.meant:.0%} in {attempt.name}'s "

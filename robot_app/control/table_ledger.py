@@ -302,6 +302,7 @@ class TableLedger:
                     laid,
                     attempt.showed,
                     attempt.looked,
+                    attempt.hid,
                 )
                 self.unnamed += [place] * attempt.unnamed_along  # one per cloth the extra weighed
         if attempt.shed_at is not None:  # the other cloth was left lying along the strip
