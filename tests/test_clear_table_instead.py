@@ -404,6 +404,68 @@ def test_a_never_seen_cloth_the_look_could_not_show_is_looked_for_and_weighed(mo
     assert events == (("placed", "colours"),)
 
 
+def test_a_tie_across_boxes_goes_as_the_cloth_whose_weight_it_reads_and_whose_colours_show_alone(
+    monkeypatch,
+) -> None:
+    # held-out 1771 (session 49): No.19 (colours) and No.6 (whites), put back together, fit
+    # their heap alike and neither was picked. Here No.9 (colours, 16.2 g) ties with No.18
+    # (whites, 20.9 g); the look shows the colours of whichever is held
+    from robot_app.control.clear_table_records import BoxPlace
+    from robot_app.control.colour_fit import ColourFit
+    from robot_app.control.episode import Outcome
+    from robot_app.control.held_look import HeldColours
+    from robot_app.control.pick_checks import AttemptState
+    from robot_app.control.table_lost import LostMatch, _carry
+
+    truth = {"held": ""}
+    looks: list = []
+
+    def look(job, name, doubted, fit=False, along=()):
+        looks.append(name)
+        mine = name == truth["held"]
+        own = {n: 0.3 if n == truth["held"] else 0.0 for n in doubted}
+        fits = {n: ColourFit(0.9 if n == truth["held"] else 0.3, 1.0) for n in doubted}
+        return HeldColours(
+            5000, 0.95 if mine else 0.2, own, ColourFit(0.9 if mine else 0.3, 1.0), fits
+        ), "here"
+
+    _carrying_looked(monkeypatch, look, "No.9")
+    whites = BoxPlace("whites", np.array([0.3, 0.56, 0.0]), 0.22, 0.1, 0.01)
+    tie = LostMatch("No.9", None, 0.9, rivals=("No.18",))  # type: ignore[arg-type]
+    results = {}
+    for held, reading in (("No.18", 0.0255), ("No.9", 0.0165), ("No.18", 0.0165), ("No.2", 0.0165)):
+        truth["held"] = held
+        job, events = _carrying_job(("No.9", "No.18"), reading)
+        job.boxes = {"colours": job.box, "whites": whites}
+        job.ledger.placed_order += ["No.17", "No.4", "No.2"]  # nothing else of whites to doubt
+        attempt = AttemptState(None, job.box, _at(*GRASP), 0.0, lost_name="No.9")
+        looks.clear()
+        outcome = _carry(job, attempt, tie)[0]
+        results[(held, reading)] = (
+            outcome,
+            attempt.name,
+            tuple(events),
+            tuple(looks),
+            " ".join(attempt.notes),
+        )
+    # 25.5 g is No.18's weight (20.9 g), not No.9's: taken as No.18, looked at, into whites
+    outcome, name, events, looked, notes = results[("No.18", 0.0255)]
+    assert outcome is Outcome.PLACED and name == "No.18" and events == (("placed", "whites"),), notes
+    assert looked == ("No.18",) and "taken as No.18" in notes
+    # 16.5 g is either's: the look for No.9 shows it alone, into colours
+    outcome, name, events, looked, notes = results[("No.9", 0.0165)]
+    assert outcome is Outcome.PLACED and name == "No.9" and events == (("placed", "colours"),), notes
+    assert looked == ("No.9",)
+    # ... it does not show No.9 alone, the look for No.18 does: into whites
+    outcome, name, events, looked, notes = results[("No.18", 0.0165)]
+    assert outcome is Outcome.PLACED and name == "No.18" and events == (("placed", "whites"),), notes
+    assert looked == ("No.9", "No.18")
+    # ... neither alone: put back
+    outcome, name, events, looked, notes = results[("No.2", 0.0165)]
+    assert outcome is Outcome.GRASP_FAILED and events == (("put back", "No.9"),), notes
+    assert looked == ("No.9", "No.18")
+
+
 def test_a_guess_s_colours_outweigh_a_never_seen_cloth_s_nearer_weight_only_where_it_fits_far_worse(
     monkeypatch,
 ) -> None:

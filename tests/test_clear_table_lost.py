@@ -83,6 +83,32 @@ def test_a_region_a_spent_lost_cloth_explains_goes_to_no_guess(survey) -> None:
     assert match_lost(capture, ident.unknown, centres, only, {}, settings, boxes, frozenset(), spent) is None
 
 
+def test_a_region_two_lost_cloths_of_both_boxes_fit_alike_is_taken_as_a_tie_only_when_asked(survey) -> None:
+    # held-out 1771 (session 49): No.19 (colours) and No.6 (whites), put back together, fit
+    # their heap within the margin; neither was picked and the job stopped
+    recognizers, ident, capture = survey
+    settings, centres = LostSettings(), [np.array([0.6, 0.1])]
+    twins = {"violet": recognizers["violet"], "twin": recognizer(9, "violet twin")}
+    boxes = {"violet": "colours", "twin": "whites"}.__getitem__
+
+    def match(lost, box_for=boxes, guessed=frozenset(), ties=True):
+        return match_lost(capture, ident.unknown, centres, lost, {}, settings, box_for, guessed, ties=ties)
+
+    assert match(twins, ties=False) is None  # as before: which one it is changes the box
+    tie = match(twins)
+    assert tie is not None and {tie.name, *tie.rivals} == {"violet", "twin"} and tie.alike == ()
+    # a third cloth of the best one's box, as alike: its alike, the other box's its rivals
+    three = {**twins, "triplet": recognizer(9, "violet triplet")}
+    tie = match(three, {"violet": "colours", "twin": "whites", "triplet": "colours"}.__getitem__)
+    assert tie is not None and tie.rivals == (("twin",) if tie.name != "twin" else ("violet", "triplet"))
+    assert set(tie.alike) | set(tie.rivals) | {tie.name} == set(three)
+    # not a tie (one box, or one cloth): the other rounds' to take, not this one's
+    assert match(twins, box_for=lambda name: "colours") is None
+    assert match({"violet": recognizers["violet"]}) is None
+    # a guess among them: never
+    assert match(twins, guessed=frozenset({"twin"})) is None
+
+
 def test_an_unknown_region_is_a_lost_cloth_only_in_its_colours(survey) -> None:
     recognizers, ident, capture = survey
     assert [d.name for d in ident.detections] == ["yellow"] and len(ident.unknown) == 1
@@ -476,7 +502,11 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
         box_for=None,
         guessed=frozenset(),
         spent=frozenset(),
+        ties=False,
     ):
+        if ties:  # the last round, for a tie across boxes (`_tie_to_pick`)
+            tied.append((set(lost), set(guessed)))
+            return None
         asked.append((set(lost), dict(places)))
         guesses.append(set(guessed))
         spents.append(set(spent))
@@ -484,6 +514,7 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
 
     guesses: list[set[str]] = []
     spents: list[set[str]] = []
+    tied: list[tuple[set[str], set[str]]] = []
 
     monkeypatch.setattr(table_clearer, "match_lost", fake_match)
     ident = SimpleNamespace(detections=(SimpleNamespace(name="No.2"),), unknown=())
@@ -499,6 +530,7 @@ def test_the_candidates_for_a_lost_cloth_are_the_lost_ones_and_after_a_nameless_
     lost, places = asked[-1]
     assert lost == {"No.1", "No.3", "No.4"}
     assert places["No.3"] is nameless and places["No.1"] is place
+    assert tied[-1] == ({"No.1"}, set())  # a tie: the cloths lost by name only, no guess
     assert guesses[-1] == {"No.3", "No.4"} and guesses[0] == set()  # No.1 is known by name
     job.ledger.records["No.1"]["attempts"] = job.settings.max_attempts  # attempts used up
     job._lost_to_pick(ident)  # type: ignore[arg-type]

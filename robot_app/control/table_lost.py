@@ -185,6 +185,9 @@ class LostMatch:
             region (`TableClearer._suspects_under`): the lift goes on only if the lifted
             cloth, looked at against free table, shows `name`'s colours and hardly any of
             theirs (`held_look`).
+        rivals: lost cloths of another box whose colours fit the region as well as
+            `name`'s (`match_lost(ties=True)`): the lift is the one whose weight the load
+            cell reads and whose colours a look at it shows alone (`_carry`).
     """
 
     name: str
@@ -194,6 +197,7 @@ class LostMatch:
     piece: bool = False
     guessed: frozenset[str] = frozenset()
     doubted: tuple[str, ...] = ()
+    rivals: tuple[str, ...] = ()
 
 
 def match_lost(
@@ -206,6 +210,7 @@ def match_lost(
     box_for: Callable[[str], str] | None = None,
     guessed: frozenset[str] = frozenset(),
     spent: frozenset[str] = frozenset(),
+    ties: bool = False,
 ) -> LostMatch | None:
     """The first region (largest first) whose colours are a lost cloth's (`min_share`)
     that lies where that cloth may be (`near_the_loss`; `centres`: each region's centre on
@@ -228,7 +233,11 @@ def match_lost(
     (their colours still explain their region), but a region one of them fits best is not
     taken: held-out bench episode 227 (session 24): No.6, put back four times, had no
     attempts left and left the candidates, and its region (white with purple and red) went
-    to the guessed No.7, of the other box: No.6 into the colours box."""
+    to the guessed No.7, of the other box: No.6 into the colours box.
+
+    `ties`: only a region whose best cloths tie across boxes (none guessed) is taken, the
+    other box's cloths its `rivals`: held-out 1771 (session 49), No.19 (colours) and No.6
+    (whites), put back together, fit their heap at 0.50 and 0.42, and neither was picked."""
     if not lost:
         return None
     for region, centre in zip(regions, centres, strict=True):
@@ -251,9 +260,15 @@ def match_lost(
             if name in spent:
                 continue
         alike = tuple(o for o, fit in ranked if o != name and best.score - fit.score < settings.margin)
-        if alike and (box_for is None or any(box_for(other) != box_for(name) for other in alike)):
+        if alike and box_for is None:
+            continue  # which cloth it is might change where it goes
+        rivals = tuple(o for o in alike if box_for is not None and box_for(o) != box_for(name))
+        if rivals and (not ties or guessed & {name, *alike}):
             continue  # which cloth it is would change where it goes
-        return LostMatch(name, region, best.share, alike, guessed=guessed & {name, *alike})
+        if ties and not rivals:
+            continue  # the other rounds' to take
+        alike = tuple(o for o in alike if o not in rivals)
+        return LostMatch(name, region, best.share, alike, guessed=guessed & {name, *alike}, rivals=rivals)
     return None
 
 
@@ -424,7 +439,9 @@ def pick_lost(job: TableClearer, match: LostMatch) -> None:
     where = np.eye(4)
     where[:3, 3] = (x, y, table_z)
     if np.any(aims):
-        job.look_into_box(box.name)  # before the attempt's clock starts, as for a surveyed pick
+        # before the attempt's clock starts, as for a surveyed pick; a tie's rivals' boxes too
+        for into in dict.fromkeys(job.sort.box_for(n) for n in (name, *match.rivals)):
+            job.look_into_box(into)
     attempt = AttemptState(
         None,
         box,
@@ -670,10 +687,15 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     partners: tuple[str, ...] = ()  # lost cloths of the box that may lie at the grasp (`lost_with`)
     instead: tuple[str, ...] = ()  # cloths of another box that would weigh as much as `held`
     unseen: frozenset[str] = frozenset()  # of those, the never-seen ones (`weighs_instead(unlooked)`)
+    tied: tuple[str, ...] = ()  # of a tie (`LostMatch.rivals`), the cloths whose weight it reads
     if job.weigh is None or expected is None:
         verdict, what = "wrong", f"{name}'s weight unknown: its identity cannot be confirmed"
     else:
         weighed = attempt.weighed = float(job.weigh())
+        tied = _tied(job, match, weighed)
+        if tied and tied[0] != name:
+            name = _take_as(job, attempt, tied[0], f"{weighed * 1000:.0f} g, its weight")
+            expected = job.weights[name]
         verdict, what = weight_verdict(weighed, expected, name, job.settings, lift=True)
         grasp_xy = attempt.transform_target_to_world[:2, 3]
         if verdict == "ok":
@@ -730,7 +752,9 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             attempt.notes.append(f"{kind} ({what}): put back")
             job.put_back(attempt, None)
             return Outcome.GRASP_FAILED, f"{PUT_BACK}: {what}"
-    doubted = (*match.doubted, *(n for n in instead if n not in match.doubted))
+    # all of another box than the cloth it is taken as (a tie's rival may be taken instead)
+    box = attempt.box.name
+    doubted = tuple(n for n in dict.fromkeys((*match.doubted, *instead)) if job.sort.box_for(n) != box)
     if doubted:
         hanging, where = look_at_held(job, name, doubted, fit=True, along=held[1:])
         looked = hanging  # every fit, for the scale's say (`_weighs_more_like`)
@@ -742,6 +766,11 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
             hanging = replace(hanging, fits=fits)
         alone, seen = _alone(job, name, doubted, attempt, hanging, where, looked)
         attempt.notes.append(f"looked at against free table (could be {', '.join(doubted)}): {seen}")
+        for other in () if alone or held[1:] else tied[1:]:
+            alone, seen = _tied_alone(job, attempt, other, doubted, seen)
+            if alone:
+                name = _take_as(job, attempt, other, "seen hanging alone")
+                break
         booked = "" if alone or held[1:] else booked_in_stead(job, attempt, doubted)
         if booked in job.ledger.still_unsure():
             earlier = _the_earlier_lift(job, booked, attempt.meant)
@@ -781,6 +810,45 @@ def _carry(job: TableClearer, attempt: AttemptState, match: LostMatch) -> tuple[
     _phase(job, name, "release", start, "")
     job.check_box(attempt)
     return Outcome.PLACED, f"{name} placed (picked blind, its weight read)"
+
+
+def _tied(job: TableClearer, match: LostMatch, weighed: float) -> tuple[str, ...]:
+    """Of a tie's cloths (`match.name` and its `rivals`, of another box), those whose own
+    weight the reading `weighed` [kg] is (`weight_verdict`), the match first; () without
+    rivals."""
+    if not match.rivals:
+        return ()
+    return tuple(
+        n
+        for n in (match.name, *match.rivals)
+        if n in job.weights and weight_verdict(weighed, job.weights[n], n, job.settings, lift=True)[0] == "ok"
+    )
+
+
+def _take_as(job: TableClearer, attempt: AttemptState, name: str, why: str) -> str:
+    """Books a tie's blind lift as its rival `name`, bound for that cloth's box; returns
+    `name`."""
+    attempt.held_instead, attempt.taken_for = name, (name,)
+    attempt.box = job.boxes[job.sort.box_for(name)]
+    attempt.notes.append(
+        f"taken as {name} ({attempt.box.name}; the region's colours tied with {attempt.meant}'s): {why}"
+    )
+    return name
+
+
+def _tied_alone(
+    job: TableClearer, attempt: AttemptState, other: str, doubted: Sequence[str], seen: str
+) -> tuple[bool, str]:
+    """Does a tie's blind lift, not shown to be the cloth it was taken as, hold its rival
+    `other` (of another box, its weight read) alone? A look for it (`look_at_held`)
+    against the cloths of another box than its own among `doubted` and the one taken as
+    (`_alone`); and what was seen, after `seen`."""
+    box = job.sort.box_for(other)
+    against = [n for n in dict.fromkeys((attempt.name, *doubted)) if job.sort.box_for(n) != box]
+    hanging, where = look_at_held(job, other, against, fit=True)
+    alone, also = _alone(job, other, against, attempt, hanging, where, hanging, box)
+    attempt.notes.append(f"looked at for {other} (tied, {box}): {also}")
+    return alone, f"{seen}; for {other}: {also}"
 
 
 def booked_in_stead(job: TableClearer, attempt: AttemptState, doubted: Sequence[str]) -> str:
@@ -834,14 +902,16 @@ def _alone(
     hanging: HeldColours | None,
     where: str,
     looked: HeldColours | None,
+    box: str = "",
 ) -> tuple[bool, str]:
     """(does the blind lift hold `name` alone, what was seen): the `held_verdict` on what
     a look for it saw hang (`hanging`, None: no look, `where` says why), withdrawn where one
-    of the `doubted` cloths of another box weighs nearer the reading (`_weighs_more_like`
-    on the fits of `looked`)."""
+    of the `doubted` cloths of another box than `box` (default: the attempt's) weighs
+    nearer the reading (`_weighs_more_like` on the fits of `looked`)."""
     alone, seen = (False, where) if hanging is None else held_verdict(hanging, job.settings.held_look)
     seen += "" if hanging is None else f" ({where})"
-    nearer = _weighs_more_like(job, name, doubted, attempt.weighed, attempt.box.name, looked)
+    box = box or attempt.box.name
+    nearer = _weighs_more_like(job, name, doubted, attempt.weighed, box, looked)
     if alone and nearer:
         alone, seen = False, f"{seen}; the weight is nearer {nearer}'s (another box)"
     return alone, seen
