@@ -1512,7 +1512,7 @@ class TableClearer:
         its own against No.6 and No.18, hung with No.6 unseen all the same, was named No.18
         "under" (still on the table) and went into whites; the survey after it found its
         region bare (session 42)."""
-        never_seen = [n for n in rivals if n not in self.ledger.last_seen and n not in self.ledger.lost]
+        never_seen = self._never_seen(rivals)
         if not never_seen:
             return ""
         held = transform_points(
@@ -1541,16 +1541,17 @@ class TableClearer:
         meant cloth's, never seen by a survey, whose main colours are all among the held
         cloth's own (`hidden_in`): the look counts a cloth only by colours of its own, so it
         could not show them (`AttemptState.hid`). Held-out 1819 and 1820 (session 49)."""
-        box, ledger = attempt.box.name, self.ledger
-        holder = [self.recognizers[attempt.name].model]
+        box, holder = attempt.box.name, [self.recognizers[attempt.name].model]
         return tuple(
             n
-            for n in looked_for
-            if self.sort.box_for(n) != box
-            and n not in ledger.last_seen
-            and n not in ledger.lost
-            and hidden_in(self.recognizers[n].model, holder)
+            for n in self._never_seen(looked_for)
+            if self.sort.box_for(n) != box and hidden_in(self.recognizers[n].model, holder)
         )
+
+    def _never_seen(self, names: Iterable[str]) -> list[str]:
+        """Of `names`, the cloths no survey saw and the job never lost."""
+        ledger = self.ledger
+        return [n for n in names if n not in ledger.last_seen and n not in ledger.lost]
 
     def _not_placed(self, attempt: AttemptState, keep: Callable[[str, float], bool]) -> list[str]:
         """The cloths other than the meant one, with a model and not placed, that `keep`

@@ -845,10 +845,20 @@ def _tied_alone(
     (`_alone`); and what was seen, after `seen`."""
     box = job.sort.box_for(other)
     against = [n for n in dict.fromkeys((attempt.name, *doubted)) if job.sort.box_for(n) != box]
-    hanging, where = look_at_held(job, other, against, fit=True)
-    alone, also = _alone(job, other, against, attempt, hanging, where, hanging, box)
-    attempt.notes.append(f"looked at for {other} (tied, {box}): {also}")
+    alone, also = _looked_alone(job, attempt, other, against, f"tied, {box}", box)
     return alone, f"{seen}; for {other}: {also}"
+
+
+def _looked_alone(
+    job: TableClearer, attempt: AttemptState, name: str, doubted: Sequence[str], why: str, box: str = ""
+) -> tuple[bool, str]:
+    """A look for `name` at a blind lift (`look_at_held`, with colour fits) against the
+    `doubted` cloths of another box than `box` (`_alone`), noted with `why`: (does it hold
+    `name` alone, what was seen)."""
+    hanging, where = look_at_held(job, name, doubted, fit=True)
+    alone, seen = _alone(job, name, doubted, attempt, hanging, where, hanging, box)
+    attempt.notes.append(f"looked at for {name} ({why}): {seen}")
+    return alone, seen
 
 
 def booked_in_stead(job: TableClearer, attempt: AttemptState, doubted: Sequence[str]) -> str:
@@ -886,10 +896,7 @@ def booked_in_stead(job: TableClearer, attempt: AttemptState, doubted: Sequence[
             or weight_verdict(weighed, weight, name, job.settings, lift=True)[0] != "ok"
         ):
             continue
-        hanging, where = look_at_held(job, name, doubted, fit=True)
-        alone, seen = _alone(job, name, doubted, attempt, hanging, where, hanging)
-        attempt.notes.append(f"looked at for {name} ({why}): {seen}")
-        if alone:
+        if _looked_alone(job, attempt, name, doubted, why)[0]:
             return name
     return ""
 
