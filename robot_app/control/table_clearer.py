@@ -788,9 +788,9 @@ class TableClearer:
             candidates = {**lost, **spent, **{name: self.recognizers[name] for name in guessed}}
             where = {**places, **{name: self.ledger.unnamed[-1] for name in guessed}}
             found = self._lost_among(ident, candidates, where, frozenset(guessed), frozenset(spent))
-            doubted = None if found is None else self._doubts(found, seen, suspects, places)
-            if found is not None and doubted is not None:
-                return replace(found, doubted=doubted)
+            taken = self._with_doubts(found, seen, suspects, places)
+            if taken is not None:
+                return taken
         # none alone: a heap of several of them (`table_lost.match_heap`)
         regions, centres = self._regions_to_try(ident.unknown)
         suspected = {name: self.recognizers[name] for name in suspects}
@@ -807,13 +807,11 @@ class TableClearer:
         )
         if heap is not None:
             return heap
-        tie = self._tie_to_pick(ident, lost, spent, places)
-        doubted = None if tie is None else self._doubts(tie, seen, suspects, places)
-        if tie is not None and doubted is not None:
-            return replace(tie, doubted=doubted)
+        tie = self._with_doubts(self._tie_to_pick(ident, lost, spent, places), seen, suspects, places)
+        if tie is not None:
+            return tie
         found = self._placed_unsure_to_pick(ident, seen, {**lost, **spent}, places)
-        doubted = None if found is None else self._doubts(found, seen, suspects, places)
-        return None if found is None or doubted is None else replace(found, doubted=doubted)
+        return self._with_doubts(found, seen, suspects, places)
 
     def _tie_to_pick(
         self,
@@ -833,19 +831,29 @@ class TableClearer:
         if not self.settings.held_look.enabled or not lost:
             return None
         regions, centres = self._regions_to_try(ident.unknown)
-        candidates, none = {**lost, **spent}, frozenset[str]()
         return match_lost(
             self._survey_capture,
             regions,
             centres,
-            candidates,
+            {**lost, **spent},
             places,
             self.settings.lost,
             self.sort.box_for,
-            none,
-            frozenset(spent),
+            spent=frozenset(spent),
             ties=True,
         )
+
+    def _with_doubts(
+        self,
+        found: LostMatch | None,
+        seen: set[str],
+        suspects: tuple[str, ...],
+        places: Mapping[str, LostPlace],
+    ) -> LostMatch | None:
+        """`found` carrying the cloths of another box its lift may hold instead (`_doubts`);
+        None where nothing was found, or where no look may settle them."""
+        doubted = None if found is None else self._doubts(found, seen, suspects, places)
+        return None if found is None or doubted is None else replace(found, doubted=doubted)
 
     def _doubts(
         self, found: LostMatch, seen: set[str], suspects: tuple[str, ...], places: Mapping[str, LostPlace]
